@@ -1,0 +1,182 @@
+"""Polonsky & Keer (1999) projected conjugate gradients for the contact pressure.
+
+Displacement-driven form (no force constraint, MODEL.md section 4): minimise the complementary
+energy over p >= 0 with the rigid approach delta_z given. Quantities are in the model's scaled
+units (tractions / E*, lengths / cell size). Fields are flattened (n_cells,) arrays.
+
+Polonsky, I. A. & Keer, L. M. (1999), "A numerical method for solving rough contact problems
+based on the multi-level multi-summation and conjugate gradient techniques", Wear 231, 206-219.
+
+Per iteration: ``normal_gap`` -> ``normal_direction`` -> (r = K t) -> ``normal_step_sums`` ->
+``normal_update`` -> ``normal_advance``. Scalars live in two device arrays: ``sums`` (zeroed at
+the start of each iteration) and ``scalars`` (carried: G_old, delta, iteration count).
+"""
+
+from typing import Any
+
+import warp as wp
+
+from .overloads import register_float_overloads
+from .reduce import block_add, cell_index
+
+# slots of ``sums``
+S_G = wp.constant(0)  # sum of g^2 over the contact set
+S_VIOL = wp.constant(1)  # squared complementarity violation
+S_RHS = wp.constant(2)  # squared right-hand side (rigid interference) over the contact set
+S_GT = wp.constant(3)  # sum of g t over the contact set
+S_RT = wp.constant(4)  # sum of (K t) t over the contact set
+S_IOL = wp.constant(5)  # count of cells that re-enter contact (penetrating with p = 0)
+S_FORCE = wp.constant(6)  # sum of p
+N_SUMS = 7
+# slots of ``scalars``
+C_G_OLD = wp.constant(0)
+C_DELTA = wp.constant(1)
+C_ITER = wp.constant(2)
+N_SCALARS = 3
+
+
+@wp.kernel
+def normal_gap(
+    initial_gap: wp.array(dtype=Any),
+    displacement: wp.array(dtype=Any),
+    known_displacement: wp.array(dtype=Any),
+    pressure: wp.array(dtype=Any),
+    approach: Any,
+    n: int,
+    outer: int,
+    inner: int,
+    per: int,
+    gap: wp.array(dtype=Any),
+    sums: wp.array(dtype=Any),
+):
+    """gap = h0 - delta_z + u_z + u_known, and the residual sums of the current pressure."""
+    block, lane = wp.tid()
+    thread = block * wp.block_dim() + lane
+    zero = approach - approach
+    s_g = zero
+    s_viol = zero
+    s_rhs = zero
+    s_force = zero
+    for k in range(per):
+        i = cell_index(thread, outer, inner, k)
+        if i < n:
+            rhs = approach - initial_gap[i] - known_displacement[i]
+            g = displacement[i] - rhs
+            gap[i] = g
+            p = pressure[i]
+            if p > zero:
+                s_g += g * g
+                s_viol += g * g
+                s_rhs += rhs * rhs
+                s_force += p
+            elif g < zero:
+                s_viol += g * g
+    block_add(sums, S_G, s_g)
+    block_add(sums, S_VIOL, s_viol)
+    block_add(sums, S_RHS, s_rhs)
+    block_add(sums, S_FORCE, s_force)
+
+
+@wp.kernel
+def normal_direction(
+    gap: wp.array(dtype=Any),
+    pressure: wp.array(dtype=Any),
+    sums: wp.array(dtype=Any),
+    scalars: wp.array(dtype=Any),
+    direction: wp.array(dtype=Any),
+):
+    """Conjugate direction t = g + delta (G / G_old) t on the contact set, 0 elsewhere."""
+    i = wp.tid()
+    zero = sums[S_G] - sums[S_G]
+    beta = zero
+    if scalars[C_G_OLD] > zero:
+        beta = scalars[C_DELTA] * sums[S_G] / scalars[C_G_OLD]
+    if pressure[i] > zero:
+        direction[i] = gap[i] + beta * direction[i]
+    else:
+        direction[i] = zero
+
+
+@wp.kernel
+def normal_step_sums(
+    gap: wp.array(dtype=Any),
+    direction: wp.array(dtype=Any),
+    response: wp.array(dtype=Any),
+    pressure: wp.array(dtype=Any),
+    n: int,
+    outer: int,
+    inner: int,
+    per: int,
+    sums: wp.array(dtype=Any),
+):
+    """Sums of g t and (K t) t over the contact set, for the step length."""
+    block, lane = wp.tid()
+    thread = block * wp.block_dim() + lane
+    zero = gap[0] - gap[0]
+    s_gt = zero
+    s_rt = zero
+    for k in range(per):
+        i = cell_index(thread, outer, inner, k)
+        if i < n:
+            if pressure[i] > zero:
+                t = direction[i]
+                s_gt += gap[i] * t
+                s_rt += response[i] * t
+    block_add(sums, S_GT, s_gt)
+    block_add(sums, S_RT, s_rt)
+
+
+@wp.kernel
+def normal_update(
+    gap: wp.array(dtype=Any),
+    direction: wp.array(dtype=Any),
+    n: int,
+    outer: int,
+    inner: int,
+    per: int,
+    pressure: wp.array(dtype=Any),
+    sums: wp.array(dtype=Any),
+):
+    """p <- max(p - tau t, 0); penetrating cells with p = 0 re-enter with p = -tau g."""
+    block, lane = wp.tid()
+    thread = block * wp.block_dim() + lane
+    zero = gap[0] - gap[0]
+    tau = zero
+    if sums[S_RT] > zero:
+        tau = sums[S_GT] / sums[S_RT]
+    count = zero
+    for k in range(per):
+        i = cell_index(thread, outer, inner, k)
+        if i < n:
+            p = pressure[i]
+            if p > zero:
+                p = wp.max(p - tau * direction[i], zero)
+            elif gap[i] < zero:
+                p = -tau * gap[i]
+                count += type(zero)(1.0)
+            pressure[i] = p
+    block_add(sums, S_IOL, count)
+
+
+@wp.kernel
+def normal_advance(
+    sums: wp.array(dtype=Any), scalars: wp.array(dtype=Any), residual_history: wp.array(dtype=Any)
+):
+    """One thread: G_old <- G, delta <- (no cell re-entered), record the relative residual."""
+    zero = sums[S_G] - sums[S_G]
+    one = type(zero)(1.0)
+    it = int(scalars[C_ITER])
+    res = zero
+    if sums[S_RHS] > zero:
+        res = wp.sqrt(sums[S_VIOL] / sums[S_RHS])
+    elif sums[S_VIOL] > zero:
+        res = one
+    if it < residual_history.shape[0]:
+        residual_history[it] = res
+    scalars[C_G_OLD] = sums[S_G]
+    scalars[C_DELTA] = wp.where(sums[S_IOL] > zero, zero, one)
+    scalars[C_ITER] = scalars[C_ITER] + one
+
+
+for _k in (normal_gap, normal_direction, normal_step_sums, normal_update, normal_advance):
+    register_float_overloads(_k)

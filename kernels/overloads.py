@@ -1,0 +1,25 @@
+"""Registers the float32 and float64 overloads of generic kernels, so each module compiles once.
+
+A generic kernel takes ``wp.array(dtype=Any)`` fields and ``Any`` scalars of one float type;
+``register_float_overloads`` substitutes float32 and float64 for every ``Any``. Kernels whose
+``Any`` stands for something else (complex 2-vectors) register their overloads by hand.
+"""
+
+from typing import Any
+
+import warp as wp
+
+
+def _substitute(arg_type, scalar):
+    if isinstance(arg_type, wp.array) and arg_type.dtype is Any:
+        return wp.array(dtype=scalar, ndim=arg_type.ndim)
+    if arg_type is Any:
+        return scalar
+    return arg_type
+
+
+def register_float_overloads(kernel):
+    """Register ``kernel`` for float32 and float64; returns the kernel (usable as a decorator)."""
+    for scalar in (wp.float32, wp.float64):
+        wp.overload(kernel, [_substitute(a.type, scalar) for a in kernel.adj.args])
+    return kernel

@@ -1,0 +1,76 @@
+"""The interface every FFT backend implements for the DC-FFT convolution.
+
+Liu, Wang & Liu (2000), "A versatile method of discrete convolution and FFT (DC-FFT) for contact
+analyses", Wear 243: the tractions on an (ny, nx) grid are zero-padded to (2 ny, 2 nx), multiplied
+in Fourier space by the spectra of the influence coefficients (held in wrap-around order on the
+padded grid), transformed back, and the first (ny, nx) outputs kept. No periodic images.
+
+A backend owns the layout of its spectra (``spectral_shape``): the spectral products are
+elementwise Warp kernels that do not care about it. Complex numbers are 2-vectors of the
+backend's float type (``wp.vec2f`` or ``wp.vec2d``).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import warp as wp
+
+
+class FFTBackend:
+    """Zero-padded forward and truncated inverse 2-D transforms on one device, in one float type.
+
+    Args:
+        ny, nx: grid cells along y (rows) and x (columns).
+        device: Warp device the arrays live on.
+        dtype: ``wp.float32`` or ``wp.float64``.
+    """
+
+    #: Name used in case files and on the command line.
+    name = "base"
+
+    def __init__(self, ny: int, nx: int, device, dtype):
+        self.ny, self.nx = int(ny), int(nx)
+        self.device = wp.get_device(device)
+        self.dtype = dtype
+        self.complex_dtype = wp.vec2d if dtype == wp.float64 else wp.vec2f
+        self.np_real = np.float64 if dtype == wp.float64 else np.float32
+        self.np_complex = np.complex128 if dtype == wp.float64 else np.complex64
+
+    @property
+    def padded_shape(self) -> tuple[int, int]:
+        return (2 * self.ny, 2 * self.nx)
+
+    @property
+    def spectral_shape(self) -> tuple[int, int]:
+        """Shape of one spectrum (complex entries)."""
+        raise NotImplementedError
+
+    def alloc_spectra(self, count: int) -> wp.array:
+        """``count`` spectra in one array of shape (count, *spectral_shape), zero-filled."""
+        return wp.zeros((count, *self.spectral_shape), dtype=self.complex_dtype, device=self.device)
+
+    def spectrum_of_padded(self, padded: np.ndarray) -> np.ndarray:
+        """Host spectrum, in this backend's layout, of a real (2 ny, 2 nx) float64 array.
+
+        Used once per grid for the influence coefficients; returns complex128 numpy.
+        """
+        raise NotImplementedError
+
+    def forward(self, field: wp.array2d, spectrum: wp.array2d):
+        """``spectrum`` <- transform of the real (ny, nx) ``field`` zero-padded to (2 ny, 2 nx)."""
+        raise NotImplementedError
+
+    def inverse(self, spectrum: wp.array2d, field: wp.array2d):
+        """``field`` <- the first (ny, nx) values of the normalised inverse transform of ``spectrum``.
+
+        May overwrite ``spectrum``.
+        """
+        raise NotImplementedError
+
+    def check_field(self, name: str, a: wp.array):
+        """Raise ValueError naming ``name`` unless ``a`` is an (ny, nx) array of this dtype and device."""
+        if a.shape != (self.ny, self.nx) or a.dtype != self.dtype or a.device != self.device:
+            raise ValueError(
+                f"{name}: expected shape {(self.ny, self.nx)} {self.dtype.__name__} on {self.device}, "
+                f"got {a.shape} {a.dtype.__name__} on {a.device}"
+            )

@@ -1,0 +1,88 @@
+"""The contact model: static data shared by every state and solver of one problem."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+import warp as wp
+
+from .device import dtype_name, numpy_dtype, resolve_device, resolve_dtype
+from .geometry import Grid, Sphere
+from .materials import MaterialPair
+from .operator import ElasticOperator
+
+
+@dataclass(frozen=True)
+class ReductionLaunch:
+    """Launch shape of the reducing kernels (see kernels/reduce.py) for n cells on a device."""
+
+    num_blocks: int
+    block_dim: int
+    outer: int
+    inner: int
+    per: int
+
+    @staticmethod
+    def for_cells(n: int, device) -> "ReductionLaunch":
+        if device.is_cpu:
+            blocks = 1  # CPU kernels run serially; one contiguous sweep
+            return ReductionLaunch(blocks, 1, n, 1, n)
+        block_dim = 256
+        blocks = max(1, min(4 * device.sm_count if hasattr(device, "sm_count") else 528, math.ceil(n / block_dim)))
+        total = blocks * block_dim
+        return ReductionLaunch(blocks, block_dim, 1, total, math.ceil(n / total))
+
+    def args(self, n: int) -> list:
+        return [n, self.outer, self.inner, self.per]
+
+
+class ContactModel:
+    """Materials, sphere, grid, device, float type and the elastic operator of one problem.
+
+    Internally every field is in scaled units: tractions / ``traction_scale`` (E*), lengths /
+    ``length_scale`` (the cell size dx). States convert to SI when asked.
+
+    Args:
+        pair: sphere and flat materials.
+        sphere: the sphere's geometry.
+        grid: the surface grid.
+        device: "cpu", "cuda" or "cuda:N".
+        dtype: "float64" or "float32".
+        fft: FFT backend name ("auto" picks the fastest available on the device).
+    """
+
+    def __init__(self, pair: MaterialPair, sphere: Sphere, grid: Grid, device="cpu", dtype="float64", fft="auto"):
+        self.pair, self.sphere, self.grid = pair, sphere, grid
+        self.device = resolve_device(device)
+        self.dtype = resolve_dtype(dtype)
+        self.np_dtype = numpy_dtype(self.dtype)
+        self.length_scale = grid.dx
+        self.traction_scale = pair.E_star
+        self.n_cells = grid.n * grid.n
+        self.reduction = ReductionLaunch.for_cells(self.n_cells, self.device)
+        with wp.ScopedDevice(self.device):
+            self.initial_gap = self.field(sphere.initial_gap(grid) / self.length_scale)
+            self.operator = ElasticOperator(pair, grid, self.device, self.dtype, fft)
+
+    @property
+    def dtype_name(self) -> str:
+        return dtype_name(self.dtype)
+
+    @property
+    def fft_name(self) -> str:
+        return self.operator.fft.name
+
+    def scalar(self, value: float):
+        """``value`` as a Warp scalar of the model's float type (for kernel arguments)."""
+        return self.dtype(value)
+
+    def field(self, values=None) -> wp.array:
+        """A (n, n) field on the model's device: zeros, or a copy of ``values`` (scaled units)."""
+        if values is None:
+            return wp.zeros(self.grid.shape, dtype=self.dtype, device=self.device)
+        return wp.array(np.asarray(values, dtype=self.np_dtype), dtype=self.dtype, device=self.device)
+
+    def scalars(self, count: int) -> wp.array:
+        return wp.zeros(count, dtype=self.dtype, device=self.device)

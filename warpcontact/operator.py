@@ -1,0 +1,79 @@
+"""The coupled elastic operator: DC-FFT convolution of (p, q_x, q_y) to (u_z, u_x, u_y).
+
+Works in the model's scaled units: tractions divided by E*, lengths by the cell size dx, so that
+the influence coefficients are of order one in float32 and float64 alike.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import warp as wp
+
+from warpcontact.kernels import spectral
+
+from .fft import make_fft
+from .influence import KERNELS, influence_coefficients
+
+
+class ElasticOperator:
+    """Maps tractions to relative surface displacements through the influence spectra.
+
+    Args:
+        pair: the material pair.
+        grid: the surface grid.
+        device, dtype: where and in which float type the fields live.
+        fft: FFT backend name ("auto", "scipy", "cupy", "warp").
+
+    The spectra of the six influence kernels are computed once (float64 on the host, then cast)
+    and kept on the device; three spectral buffers are allocated once.
+    """
+
+    def __init__(self, pair, grid, device, dtype, fft: str = "auto"):
+        self.pair, self.grid = pair, grid
+        self.device, self.dtype = device, dtype
+        self.shape = grid.shape
+        self.fft = make_fft(fft, grid.n, grid.n, device, dtype)
+        self.coupled = pair.D != 0.0
+        scale = pair.E_star / grid.dx  # scaled displacement per scaled traction
+        coeffs = influence_coefficients(pair, grid.n, grid.n, grid.dx, grid.dy)
+        spectra = np.stack([self.fft.spectrum_of_padded(coeffs[k] * scale) for k in KERNELS])
+        host = np.ascontiguousarray(spectra.astype(self.fft.np_complex)).view(self.fft.np_real)
+        host = host.reshape(len(KERNELS), *self.fft.spectral_shape, 2)
+        self.influence = wp.array(host, dtype=self.fft.complex_dtype, device=device)
+        self._spectra = self.fft.alloc_spectra(3)
+        self._buf = [self._spectra[i] for i in range(3)]
+
+    def normal(self, pressure: wp.array2d, displacement: wp.array2d):
+        """displacement <- K_zz pressure (no coupling)."""
+        self.fft.forward(pressure, self._buf[0])
+        wp.launch(spectral.spectral_normal, dim=self.fft.spectral_shape, inputs=[self.influence, self._buf[0]], device=self.device)
+        self.fft.inverse(self._buf[0], displacement)
+
+    def tangential(self, shear_x, shear_y, disp_x, disp_y):
+        """(disp_x, disp_y) <- K_tt (shear_x, shear_y) (no coupling)."""
+        self.fft.forward(shear_x, self._buf[1])
+        self.fft.forward(shear_y, self._buf[2])
+        wp.launch(
+            spectral.spectral_tangential,
+            dim=self.fft.spectral_shape,
+            inputs=[self.influence, self._buf[1], self._buf[2]],
+            device=self.device,
+        )
+        self.fft.inverse(self._buf[1], disp_x)
+        self.fft.inverse(self._buf[2], disp_y)
+
+    def coupled_apply(self, pressure, shear_x, shear_y, disp_z, disp_x, disp_y):
+        """(disp_z, disp_x, disp_y) <- the full 3x3 operator applied to (pressure, shear_x, shear_y)."""
+        for src, buf in zip((pressure, shear_x, shear_y), self._buf):
+            self.fft.forward(src, buf)
+        wp.launch(spectral.spectral_coupled, dim=self.fft.spectral_shape, inputs=[self.influence, *self._buf], device=self.device)
+        for buf, dst in zip(self._buf, (disp_z, disp_x, disp_y)):
+            self.fft.inverse(buf, dst)
+
+    def cross(self, pressure, shear_x, shear_y, disp_z, disp_x, disp_y):
+        """Only the coupling terms: disp_z <- K_zt q, (disp_x, disp_y) <- K_tp p."""
+        for src, buf in zip((pressure, shear_x, shear_y), self._buf):
+            self.fft.forward(src, buf)
+        wp.launch(spectral.spectral_cross, dim=self.fft.spectral_shape, inputs=[self.influence, *self._buf], device=self.device)
+        for buf, dst in zip(self._buf, (disp_z, disp_x, disp_y)):
+            self.fft.inverse(buf, dst)
