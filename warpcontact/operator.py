@@ -40,8 +40,13 @@ class ElasticOperator:
         host = np.ascontiguousarray(spectra.astype(self.fft.np_complex)).view(self.fft.np_real)
         host = host.reshape(len(KERNELS), *self.fft.spectral_shape, 2)
         self.influence = wp.array(host, dtype=self.fft.complex_dtype, device=device)
+        self._self_coefficients = {k: float(coeffs[k][0, 0] * scale) for k in KERNELS}
         self._spectra = self.fft.alloc_spectra(3)
         self._buf = [self._spectra[i] for i in range(3)]
+
+    def self_coefficient(self, kernel: str) -> float:
+        """Displacement of a cell under its own unit traction, scaled units (kernel in KERNELS)."""
+        return self._self_coefficients[kernel]
 
     def normal(self, pressure: wp.array2d, displacement: wp.array2d):
         """displacement <- K_zz pressure (no coupling)."""

@@ -42,16 +42,20 @@ class ContactState:
     FIELDS = ("pressure", "shear_x", "shear_y", "gap", "disp_z", "disp_x", "disp_y", "slip_x", "slip_y")
 
     def __init__(self, model):
+        import warp as wp
+
         self.model = model
         for name in self.FIELDS:
             setattr(self, name, model.field())
+        #: cell status, int32 (n, n): 0 out of contact, 1 stick, 2 slip (kernels/tangential.py)
+        self.status = wp.zeros(model.grid.shape, dtype=wp.int32, device=model.device)
         self.approach = (0.0, 0.0, 0.0)
         self.info: SolveInfo | None = None
 
     def copy_from(self, other: "ContactState"):
         import warp as wp
 
-        for name in self.FIELDS:
+        for name in self.FIELDS + ("status",):
             wp.copy(getattr(self, name), getattr(other, name))
         self.approach = other.approach
         self.info = other.info

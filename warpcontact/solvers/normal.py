@@ -2,66 +2,39 @@
 
 from __future__ import annotations
 
-import math
-
 import numpy as np
 import warp as wp
 
 from warpcontact.kernels import normal as nk
 
-from ..errors import NonFiniteError
 from ..state import SolveInfo
+from .base import ProjectedCG, default_tolerance, raise_non_finite  # noqa: F401  (re-export)
 
 
-def default_tolerance(dtype) -> float:
-    """Relative residual a solve aims for: 1e-10 in float64, 1e-5 in float32 (its rounding floor
-    on these sums is about 1e-6)."""
-    return 1e-10 if dtype == wp.float64 else 1e-5
-
-
-class NormalSolver:
+class NormalSolver(ProjectedCG):
     """Projected conjugate gradients for the contact pressure at a given rigid approach.
 
-    Polonsky, I. A. & Keer, L. M. (1999), Wear 231, 206-219, in its displacement-driven form:
-    delta_z is an input, no force constraint (MODEL.md section 4).
+    Polonsky, I. A. & Keer, L. M. (1999), "A numerical method for solving rough contact problems
+    based on the multi-level multi-summation and conjugate gradient techniques", Wear 231,
+    206-219, in its displacement-driven form: delta_z is an input, no force constraint
+    (MODEL.md section 4).
 
     The relative residual of a pressure p with gap g = h0 - delta_z + K p + u_known is
     ``sqrt(sum_{p>0} g^2 + sum_{p=0, g<0} g^2) / sqrt(sum_{p>0} (delta_z - h0 - u_known)^2)``:
-    the misfit of the contact condition relative to the rigid interference it must absorb.
+    the misfit of the contact conditions relative to the rigid interference they absorb.
 
     Args:
         model: the :class:`~warpcontact.model.ContactModel`.
-        tol: relative residual to reach (default: :func:`default_tolerance`).
+        tol: relative residual to reach (default: 1e-10 in float64, 1e-5 in float32).
         max_iter: iteration limit; a solve that reaches it returns ``converged = False``.
-        check_every: iterations between reads of the residual on the host (1 on CPU, where a
-            read is free; 8 on CUDA, where it synchronises).
+        check_every: iterations between reads of the residual on the host.
     """
 
-    def __init__(self, model, tol: float | None = None, max_iter: int = 2000, check_every: int | None = None):
-        self.model = model
-        self.tol = default_tolerance(model.dtype) if tol is None else float(tol)
-        self.max_iter = int(max_iter)
-        self.check_every = check_every or (1 if model.device.is_cpu else 8)
+    def __init__(self, model, tol=None, max_iter: int = 2000, check_every=None):
+        super().__init__(model, nk.N_SUMS, nk.N_SCALARS, tol, max_iter, check_every)
         self.direction = model.field()
         self.response = model.field()
-        self.gap_buffer = model.field()
         self.no_displacement = model.field()
-        self.sums = model.scalars(nk.N_SUMS)
-        self.scalars = model.scalars(nk.N_SCALARS)
-        self.history = model.scalars(self.max_iter + 1)
-
-    # -- kernel launches ------------------------------------------------------------------------
-    def _launch_reduce(self, kernel, inputs, outputs):
-        m = self.model
-        r = m.reduction
-        wp.launch_tiled(
-            kernel,
-            dim=[r.num_blocks],
-            inputs=inputs + r.args(m.n_cells),
-            outputs=outputs,
-            block_dim=r.block_dim,
-            device=m.device,
-        )
 
     def _gap(self, state, approach, known):
         """state.disp_z <- K p; state.gap <- gap; sums <- residual sums of the current pressure."""
@@ -73,19 +46,6 @@ class NormalSolver:
             [state.gap.flatten(), self.sums],
         )
 
-    def _iteration(self, state, approach, known):
-        m = self.model
-        n = m.n_cells
-        p, g, t, r = (a.flatten() for a in (state.pressure, state.gap, self.direction, self.response))
-        self.sums.zero_()
-        self._gap(state, approach, known)
-        wp.launch(nk.normal_direction, dim=n, inputs=[g, p, self.sums, self.scalars], outputs=[t], device=m.device)
-        m.operator.normal(self.direction, self.response)
-        self._launch_reduce(nk.normal_step_sums, [g, t, r, p], [self.sums])
-        self._launch_reduce(nk.normal_update, [g, t], [p, self.sums])
-        wp.launch(nk.normal_advance, dim=1, inputs=[self.sums, self.scalars], outputs=[self.history], device=m.device)
-
-    # -- public ---------------------------------------------------------------------------------
     def solve(self, state, approach_z: float, known_displacement: wp.array | None = None) -> SolveInfo:
         """Solve for ``state.pressure`` at the rigid approach ``approach_z`` [m].
 
@@ -99,36 +59,26 @@ class NormalSolver:
         approach = m.scalar(approach_z / m.length_scale)
         if not np.any(state.pressure.numpy() > 0):
             self._initial_guess(state, float(approach), known)
-        self.scalars.zero_()
-        self.history.fill_(-1.0)
-        it = 0
-        residual = self._final_fields(state, approach, known, it)
-        while residual >= self.tol and it < self.max_iter:
-            self._iteration(state, approach, known)
-            it += 1
-            if it % self.check_every == 0 or it == self.max_iter:
-                hist = float(self.history.numpy()[it - 1])
-                if not math.isfinite(hist):
-                    self._raise_non_finite(state, it)
-                if hist < self.tol or it == self.max_iter:
-                    residual = self._final_fields(state, approach, known, it)
-        hist = self.history.numpy()[:it]
-        return SolveInfo(converged=bool(residual < self.tol), iterations=it, residual=residual, history=hist.tolist())
+        p, g, t, r = (a.flatten() for a in (state.pressure, state.gap, self.direction, self.response))
 
-    def _final_fields(self, state, approach, known, iteration) -> float:
-        """Gap and displacement of the current pressure; returns its relative residual."""
-        self.sums.zero_()
-        self._gap(state, approach, known)
-        residual = self._residual_from_sums()
-        if not math.isfinite(residual):
-            self._raise_non_finite(state, iteration)
-        return residual
+        def iteration():
+            self.sums.zero_()
+            self._gap(state, approach, known)
+            wp.launch(nk.normal_direction, dim=m.n_cells, inputs=[g, p, self.sums, self.scalars], outputs=[t], device=m.device)
+            m.operator.normal(self.direction, self.response)
+            self._launch_reduce(nk.normal_step_sums, [g, t, r, p], [self.sums])
+            self._launch_reduce(nk.normal_update, [g, t], [p, self.sums])
+            wp.launch(nk.normal_advance, dim=1, inputs=[self.sums, self.scalars], outputs=[self.history], device=m.device)
 
-    def _residual_from_sums(self) -> float:
-        s = self.sums.numpy().astype(np.float64)
-        if s[nk.S_RHS] > 0:
-            return math.sqrt(s[nk.S_VIOL] / s[nk.S_RHS])
-        return 0.0 if s[nk.S_VIOL] == 0 else 1.0
+        def final_fields():
+            self.sums.zero_()
+            self._gap(state, approach, known)
+            return self._relative_residual(nk.S_VIOL, nk.S_RHS)
+
+        def on_non_finite(it):
+            raise_non_finite("normal solve", state, ("pressure", "gap", "disp_z"), it)
+
+        return self._run(iteration, final_fields, on_non_finite)
 
     def _initial_guess(self, state, approach: float, known):
         """p = c * max(delta_z - h0 - u_known, 0), with c the least-squares fit of K p to it."""
@@ -143,14 +93,3 @@ class NormalSolver:
         mask = p0 > 0
         c = float(np.dot(u[mask], b[mask]) / np.dot(u[mask], u[mask]))
         state.pressure.assign((p0 * c).astype(m.np_dtype))
-
-    def _raise_non_finite(self, state, iteration):
-        for name in ("pressure", "gap", "disp_z"):
-            a = getattr(state, name).numpy()
-            bad = np.argwhere(~np.isfinite(a))
-            if bad.size:
-                iy, ix = bad[0]
-                raise NonFiniteError(
-                    f"normal solve: non-finite {name} at iteration {iteration}, cell (row {iy}, column {ix})"
-                )
-        raise NonFiniteError(f"normal solve: non-finite residual at iteration {iteration}")

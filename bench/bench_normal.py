@@ -1,0 +1,116 @@
+"""Benchmark: the Hertz normal solve (paper pair, R = 10 um, delta_z = 1e-4 um, domain 4a).
+
+For each device and FFT backend available and each grid size, prints iterations, time per
+iteration and total solve time (the clock stops after a device synchronisation; the first,
+compiling solve is not timed). When the ``tamaas`` package is installed, Tamaas' own solver is
+timed on the same problem in the same run and the ratio printed.
+
+    python bench/bench_normal.py                       # CPU: N = 128 ... 1024
+    python bench/bench_normal.py --device cuda         # GPU: N = 256 ... 4096
+    python bench/bench_normal.py --sizes 256 512 --fft scipy warp --json out.json
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import platform
+import time
+
+import warp as wp
+
+from warpcontact.fft import available_backends
+from warpcontact.geometry import Grid, Sphere
+from warpcontact.materials import PAPER_PAIR
+from warpcontact.model import ContactModel
+from warpcontact.reference import hertz
+from warpcontact.solvers import NormalSolver
+from warpcontact.state import ContactState
+
+R, DZ = 10e-6, 1.0e-10
+A = math.sqrt(R * DZ)
+
+
+def time_warpcontact(n, device, dtype, fft, repeats):
+    model = ContactModel(PAPER_PAIR, Sphere(R, "paraboloid"), Grid(n, 4 * A), device=device, dtype=dtype, fft=fft)
+    solver = NormalSolver(model)
+    best = math.inf
+    info = None
+    for rep in range(repeats + 1):  # the first solve compiles and warms caches: not timed
+        state = ContactState(model)
+        wp.synchronize_device(model.device)
+        t0 = time.perf_counter()
+        info = solver.solve(state, DZ)
+        wp.synchronize_device(model.device)
+        if rep > 0:
+            best = min(best, time.perf_counter() - t0)
+    F = float(state.pressure.numpy().sum()) * model.traction_scale * model.grid.cell_area
+    return {"iterations": info.iterations, "total_s": best, "per_iter_ms": 1e3 * best / info.iterations,
+            "residual": info.residual, "force_err": F / hertz(PAPER_PAIR, R, DZ)["force"] - 1.0}
+
+
+def time_tamaas(n):
+    """Tamaas' displacement-driven Polonsky-Keer solver with its non-periodic (DC-FFT) operator."""
+    import numpy as np
+    import tamaas as tm
+
+    L = 4 * A
+    model = tm.ModelFactory.createModel(tm.model_type.basic_2d, [L, L], [n, n])
+    model.E = PAPER_PAIR.E_star
+    model.nu = 0.0  # with nu = 0 Tamaas' E* equals E
+    x = (np.arange(n) - 0.5 * (n - 1)) * (L / n)
+    X, Y = np.meshgrid(x, x, indexing="ij")
+    surface = -(X**2 + Y**2) / (2 * R)
+    tm.ModelFactory.registerNonPeriodic(model, "dcfft")
+    solver = tm.PolonskyKeerRey(model, surface, 1e-10, tm.PolonskyKeerRey.gap, tm.PolonskyKeerRey.gap)
+    solver.setIntegralOperator("dcfft")
+    t0 = time.perf_counter()
+    solver.solve(DZ)
+    return {"total_s": time.perf_counter() - t0}
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--device", default="cpu")
+    ap.add_argument("--sizes", type=int, nargs="*")
+    ap.add_argument("--fft", nargs="*", help="backends (default: all available on the device)")
+    ap.add_argument("--dtype", nargs="*", default=["float64"])
+    ap.add_argument("--repeats", type=int, default=2)
+    ap.add_argument("--no-tamaas", action="store_true")
+    ap.add_argument("--json", help="also write the rows to this file")
+    args = ap.parse_args()
+    wp.config.quiet = True
+    wp.init()
+    device = wp.get_device(args.device)
+    sizes = args.sizes or ([128, 256, 512, 1024] if device.is_cpu else [256, 512, 1024, 2048, 4096])
+    backends = args.fft or available_backends(device)
+    try:
+        import tamaas  # noqa: F401
+
+        have_tamaas = not args.no_tamaas and device.is_cpu
+    except ImportError:
+        have_tamaas = False
+    print(f"# Hertz normal solve, paper pair, delta_z = {DZ} m, domain 4a; device {device} ({platform.processor() or platform.machine()}), "
+          f"warp {wp.__version__}, {time.strftime('%Y-%m-%d')}")
+    print(f"{'N':>6} {'dtype':>8} {'fft':>6} {'iters':>6} {'ms/iter':>9} {'total s':>9} {'F err':>9}" + ("  tamaas s  ratio" if have_tamaas else ""))
+    rows = []
+    for n in sizes:
+        tam = time_tamaas(n) if have_tamaas else None
+        for dtype in args.dtype:
+            for fft in backends:
+                r = time_warpcontact(n, args.device, dtype, fft, args.repeats)
+                row = {"n": n, "dtype": dtype, "fft": fft, "device": str(device), **r}
+                line = f"{n:>6} {dtype:>8} {fft:>6} {r['iterations']:>6} {r['per_iter_ms']:>9.2f} {r['total_s']:>9.3f} {r['force_err']:>9.1e}"
+                if tam:
+                    row["tamaas_s"] = tam["total_s"]
+                    line += f"  {tam['total_s']:>8.2f}  {tam['total_s'] / r['total_s']:>5.1f}x"
+                print(line, flush=True)
+                rows.append(row)
+    if args.json:
+        with open(args.json, "w") as fh:
+            json.dump(rows, fh, indent=2)
+
+
+if __name__ == "__main__":
+    main()

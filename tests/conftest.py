@@ -1,0 +1,36 @@
+"""Shared test set-up: one test per available device, opt-in slow studies."""
+
+import pytest
+import warp as wp
+
+wp.config.quiet = True
+wp.init()
+
+DEVICES = ["cpu"] + [f"cuda:{i}" for i in range(wp.get_cuda_device_count())]
+
+
+def pytest_addoption(parser):
+    parser.addoption("--runslow", action="store_true", help="run the slow validation studies (minutes)")
+
+
+def pytest_configure(config):
+    config.addinivalue_line("markers", "slow: long validation studies; opt in with --runslow")
+
+
+def pytest_collection_modifyitems(config, items):
+    if config.getoption("--runslow"):
+        return
+    skip = pytest.mark.skip(reason="slow study: opt in with --runslow")
+    for item in items:
+        if "slow" in item.keywords:
+            item.add_marker(skip)
+
+
+def pytest_report_header(config):
+    return f"warpcontact test devices: {', '.join(DEVICES)}"
+
+
+@pytest.fixture(params=DEVICES)
+def device(request):
+    """Every device present: the CPU always, each CUDA device when there is one."""
+    return request.param

@@ -1,0 +1,75 @@
+"""The command line: results written, user mistakes end with exit 2 and one line."""
+
+import json
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+ROOT = Path(__file__).resolve().parents[1]
+HERTZ = (ROOT / "examples" / "hertz.toml").read_text()
+
+
+def run_cli(*args, cwd=None):
+    return subprocess.run([sys.executable, "-m", "warpcontact.cli", *map(str, args)], capture_output=True, text=True,
+                          cwd=cwd, timeout=600)
+
+
+def small_case(tmp_path, text=HERTZ, **replace):
+    for old, new in replace.items():
+        text = text.replace(old, new)
+    p = tmp_path / "case.toml"
+    p.write_text(text)
+    return p
+
+
+def test_solve_writes_result_and_fields(tmp_path):
+    case = small_case(tmp_path, **{"n = 128": "n = 48"})
+    r = run_cli("solve", case, "--out", tmp_path / "out", "--quiet")
+    assert r.returncode == 0, r.stderr
+    res = json.loads((tmp_path / "out" / "result.json").read_text())
+    for key in ("force", "contact_area", "contact_radius", "max_pressure", "converged", "iterations", "residual",
+                "device", "dtype", "elapsed_s", "case", "software"):
+        assert key in res, key
+    assert res["converged"] and res["device"] == "cpu" and res["dtype"] == "float64"
+    hertz_force = 4 / 3 * 78.02824e9 * np.sqrt(10e-6) * 1e-10**1.5
+    assert res["force"]["z"] == pytest.approx(hertz_force, rel=5e-3)
+    with np.load(tmp_path / "out" / "fields.npz", allow_pickle=False) as f:
+        assert f["pressure"].shape == (1, 48, 48)
+        assert f["pressure"].sum() * (res["case"]["grid"]["size"] / 48) ** 2 == pytest.approx(res["force"]["z"])
+
+
+@pytest.mark.parametrize(
+    "replace, key",
+    [
+        ({"E = 106e9": "E = -106e9"}, "sphere.E"),
+        ({"nu = 0.33": "nu = 0.7"}, "sphere.nu"),
+        ({"n = 128": "n = 4"}, "grid.n"),
+        ({'device = "cpu"': 'device = "tpu"'}, "solver.device"),
+        ({"[load]": "[load]\nbogus = 1"}, "load.bogus"),
+        ({"delta_z = 1.0e-10       # m (1.0e-4 um, the paper's third depth)": ""}, "load.delta_z"),
+    ],
+)
+def test_bad_case_exits_2_with_one_line(tmp_path, replace, key):
+    case = small_case(tmp_path, **replace)
+    r = run_cli("solve", case, "--out", tmp_path / "out", "--quiet")
+    assert r.returncode == 2
+    lines = [ln for ln in r.stderr.strip().splitlines() if not ln.startswith("Warp CUDA warning")]
+    assert len(lines) == 1 and key in lines[0], r.stderr
+    assert "Traceback" not in r.stderr
+
+
+def test_cuda_asked_where_none_exists(tmp_path):
+    import warp as wp
+
+    if wp.get_cuda_device_count() > 0:
+        pytest.skip("a CUDA device is present: this checks the refusal on machines without one")
+    r = run_cli("solve", small_case(tmp_path), "--out", tmp_path / "o", "--device", "cuda", "--quiet")
+    assert r.returncode == 2 and "solver.device" in r.stderr and "Traceback" not in r.stderr
+
+
+def test_help_has_an_example():
+    r = run_cli("solve", "--help")
+    assert r.returncode == 0 and "example:" in r.stdout

@@ -1,0 +1,78 @@
+"""Displacement-driven normal contact against Hertz (MODEL.md section 8)."""
+
+import math
+
+import numpy as np
+import pytest
+
+from warpcontact.geometry import Grid, Sphere
+from warpcontact.materials import PAPER_PAIR
+from warpcontact.model import ContactModel
+from warpcontact.reference import hertz
+from warpcontact.solvers import NormalSolver
+from warpcontact.state import ContactState
+
+R = 10e-6
+DELTA_Z = 1.0e-10
+A = math.sqrt(R * DELTA_Z)
+
+
+def solve_hertz(n, device="cpu", dtype="float64", fft="auto", profile="paraboloid"):
+    model = ContactModel(PAPER_PAIR, Sphere(R, profile), Grid(n, 4 * A), device=device, dtype=dtype, fft=fft)
+    state = ContactState(model)
+    info = NormalSolver(model).solve(state, DELTA_Z)
+    p = state.to_numpy_si()["pressure"]
+    dA = model.grid.cell_area
+    ref = hertz(PAPER_PAIR, R, DELTA_Z)
+    radius = math.sqrt((p > 0).sum() * dA / math.pi)
+    return {
+        "info": info,
+        "force_err": p.sum() * dA / ref["force"] - 1.0,
+        "p0_err": p.max() / ref["p0"] - 1.0,
+        "radius_err_cells": (radius - ref["a"]) / model.grid.dx,
+    }
+
+
+def test_hertz_256(device):
+    """F_z and p0 within 0.5 %, contact radius within one cell, relative residual under 1e-10."""
+    r = solve_hertz(256, device)
+    assert r["info"].converged and r["info"].residual < 1e-10, r["info"]
+    assert abs(r["force_err"]) < 5e-3, f"F_z off Hertz by {r['force_err']:.2e}"
+    assert abs(r["p0_err"]) < 5e-3, f"p0 off Hertz by {r['p0_err']:.2e}"
+    assert abs(r["radius_err_cells"]) < 1.0, f"contact radius off by {r['radius_err_cells']:.2f} cells"
+
+
+def test_hertz_errors_fall_with_grid_refinement():
+    """Discretisation errors of F_z and p0 fall as the grid is refined (32 -> 64 -> 128 cells)."""
+    errs = [solve_hertz(n) for n in (32, 64, 128)]
+    f = [abs(e["force_err"]) for e in errs]
+    p = [abs(e["p0_err"]) for e in errs]
+    assert f[0] > f[1] > f[2], f"F_z errors {f}"
+    assert p[0] > p[1] > p[2], f"p0 errors {p}"
+    # the piecewise-constant discretisation converges at least linearly in the cell size
+    assert f[2] < 0.5 * f[0] and p[2] < 0.5 * p[0]
+
+
+def test_hertz_exact_sphere_matches_paraboloid():
+    """At a / R = 3e-3 the exact sphere and the paraboloid differ by O((a/R)^2): invisible here."""
+    a = solve_hertz(64, profile="sphere")
+    b = solve_hertz(64, profile="paraboloid")
+    assert abs(a["force_err"] - b["force_err"]) < 1e-4
+
+
+@pytest.mark.parametrize("n", [63, 64])
+def test_float32_close_to_float64(n, device):
+    """float32 meets Hertz as well as float64 does, to its rounding: within 1e-4 of the float64
+    force (the float32 residual floor is about 1e-6, times the conditioning of the sums)."""
+    r64 = solve_hertz(n, device, "float64")
+    r32 = solve_hertz(n, device, "float32")
+    assert r32["info"].converged, r32["info"]
+    assert abs(r32["force_err"] - r64["force_err"]) < 1e-4
+    assert abs(r32["p0_err"] - r64["p0_err"]) < 1e-3
+
+
+def test_no_contact_gives_zero_pressure():
+    model = ContactModel(PAPER_PAIR, Sphere(R), Grid(16, 4 * A))
+    state = ContactState(model)
+    info = NormalSolver(model).solve(state, -1e-11)
+    assert info.converged and not np.any(state.pressure.numpy() != 0)

@@ -1,0 +1,101 @@
+"""From a case to solved states: builds the model and solver, walks the load path."""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field
+
+from . import __version__
+from .friction import Coulomb, TaborVonMises
+from .model import ContactModel
+from .results import state_fields, state_summary
+from .solvers.contact import ContactSolver
+from .state import ContactState
+
+
+def friction_law(case):
+    """The shear-limit law of a case, or None for a frictionless contact."""
+    fr = case.friction
+    if fr is None:
+        return None
+    if fr.law == "coulomb":
+        return Coulomb(fr.mu)
+    kw = {} if fr.k_vm is None else {"k_vm": fr.k_vm}
+    return TaborVonMises(fr.k_tau, case.pair.softer.yield_strength, **kw)
+
+
+def build(case):
+    """(model, solver, state) for a case."""
+    s = case.solver
+    model = ContactModel(case.pair, case.sphere, case.grid, device=s.device, dtype=s.dtype, fft=s.fft)
+    solver = ContactSolver(model, friction_law(case), tol=s.tol, max_iter=s.max_iter)
+    return model, solver, ContactState(model)
+
+
+@dataclass
+class PathResult:
+    """Summaries of every solved state of a path, and the fields of each (numpy, SI)."""
+
+    case: object
+    model: object
+    states: list = field(default_factory=list)
+    fields: list = field(default_factory=list)
+    elapsed_s: float = 0.0
+    interrupted: bool = False
+
+    @property
+    def converged(self) -> bool:
+        return bool(self.states) and all(s["converged"] for s in self.states)
+
+    def summary(self) -> dict:
+        """result.json content: the last state's quantities at top level, every state listed."""
+        last = self.states[-1] if self.states else {}
+        m = self.model
+        return {
+            **last,
+            "converged": self.converged,
+            "interrupted": self.interrupted,
+            "n_states": len(self.states),
+            "states": self.states,
+            "device": str(m.device),
+            "dtype": m.dtype_name,
+            "fft": m.fft_name,
+            "elapsed_s": self.elapsed_s,
+            "software": {"warpcontact": __version__},
+            "case": self.case.to_dict(),
+        }
+
+    def stacked_fields(self) -> dict:
+        """Fields of every state stacked along a first axis (state index), plus coordinates."""
+        import numpy as np
+
+        out = {k: np.stack([f[k] for f in self.fields]) for k in self.fields[0]} if self.fields else {}
+        out["x"] = self.model.grid.x
+        out["y"] = self.model.grid.y
+        out["delta"] = np.array([[s["delta"]["x"], s["delta"]["y"], s["delta"]["z"]] for s in self.states])
+        return out
+
+
+def run_path(case, on_state=None, keep_fields: bool = True) -> PathResult:
+    """Solve every state of the case's load path in order (slip history carried along).
+
+    ``on_state(index, total, summary)`` is called after each state (progress, saving).
+    """
+    t0 = time.perf_counter()
+    model, solver, state = build(case)
+    result = PathResult(case=case, model=model)
+    path = case.load.path()
+    try:
+        for k, approach in enumerate(path):
+            solver.step(state, approach)
+            summary = state_summary(state)
+            result.states.append(summary)
+            if keep_fields:
+                result.fields.append(state_fields(state))
+            result.elapsed_s = time.perf_counter() - t0
+            if on_state is not None:
+                on_state(k, len(path), summary, result)
+    except KeyboardInterrupt:
+        result.interrupted = True
+    result.elapsed_s = time.perf_counter() - t0
+    return result

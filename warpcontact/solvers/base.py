@@ -1,0 +1,88 @@
+"""What the projected conjugate-gradient solvers share: buffers of scalars, launches, the loop."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import warp as wp
+
+from ..state import SolveInfo
+
+
+def default_tolerance(dtype) -> float:
+    """Relative residual a solve aims for: 1e-10 in float64, 1e-5 in float32 (whose rounding
+    floor on these sums is about 1e-6)."""
+    return 1e-10 if dtype == wp.float64 else 1e-5
+
+
+class ProjectedCG:
+    """Base of the normal and tangential solvers.
+
+    Subclasses implement ``_iteration()`` (one step, which records the residual of the iterate it
+    started from in ``self.history``) and ``_final_fields()`` (fields and relative residual of the
+    current iterate). Scalars stay on the device; the residual is read back every
+    ``check_every`` iterations (every iteration on the CPU, where a read is free).
+    """
+
+    def __init__(self, model, n_sums: int, n_scalars: int, tol=None, max_iter: int = 2000, check_every=None):
+        self.model = model
+        self.tol = default_tolerance(model.dtype) if tol is None else float(tol)
+        self.max_iter = int(max_iter)
+        self.check_every = check_every or (1 if model.device.is_cpu else 8)
+        self.sums = model.scalars(n_sums)
+        self.scalars = model.scalars(n_scalars)
+        self.history = model.scalars(self.max_iter + 1)
+
+    def _launch_reduce(self, kernel, inputs, outputs):
+        m = self.model
+        r = m.reduction
+        wp.launch_tiled(
+            kernel,
+            dim=[r.num_blocks],
+            inputs=inputs + r.args(m.n_cells),
+            outputs=outputs,
+            block_dim=r.block_dim,
+            device=m.device,
+        )
+
+    def _relative_residual(self, viol_slot: int, rhs_slot: int) -> float:
+        s = self.sums.numpy().astype(np.float64)
+        if s[rhs_slot] > 0:
+            return math.sqrt(s[viol_slot] / s[rhs_slot])
+        return 0.0 if s[viol_slot] == 0 else 1.0
+
+    def _run(self, iteration, final_fields, on_non_finite) -> SolveInfo:
+        """The loop: iterate until the residual of the current iterate is under ``tol``."""
+        self.scalars.zero_()
+        self.history.fill_(-1.0)
+        it = 0
+        residual = final_fields()
+        while not residual < self.tol and it < self.max_iter:
+            if not math.isfinite(residual):
+                on_non_finite(it)
+            iteration()
+            it += 1
+            if it % self.check_every == 0 or it == self.max_iter:
+                recorded = float(self.history.numpy()[it - 1])
+                if not math.isfinite(recorded):
+                    on_non_finite(it)
+                if recorded < self.tol or it == self.max_iter:
+                    residual = final_fields()
+        if not math.isfinite(residual):
+            on_non_finite(it)
+        hist = self.history.numpy()[:it].astype(np.float64)
+        return SolveInfo(converged=bool(residual < self.tol), iterations=it, residual=residual, history=hist.tolist())
+
+
+def raise_non_finite(solver_name: str, state, names, iteration: int):
+    """Raise NonFiniteError naming the first non-finite field and cell."""
+    from ..errors import NonFiniteError
+
+    for name in names:
+        a = getattr(state, name).numpy()
+        bad = np.argwhere(~np.isfinite(a))
+        if bad.size:
+            iy, ix = bad[0]
+            raise NonFiniteError(f"{solver_name}: non-finite {name} at iteration {iteration}, cell (row {iy}, column {ix})")
+    raise NonFiniteError(f"{solver_name}: non-finite residual at iteration {iteration}")

@@ -1,0 +1,134 @@
+"""One load step of the coupled problem: normal and tangential solves in turns (MODEL.md 4)."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import warp as wp
+
+from warpcontact.kernels import coupling as ck
+
+from ..state import SolveInfo
+from .normal import NormalSolver
+from .tangential import TangentialSolver
+
+
+class ContactSolver:
+    """Solves a state at given rigid shifts (delta_x, delta_y, delta_z) from the slip history.
+
+    With friction, the normal and the tangential problems are solved in turns, each with the
+    other's coupling displacement held fixed (Dundurs coupling on whenever D != 0), until the
+    pressure and the shear both change by less than ``outer_tol`` (relative, in the 2-norm) from
+    one turn to the next. Identical materials decouple (D = 0): one turn is exact.
+
+    Args:
+        model: the contact model.
+        friction: a shear-limit law (``warpcontact.friction``) or None for frictionless contact.
+        tol: relative residual of the inner solves (default by dtype, see NormalSolver).
+        outer_tol: relative change that ends the turns (default 100 tol: 1e-8 in float64, 1e-3 in
+            float32).
+        max_iter: iteration limit of each inner solve.
+        max_outer: limit on the turns.
+    """
+
+    def __init__(self, model, friction=None, tol=None, outer_tol=None, max_iter: int = 2000, max_outer: int = 100):
+        self.model = model
+        self.friction = friction
+        self.normal = NormalSolver(model, tol, max_iter)
+        self.tol = self.normal.tol
+        self.outer_tol = 100 * self.tol if outer_tol is None else float(outer_tol)
+        self.max_outer = int(max_outer)
+        f = model.field
+        self.known_z, self.known_x, self.known_y = f(), f(), f()
+        self.previous = [f(), f(), f()]
+        self.change = model.scalars(6)
+        if friction is not None:
+            self.tangential = TangentialSolver(model, tol, max_iter)
+            self.target_x, self.target_y = f(), f()
+            self.shear_limit = f()
+
+    @property
+    def coupled(self) -> bool:
+        return self.friction is not None and self.model.operator.coupled
+
+    def step(self, state, approach) -> SolveInfo:
+        """Solve ``state`` at ``approach`` = (delta_x, delta_y, delta_z) [m].
+
+        ``state`` holds the previous state of the path (its slip is the history s_prev; its
+        tractions are the starting guess) and is overwritten with the new one.
+        """
+        m = self.model
+        dx, dy, dz = (float(a) for a in approach)
+        L = m.length_scale
+        iterations = 0
+        normal_info = tangential_info = None
+        outer = 0
+        if self.friction is None:
+            state.shear_x.zero_()
+            state.shear_y.zero_()
+            normal_info = self.normal.solve(state, dz)
+            iterations = normal_info.iterations
+        else:
+            wp.launch(
+                ck.stick_target,
+                dim=m.n_cells,
+                inputs=[state.slip_x.flatten(), state.slip_y.flatten(), m.scalar(dx / L), m.scalar(dy / L)],
+                outputs=[self.target_x.flatten(), self.target_y.flatten()],
+                device=m.device,
+            )
+            for prev, cur in zip(self.previous, (state.pressure, state.shear_x, state.shear_y)):
+                wp.copy(prev, cur)
+            while outer < self.max_outer:
+                outer += 1
+                if self.coupled:
+                    m.operator.cross(state.pressure, state.shear_x, state.shear_y, self.known_z, self.known_x, self.known_y)
+                normal_info = self.normal.solve(state, dz, self.known_z if self.coupled else None)
+                self.friction.shear_limit(m, state.pressure.flatten(), self.shear_limit.flatten())
+                if self.coupled:
+                    m.operator.cross(state.pressure, state.shear_x, state.shear_y, self.known_z, self.known_x, self.known_y)
+                tangential_info = self.tangential.solve(
+                    state, self.target_x, self.target_y, self.shear_limit,
+                    self.known_x if self.coupled else None, self.known_y if self.coupled else None,
+                )
+                iterations += normal_info.iterations + tangential_info.iterations
+                change = self._relative_change(state)
+                if not self.coupled or change < self.outer_tol:
+                    break
+            known_x = self.known_x if self.coupled else self.tangential.no_displacement
+            known_y = self.known_y if self.coupled else self.tangential.no_displacement
+            wp.launch(
+                ck.accumulate_slip,
+                dim=m.n_cells,
+                inputs=[state.disp_x.flatten(), state.disp_y.flatten(), known_x.flatten(), known_y.flatten(), m.scalar(dx / L), m.scalar(dy / L)],
+                outputs=[state.slip_x.flatten(), state.slip_y.flatten(), state.disp_x.flatten(), state.disp_y.flatten()],
+                device=m.device,
+            )
+            if self.coupled:  # gap and u_z with the final shear's coupling displacement
+                m.operator.cross(state.pressure, state.shear_x, state.shear_y, self.known_z, self.known_x, self.known_y)
+                final = self.normal.solve(state, dz, self.known_z)
+                iterations += final.iterations
+                normal_info = final
+        state.approach = (dx, dy, dz)
+        residual = max(normal_info.residual, tangential_info.residual if tangential_info else 0.0)
+        converged = normal_info.converged and (tangential_info is None or tangential_info.converged)
+        if self.coupled and outer >= self.max_outer:
+            converged = False
+        info = SolveInfo(converged=bool(converged), iterations=iterations, residual=residual, outer_iterations=outer,
+                         history=normal_info.history)
+        state.info = info
+        return info
+
+    def _relative_change(self, state) -> float:
+        """Largest relative change of pressure and shear since the last turn; updates the copies."""
+        m = self.model
+        self.change.zero_()
+        for slot, (prev, cur) in zip((0, 2, 4), zip(self.previous, (state.pressure, state.shear_x, state.shear_y))):
+            r = m.reduction
+            wp.launch_tiled(ck.change_sums, dim=[r.num_blocks], inputs=[cur.flatten(), slot, *r.args(m.n_cells)],
+                            outputs=[prev.flatten(), self.change], block_dim=r.block_dim, device=m.device)
+        s = self.change.numpy().astype(np.float64)
+        dp = math.sqrt(s[0] / s[1]) if s[1] > 0 else 0.0
+        qn = s[3] + s[5]
+        dq = math.sqrt((s[2] + s[4]) / qn) if qn > 0 else 0.0
+        return max(dp, dq)

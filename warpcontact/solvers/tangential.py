@@ -1,0 +1,77 @@
+"""Partial slip: bounded conjugate gradients for the shear traction (after Chen & Wang 2008)."""
+
+from __future__ import annotations
+
+import warp as wp
+
+from warpcontact.kernels import tangential as tk
+
+from ..state import SolveInfo
+from .base import ProjectedCG, raise_non_finite
+
+
+class TangentialSolver(ProjectedCG):
+    """Shear traction (q_x, q_y) under the disk bound |q| <= q_max at given rigid shifts.
+
+    Chen, W. W. & Wang, Q. J. (2008), "A numerical model for the point contact of dissimilar
+    materials considering tangential tractions", Mech. Mater. 40, 936-948; their correction of
+    delta_x, delta_y is not used (the shifts are inputs). See kernels/tangential.py for the
+    iteration. The relative residual is the norm of the violated stick/slip conditions (stick:
+    the slip increment; slip: its part not along q and any reversal) over the norm of the
+    right-hand side delta - s_prev - u_known on the contact.
+    """
+
+    def __init__(self, model, tol=None, max_iter: int = 2000, check_every=None):
+        super().__init__(model, tk.N_SUMS, tk.N_SCALARS, tol, max_iter, check_every)
+        f = model.field
+        self.grad_x, self.grad_y = f(), f()
+        self.dir_x, self.dir_y = f(), f()
+        self.resp_x, self.resp_y = f(), f()
+        self.no_displacement = f()
+        # about 1 / (self-influence of the xx kernel) in scaled units: slip cells' step in gross slip
+        self.slip_step = model.scalar(1.0 / model.operator.self_coefficient("xx"))
+
+    def solve(self, state, target_x, target_y, shear_limit, known_x=None, known_y=None) -> SolveInfo:
+        """Solve for ``state.shear_x/y`` and ``state.status``.
+
+        Args:
+            state: holds the shear to start from; its ``disp_x/y`` receive K_tt q.
+            target_x, target_y: delta - s_prev [scaled]: where stick cells must stay.
+            shear_limit: q_max per cell [scaled].
+            known_x, known_y: tangential displacement from other tractions held fixed (the
+                pressure's coupling term K_tp p), scaled; zero if None.
+        """
+        m = self.model
+        kx = (known_x if known_x is not None else self.no_displacement).flatten()
+        ky = (known_y if known_y is not None else self.no_displacement).flatten()
+        qx, qy, st = state.shear_x.flatten(), state.shear_y.flatten(), state.status.flatten()
+        gx, gy, tx, ty, rx, ry = (a.flatten() for a in (self.grad_x, self.grad_y, self.dir_x, self.dir_y, self.resp_x, self.resp_y))
+        limit = shear_limit.flatten()
+        wp.launch(tk.tangential_classify, dim=m.n_cells, inputs=[limit], outputs=[qx, qy, st], device=m.device)
+
+        def gradient():
+            m.operator.tangential(state.shear_x, state.shear_y, state.disp_x, state.disp_y)
+            self._launch_reduce(
+                tk.tangential_gradient,
+                [state.disp_x.flatten(), state.disp_y.flatten(), kx, ky, target_x.flatten(), target_y.flatten(), qx, qy, st],
+                [gx, gy, self.sums],
+            )
+
+        def iteration():
+            self.sums.zero_()
+            gradient()
+            wp.launch(tk.tangential_direction, dim=m.n_cells, inputs=[gx, gy, st, self.sums, self.scalars], outputs=[tx, ty], device=m.device)
+            m.operator.tangential(self.dir_x, self.dir_y, self.resp_x, self.resp_y)
+            self._launch_reduce(tk.tangential_step_sums, [gx, gy, tx, ty, rx, ry, st], [self.sums])
+            self._launch_reduce(tk.tangential_update, [gx, gy, tx, ty, limit, self.slip_step], [qx, qy, st, self.sums])
+            wp.launch(tk.tangential_advance, dim=1, inputs=[self.sums, self.scalars], outputs=[self.history], device=m.device)
+
+        def final_fields():
+            self.sums.zero_()
+            gradient()
+            return self._relative_residual(tk.S_VIOL, tk.S_RHS)
+
+        def on_non_finite(it):
+            raise_non_finite("tangential solve", state, ("shear_x", "shear_y", "disp_x", "disp_y"), it)
+
+        return self._run(iteration, final_fields, on_non_finite)
