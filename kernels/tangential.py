@@ -10,9 +10,13 @@ The problem per load step is the convex quadratic programme
 whose optimality conditions are the stick/slip conditions: with g = K q + u_known - (delta -
 s_prev) = -(slip increment), stick cells (|q| < q_max) have g = 0 and slip cells (|q| = q_max)
 have the slip increment -g along q (q is the traction on the flat; on the sphere it opposes the
-slip). Stick cells move along conjugate directions; slip cells take the projected step
-P(q - tau g) onto their disk, which turns them towards the slip direction and releases them
-into stick when the slip would reverse (the disk analogue of Polonsky-Keer's re-entry rule).
+slip). The conjugate directions span the stick cells' two components and the slip cells'
+tangent to their circle (the rotation of q), where the Hessian gains the constraint's curvature
+lambda / q_max (lambda = |slip increment|): an active-set Newton-CG on the product of disks.
+After each step slip cells are retracted onto their circle; stick cells that cross it are
+projected onto it and become slip; slip cells whose slip would reverse (g.q > 0) are released
+into stick with the step P(q - tau g) (the disk analogue of Polonsky-Keer's re-entry rule), and
+the conjugacy restarts.
 
 Cell status: 0 out of contact (q_max = 0), 1 stick, 2 slip.
 """
@@ -24,7 +28,7 @@ import warp as wp
 from .overloads import register_float_overloads
 from .reduce import block_add, cell_index
 
-S_G = wp.constant(0)  # sum over stick cells of |g|^2
+S_G = wp.constant(0)  # g.z, z = M^-1 P g the preconditioned projected gradient
 S_VIOL = wp.constant(1)  # squared optimality violation
 S_RHS = wp.constant(2)  # squared right-hand side over contact cells
 S_GT = wp.constant(3)
@@ -48,6 +52,14 @@ def project_disk(qx: Any, qy: Any, q_max: Any):
     norm = wp.sqrt(qx * qx + qy * qy)
     scale = wp.where(norm > q_max, q_max / wp.max(norm, q_max + q_max * type(qx)(1e-30)), type(qx)(1.0))
     return wp.vector(qx * scale, qy * scale)
+
+
+@wp.func
+def slip_frame(qx: Any, qy: Any):
+    """Unit vector along q (the outward normal of the circle at q)."""
+    qn = wp.sqrt(qx * qx + qy * qy)
+    inv = wp.where(qn > type(qx)(0.0), type(qx)(1.0) / qn, type(qx)(0.0))
+    return wp.vector(qx * inv, qy * inv)
 
 
 @wp.kernel
@@ -87,7 +99,9 @@ def tangential_gradient(
     target_y: wp.array(dtype=Any),
     shear_x: wp.array(dtype=Any),
     shear_y: wp.array(dtype=Any),
+    shear_limit: wp.array(dtype=Any),
     status: wp.array(dtype=wp.int32),
+    stiffness: Any,
     n: int,
     outer: int,
     inner: int,
@@ -117,20 +131,16 @@ def tangential_gradient(
             if st != OUT:
                 s_rhs += rx * rx + ry * ry
             if st == STICK:
-                s_g += gx * gx + gy * gy
+                s_g += (gx * gx + gy * gy) / stiffness
                 s_viol += gx * gx + gy * gy
                 s_stick += type(zero)(1.0)
             elif st == SLIP:
-                qx = shear_x[i]
-                qy = shear_y[i]
-                qn = wp.sqrt(qx * qx + qy * qy)
-                if qn > zero:
-                    nx = qx / qn
-                    ny = qy / qn
-                    normal = gx * nx + gy * ny
-                    tx = gx - normal * nx
-                    ty = gy - normal * ny
-                    s_viol += tx * tx + ty * ty + wp.max(normal, zero) * wp.max(normal, zero)
+                e = slip_frame(shear_x[i], shear_y[i])
+                normal = gx * e[0] + gy * e[1]
+                tx = gx - normal * e[0]
+                ty = gy - normal * e[1]
+                s_g += (tx * tx + ty * ty) / (stiffness + wp.max(-normal, zero) / shear_limit[i])
+                s_viol += tx * tx + ty * ty + wp.max(normal, zero) * wp.max(normal, zero)
     block_add(sums, S_G, s_g)
     block_add(sums, S_VIOL, s_viol)
     block_add(sums, S_RHS, s_rhs)
@@ -141,24 +151,43 @@ def tangential_gradient(
 def tangential_direction(
     grad_x: wp.array(dtype=Any),
     grad_y: wp.array(dtype=Any),
+    shear_x: wp.array(dtype=Any),
+    shear_y: wp.array(dtype=Any),
+    shear_limit: wp.array(dtype=Any),
     status: wp.array(dtype=wp.int32),
+    stiffness: Any,
     sums: wp.array(dtype=Any),
     scalars: wp.array(dtype=Any),
     dir_x: wp.array(dtype=Any),
     dir_y: wp.array(dtype=Any),
 ):
-    """t = g + delta (G / G_old) t on stick cells, 0 elsewhere."""
+    """t = M^-1 P g + delta (G / G_old) P t: P is the identity on stick cells, the tangent
+    projector on slip cells, 0 out of contact; M the Jacobi preconditioner, the self-influence
+    ``stiffness`` plus, on slip cells, the curvature lambda / q_max."""
     i = wp.tid()
     zero = sums[S_G] - sums[S_G]
     beta = zero
     if scalars[C_G_OLD] > zero:
         beta = scalars[C_DELTA] * sums[S_G] / scalars[C_G_OLD]
-    if status[i] == STICK:
-        dir_x[i] = grad_x[i] + beta * dir_x[i]
-        dir_y[i] = grad_y[i] + beta * dir_y[i]
-    else:
-        dir_x[i] = zero
-        dir_y[i] = zero
+    st = status[i]
+    tx = grad_x[i] / stiffness + beta * dir_x[i]
+    ty = grad_y[i] / stiffness + beta * dir_y[i]
+    if st == SLIP:
+        e = slip_frame(shear_x[i], shear_y[i])
+        gn = grad_x[i] * e[0] + grad_y[i] * e[1]
+        inv_m = type(zero)(1.0) / (stiffness + wp.max(-gn, zero) / shear_limit[i])
+        tgx = (grad_x[i] - gn * e[0]) * inv_m
+        tgy = (grad_y[i] - gn * e[1]) * inv_m
+        px = dir_x[i]
+        py = dir_y[i]
+        pn = px * e[0] + py * e[1]
+        tx = tgx + beta * (px - pn * e[0])
+        ty = tgy + beta * (py - pn * e[1])
+    elif st != STICK:
+        tx = zero
+        ty = zero
+    dir_x[i] = tx
+    dir_y[i] = ty
 
 
 @wp.kernel
@@ -169,6 +198,9 @@ def tangential_step_sums(
     dir_y: wp.array(dtype=Any),
     resp_x: wp.array(dtype=Any),
     resp_y: wp.array(dtype=Any),
+    shear_x: wp.array(dtype=Any),
+    shear_y: wp.array(dtype=Any),
+    shear_limit: wp.array(dtype=Any),
     status: wp.array(dtype=wp.int32),
     n: int,
     outer: int,
@@ -176,6 +208,7 @@ def tangential_step_sums(
     per: int,
     sums: wp.array(dtype=Any),
 ):
+    """g.t and t.(K t) + sum over slip cells of (lambda / q_max) |t|^2, lambda = max(-g.q/|q|, 0)."""
     block, lane = wp.tid()
     thread = block * wp.block_dim() + lane
     zero = grad_x[0] - grad_x[0]
@@ -184,9 +217,16 @@ def tangential_step_sums(
     for k in range(per):
         i = cell_index(thread, outer, inner, k)
         if i < n:
-            if status[i] == STICK:
-                s_gt += grad_x[i] * dir_x[i] + grad_y[i] * dir_y[i]
-                s_rt += resp_x[i] * dir_x[i] + resp_y[i] * dir_y[i]
+            st = status[i]
+            if st != OUT:
+                tx = dir_x[i]
+                ty = dir_y[i]
+                s_gt += grad_x[i] * tx + grad_y[i] * ty
+                s_rt += resp_x[i] * tx + resp_y[i] * ty
+                if st == SLIP:
+                    e = slip_frame(shear_x[i], shear_y[i])
+                    lam = wp.max(-(grad_x[i] * e[0] + grad_y[i] * e[1]), zero)
+                    s_rt += lam / shear_limit[i] * (tx * tx + ty * ty)
     block_add(sums, S_GT, s_gt)
     block_add(sums, S_RT, s_rt)
 
@@ -208,10 +248,11 @@ def tangential_update(
     status: wp.array(dtype=wp.int32),
     sums: wp.array(dtype=Any),
 ):
-    """Stick cells: q <- P(q - tau t); slip cells: q <- P(q - tau_s g); statuses follow.
+    """q <- q - tau t, then: stick cells beyond the disk are projected (-> slip); slip cells are
+    retracted onto their circle, or released into stick with P(q - tau g) when g.q > 0.
 
-    tau is the conjugate-gradient step of the stick cells; slip cells use it too, or
-    ``slip_step`` (about 1 / the self-influence coefficient) when no cell sticks.
+    tau is the conjugate-gradient step; ``slip_step`` (about 1 / the self-influence coefficient)
+    stands in for it when the free subspace is empty.
     """
     block, lane = wp.tid()
     thread = block * wp.block_dim() + lane
@@ -219,7 +260,7 @@ def tangential_update(
     tau = zero
     if sums[S_RT] > zero:
         tau = sums[S_GT] / sums[S_RT]
-    tau_slip = wp.where(tau > zero, tau, slip_step)
+    tau_release = wp.where(tau > zero, tau, slip_step)
     released = zero
     for k in range(per):
         i = cell_index(thread, outer, inner, k)
@@ -229,21 +270,26 @@ def tangential_update(
                 q_max = shear_limit[i]
                 qx = shear_x[i]
                 qy = shear_y[i]
-                if st == STICK:
-                    qx = qx - tau * dir_x[i]
-                    qy = qy - tau * dir_y[i]
-                else:
-                    qx = qx - tau_slip * grad_x[i]
-                    qy = qy - tau_slip * grad_y[i]
-                if qx * qx + qy * qy >= q_max * q_max:
-                    q = project_disk(qx, qy, q_max)
+                if st == SLIP and grad_x[i] * qx + grad_y[i] * qy > zero:
+                    # the slip would reverse: leave the circle inwards
+                    q = project_disk(qx - tau_release * grad_x[i], qy - tau_release * grad_y[i], q_max)
                     qx = q[0]
                     qy = q[1]
-                    status[i] = SLIP
-                else:
-                    if st == SLIP:
+                    if qx * qx + qy * qy < q_max * q_max:
+                        status[i] = STICK
                         released += type(zero)(1.0)
-                    status[i] = STICK
+                elif st == SLIP:
+                    e = slip_frame(qx - tau * dir_x[i], qy - tau * dir_y[i])
+                    qx = q_max * e[0]
+                    qy = q_max * e[1]
+                else:
+                    qx = qx - tau * dir_x[i]
+                    qy = qy - tau * dir_y[i]
+                    if qx * qx + qy * qy >= q_max * q_max:
+                        q = project_disk(qx, qy, q_max)
+                        qx = q[0]
+                        qy = q[1]
+                        status[i] = SLIP
                 shear_x[i] = qx
                 shear_y[i] = qy
     block_add(sums, S_RELEASED, released)
@@ -265,7 +311,7 @@ def tangential_advance(
     if it < residual_history.shape[0]:
         residual_history[it] = res
     scalars[C_G_OLD] = sums[S_G]
-    scalars[C_DELTA] = wp.where(sums[S_RELEASED] > zero, zero, one)
+    scalars[C_DELTA] = one
     scalars[C_ITER] = scalars[C_ITER] + one
 
 

@@ -28,8 +28,11 @@ class TangentialSolver(ProjectedCG):
         self.dir_x, self.dir_y = f(), f()
         self.resp_x, self.resp_y = f(), f()
         self.no_displacement = f()
-        # about 1 / (self-influence of the xx kernel) in scaled units: slip cells' step in gross slip
-        self.slip_step = model.scalar(1.0 / model.operator.self_coefficient("xx"))
+        # self-influence of the tangential kernel (scaled): the Jacobi preconditioner of stick
+        # cells, and 1 / it the step of released cells when no conjugate step is defined
+        k_self = 0.5 * (model.operator.self_coefficient("xx") + model.operator.self_coefficient("yy"))
+        self.stiffness = model.scalar(k_self)
+        self.slip_step = model.scalar(1.0 / k_self)
 
     def solve(self, state, target_x, target_y, shear_limit, known_x=None, known_y=None) -> SolveInfo:
         """Solve for ``state.shear_x/y`` and ``state.status``.
@@ -53,16 +56,16 @@ class TangentialSolver(ProjectedCG):
             m.operator.tangential(state.shear_x, state.shear_y, state.disp_x, state.disp_y)
             self._launch_reduce(
                 tk.tangential_gradient,
-                [state.disp_x.flatten(), state.disp_y.flatten(), kx, ky, target_x.flatten(), target_y.flatten(), qx, qy, st],
+                [state.disp_x.flatten(), state.disp_y.flatten(), kx, ky, target_x.flatten(), target_y.flatten(), qx, qy, limit, st, self.stiffness],
                 [gx, gy, self.sums],
             )
 
         def iteration():
             self.sums.zero_()
             gradient()
-            wp.launch(tk.tangential_direction, dim=m.n_cells, inputs=[gx, gy, st, self.sums, self.scalars], outputs=[tx, ty], device=m.device)
+            wp.launch(tk.tangential_direction, dim=m.n_cells, inputs=[gx, gy, qx, qy, limit, st, self.stiffness, self.sums, self.scalars], outputs=[tx, ty], device=m.device)
             m.operator.tangential(self.dir_x, self.dir_y, self.resp_x, self.resp_y)
-            self._launch_reduce(tk.tangential_step_sums, [gx, gy, tx, ty, rx, ry, st], [self.sums])
+            self._launch_reduce(tk.tangential_step_sums, [gx, gy, tx, ty, rx, ry, qx, qy, limit, st], [self.sums])
             self._launch_reduce(tk.tangential_update, [gx, gy, tx, ty, limit, self.slip_step], [qx, qy, st, self.sums])
             wp.launch(tk.tangential_advance, dim=1, inputs=[self.sums, self.scalars], outputs=[self.history], device=m.device)
 
