@@ -1,13 +1,16 @@
 """Warp kernels of warpcontact: ``@wp.kernel`` and ``@wp.func`` code only.
 
-Installed as ``warpcontact.kernels``. Every kernel is generic over the float type and has its
-float32 and float64 overloads registered where it is defined, so each module compiles once per
-device. Arrays come first, scalars after them, outputs last; no kernel allocates.
+Installed as ``warpcontact.kernels``. The solver kernels are generic over the float type and
+have their float32 and float64 overloads registered where they are defined, so each module
+compiles once per device; the tile-FFT kernels (``fft``) are built per length and dtype by a
+cached factory, since tile sizes are compile-time constants. Arrays come first, scalars after them, outputs last; no kernel allocates.
 
 Modules:
     spectral: products of traction spectra with the influence spectra (DC-FFT).
     reduce: block reductions used by the solver kernels.
     normal: Polonsky-Keer projected conjugate gradients for the contact pressure.
     tangential: bounded conjugate gradients for the shear traction (disk bound |q| <= q_max).
-    laws: shear limits (Coulomb, Tabor + von Mises) and adhesion laws.
+    laws: shear limits (Coulomb, Tabor + von Mises).
+    coupling: stick targets, slip accumulation, relative changes between coupling turns.
+    fft: row transforms with ``tile_fft`` for the dependency-free FFT backend.
 """
