@@ -130,6 +130,7 @@ def normal_step_sums(
 def normal_update(
     gap: wp.array(dtype=Any),
     direction: wp.array(dtype=Any),
+    tol: Any,
     n: int,
     outer: int,
     inner: int,
@@ -137,7 +138,10 @@ def normal_update(
     pressure: wp.array(dtype=Any),
     sums: wp.array(dtype=Any),
 ):
-    """p <- max(p - tau t, 0); penetrating cells with p = 0 re-enter with p = -tau g."""
+    """p <- max(p - tau t, 0); penetrating cells with p = 0 re-enter with p = -tau g.
+
+    An iterate whose relative residual is already under ``tol`` is left as it is.
+    """
     block, lane = wp.tid()
     thread = block * wp.block_dim() + lane
     zero = gap[0] - gap[0]
@@ -145,9 +149,10 @@ def normal_update(
     if sums[S_RT] > zero:
         tau = sums[S_GT] / sums[S_RT]
     count = zero
+    done = sums[S_VIOL] <= tol * tol * sums[S_RHS]
     for k in range(per):
         i = cell_index(thread, outer, inner, k)
-        if i < n:
+        if i < n and not done:
             p = pressure[i]
             if p > zero:
                 p = wp.max(p - tau * direction[i], zero)

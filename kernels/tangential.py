@@ -239,6 +239,7 @@ def tangential_update(
     dir_y: wp.array(dtype=Any),
     shear_limit: wp.array(dtype=Any),
     slip_step: Any,
+    tol: Any,
     n: int,
     outer: int,
     inner: int,
@@ -252,7 +253,8 @@ def tangential_update(
     retracted onto their circle, or released into stick with P(q - tau g) when g.q > 0.
 
     tau is the conjugate-gradient step; ``slip_step`` (about 1 / the self-influence coefficient)
-    stands in for it when the free subspace is empty.
+    stands in for it when the free subspace is empty. An iterate whose relative residual is
+    already under ``tol`` is left as it is (near the solution tau is a ratio of rounding noise).
     """
     block, lane = wp.tid()
     thread = block * wp.block_dim() + lane
@@ -261,10 +263,11 @@ def tangential_update(
     if sums[S_RT] > zero:
         tau = sums[S_GT] / sums[S_RT]
     tau_release = wp.where(tau > zero, tau, slip_step)
+    done = sums[S_VIOL] <= tol * tol * sums[S_RHS]
     released = zero
     for k in range(per):
         i = cell_index(thread, outer, inner, k)
-        if i < n:
+        if i < n and not done:
             st = status[i]
             if st != OUT:
                 q_max = shear_limit[i]
@@ -311,7 +314,7 @@ def tangential_advance(
     if it < residual_history.shape[0]:
         residual_history[it] = res
     scalars[C_G_OLD] = sums[S_G]
-    scalars[C_DELTA] = one
+    scalars[C_DELTA] = wp.where(sums[S_RELEASED] > zero, zero, one)
     scalars[C_ITER] = scalars[C_ITER] + one
 
 

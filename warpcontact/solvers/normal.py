@@ -67,7 +67,7 @@ class NormalSolver(ProjectedCG):
             wp.launch(nk.normal_direction, dim=m.n_cells, inputs=[g, p, self.sums, self.scalars], outputs=[t], device=m.device)
             m.operator.normal(self.direction, self.response)
             self._launch_reduce(nk.normal_step_sums, [g, t, r, p], [self.sums])
-            self._launch_reduce(nk.normal_update, [g, t], [p, self.sums])
+            self._launch_reduce(nk.normal_update, [g, t, m.scalar(self.tol)], [p, self.sums])
             wp.launch(nk.normal_advance, dim=1, inputs=[self.sums, self.scalars], outputs=[self.history], device=m.device)
 
         def final_fields():

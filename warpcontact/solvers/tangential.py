@@ -66,7 +66,7 @@ class TangentialSolver(ProjectedCG):
             wp.launch(tk.tangential_direction, dim=m.n_cells, inputs=[gx, gy, qx, qy, limit, st, self.stiffness, self.sums, self.scalars], outputs=[tx, ty], device=m.device)
             m.operator.tangential(self.dir_x, self.dir_y, self.resp_x, self.resp_y)
             self._launch_reduce(tk.tangential_step_sums, [gx, gy, tx, ty, rx, ry, qx, qy, limit, st], [self.sums])
-            self._launch_reduce(tk.tangential_update, [gx, gy, tx, ty, limit, self.slip_step], [qx, qy, st, self.sums])
+            self._launch_reduce(tk.tangential_update, [gx, gy, tx, ty, limit, self.slip_step, m.scalar(self.tol)], [qx, qy, st, self.sums])
             wp.launch(tk.tangential_advance, dim=1, inputs=[self.sums, self.scalars], outputs=[self.history], device=m.device)
 
         def final_fields():

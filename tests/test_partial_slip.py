@@ -1,0 +1,104 @@
+"""Partial slip against Cattaneo-Mindlin; coupling of dissimilar materials; hysteresis."""
+
+import math
+
+import numpy as np
+import pytest
+
+from warpcontact.friction import Coulomb, TaborVonMises
+from warpcontact.geometry import Grid, Sphere
+from warpcontact.gross_slip import find_gross_slip
+from warpcontact.materials import COPPER, PAPER_PAIR, MaterialPair
+from warpcontact.model import ContactModel
+from warpcontact.reference import hertz, mindlin
+from warpcontact.results import state_summary
+from warpcontact.solvers.contact import ContactSolver
+from warpcontact.state import ContactState
+
+R, DZ, MU = 10e-6, 1.0e-10, 0.3
+A = math.sqrt(R * DZ)
+SAME = MaterialPair(COPPER, COPPER)
+
+
+def loaded(pair, friction, n=64, device="cpu", dtype="float64", size=3 * A):
+    model = ContactModel(pair, Sphere(R, "paraboloid"), Grid(n, size), device=device, dtype=dtype)
+    solver = ContactSolver(model, friction)
+    state = ContactState(model)
+    for k in (1, 2):
+        info = solver.step(state, (0.0, 0.0, DZ * k / 2))
+        assert info.converged, info
+    return model, solver, state
+
+
+@pytest.mark.parametrize("ratio", [0.25, 0.5, 0.75])
+def test_cattaneo_mindlin_stick_radius_and_displacement(ratio, device):
+    """Identical materials, Coulomb: stick radius within two cells of a (1 - Q/muP)^(1/3) and
+    delta_x(Q) within 2 % of Mindlin's, Q the computed tangential force."""
+    model, solver, state = loaded(SAME, Coulomb(MU), device=device)
+    ref = mindlin(SAME, R, DZ, MU, ratio)
+    info = solver.step(state, (ref["delta_x"], 0.0, DZ))
+    assert info.converged, info
+    s = state_summary(state)
+    q_ratio = s["force"]["x"] / (MU * s["force"]["z"])
+    # Mindlin's delta_x at the computed Q: the displacement error, relative
+    dx_mindlin = mindlin(SAME, R, DZ, MU, q_ratio)["delta_x"]
+    assert abs(ref["delta_x"] / dx_mindlin - 1) < 0.02, f"delta_x {ref['delta_x']:.4e} vs Mindlin {dx_mindlin:.4e} at Q/muP {q_ratio:.4f}"
+    c = math.sqrt(s["stick_area"] / math.pi)
+    c_ref = A * (1 - q_ratio) ** (1 / 3)
+    assert abs(c - c_ref) < 2 * model.grid.dx, f"stick radius {c:.3e} vs {c_ref:.3e} (cell {model.grid.dx:.2e})"
+
+
+def test_cattaneo_mindlin_gross_slip():
+    """delta_x_max within 3 % of Mindlin's 3 mu P / (16 a) ((2-nu1)/G1 + (2-nu2)/G2); mu = F_x/F_z."""
+    model = ContactModel(SAME, Sphere(R, "paraboloid"), Grid(64, 3 * A))
+    r = find_gross_slip(model, ContactSolver(model, Coulomb(MU)), DZ, normal_steps=2)
+    ref = mindlin(SAME, R, DZ, MU, 0.5)["delta_x_max"]
+    assert r["converged"]
+    assert abs(r["delta_x_max"] / ref - 1) < 0.03, f"delta_x_max {r['delta_x_max']:.4e} vs Mindlin {ref:.4e}"
+    assert (r["delta_x_gross"] - r["delta_x_max"]) <= 0.01 * r["delta_x_max"] * 1.0001
+    assert abs(r["mu"] / MU - 1) < 0.01
+
+
+def test_dissimilar_normal_loading_makes_shear_and_slip(device):
+    """Copper on steel under pure normal approach: coupling produces shear and a slip annulus;
+    identical materials produce none (MODEL.md section 3)."""
+    fr = TaborVonMises(0.8, COPPER.yield_strength)
+    _, _, state = loaded(PAPER_PAIR, fr, device=device)
+    q = np.hypot(state.shear_x.numpy(), state.shear_y.numpy()).max() * PAPER_PAIR.E_star
+    status = state.status.numpy()
+    assert q > 1e5, f"max shear {q:.3e} Pa"  # of order beta p0, ~1e7 Pa here
+    assert (status == 2).sum() > 0 and (status == 1).sum() > 0
+    # the shear points radially: the sphere (copper) is pulled outwards by the flat on the +x side
+    X, _ = np.meshgrid(np.arange(64), np.arange(64))
+    assert np.sum(state.shear_x.numpy() * (X - 31.5)) != 0
+    _, _, same = loaded(SAME, fr, device=device)
+    assert np.abs(same.shear_x.numpy()).max() == 0 and (same.status.numpy() == 2).sum() == 0
+
+
+def test_hysteresis_loop_closes():
+    """A tangential load-unload-reload cycle (Mindlin-Deresiewicz): F_x(delta_x) at the same
+    delta_x differs between loading and unloading (dissipation), and the loop closes: the
+    force at the turning points is recovered within the solver's accuracy."""
+    model, solver, state = loaded(SAME, Coulomb(MU))
+    dmax = mindlin(SAME, R, DZ, MU, 0.5)["delta_x_max"]
+    amp = 0.6 * dmax
+    xs = list(np.linspace(0, amp, 5)[1:]) + list(np.linspace(amp, -amp, 9)[1:]) + list(np.linspace(-amp, amp, 9)[1:])
+    forces = []
+    for x in xs:
+        info = solver.step(state, (float(x), 0.0, DZ))
+        assert info.converged, info
+        forces.append(state_summary(state)["force"]["x"])
+    P = hertz(SAME, R, DZ)["force"]
+    f_top_first, f_top_again = forces[3], forces[-1]
+    assert abs(f_top_again - f_top_first) < 1e-3 * MU * P, "loop does not close at +amp"
+    # Mindlin-Deresiewicz: unloading from Q* follows delta = delta* - 2 delta_load((Q* - Q)/2), so at
+    # delta_x = 0 on the way down the force is already negative, and positive on the way up
+    down_zero = forces[3 + 4]
+    up_zero = forces[3 + 8 + 4]
+    assert down_zero < -0.05 * MU * P and up_zero > 0.05 * MU * P
+    assert abs(down_zero + up_zero) < 1e-3 * MU * P  # symmetric loop
+    # quantitatively: Q(delta) = mu P (1 - (1 - delta/delta_max)^(3/2)) on loading, so the
+    # unloading branch crosses delta_x = 0 at Q = Q* - 2 Q(amp / 2)
+    q_load = lambda d: MU * P * (1 - (1 - d / dmax) ** 1.5)  # noqa: E731
+    expected = q_load(amp) - 2 * q_load(amp / 2)
+    assert abs(down_zero - expected) < 0.02 * MU * P, f"F_x at delta_x = 0 on unloading {down_zero:.4e} vs M-D {expected:.4e}"
