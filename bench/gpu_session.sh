@@ -8,6 +8,6 @@ python3 -m pip install -q --no-deps --no-build-isolation --no-index --upgrade --
   || { cat "$OUT/install.log"; exit 1; }
 export PYTHONPATH=/opt/wstage/proj:${PYTHONPATH}
 nvidia-smi --query-gpu=name,memory.total,driver_version --format=csv > "$OUT/gpu.txt" 2>&1
-cp -r tests /tmp/wc_tests && cp -r examples /tmp/examples
+cp -r tests /tmp/wc_tests && cp -r examples /tmp/examples && cp -r docs /tmp/docs
 (cd /tmp && timeout 420 python3 -m pytest -q -rs -p no:cacheprovider /tmp/wc_tests ${PYTEST_ARGS:-} 2>&1 | tee "$OUT/pytest.log" | tail -25)
 (cd /tmp && timeout 300 python3 "$OLDPWD/bench/bench_normal.py" --device cuda:0 ${BENCH_ARGS:-} --json "$OUT/bench_gpu.json" 2>&1 | tee "$OUT/bench_gpu.log")

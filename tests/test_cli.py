@@ -73,3 +73,46 @@ def test_cuda_asked_where_none_exists(tmp_path):
 def test_help_has_an_example():
     r = run_cli("solve", "--help")
     assert r.returncode == 0 and "example:" in r.stdout
+
+
+TABLE2_CASE = (ROOT / "examples" / "table2_k080_dz5e-5.toml").read_text()
+
+
+def test_gross_slip_command(tmp_path):
+    case = small_case(tmp_path, TABLE2_CASE, **{"n = 96": "n = 40"})
+    r = run_cli("gross-slip", case, "--out", tmp_path / "gs", "--quiet")
+    assert r.returncode == 0, r.stderr
+    res = json.loads((tmp_path / "gs" / "result.json").read_text())
+    assert res["converged"] and res["delta_x_max"] > 0 and res["delta_x_gross"] >= res["delta_x_max"]
+    assert res["mu"] == pytest.approx(res["force"]["x"] / res["force"]["z"])
+    kinds = [s["kind"] for s in res["states"]]
+    assert kinds[:4] == ["normal"] * 4 and "bisect" in kinds
+    # the bracket is 1 % wide or less
+    assert res["delta_x_gross"] - res["delta_x_max"] <= 0.0100001 * res["delta_x_max"]
+
+
+def test_gross_slip_needs_friction(tmp_path):
+    case = small_case(tmp_path, TABLE2_CASE, **{'[friction]\nlaw = "tabor"\nk_tau = 0.80           # k_vm defaults to 1/sqrt(3)': ""})
+    r = run_cli("gross-slip", case, "--out", tmp_path / "gs", "--quiet")
+    assert r.returncode == 2 and "friction" in r.stderr and "Traceback" not in r.stderr
+
+
+def test_table2_writes_every_cell_and_resumes(tmp_path):
+    out = tmp_path / "t2"
+    r = run_cli("table2", "--no-adhesion", "--n", "16", "--out", out, "--quiet")
+    assert r.returncode in (0, 3), r.stderr
+    cells = json.loads((out / "table2.json").read_text())["cells"]
+    assert len(cells) == 12 and {(c["k_tau"], c["delta_z_um"]) for c in cells} == {
+        (k, dz) for k in (0.5, 0.8, 0.95) for dz in (1e-5, 5e-5, 1e-4, 1.5e-4)}
+    for c in cells:
+        for key in ("delta_x_max_um", "mu", "paper_delta_x_max_um", "paper_mu", "rel_diff_delta_x_max", "rel_diff_mu"):
+            assert key in c
+    assert (out / "table2.md").read_text().count("\n") == 14 and (out / "table2.csv").exists()
+    before = (out / "table2.json").read_text()
+    r = run_cli("table2", "--no-adhesion", "--n", "16", "--out", out, "--quiet")  # nothing left to do
+    assert (out / "table2.json").read_text() == before
+
+
+def test_table2_refuses_adhesion_until_it_exists(tmp_path):
+    r = run_cli("table2", "--out", tmp_path / "t", "--quiet")
+    assert r.returncode == 2 and "--no-adhesion" in r.stderr

@@ -70,6 +70,33 @@ def _parser():
     )
     p.add_argument("case", help="case file (TOML)")
     _common(p)
+
+    g = sub.add_parser(
+        "gross-slip",
+        help="find delta_x at gross slip and the static friction coefficient",
+        description="Load the case's delta_z in [load] steps with friction active, then raise delta_x until no "
+        "cell sticks; bisect to 1 %%. The case needs a [friction] table; its delta_x, delta_y are not used.",
+        epilog="example:\n  warpcontact gross-slip examples/table2_k080_dz5e-5.toml --out out/gs\n\n"
+        "writes OUT/result.json with delta_x_max [m], mu, the force at delta_x_max [N] and every state of the path.",
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
+    g.add_argument("case", help="case file (TOML)")
+    _common(g)
+
+    t = sub.add_parser(
+        "table2",
+        help="compute the paper's Table 2 (12 adhesionless cells)",
+        description="delta_x_max and mu for k_tau in (0.50, 0.80, 0.95) x delta_z in (1e-5, 5e-5, 1e-4, 1.5e-4) um, "
+        "copper sphere R = 10 um on hardened steel, compared with the paper. Each finished cell is written at once; "
+        "a rerun with the same settings skips finished cells.",
+        epilog="example:\n  warpcontact table2 --no-adhesion --out out/table2 --n 128\n"
+        "  warpcontact table2 --no-adhesion --out out/table2 --n 64 128   # grid convergence: both resolutions",
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
+    t.add_argument("--no-adhesion", action="store_true", help="the adhesionless columns (adhesion is not implemented yet)")
+    t.add_argument("--n", type=int, nargs="+", default=[128], help="cells per side; several values give a grid study")
+    t.add_argument("--size-in-a", type=float, default=3.0, help="domain side in Hertz radii a = sqrt(R delta_z)")
+    _common(t)
     return parser
 
 
@@ -113,10 +140,112 @@ def cmd_solve(args) -> int:
     return 0
 
 
+def cmd_gross_slip(args) -> int:
+    from .case import load_case
+    from .gross_slip import find_gross_slip
+    from .results import atomic_write_json
+    from .runner import build
+
+    case = load_case(args.case).with_overrides(device=args.device, dtype=args.dtype, fft=args.fft)
+    if case.friction is None:
+        raise InputError("friction", "gross-slip needs a [friction] table (law = 'tabor' or 'coulomb')")
+    dz = case.load.delta_z_max
+    if not dz > 0:
+        raise InputError("load.delta_z", f"gross-slip needs a positive normal approach, got {dz!r}")
+    model, solver, _ = build(case)
+    out = Path(args.out)
+
+    def on_state(k, summary):
+        if not args.quiet:
+            print(f"\rgross-slip state {k + 1} ({summary['kind']}) delta_x {summary['delta']['x']:.4e} m  "
+                  f"stick cells {summary['stick_cells']}  it {summary['iterations']}  res {summary['residual']:.1e}   ",
+                  end="", file=sys.stderr, flush=True)
+
+    steps = case.load.steps if not case.load.explicit else 4
+    r = find_gross_slip(model, solver, dz, normal_steps=steps, on_state=on_state)
+    if not args.quiet:
+        print(file=sys.stderr)
+    result = {**r, "device": str(model.device), "dtype": model.dtype_name, "fft": model.fft_name,
+              "software": {"warpcontact": __import__("warpcontact").__version__}, "case": case.to_dict()}
+    if not r["converged"]:
+        result["delta_x_max"] = None
+        result["mu"] = None
+        result["note"] = "a state on the path did not converge: delta_x_max and mu are not reported"
+    atomic_write_json(out / "result.json", result)
+    if not r["converged"]:
+        print(f"not converged: a state of the gross-slip path did not converge; see {out / 'result.json'}", file=sys.stderr)
+        return EXIT_NOT_CONVERGED
+    if not args.quiet:
+        print(f"delta_x_max = {r['delta_x_max']:.4e} m, mu = {r['mu']:.4f}  [{r['elapsed_s']:.1f} s] -> {out}", file=sys.stderr)
+    return 0
+
+
+def cmd_table2(args) -> int:
+    import json
+
+    from .results import atomic_write_bytes, atomic_write_json
+    from .table2 import Table2Settings, cells, markdown, table2_cell
+
+    if not args.no_adhesion:
+        raise InputError("table2", "the adhesive columns need the SMC adhesion law, which is not implemented yet; "
+                         "run with --no-adhesion")
+    for n in args.n:
+        if n < 8:
+            raise InputError("--n", f"must be at least 8, got {n}")
+    if not (args.size_in_a > 2.0):
+        raise InputError("--size-in-a", f"the domain must hold the contact diameter 2a: use more than 2, got {args.size_in_a}")
+    out = Path(args.out)
+    path = out / "table2.json"
+    records = json.loads(path.read_text())["cells"] if path.exists() else []
+    todo = [(n, k, dz) for n in args.n for k, dz in cells()]
+    done = {(r["n"], r["k_tau"], r["delta_z_um"], r.get("size_in_a", 3.0)) for r in records}
+    interrupted = False
+    for i, (n, k, dz) in enumerate(todo):
+        if (n, k, dz, args.size_in_a) in done:
+            continue
+        settings = Table2Settings(n=n, size_in_a=args.size_in_a, device=args.device or "cpu",
+                                  dtype=args.dtype or "float64", fft=args.fft or "auto")
+        if not args.quiet:
+            print(f"\rtable2 [{i + 1}/{len(todo)}] n {n} k_tau {k:.2f} delta_z {dz:.1e} um ...", end="", file=sys.stderr, flush=True)
+        try:
+            rec = table2_cell(k, dz, settings)
+        except KeyboardInterrupt:
+            interrupted = True
+            break
+        rec["size_in_a"] = args.size_in_a
+        records.append(rec)
+        _write_table2(out, records, atomic_write_json, atomic_write_bytes, markdown)
+        if not args.quiet:
+            print(f"\rtable2 [{i + 1}/{len(todo)}] n {n} k_tau {k:.2f} delta_z {dz:.1e} um: delta_x_max "
+                  f"{rec['delta_x_max_um']:.3e} um ({100 * rec['rel_diff_delta_x_max']:+.1f} %), mu {rec['mu']:.4f} "
+                  f"({100 * rec['rel_diff_mu']:+.1f} %), {rec['elapsed_s']:.0f} s", file=sys.stderr)
+    _write_table2(out, records, atomic_write_json, atomic_write_bytes, markdown)
+    if interrupted:
+        print(f"interrupted: {len(records)} cell(s) written to {out}; rerun to finish", file=sys.stderr)
+        return EXIT_INTERRUPTED
+    return 0 if all(r["converged"] for r in records) else EXIT_NOT_CONVERGED
+
+
+def _write_table2(out, records, atomic_write_json, atomic_write_bytes, markdown):
+    import csv
+    import io
+
+    records = sorted(records, key=lambda r: (r["n"], r["k_tau"], r["delta_z_um"]))
+    atomic_write_json(out / "table2.json", {"cells": records})
+    atomic_write_bytes(out / "table2.md", markdown(records).encode())
+    buf = io.StringIO()
+    keys = ["n", "k_tau", "delta_z_um", "delta_x_max_um", "paper_delta_x_max_um", "rel_diff_delta_x_max", "mu",
+            "paper_mu", "rel_diff_mu", "converged", "elapsed_s"]
+    w = csv.DictWriter(buf, fieldnames=keys, extrasaction="ignore")
+    w.writeheader()
+    w.writerows(records)
+    atomic_write_bytes(out / "table2.csv", buf.getvalue().encode())
+
+
 def main(argv=None) -> int:
     args = _parser().parse_args(argv)
     try:
-        return {"solve": cmd_solve}[args.command](args)
+        return {"solve": cmd_solve, "gross-slip": cmd_gross_slip, "table2": cmd_table2}[args.command](args)
     except InputError as e:
         print(f"warpcontact: error: {e}", file=sys.stderr)
         return EXIT_INPUT

@@ -52,13 +52,16 @@ class ProjectedCG:
             return math.sqrt(s[viol_slot] / s[rhs_slot])
         return 0.0 if s[viol_slot] == 0 else 1.0
 
-    def _run(self, iteration, final_fields, on_non_finite) -> SolveInfo:
-        """The loop: iterate until the residual of the current iterate is under ``tol``."""
+    def _run(self, iteration, final_fields, on_non_finite, tol=None) -> SolveInfo:
+        """The loop: iterate until the residual of the current iterate is under ``tol``
+        (default ``self.tol``; the update kernels read ``self.active_tol``)."""
+        tol = self.tol if tol is None else tol
+        self.active_tol = tol
         self.scalars.zero_()
         self.history.fill_(-1.0)
         it = 0
         residual = final_fields()
-        while not residual < self.tol and it < self.max_iter:
+        while not residual < tol and it < self.max_iter:
             if not math.isfinite(residual):
                 on_non_finite(it)
             iteration()
@@ -67,12 +70,12 @@ class ProjectedCG:
                 recorded = float(self.history.numpy()[it - 1])
                 if not math.isfinite(recorded):
                     on_non_finite(it)
-                if recorded < self.tol or it == self.max_iter:
+                if recorded < tol or it == self.max_iter:
                     residual = final_fields()
         if not math.isfinite(residual):
             on_non_finite(it)
         hist = self.history.numpy()[:it].astype(np.float64)
-        return SolveInfo(converged=bool(residual < self.tol), iterations=it, residual=residual, history=hist.tolist())
+        return SolveInfo(converged=bool(residual < tol), iterations=it, residual=residual, history=hist.tolist())
 
 
 def raise_non_finite(solver_name: str, state, names, iteration: int):

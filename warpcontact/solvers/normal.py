@@ -46,13 +46,14 @@ class NormalSolver(ProjectedCG):
             [state.gap.flatten(), self.sums],
         )
 
-    def solve(self, state, approach_z: float, known_displacement: wp.array | None = None) -> SolveInfo:
+    def solve(self, state, approach_z: float, known_displacement: wp.array | None = None, tol=None) -> SolveInfo:
         """Solve for ``state.pressure`` at the rigid approach ``approach_z`` [m].
 
         Starts from the pressure already in ``state`` (warm start along a path) or, if it is zero,
         from the rigid interference. ``known_displacement`` (scaled, (n, n)) is a normal
         displacement from other tractions (shear coupling, adhesion) held fixed during the solve.
-        Fills ``state.pressure``, ``state.disp_z``, ``state.gap``.
+        Fills ``state.pressure``, ``state.disp_z``, ``state.gap``. ``tol`` overrides the
+        solver's tolerance for this solve.
         """
         m = self.model
         known = self.no_displacement if known_displacement is None else known_displacement
@@ -67,7 +68,7 @@ class NormalSolver(ProjectedCG):
             wp.launch(nk.normal_direction, dim=m.n_cells, inputs=[g, p, self.sums, self.scalars], outputs=[t], device=m.device)
             m.operator.normal(self.direction, self.response)
             self._launch_reduce(nk.normal_step_sums, [g, t, r, p], [self.sums])
-            self._launch_reduce(nk.normal_update, [g, t, m.scalar(self.tol)], [p, self.sums])
+            self._launch_reduce(nk.normal_update, [g, t, m.scalar(self.active_tol)], [p, self.sums])
             wp.launch(nk.normal_advance, dim=1, inputs=[self.sums, self.scalars], outputs=[self.history], device=m.device)
 
         def final_fields():
@@ -78,7 +79,7 @@ class NormalSolver(ProjectedCG):
         def on_non_finite(it):
             raise_non_finite("normal solve", state, ("pressure", "gap", "disp_z"), it)
 
-        return self._run(iteration, final_fields, on_non_finite)
+        return self._run(iteration, final_fields, on_non_finite, tol)
 
     def _initial_guess(self, state, approach: float, known):
         """p = c * max(delta_z - h0 - u_known, 0), with c the least-squares fit of K p to it."""

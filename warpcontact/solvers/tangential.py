@@ -34,7 +34,7 @@ class TangentialSolver(ProjectedCG):
         self.stiffness = model.scalar(k_self)
         self.slip_step = model.scalar(1.0 / k_self)
 
-    def solve(self, state, target_x, target_y, shear_limit, known_x=None, known_y=None) -> SolveInfo:
+    def solve(self, state, target_x, target_y, shear_limit, known_x=None, known_y=None, tol=None) -> SolveInfo:
         """Solve for ``state.shear_x/y`` and ``state.status``.
 
         Args:
@@ -66,7 +66,7 @@ class TangentialSolver(ProjectedCG):
             wp.launch(tk.tangential_direction, dim=m.n_cells, inputs=[gx, gy, qx, qy, limit, st, self.stiffness, self.sums, self.scalars], outputs=[tx, ty], device=m.device)
             m.operator.tangential(self.dir_x, self.dir_y, self.resp_x, self.resp_y)
             self._launch_reduce(tk.tangential_step_sums, [gx, gy, tx, ty, rx, ry, qx, qy, limit, st], [self.sums])
-            self._launch_reduce(tk.tangential_update, [gx, gy, tx, ty, limit, self.slip_step, m.scalar(self.tol)], [qx, qy, st, self.sums])
+            self._launch_reduce(tk.tangential_update, [gx, gy, tx, ty, limit, self.slip_step, m.scalar(self.active_tol)], [qx, qy, st, self.sums])
             wp.launch(tk.tangential_advance, dim=1, inputs=[self.sums, self.scalars], outputs=[self.history], device=m.device)
 
         def final_fields():
@@ -77,4 +77,4 @@ class TangentialSolver(ProjectedCG):
         def on_non_finite(it):
             raise_non_finite("tangential solve", state, ("shear_x", "shear_y", "disp_x", "disp_y"), it)
 
-        return self._run(iteration, final_fields, on_non_finite)
+        return self._run(iteration, final_fields, on_non_finite, tol)

@@ -1,0 +1,130 @@
+"""The seed paper's Table 2: delta_x at gross slip and the static friction coefficient.
+
+Copper sphere (R = 10 um) on hardened steel (Table 1), Tabor + von Mises shear limit, the 12
+adhesionless cells k_tau in (0.50, 0.80, 0.95) x delta_z in (1.0e-5, 5.0e-5, 1.0e-4, 1.5e-4) um.
+"""
+
+from __future__ import annotations
+
+import csv
+import math
+import time
+from dataclasses import dataclass
+from pathlib import Path
+
+from .friction import TaborVonMises
+from .geometry import Grid, Sphere
+from .gross_slip import find_gross_slip
+from .materials import PAPER_PAIR
+from .model import ContactModel
+from .solvers.contact import ContactSolver
+
+RADIUS = 10e-6
+K_TAU = (0.50, 0.80, 0.95)
+DELTA_Z_UM = (1.0e-5, 5.0e-5, 1.0e-4, 1.5e-4)
+UM = 1e-6
+
+
+def paper_table(path=None) -> dict:
+    """The paper's values: {(k_tau, delta_z_um, adhesion): (delta_x_max_um, mu)}.
+
+    Read from ``shared/data/table2.csv`` when it is found (or ``path``), else from the copy below.
+    """
+    rows = {}
+    candidates = [Path(path)] if path else [Path(__file__).resolve().parents[2] / "shared" / "data" / "table2.csv"]
+    for c in candidates:
+        if c.exists():
+            with open(c) as fh:
+                for r in csv.DictReader(line for line in fh if not line.startswith("#")):
+                    rows[(float(r["k_tau"]), float(r["delta_z_um"]), r["adhesion"] == "yes")] = (
+                        float(r["delta_x_max_um"]), float(r["mu"]))
+            return rows
+    for (k, dz, adh), v in _PAPER.items():
+        rows[(k, dz, adh)] = v
+    return rows
+
+
+# transcription of the paper's Table 2 (adhesionless columns), used when the CSV is not beside us
+_PAPER = {
+    (0.50, 1.0e-5, False): (4.2e-6, 0.332), (0.50, 5.0e-5, False): (2.1e-5, 0.332),
+    (0.50, 1.0e-4, False): (4.2e-5, 0.332), (0.50, 1.5e-4, False): (5.5e-5, 0.308),
+    (0.80, 1.0e-5, False): (9.6e-6, 0.769), (0.80, 5.0e-5, False): (4.8e-5, 0.769),
+    (0.80, 1.0e-4, False): (7.3e-5, 0.665), (0.80, 1.5e-4, False): (7.7e-5, 0.495),
+    (0.95, 1.0e-5, False): (2.2e-5, 1.755), (0.95, 5.0e-5, False): (6.7e-5, 1.250),
+    (0.95, 1.0e-4, False): (8.2e-5, 0.827), (0.95, 1.5e-4, False): (8.5e-5, 0.583),
+}
+
+
+@dataclass(frozen=True)
+class Table2Settings:
+    """Grid and solver settings of a Table 2 run.
+
+    Attributes:
+        n: cells per side.
+        size_in_a: domain side in Hertz contact radii a = sqrt(R delta_z) of each cell.
+        device, dtype, fft: as in case files.
+        rel_tol: bisection bracket of delta_x_max, relative.
+    """
+
+    n: int = 128
+    size_in_a: float = 3.0
+    device: str = "cpu"
+    dtype: str = "float64"
+    fft: str = "auto"
+    rel_tol: float = 0.01
+
+
+def table2_cell(k_tau: float, delta_z_um: float, settings: Table2Settings, on_state=None) -> dict:
+    """One adhesionless cell: delta_x_max, mu and the paper's values, with relative differences."""
+    dz = delta_z_um * UM
+    a = math.sqrt(RADIUS * dz)
+    model = ContactModel(PAPER_PAIR, Sphere(RADIUS), Grid(settings.n, settings.size_in_a * a),
+                         device=settings.device, dtype=settings.dtype, fft=settings.fft)
+    law = TaborVonMises(k_tau, PAPER_PAIR.softer.yield_strength)
+    t0 = time.perf_counter()
+    r = find_gross_slip(model, ContactSolver(model, law), dz, rel_tol=settings.rel_tol, on_state=on_state)
+    paper_dx, paper_mu = paper_table().get((k_tau, delta_z_um, False), (math.nan, math.nan))
+    dx_um = r["delta_x_max"] / UM
+    return {
+        "k_tau": k_tau,
+        "delta_z_um": delta_z_um,
+        "adhesion": False,
+        "delta_x_max_um": dx_um,
+        "delta_x_gross_um": r["delta_x_gross"] / UM,
+        "mu": r["mu"],
+        "paper_delta_x_max_um": paper_dx,
+        "paper_mu": paper_mu,
+        "rel_diff_delta_x_max": dx_um / paper_dx - 1.0,
+        "rel_diff_mu": r["mu"] / paper_mu - 1.0,
+        "converged": r["converged"],
+        "n": settings.n,
+        "size_m": model.grid.size,
+        "cell_m": model.grid.dx,
+        "mu_b": law.mu_b,
+        "crossover_pressure_Pa": law.crossover_pressure,
+        "elapsed_s": time.perf_counter() - t0,
+        "states": len(r["states"]),
+    }
+
+
+def cells():
+    return [(k, dz) for k in K_TAU for dz in DELTA_Z_UM]
+
+
+def markdown(records: list) -> str:
+    """The table as Markdown: computed, paper, relative difference; unconverged cells marked."""
+    lines = [
+        "| k_tau | delta_z (um) | delta_x_max (um) | paper | diff | mu | paper | diff | n | converged |",
+        "|---|---|---|---|---|---|---|---|---|---|",
+    ]
+    for r in records:
+        if r["converged"]:
+            dx, mu = f"{r['delta_x_max_um']:.3e}", f"{r['mu']:.4f}"
+            ddx, dmu = f"{100 * r['rel_diff_delta_x_max']:+.1f} %", f"{100 * r['rel_diff_mu']:+.1f} %"
+        else:
+            dx = mu = ddx = dmu = "not converged"
+        lines.append(
+            f"| {r['k_tau']:.2f} | {r['delta_z_um']:.1e} | {dx} | {r['paper_delta_x_max_um']:.1e} | {ddx} | "
+            f"{mu} | {r['paper_mu']:.3f} | {dmu} | {r['n']} | {r['converged']} |"
+        )
+    return "\n".join(lines) + "\n"
