@@ -96,6 +96,8 @@ def _parser():
     t.add_argument("--no-adhesion", action="store_true", help="the adhesionless columns (adhesion is not implemented yet)")
     t.add_argument("--n", type=int, nargs="+", default=[128], help="cells per side; several values give a grid study")
     t.add_argument("--size-in-a", type=float, default=3.0, help="domain side in Hertz radii a = sqrt(R delta_z)")
+    t.add_argument("--k-tau", type=float, nargs="+", help="only these k_tau columns (0.50, 0.80, 0.95)")
+    t.add_argument("--delta-z-um", type=float, nargs="+", help="only these delta_z rows in um (1e-5, 5e-5, 1e-4, 1.5e-4)")
     _common(t)
     return parser
 
@@ -182,6 +184,7 @@ def cmd_gross_slip(args) -> int:
 
 def cmd_table2(args) -> int:
     import json
+    import math
 
     from .results import atomic_write_bytes, atomic_write_json
     from .table2 import Table2Settings, cells, markdown, table2_cell
@@ -197,7 +200,15 @@ def cmd_table2(args) -> int:
     out = Path(args.out)
     path = out / "table2.json"
     records = json.loads(path.read_text())["cells"] if path.exists() else []
-    todo = [(n, k, dz) for n in args.n for k, dz in cells()]
+    selected = cells()
+    for name, values, column in (("--k-tau", args.k_tau, 0), ("--delta-z-um", args.delta_z_um, 1)):
+        if values:
+            known = sorted({c[column] for c in cells()})
+            for v in values:
+                if not any(math.isclose(v, k, rel_tol=1e-9) for k in known):
+                    raise InputError(name, f"{v!r} is not a cell of Table 2; choose from {known}")
+            selected = [c for c in selected if any(math.isclose(c[column], v, rel_tol=1e-9) for v in values)]
+    todo = [(n, k, dz) for n in args.n for k, dz in selected]
     done = {(r["n"], r["k_tau"], r["delta_z_um"], r.get("size_in_a", 3.0)) for r in records}
     interrupted = False
     for i, (n, k, dz) in enumerate(todo):
