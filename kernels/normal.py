@@ -42,6 +42,7 @@ def normal_gap(
     known_displacement: wp.array(dtype=Any),
     pressure: wp.array(dtype=Any),
     approach: Any,
+    pressure_cap: Any,
     n: int,
     outer: int,
     inner: int,
@@ -49,7 +50,11 @@ def normal_gap(
     gap: wp.array(dtype=Any),
     sums: wp.array(dtype=Any),
 ):
-    """gap = h0 - delta_z + u_z + u_known, and the residual sums of the current pressure."""
+    """gap = h0 - delta_z + u_z + u_known, and the residual sums of the current pressure.
+
+    Free cells (0 < p < cap) must close (g = 0); cells at p = 0 must not penetrate (g >= 0);
+    cells at the cap (the hardness: a perfectly plastic surface) must not open (g <= 0).
+    """
     block, lane = wp.tid()
     thread = block * wp.block_dim() + lane
     zero = approach - approach
@@ -64,7 +69,12 @@ def normal_gap(
             g = displacement[i] - rhs
             gap[i] = g
             p = pressure[i]
-            if p > zero:
+            if p >= pressure_cap:
+                s_rhs += rhs * rhs
+                s_force += p
+                if g > zero:
+                    s_viol += g * g
+            elif p > zero:
                 s_g += g * g
                 s_viol += g * g
                 s_rhs += rhs * rhs
@@ -81,17 +91,18 @@ def normal_gap(
 def normal_direction(
     gap: wp.array(dtype=Any),
     pressure: wp.array(dtype=Any),
+    pressure_cap: Any,
     sums: wp.array(dtype=Any),
     scalars: wp.array(dtype=Any),
     direction: wp.array(dtype=Any),
 ):
-    """Conjugate direction t = g + delta (G / G_old) t on the contact set, 0 elsewhere."""
+    """Conjugate direction t = g + delta (G / G_old) t on the free set 0 < p < cap, 0 elsewhere."""
     i = wp.tid()
     zero = sums[S_G] - sums[S_G]
     beta = zero
     if scalars[C_G_OLD] > zero:
         beta = scalars[C_DELTA] * sums[S_G] / scalars[C_G_OLD]
-    if pressure[i] > zero:
+    if pressure[i] > zero and pressure[i] < pressure_cap:
         direction[i] = gap[i] + beta * direction[i]
     else:
         direction[i] = zero
@@ -103,6 +114,7 @@ def normal_step_sums(
     direction: wp.array(dtype=Any),
     response: wp.array(dtype=Any),
     pressure: wp.array(dtype=Any),
+    pressure_cap: Any,
     n: int,
     outer: int,
     inner: int,
@@ -118,7 +130,7 @@ def normal_step_sums(
     for k in range(per):
         i = cell_index(thread, outer, inner, k)
         if i < n:
-            if pressure[i] > zero:
+            if pressure[i] > zero and pressure[i] < pressure_cap:
                 t = direction[i]
                 s_gt += gap[i] * t
                 s_rt += response[i] * t
@@ -130,6 +142,7 @@ def normal_step_sums(
 def normal_update(
     gap: wp.array(dtype=Any),
     direction: wp.array(dtype=Any),
+    pressure_cap: Any,
     tol: Any,
     n: int,
     outer: int,
@@ -138,7 +151,8 @@ def normal_update(
     pressure: wp.array(dtype=Any),
     sums: wp.array(dtype=Any),
 ):
-    """p <- max(p - tau t, 0); penetrating cells with p = 0 re-enter with p = -tau g.
+    """p <- clip(p - tau t, 0, cap); penetrating cells with p = 0 re-enter with p = -tau g, and
+    opening cells at the cap leave it with p = cap - tau g (Polonsky-Keer's re-entry rule).
 
     An iterate whose relative residual is already under ``tol`` is left as it is.
     """
@@ -154,10 +168,14 @@ def normal_update(
         i = cell_index(thread, outer, inner, k)
         if i < n and not done:
             p = pressure[i]
-            if p > zero:
-                p = wp.max(p - tau * direction[i], zero)
+            if p >= pressure_cap:
+                if gap[i] > zero:
+                    p = wp.max(pressure_cap - tau * gap[i], zero)
+                    count += type(zero)(1.0)
+            elif p > zero:
+                p = wp.min(wp.max(p - tau * direction[i], zero), pressure_cap)
             elif gap[i] < zero:
-                p = -tau * gap[i]
+                p = wp.min(-tau * gap[i], pressure_cap)
                 count += type(zero)(1.0)
             pressure[i] = p
     block_add(sums, S_IOL, count)

@@ -121,3 +121,18 @@ def test_table2_unknown_cell_is_refused(tmp_path):
 def test_table2_refuses_adhesion_until_it_exists(tmp_path):
     r = run_cli("table2", "--out", tmp_path / "t", "--quiet")
     assert r.returncode == 2 and "--no-adhesion" in r.stderr
+
+
+def test_contact_beyond_the_domain_is_an_error(tmp_path):
+    """delta_z grown after the case check (explicit path): the contact reaches the edge -> exit 2."""
+    text = HERTZ.replace("delta_z = 1.0e-10       # m (1.0e-4 um, the paper's third depth)",
+                         "path = [[0.0, 0.0, 1.0e-10], [0.0, 0.0, 3.9e-10]]").replace("n = 128", "n = 32")
+    r = run_cli("solve", small_case(tmp_path, text), "--out", tmp_path / "o", "--quiet")
+    assert r.returncode == 2 and "grid.size" in r.stderr and "edge" in r.stderr and "Traceback" not in r.stderr
+    res = json.loads((tmp_path / "o" / "result.json").read_text())
+    assert res["n_states"] == 1  # the state finished before the error is kept
+
+
+def test_coarse_contact_warns(tmp_path):
+    r = run_cli("solve", small_case(tmp_path, **{"n = 128": "n = 12"}), "--out", tmp_path / "o", "--quiet")
+    assert r.returncode == 0 and "warning" in r.stderr and "grid.n >=" in r.stderr

@@ -76,3 +76,22 @@ def test_no_contact_gives_zero_pressure():
     state = ContactState(model)
     info = NormalSolver(model).solve(state, -1e-11)
     assert info.converged and not np.any(state.pressure.numpy() != 0)
+
+
+def test_pressure_cap_at_hardness(device):
+    """With the pressure capped (elastic-perfectly-plastic surface) at 0.8 p0: p <= cap, cells at
+    the cap penetrate (g <= 0), free contact cells close (g = 0), and the force falls below Hertz."""
+    ref = hertz(PAPER_PAIR, R, DELTA_Z)
+    cap = 0.8 * ref["p0"]
+    model = ContactModel(PAPER_PAIR, Sphere(R, "paraboloid"), Grid(64, 4 * A), device=device)
+    state = ContactState(model)
+    info = NormalSolver(model, pressure_cap=cap).solve(state, DELTA_Z)
+    assert info.converged, info
+    f = state.to_numpy_si()
+    p, g = f["pressure"], f["gap"]
+    at_cap = p >= cap * (1 - 1e-12)
+    free = (p > 0) & ~at_cap
+    assert p.max() <= cap * (1 + 1e-12) and at_cap.sum() > 10
+    assert g[at_cap].max() <= 1e-9 * DELTA_Z and g[at_cap].min() < -1e-3 * DELTA_Z  # plastic penetration
+    assert np.abs(g[free]).max() < 1e-6 * DELTA_Z
+    assert p.sum() * model.grid.cell_area < ref["force"]

@@ -253,7 +253,14 @@ def _write_table2(out, records, atomic_write_json, atomic_write_bytes, markdown)
     atomic_write_bytes(out / "table2.csv", buf.getvalue().encode())
 
 
+def _show_warning(message, category, filename, lineno, file=None, line=None):
+    print(f"warpcontact: warning: {message}", file=sys.stderr)
+
+
 def main(argv=None) -> int:
+    import warnings
+
+    warnings.showwarning = _show_warning
     args = _parser().parse_args(argv)
     try:
         return {"solve": cmd_solve, "gross-slip": cmd_gross_slip, "table2": cmd_table2}[args.command](args)

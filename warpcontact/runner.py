@@ -2,11 +2,13 @@
 
 from __future__ import annotations
 
+import math
 import time
 from dataclasses import dataclass, field
 
 from . import __version__
 from .friction import Coulomb, TaborVonMises
+from .guards import warn_if_coarse
 from .model import ContactModel
 from .results import state_fields, state_summary
 from .solvers.contact import ContactSolver
@@ -28,7 +30,8 @@ def build(case):
     """(model, solver, state) for a case."""
     s = case.solver
     model = ContactModel(case.pair, case.sphere, case.grid, device=s.device, dtype=s.dtype, fft=s.fft)
-    solver = ContactSolver(model, friction_law(case), tol=s.tol, max_iter=s.max_iter)
+    cap = case.pair.softer.hardness if case.friction is not None and case.friction.hardness_cap else math.inf
+    solver = ContactSolver(model, friction_law(case), tol=s.tol, max_iter=s.max_iter, pressure_cap=cap)
     return model, solver, ContactState(model)
 
 
@@ -88,6 +91,7 @@ def run_path(case, on_state=None, keep_fields: bool = True) -> PathResult:
     try:
         for k, approach in enumerate(path):
             solver.step(state, approach)
+            warn_if_coarse(state)
             summary = state_summary(state)
             result.states.append(summary)
             if keep_fields:

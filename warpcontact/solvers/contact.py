@@ -9,6 +9,7 @@ import warp as wp
 
 from warpcontact.kernels import coupling as ck
 
+from ..guards import check_contact_fits
 from ..state import SolveInfo
 from .normal import NormalSolver
 from .tangential import TangentialSolver
@@ -30,12 +31,15 @@ class ContactSolver:
             float32).
         max_iter: iteration limit of each inner solve.
         max_outer: limit on the turns.
+        pressure_cap: upper bound of the contact pressure [Pa], e.g. the softer body's hardness
+            (elastic-perfectly-plastic surface); inf for none.
     """
 
-    def __init__(self, model, friction=None, tol=None, outer_tol=None, max_iter: int = 2000, max_outer: int = 100):
+    def __init__(self, model, friction=None, tol=None, outer_tol=None, max_iter: int = 2000, max_outer: int = 100,
+                 pressure_cap: float = math.inf):
         self.model = model
         self.friction = friction
-        self.normal = NormalSolver(model, tol, max_iter)
+        self.normal = NormalSolver(model, tol, max_iter, pressure_cap=pressure_cap)
         self.tol = self.normal.tol
         self.outer_tol = 100 * self.tol if outer_tol is None else float(outer_tol)
         self.max_outer = int(max_outer)
@@ -120,6 +124,7 @@ class ContactSolver:
         info = SolveInfo(converged=bool(converged), iterations=iterations, residual=residual, outer_iterations=outer,
                          history=normal_info.history)
         state.info = info
+        check_contact_fits(state)
         return info
 
     def _relative_change(self, state) -> float:

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 import warp as wp
 
@@ -30,8 +32,13 @@ class NormalSolver(ProjectedCG):
         check_every: iterations between reads of the residual on the host.
     """
 
-    def __init__(self, model, tol=None, max_iter: int = 2000, check_every=None):
+    def __init__(self, model, tol=None, max_iter: int = 2000, check_every=None, pressure_cap: float = math.inf):
         super().__init__(model, nk.N_SUMS, nk.N_SCALARS, tol, max_iter, check_every)
+        #: upper bound of the pressure [Pa] (the softer body's hardness: elastic-perfectly-plastic
+        #: surface; MODEL.md section 5); inf for none
+        self.pressure_cap = float(pressure_cap)
+        big = np.finfo(model.np_dtype).max
+        self._cap = model.scalar(min(self.pressure_cap / model.traction_scale, big))
         self.direction = model.field()
         self.response = model.field()
         self.no_displacement = model.field()
@@ -42,7 +49,7 @@ class NormalSolver(ProjectedCG):
         m.operator.normal(state.pressure, state.disp_z)
         self._launch_reduce(
             nk.normal_gap,
-            [m.initial_gap.flatten(), state.disp_z.flatten(), known.flatten(), state.pressure.flatten(), approach],
+            [m.initial_gap.flatten(), state.disp_z.flatten(), known.flatten(), state.pressure.flatten(), approach, self._cap],
             [state.gap.flatten(), self.sums],
         )
 
@@ -65,10 +72,10 @@ class NormalSolver(ProjectedCG):
         def iteration():
             self.sums.zero_()
             self._gap(state, approach, known)
-            wp.launch(nk.normal_direction, dim=m.n_cells, inputs=[g, p, self.sums, self.scalars], outputs=[t], device=m.device)
+            wp.launch(nk.normal_direction, dim=m.n_cells, inputs=[g, p, self._cap, self.sums, self.scalars], outputs=[t], device=m.device)
             m.operator.normal(self.direction, self.response)
-            self._launch_reduce(nk.normal_step_sums, [g, t, r, p], [self.sums])
-            self._launch_reduce(nk.normal_update, [g, t, m.scalar(self.active_tol)], [p, self.sums])
+            self._launch_reduce(nk.normal_step_sums, [g, t, r, p, self._cap], [self.sums])
+            self._launch_reduce(nk.normal_update, [g, t, self._cap, m.scalar(self.active_tol)], [p, self.sums])
             wp.launch(nk.normal_advance, dim=1, inputs=[self.sums, self.scalars], outputs=[self.history], device=m.device)
 
         def final_fields():
@@ -93,4 +100,5 @@ class NormalSolver(ProjectedCG):
         u = self.response.numpy().astype(np.float64)
         mask = p0 > 0
         c = float(np.dot(u[mask], b[mask]) / np.dot(u[mask], u[mask]))
-        state.pressure.assign((p0 * c).astype(m.np_dtype))
+        cap = self.pressure_cap / m.traction_scale
+        state.pressure.assign(np.minimum(p0 * c, cap).astype(m.np_dtype))
