@@ -13,16 +13,26 @@ import numpy as np
 from warpcontact.kernels.tangential import STICK
 
 
-def state_summary(state) -> dict:
+def adhesive_mask(fields: dict, adhesion) -> np.ndarray:
+    """A_adh: cells out of elastic contact whose gap is within the law's range (MODEL.md 6)."""
+    if adhesion is None:
+        return np.zeros_like(fields["pressure"], dtype=bool)
+    return (fields["pressure"] <= 0) & (fields["gap"] <= adhesion.range)
+
+
+def state_summary(state, adhesion=None) -> dict:
     """Forces, areas and convergence of one solved state, SI units, JSON-ready.
 
-    force: force the sphere exerts on the flat [N] (z: compressive positive; x, y: the
-    tangential load carried by the contact). Areas in m^2, lengths in m, pressures in Pa.
+    force: total force the sphere exerts on the flat [N] (z: compressive positive, adhesive
+    part included; x, y: the tangential load carried by the interface); force_elastic: the
+    contact tractions alone. Areas in m^2 (contact A_c, stick A_st, adhesive A_adh), lengths in
+    m, pressures in Pa.
     """
     m = state.model
     f = state.to_numpy_si()
     dA = m.grid.cell_area
     contact = f["pressure"] > 0
+    adhesive = adhesive_mask(f, adhesion)
     stick = state.status.numpy() == STICK
     X, Y = m.grid.mesh()
     area = float(contact.sum() * dA)
@@ -31,10 +41,16 @@ def state_summary(state) -> dict:
     out = {
         "delta": {"x": state.approach[0], "y": state.approach[1], "z": state.approach[2]},
         "force": {
+            "x": float((f["shear_x"] + f["adhesive_shear_x"]).sum() * dA),
+            "y": float((f["shear_y"] + f["adhesive_shear_y"]).sum() * dA),
+            "z": float((f["pressure"] + f["adhesive_pressure"]).sum() * dA),
+        },
+        "force_elastic": {
             "x": float(f["shear_x"].sum() * dA),
             "y": float(f["shear_y"].sum() * dA),
             "z": float(f["pressure"].sum() * dA),
         },
+        "adhesive_area": float(adhesive.sum() * dA),
         "contact_area": area,
         "contact_radius": math.sqrt(area / math.pi),
         "max_pressure": float(f["pressure"].max()),
@@ -50,11 +66,12 @@ def state_summary(state) -> dict:
     return out
 
 
-def state_fields(state) -> dict:
+def state_fields(state, adhesion=None) -> dict:
     """Fields of a state for an NPZ file: SI float64 arrays and the masks, numpy only."""
     f = state.to_numpy_si()
     status = state.status.numpy()
     f["contact_mask"] = f["pressure"] > 0
+    f["adhesive_mask"] = adhesive_mask(f, adhesion)
     f["stick_mask"] = status == STICK
     f["status"] = status.astype(np.int8)
     return f

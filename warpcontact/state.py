@@ -36,10 +36,17 @@ class ContactState:
         disp_x, disp_y: u_t / dx, tangential displacement of the flat relative to the sphere.
         slip_x, slip_y: accumulated slip of the sphere relative to the flat since the start of the
             path, / dx (s = delta - u_t).
+        adhesive_pressure: p_adh / E* (<= 0, tension), on cells out of contact.
+        adhesive_shear_x, adhesive_shear_y: adhesive shear on the flat / E*, out of contact.
+    Total tractions: pressure + adhesive_pressure, shear + adhesive_shear.
     Scalars: ``approach`` (delta_x, delta_y, delta_z) [m] and ``info`` (:class:`SolveInfo`).
     """
 
-    FIELDS = ("pressure", "shear_x", "shear_y", "gap", "disp_z", "disp_x", "disp_y", "slip_x", "slip_y")
+    FIELDS = (
+        "pressure", "shear_x", "shear_y", "gap", "disp_z", "disp_x", "disp_y", "slip_x", "slip_y",
+        "adhesive_pressure", "adhesive_shear_x", "adhesive_shear_y",
+    )
+    TRACTIONS = ("pressure", "shear_x", "shear_y", "adhesive_pressure", "adhesive_shear_x", "adhesive_shear_y")
 
     def __init__(self, model):
         import warp as wp
@@ -65,6 +72,6 @@ class ContactState:
         m = self.model
         out = {}
         for name in self.FIELDS:
-            scale = m.traction_scale if name in ("pressure", "shear_x", "shear_y") else m.length_scale
+            scale = m.traction_scale if name in self.TRACTIONS else m.length_scale
             out[name] = getattr(self, name).numpy().astype(np.float64) * scale
         return out

@@ -7,6 +7,7 @@ import math
 import numpy as np
 import warp as wp
 
+from warpcontact.kernels import adhesion as ak
 from warpcontact.kernels import coupling as ck
 
 from ..guards import check_contact_fits
@@ -19,13 +20,17 @@ class ContactSolver:
     """Solves a state at given rigid shifts (delta_x, delta_y, delta_z) from the slip history.
 
     With friction, the normal and the tangential problems are solved in turns, each with the
-    other's coupling displacement held fixed (Dundurs coupling on whenever D != 0), until the
-    pressure and the shear both change by less than ``outer_tol`` (relative, in the 2-norm) from
-    one turn to the next. Identical materials decouple (D = 0): one turn is exact.
+    other's coupling displacement held fixed (Dundurs coupling on whenever D != 0). With adhesion,
+    each turn first updates the adhesive tractions from the last gap and slip (relaxed), and they
+    enter both solves as known tractions (MODEL.md section 6). Turns stop when the contact
+    pressure, the shear and the adhesive tractions all change by less than ``outer_tol``
+    (relative, 2-norm) from one turn to the next, in a turn solved at full tolerance. Identical
+    materials without adhesion decouple (D = 0): one turn is exact.
 
     Args:
         model: the contact model.
         friction: a shear-limit law (``warpcontact.friction``) or None for frictionless contact.
+        adhesion: an adhesion law (``warpcontact.adhesion``) or None.
         tol: relative residual of the inner solves (default by dtype, see NormalSolver).
         outer_tol: relative change that ends the turns (default 100 tol: 1e-8 in float64, 1e-3 in
             float32).
@@ -33,20 +38,26 @@ class ContactSolver:
         max_outer: limit on the turns.
         pressure_cap: upper bound of the contact pressure [Pa], e.g. the softer body's hardness
             (elastic-perfectly-plastic surface); inf for none.
+        relax: initial relaxation of the adhesive update (halved, down to 1/64, when a turn's
+            change grows).
     """
 
-    def __init__(self, model, friction=None, tol=None, outer_tol=None, max_iter: int = 2000, max_outer: int = 100,
-                 pressure_cap: float = math.inf):
+    def __init__(self, model, friction=None, tol=None, outer_tol=None, max_iter: int = 2000, max_outer: int = 200,
+                 pressure_cap: float = math.inf, adhesion=None, relax: float = 0.5):
         self.model = model
         self.friction = friction
+        self.adhesion = adhesion
         self.normal = NormalSolver(model, tol, max_iter, pressure_cap=pressure_cap)
         self.tol = self.normal.tol
         self.outer_tol = 100 * self.tol if outer_tol is None else float(outer_tol)
         self.max_outer = int(max_outer)
+        self.relax = float(relax)
         f = model.field
         self.known_z, self.known_x, self.known_y = f(), f(), f()
+        self.adhesive_z, self.adhesive_x, self.adhesive_y = f(), f(), f()
         self.previous = [f(), f(), f()]
         self.change = model.scalars(6)
+        self.adhesive_change = model.scalars(2)
         if friction is not None:
             self.tangential = TangentialSolver(model, tol, max_iter)
             self.target_x, self.target_y = f(), f()
@@ -55,6 +66,46 @@ class ContactSolver:
     @property
     def coupled(self) -> bool:
         return self.friction is not None and self.model.operator.coupled
+
+    @property
+    def iterative(self) -> bool:
+        """Whether a step needs turns (coupling or adhesion)."""
+        return self.coupled or self.adhesion is not None
+
+    def _known_displacements(self, state):
+        """known_z, known_x, known_y <- displacements of the tractions held fixed in a turn: the
+        coupling of the other unknown and the adhesive tractions."""
+        m = self.model
+        op = m.operator
+        for a in (self.known_z, self.known_x, self.known_y):
+            a.zero_()
+        if self.coupled:
+            op.cross(state.pressure, state.shear_x, state.shear_y, self.known_z, self.known_x, self.known_y)
+        if self.adhesion is not None:
+            if self.friction is not None:
+                op.coupled_apply(state.adhesive_pressure, state.adhesive_shear_x, state.adhesive_shear_y,
+                                 self.adhesive_z, self.adhesive_x, self.adhesive_y)
+                pairs = ((self.adhesive_z, self.known_z), (self.adhesive_x, self.known_x), (self.adhesive_y, self.known_y))
+            else:
+                op.normal(state.adhesive_pressure, self.adhesive_z)
+                pairs = ((self.adhesive_z, self.known_z),)
+            for src, dst in pairs:
+                wp.launch(ak.add_to, dim=m.n_cells, inputs=[src.flatten()], outputs=[dst.flatten()], device=m.device)
+
+    def _update_slip(self, state, dx, dy):
+        """state.slip <- delta - u_t for the current tractions (u_t in state.disp_x/y as well)."""
+        m = self.model
+        L = m.length_scale
+        known_x = self.known_x if self.iterative else self.tangential.no_displacement
+        known_y = self.known_y if self.iterative else self.tangential.no_displacement
+        wp.launch(
+            ck.accumulate_slip,
+            dim=m.n_cells,
+            inputs=[state.disp_x.flatten(), state.disp_y.flatten(), known_x.flatten(), known_y.flatten(),
+                    m.scalar(dx / L), m.scalar(dy / L)],
+            outputs=[state.slip_x.flatten(), state.slip_y.flatten(), state.disp_x.flatten(), state.disp_y.flatten()],
+            device=m.device,
+        )
 
     def step(self, state, approach) -> SolveInfo:
         """Solve ``state`` at ``approach`` = (delta_x, delta_y, delta_z) [m].
@@ -67,12 +118,9 @@ class ContactSolver:
         L = m.length_scale
         iterations = 0
         normal_info = tangential_info = None
-        outer = 0
         if self.friction is None:
             state.shear_x.zero_()
             state.shear_y.zero_()
-            normal_info = self.normal.solve(state, dz)
-            iterations = normal_info.iterations
         else:
             wp.launch(
                 ck.stick_target,
@@ -81,51 +129,61 @@ class ContactSolver:
                 outputs=[self.target_x.flatten(), self.target_y.flatten()],
                 device=m.device,
             )
-            for prev, cur in zip(self.previous, (state.pressure, state.shear_x, state.shear_y)):
-                wp.copy(prev, cur)
-            change = math.inf
-            while outer < self.max_outer:
-                outer += 1
-                # inexact alternation: early turns solve loosely, the last one at full tolerance
-                turn_tol = max(self.tol, min(1e-3, 0.01 * change)) if self.coupled else self.tol
-                if self.coupled:
-                    m.operator.cross(state.pressure, state.shear_x, state.shear_y, self.known_z, self.known_x, self.known_y)
-                normal_info = self.normal.solve(state, dz, self.known_z if self.coupled else None, tol=turn_tol)
+        for prev, cur in zip(self.previous, (state.pressure, state.shear_x, state.shear_y)):
+            wp.copy(prev, cur)
+        change, last_change, relax = math.inf, math.inf, self.relax
+        outer = 0
+        converged_turns = not self.iterative
+        while outer < self.max_outer:
+            outer += 1
+            # inexact turns: early ones solve loosely, the last one at full tolerance
+            turn_tol = max(self.tol, min(1e-3, 0.01 * change)) if self.iterative else self.tol
+            adhesive_change = self._update_adhesion(state, relax) if self.adhesion is not None else 0.0
+            if self.iterative:
+                self._known_displacements(state)
+            normal_info = self.normal.solve(state, dz, self.known_z if self.iterative else None, tol=turn_tol)
+            iterations += normal_info.iterations
+            if self.friction is not None:
                 self.friction.shear_limit(m, state.pressure.flatten(), self.shear_limit.flatten())
-                if self.coupled:
-                    m.operator.cross(state.pressure, state.shear_x, state.shear_y, self.known_z, self.known_x, self.known_y)
+                if self.iterative:
+                    self._known_displacements(state)
                 tangential_info = self.tangential.solve(
                     state, self.target_x, self.target_y, self.shear_limit,
-                    self.known_x if self.coupled else None, self.known_y if self.coupled else None, tol=turn_tol,
+                    self.known_x if self.iterative else None, self.known_y if self.iterative else None, tol=turn_tol,
                 )
-                iterations += normal_info.iterations + tangential_info.iterations
-                change = self._relative_change(state)
-                if not self.coupled or (change < self.outer_tol and turn_tol == self.tol):
-                    break
-            known_x = self.known_x if self.coupled else self.tangential.no_displacement
-            known_y = self.known_y if self.coupled else self.tangential.no_displacement
-            wp.launch(
-                ck.accumulate_slip,
-                dim=m.n_cells,
-                inputs=[state.disp_x.flatten(), state.disp_y.flatten(), known_x.flatten(), known_y.flatten(), m.scalar(dx / L), m.scalar(dy / L)],
-                outputs=[state.slip_x.flatten(), state.slip_y.flatten(), state.disp_x.flatten(), state.disp_y.flatten()],
-                device=m.device,
-            )
-            if self.coupled:  # gap and u_z with the final shear's coupling displacement
-                m.operator.cross(state.pressure, state.shear_x, state.shear_y, self.known_z, self.known_x, self.known_y)
-                final = self.normal.solve(state, dz, self.known_z)
-                iterations += final.iterations
-                normal_info = final
+                iterations += tangential_info.iterations
+                self._update_slip(state, dx, dy)
+            if not self.iterative:
+                break
+            change = max(self._relative_change(state), adhesive_change)
+            if change < self.outer_tol and turn_tol == self.tol:
+                converged_turns = True
+                break
+            if self.adhesion is not None and change > last_change and outer > 2:
+                relax = max(relax * 0.5, 1.0 / 64)
+            last_change = change
+        if self.iterative:  # gap and u_z with the final tractions held fixed
+            self._known_displacements(state)
+            final = self.normal.solve(state, dz, self.known_z)
+            iterations += final.iterations
+            normal_info = final
+            if self.friction is not None:
+                self._update_slip(state, dx, dy)
         state.approach = (dx, dy, dz)
         residual = max(normal_info.residual, tangential_info.residual if tangential_info else 0.0)
-        converged = normal_info.converged and (tangential_info is None or tangential_info.converged)
-        if self.coupled and outer >= self.max_outer:
-            converged = False
+        converged = normal_info.converged and (tangential_info is None or tangential_info.converged) and converged_turns
         info = SolveInfo(converged=bool(converged), iterations=iterations, residual=residual, outer_iterations=outer,
                          history=normal_info.history)
         state.info = info
         check_contact_fits(state)
         return info
+
+    def _update_adhesion(self, state, relax) -> float:
+        """Relaxed update of the adhesive tractions; returns their relative change."""
+        self.adhesive_change.zero_()
+        self.adhesion.update(self.model, state, relax, self.adhesive_change)
+        s = self.adhesive_change.numpy().astype(np.float64)
+        return math.sqrt(s[0] / s[1]) if s[1] > 0 else 0.0
 
     def _relative_change(self, state) -> float:
         """Largest relative change of pressure and shear since the last turn; updates the copies."""

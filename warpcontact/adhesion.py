@@ -1,0 +1,120 @@
+"""Adhesion laws (MODEL.md section 6). Each law launches one kernel of kernels/adhesion.py.
+
+To add a law: its ``@wp.func`` and update kernel in ``kernels/adhesion.py`` and a small class here
+with ``update(model, state, relax, sums)``, ``range`` and ``work_of_adhesion``.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import warp as wp
+
+from warpcontact.kernels import adhesion as ak
+
+from .errors import InputError
+
+
+def _positive(key, v):
+    if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v) or v <= 0:
+        raise InputError(key, f"must be a positive finite number, got {v!r}")
+
+
+@dataclass(frozen=True)
+class SMC:
+    """McGarry et al. (2014) "separation magnitude coupling" traction-separation law.
+
+    With x_n = h/delta_n, x_t = |s|/delta_t, m = sqrt(x_n^2 + x_t^2):
+    p_adh = -sigma_max x_n exp(1 - m), |q_adh| = tau_max x_t exp(1 - m) (resisting the slip).
+    McGarry, J. P. et al. (2014), "Potential-based and non-potential-based cohesive zone
+    formulations under mixed-mode separation and over-closure", Eng. Fract. Mech. 124, 163-179.
+
+    Attributes:
+        sigma_max: peak normal traction [Pa] (reached at h = delta_n, s = 0).
+        tau_max: peak shear traction [Pa].
+        delta_n: normal characteristic length [m].
+        delta_t: tangential characteristic length [m].
+    """
+
+    sigma_max: float
+    tau_max: float
+    delta_n: float
+    delta_t: float
+
+    def __post_init__(self):
+        for k in ("sigma_max", "tau_max", "delta_n", "delta_t"):
+            _positive(f"adhesion.{k}", getattr(self, k))
+
+    @property
+    def work_of_adhesion(self) -> float:
+        """w = e sigma_max delta_n [J/m^2], the work of pure opening."""
+        return math.e * self.sigma_max * self.delta_n
+
+    @property
+    def range(self) -> float:
+        """Gap [m] up to which a cell counts as adhesive contact (the rising branch: delta_n)."""
+        return self.delta_n
+
+    def update(self, model, state, relax: float, sums):
+        s = model.traction_scale
+        L = model.length_scale
+        r = model.reduction
+        wp.launch_tiled(
+            ak.smc_update,
+            dim=[r.num_blocks],
+            inputs=[
+                state.gap.flatten(), state.slip_x.flatten(), state.slip_y.flatten(), state.pressure.flatten(),
+                model.scalar(self.sigma_max / s), model.scalar(self.tau_max / s), model.scalar(self.delta_n / L),
+                model.scalar(self.delta_t / L), model.scalar(relax), *r.args(model.n_cells),
+            ],
+            outputs=[state.adhesive_pressure.flatten(), state.adhesive_shear_x.flatten(), state.adhesive_shear_y.flatten(), sums],
+            block_dim=r.block_dim,
+            device=model.device,
+        )
+
+    def describe(self) -> dict:
+        return {"law": "smc", "sigma_max": self.sigma_max, "tau_max": self.tau_max, "delta_n": self.delta_n,
+                "delta_t": self.delta_t, "work_of_adhesion": self.work_of_adhesion}
+
+
+@dataclass(frozen=True)
+class Dugdale:
+    """Dugdale-Maugis law: tension sigma_0 where 0 < h <= h_0 (Maugis 1992), w = sigma_0 h_0.
+
+    Attributes:
+        sigma_0: adhesive tension [Pa].
+        h_0: range [m].
+    """
+
+    sigma_0: float
+    h_0: float
+
+    def __post_init__(self):
+        _positive("adhesion.sigma_0", self.sigma_0)
+        _positive("adhesion.h_0", self.h_0)
+
+    @property
+    def work_of_adhesion(self) -> float:
+        return self.sigma_0 * self.h_0
+
+    @property
+    def range(self) -> float:
+        return self.h_0
+
+    def update(self, model, state, relax: float, sums):
+        r = model.reduction
+        wp.launch_tiled(
+            ak.dugdale_update,
+            dim=[r.num_blocks],
+            inputs=[
+                state.gap.flatten(), state.pressure.flatten(), model.scalar(self.sigma_0 / model.traction_scale),
+                model.scalar(self.h_0 / model.length_scale), model.scalar(relax), *r.args(model.n_cells),
+            ],
+            outputs=[state.adhesive_pressure.flatten(), sums],
+            block_dim=r.block_dim,
+            device=model.device,
+        )
+
+    def describe(self) -> dict:
+        return {"law": "dugdale", "sigma_0": self.sigma_0, "h_0": self.h_0, "work_of_adhesion": self.work_of_adhesion}
