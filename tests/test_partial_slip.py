@@ -102,3 +102,30 @@ def test_hysteresis_loop_closes():
     q_load = lambda d: MU * P * (1 - (1 - d / dmax) ** 1.5)  # noqa: E731
     expected = q_load(amp) - 2 * q_load(amp / 2)
     assert abs(down_zero - expected) < 0.02 * MU * P, f"F_x at delta_x = 0 on unloading {down_zero:.4e} vs M-D {expected:.4e}"
+
+
+@pytest.mark.parametrize("adhesive", [False, True])
+def test_stick_cells_do_not_slip(adhesive):
+    """The stick condition itself, on the coupled pair: over a load step the slip of every stick
+    cell is unchanged (to the solver tolerance times the shift), and slip cells' shear is at its
+    limit and along their slip increment."""
+    from warpcontact.adhesion import SMC
+
+    law = SMC(2e7, 2e7, 2e-11, 2e-11) if adhesive else None
+    model = ContactModel(PAPER_PAIR, Sphere(R, "paraboloid"), Grid(48, 3 * A))
+    solver = ContactSolver(model, TaborVonMises(0.8, COPPER.yield_strength), adhesion=law)
+    state = ContactState(model)
+    for k in (1, 2):
+        assert solver.step(state, (0.0, 0.0, DZ * k / 2)).converged
+    shift = 2.0e-11
+    before = state.to_numpy_si()
+    assert solver.step(state, (shift, 0.0, DZ)).converged
+    after = state.to_numpy_si()
+    status = state.status.numpy()
+    ds = np.hypot(after["slip_x"] - before["slip_x"], after["slip_y"] - before["slip_y"])
+    assert (status == 1).sum() > 10 and (status == 2).sum() > 10
+    assert ds[status == 1].max() < 1e-6 * shift, f"stick cells slipped by up to {ds[status == 1].max():.2e} m"
+    slipping = (status == 2) & (ds > 1e-3 * shift)
+    cos = (after["shear_x"] * (after["slip_x"] - before["slip_x"]) + after["shear_y"] * (after["slip_y"] - before["slip_y"]))
+    cos = cos[slipping] / (np.hypot(after["shear_x"], after["shear_y"])[slipping] * ds[slipping])
+    assert cos.min() > 0.999, "slip cells' shear is not along their slip increment"

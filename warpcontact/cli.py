@@ -96,6 +96,9 @@ def _parser():
     t.add_argument("--no-adhesion", action="store_true", help="the adhesionless columns (adhesion is not implemented yet)")
     t.add_argument("--n", type=int, nargs="+", default=[128], help="cells per side; several values give a grid study")
     t.add_argument("--size-in-a", type=float, default=3.0, help="domain side in Hertz radii a = sqrt(R delta_z)")
+    from .cli_figure import add_parser as add_figure_parser
+
+    add_figure_parser(sub)
     t.add_argument("--k-tau", type=float, nargs="+", help="only these k_tau columns (0.50, 0.80, 0.95)")
     t.add_argument("--delta-z-um", type=float, nargs="+", help="only these delta_z rows in um (1e-5, 5e-5, 1e-4, 1.5e-4)")
     _common(t)
@@ -263,7 +266,10 @@ def main(argv=None) -> int:
     warnings.showwarning = _show_warning
     args = _parser().parse_args(argv)
     try:
-        return {"solve": cmd_solve, "gross-slip": cmd_gross_slip, "table2": cmd_table2}[args.command](args)
+        from .cli_figure import cmd_figure
+
+        commands = {"solve": cmd_solve, "gross-slip": cmd_gross_slip, "table2": cmd_table2, "figure": cmd_figure}
+        return commands[args.command](args)
     except InputError as e:
         print(f"warpcontact: error: {e}", file=sys.stderr)
         return EXIT_INPUT

@@ -54,7 +54,7 @@ def find_gross_slip(
         nonlocal converged
         info = solver.step(st, approach)
         converged = converged and info.converged
-        summary = state_summary(st)
+        summary = state_summary(st, solver.adhesion)
         summary["kind"] = kind
         summary["stick_cells"] = stick_cells(st)
         path.append(summary)

@@ -7,6 +7,7 @@ import time
 from dataclasses import dataclass, field
 
 from . import __version__
+from .adhesion import SMC, Dugdale
 from .friction import Coulomb, TaborVonMises
 from .guards import warn_if_coarse
 from .model import ContactModel
@@ -26,12 +27,23 @@ def friction_law(case):
     return TaborVonMises(fr.k_tau, case.pair.softer.yield_strength, **kw)
 
 
+def adhesion_law(case):
+    """The adhesion law of a case, or None."""
+    ad = case.adhesion
+    if ad is None:
+        return None
+    if ad.law == "smc":
+        return SMC(ad.sigma_max, ad.tau_max, ad.delta_n, ad.delta_t)
+    return Dugdale(ad.sigma_0, ad.h_0)
+
+
 def build(case):
     """(model, solver, state) for a case."""
     s = case.solver
     model = ContactModel(case.pair, case.sphere, case.grid, device=s.device, dtype=s.dtype, fft=s.fft)
     cap = case.pair.softer.hardness if case.friction is not None and case.friction.hardness_cap else math.inf
-    solver = ContactSolver(model, friction_law(case), tol=s.tol, max_iter=s.max_iter, pressure_cap=cap)
+    solver = ContactSolver(model, friction_law(case), tol=s.tol, max_iter=s.max_iter, pressure_cap=cap,
+                           adhesion=adhesion_law(case))
     return model, solver, ContactState(model)
 
 
@@ -92,10 +104,10 @@ def run_path(case, on_state=None, keep_fields: bool = True) -> PathResult:
         for k, approach in enumerate(path):
             solver.step(state, approach)
             warn_if_coarse(state)
-            summary = state_summary(state)
+            summary = state_summary(state, solver.adhesion)
             result.states.append(summary)
             if keep_fields:
-                result.fields.append(state_fields(state))
+                result.fields.append(state_fields(state, solver.adhesion))
             result.elapsed_s = time.perf_counter() - t0
             if on_state is not None:
                 on_state(k, len(path), summary, result)

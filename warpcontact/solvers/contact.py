@@ -38,8 +38,8 @@ class ContactSolver:
         max_outer: limit on the turns.
         pressure_cap: upper bound of the contact pressure [Pa], e.g. the softer body's hardness
             (elastic-perfectly-plastic surface); inf for none.
-        relax: initial relaxation of the adhesive update (halved, down to 1/64, when a turn's
-            change grows).
+        relax: relaxation of the adhesive update (halved, down to 1/64, when the adhesive
+            tractions' change grows from one turn to the next; recovering by 1.25x when it falls).
     """
 
     def __init__(self, model, friction=None, tol=None, outer_tol=None, max_iter: int = 2000, max_outer: int = 200,
@@ -62,6 +62,7 @@ class ContactSolver:
             self.tangential = TangentialSolver(model, tol, max_iter)
             self.target_x, self.target_y = f(), f()
             self.shear_limit = f()
+            self.scratch_x, self.scratch_y = f(), f()
 
     @property
     def coupled(self) -> bool:
@@ -92,8 +93,10 @@ class ContactSolver:
             for src, dst in pairs:
                 wp.launch(ak.add_to, dim=m.n_cells, inputs=[src.flatten()], outputs=[dst.flatten()], device=m.device)
 
-    def _update_slip(self, state, dx, dy):
-        """state.slip <- delta - u_t for the current tractions (u_t in state.disp_x/y as well)."""
+    def _update_slip(self, state, dx, dy, final: bool = False):
+        """state.slip <- delta - u_t for the current tractions, u_t = K_tt q (state.disp_x/y)
+        plus the known displacements. The total u_t goes to state.disp_x/y only when ``final``
+        (during the turns state.disp_x/y must stay K_tt q)."""
         m = self.model
         L = m.length_scale
         known_x = self.known_x if self.iterative else self.tangential.no_displacement
@@ -103,7 +106,8 @@ class ContactSolver:
             dim=m.n_cells,
             inputs=[state.disp_x.flatten(), state.disp_y.flatten(), known_x.flatten(), known_y.flatten(),
                     m.scalar(dx / L), m.scalar(dy / L)],
-            outputs=[state.slip_x.flatten(), state.slip_y.flatten(), state.disp_x.flatten(), state.disp_y.flatten()],
+            outputs=[state.slip_x.flatten(), state.slip_y.flatten(),
+                     (state.disp_x if final else self.scratch_x).flatten(), (state.disp_y if final else self.scratch_y).flatten()],
             device=m.device,
         )
 
@@ -131,7 +135,7 @@ class ContactSolver:
             )
         for prev, cur in zip(self.previous, (state.pressure, state.shear_x, state.shear_y)):
             wp.copy(prev, cur)
-        change, last_change, relax = math.inf, math.inf, self.relax
+        change, last_adhesive_change, relax = math.inf, math.inf, self.relax
         outer = 0
         converged_turns = not self.iterative
         while outer < self.max_outer:
@@ -152,23 +156,30 @@ class ContactSolver:
                     self.known_x if self.iterative else None, self.known_y if self.iterative else None, tol=turn_tol,
                 )
                 iterations += tangential_info.iterations
-                self._update_slip(state, dx, dy)
+                if self.adhesion is not None:  # the adhesive shear follows the current slip
+                    self._update_slip(state, dx, dy)
+                elif not self.iterative:
+                    self._update_slip(state, dx, dy, final=True)
             if not self.iterative:
                 break
             change = max(self._relative_change(state), adhesive_change)
             if change < self.outer_tol and turn_tol == self.tol:
                 converged_turns = True
                 break
-            if self.adhesion is not None and change > last_change and outer > 2:
-                relax = max(relax * 0.5, 1.0 / 64)
-            last_change = change
+            if self.adhesion is not None and outer > 2:
+                # damp the adhesive update when its own change grows, let it recover when it falls
+                if adhesive_change > last_adhesive_change:
+                    relax = max(relax * 0.5, 1.0 / 64)
+                else:
+                    relax = min(relax * 1.25, self.relax)
+            last_adhesive_change = adhesive_change
         if self.iterative:  # gap and u_z with the final tractions held fixed
             self._known_displacements(state)
             final = self.normal.solve(state, dz, self.known_z)
             iterations += final.iterations
             normal_info = final
             if self.friction is not None:
-                self._update_slip(state, dx, dy)
+                self._update_slip(state, dx, dy, final=True)
         state.approach = (dx, dy, dz)
         residual = max(normal_info.residual, tangential_info.residual if tangential_info else 0.0)
         converged = normal_info.converged and (tangential_info is None or tangential_info.converged) and converged_turns

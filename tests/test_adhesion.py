@@ -1,0 +1,98 @@
+"""Adhesion: the laws against their closed forms, the DMT pull-off limit, adhesion in a case."""
+
+import math
+
+import numpy as np
+import pytest
+import warp as wp
+from scipy import integrate
+
+from warpcontact.adhesion import SMC, Dugdale
+from warpcontact.geometry import Grid, Sphere
+from warpcontact.materials import PAPER_PAIR
+from warpcontact.model import ContactModel
+from warpcontact.pull_off import approach_retract, tabor_parameter
+from warpcontact.reference import maugis_dugdale_pull_off
+from warpcontact.solvers.contact import ContactSolver
+from warpcontact.state import ContactState
+
+
+def test_smc_and_dugdale_kernels_match_closed_forms(device):
+    """Relaxation 1: the kernel's tractions equal MODEL.md section 6 evaluated in numpy (1e-12)."""
+    n = 16
+    model = ContactModel(PAPER_PAIR, Sphere(1e-6), Grid(n, 1e-7), device=device)
+    state = ContactState(model)
+    rng = np.random.default_rng(3)
+    law = SMC(sigma_max=2e8, tau_max=1e8, delta_n=5e-10, delta_t=8e-10)
+    L, E = model.length_scale, model.traction_scale
+    h = rng.uniform(-1e-10, 3e-9, (n, n))
+    sx, sy = rng.normal(0, 1e-9, (2, n, n))
+    sx[0, 0] = sy[0, 0] = 0.0
+    p_c = np.where(rng.random((n, n)) < 0.2, 1e-3, 0.0)  # some cells in contact: no adhesive traction
+    for name, v in (("gap", h / L), ("slip_x", sx / L), ("slip_y", sy / L), ("pressure", p_c)):
+        getattr(state, name).assign(v)
+    law.update(model, state, 1.0, model.scalars(2))
+    xn = np.maximum(h, 0) / law.delta_n
+    s = np.hypot(sx, sy)
+    xt = s / law.delta_t
+    e = np.exp(1 - np.sqrt(xn**2 + xt**2))
+    out = p_c <= 0
+    p_ref = np.where(out, -law.sigma_max * xn * e, 0.0)
+    q = np.where(out, law.tau_max * xt * e, 0.0)
+    qx_ref = np.where(s > 0, q * sx / np.where(s > 0, s, 1), 0.0)
+    f = state.to_numpy_si()
+    assert np.allclose(f["adhesive_pressure"], p_ref, rtol=1e-12, atol=1e-12 * law.sigma_max)
+    assert np.allclose(f["adhesive_shear_x"], qx_ref, rtol=1e-12, atol=1e-12 * law.tau_max)
+    # the work of pure opening is e sigma_max delta_n
+    w = law.sigma_max * law.delta_n * integrate.quad(lambda x: x * math.exp(1 - x), 0, np.inf)[0]
+    assert w == pytest.approx(law.work_of_adhesion, rel=1e-9)
+    dug = Dugdale(sigma_0=1e8, h_0=4e-10)
+    state.adhesive_pressure.zero_()
+    dug.update(model, state, 1.0, model.scalars(2))
+    ref = np.where(out & (h > 0) & (h <= dug.h_0), -dug.sigma_0, 0.0)
+    assert np.allclose(state.to_numpy_si()["adhesive_pressure"], ref, rtol=1e-12, atol=1e-6)
+
+
+def test_pull_off_dmt_limit():
+    """Small Tabor parameter (0.074): the pull-off force approaches 2 pi R w (Derjaguin-Muller-
+    Toporov). Expected here: Maugis-Dugdale at lambda = 1.16 mu gives 0.98 of it; allowed 3 %
+    (the delta_z sampling of the retraction curve, 0.25 nm, and the domain's truncated tail)."""
+    R, w, dn = 1e-6, 0.05, 1e-9
+    law = SMC(w / (math.e * dn), w / (math.e * dn), dn, dn)
+    mu = tabor_parameter(PAPER_PAIR, R, w, dn)
+    assert 0.05 < mu < 0.1
+    model = ContactModel(PAPER_PAIR, Sphere(R), Grid(64, 3.2e-7))
+    r = approach_retract(model, ContactSolver(model, None, adhesion=law), -dn, 1e-9, -1e-9, 8)
+    assert r["converged"]
+    ratio = r["pull_off_force"] / (-2 * math.pi * R * w)
+    expected = -maugis_dugdale_pull_off(1.16 * mu) / 2
+    assert abs(ratio - 1) < 0.03, f"pull-off / (2 pi R w) = {ratio:.4f} (Maugis-Dugdale at lambda = 1.16 mu: {expected:.4f})"
+
+
+def test_maugis_dugdale_reference_limits():
+    """The Maugis-Dugdale transcription reproduces its limits: DMT -2, JKR -1.5 (in pi w R)."""
+    assert maugis_dugdale_pull_off(1e-3) == pytest.approx(-2.0, abs=2e-3)
+    assert maugis_dugdale_pull_off(20.0) == pytest.approx(-1.5, abs=2e-3)
+    vals = [maugis_dugdale_pull_off(x) for x in (0.1, 0.5, 1.0, 2.0)]
+    assert all(a < b for a, b in zip(vals, vals[1:]))  # monotone between the limits
+
+
+def test_adhesion_enlarges_contact_and_stick_area():
+    """The paper's observation (Figure 1): with adhesion the contact and the stick areas grow."""
+    from warpcontact.friction import TaborVonMises
+    from warpcontact.results import state_summary
+
+    R, dz = 10e-6, 5e-11
+    a = math.sqrt(R * dz)
+    areas = {}
+    for label, law in (("none", None), ("smc", SMC(2e7, 2e7, 2e-11, 2e-11))):
+        model = ContactModel(PAPER_PAIR, Sphere(R), Grid(48, 4 * a))
+        solver = ContactSolver(model, TaborVonMises(0.8, 200e6), adhesion=law)
+        state = ContactState(model)
+        for k in (1, 2):
+            assert solver.step(state, (0.0, 0.0, dz * k / 2)).converged
+        assert solver.step(state, (3.0e-11, 0.0, dz)).converged
+        areas[label] = state_summary(state, law)
+    assert areas["smc"]["contact_area"] > areas["none"]["contact_area"]
+    assert areas["smc"]["stick_area"] > areas["none"]["stick_area"]
+    assert areas["smc"]["adhesive_area"] > 0 and areas["none"]["adhesive_area"] == 0

@@ -1,0 +1,282 @@
+"""Figures of solved states (warpcontact.plots) and the ``figure`` sub-command (warpcontact.cli_figure)."""
+
+import argparse
+from pathlib import Path
+
+import numpy as np
+import pytest
+from matplotlib.figure import Figure
+
+from warpcontact import plots
+from warpcontact.case import load_case
+from warpcontact.cli_figure import add_parser, cmd_figure
+from warpcontact.errors import InputError
+from warpcontact.runner import run_path
+
+ROOT = Path(__file__).resolve().parents[1]
+PNG_SIGNATURE = b"\x89PNG\r\n\x1a\n"
+
+
+def _partial_slip_case(folder: Path) -> Path:
+    """The Table 2 example (k_tau 0.80, delta_z 5e-5 um) on 48 x 48 cells, shifted to delta_x = 3.5e-11 m."""
+    text = (ROOT / "examples" / "table2_k080_dz5e-5.toml").read_text()
+    assert "n = 96" in text and "steps = 4" in text
+    text = text.replace("n = 96", "n = 48", 1).replace("steps = 4", "delta_x = 3.5e-11\nsteps = 2", 1)
+    path = folder / "case.toml"
+    path.write_text(text)
+    return path
+
+
+@pytest.fixture(scope="module")
+def solved(tmp_path_factory):
+    """(fields dict, NPZ path) of the solved partial-slip path: its last state has stick and slip cells."""
+    folder = tmp_path_factory.mktemp("solved")
+    result = run_path(load_case(_partial_slip_case(folder)))
+    assert result.converged
+    fields = result.stacked_fields()
+    npz = folder / "fields.npz"
+    np.savez_compressed(npz, **fields)
+    return fields, npz
+
+
+@pytest.fixture(scope="module")
+def fields(solved):
+    f = solved[0]
+    last = -1
+    contact, stick = f["contact_mask"][last], f["stick_mask"][last]
+    assert stick.any() and (contact & ~stick).any(), "the test case must end in partial slip"
+    return f
+
+
+def _rgb(fig: Figure) -> np.ndarray:
+    fig.canvas.draw()
+    return np.asarray(fig.canvas.buffer_rgba())[..., :3].astype(int)
+
+
+def _inside_axes(fig: Figure, rgb: np.ndarray) -> np.ndarray:
+    """The pixels of the first axes (the map), without the legend below it."""
+    x0, y0, x1, y1 = fig.axes[0].get_window_extent().extents
+    h = rgb.shape[0]
+    return rgb[int(h - y1) + 2:int(h - y0) - 2, int(x0) + 2:int(x1) - 2]
+
+
+def _orange(rgb):  # the paper's stick colour, #D95319 (217, 83, 25)
+    r, g, b = rgb[..., 0], rgb[..., 1], rgb[..., 2]
+    return (r > 180) & (g > 50) & (g < 130) & (b < 70)
+
+
+def _blue(rgb):  # the paper's contact colour, #0072BD (0, 114, 189)
+    r, g, b = rgb[..., 0], rgb[..., 1], rgb[..., 2]
+    return (r < 50) & (g > 80) & (g < 150) & (b > 160)
+
+
+def _yellow(rgb):  # the paper's adhesive colour, #EDB120 (237, 177, 32)
+    r, g, b = rgb[..., 0], rgb[..., 1], rgb[..., 2]
+    return (r > 200) & (g > 150) & (g < 210) & (b < 80)
+
+
+def test_each_function_returns_a_figure(fields):
+    for fn in (plots.area_map, plots.field_maps, plots.profile):
+        fig = fn(fields)
+        assert isinstance(fig, Figure)
+        assert _rgb(fig).shape[2] == 3  # draws on its own Agg canvas
+
+
+def test_no_pyplot_state_is_left_behind(fields):
+    import sys
+
+    plots.area_map(fields)
+    plots.field_maps(fields)
+    if "matplotlib.pyplot" in sys.modules:  # another test may have imported it: nothing of ours is open
+        import matplotlib.pyplot as plt
+
+        assert plt.get_fignums() == []
+
+
+def test_save_writes_a_png_atomically(fields, tmp_path):
+    path = tmp_path / "sub" / "area.png"
+    plots.save(plots.area_map(fields), path, dpi=60)
+    assert path.read_bytes()[:8] == PNG_SIGNATURE
+    assert [p.name for p in path.parent.iterdir()] == ["area.png"]  # no temporary file left
+    first = path.read_bytes()
+    plots.save(plots.profile(fields), path, dpi=60)  # replaced whole
+    assert path.read_bytes()[:8] == PNG_SIGNATURE and path.read_bytes() != first
+
+
+def test_area_map_legend_names_the_areas_in_nm2(fields):
+    fig = plots.area_map(fields)
+    legend = fig.legends[0] if fig.legends else fig.axes[0].get_legend()
+    texts = [t.get_text() for t in legend.get_texts()]
+    dA = (fields["x"][1] - fields["x"][0]) * (fields["y"][1] - fields["y"][0]) * 1e18
+    stick_nm2 = fields["stick_mask"][-1].sum() * dA
+    stick = [t for t in texts if "stick" in t]
+    assert stick and f"{stick_nm2:,.0f} nm" in stick[0], texts
+    assert any("A_c" in t and "contact" in t for t in texts)
+    assert any("A_{adh}" in t and "no adhesion" in t for t in texts)  # absent: the legend says so
+    ax = fig.axes[0]
+    assert ax.get_xlabel() == "x [nm]" and ax.get_ylabel() == "y [nm]"
+    assert ax.get_aspect() == 1.0
+
+
+def test_area_map_zooms_on_the_contact_with_a_margin(fields):
+    ax = plots.area_map(fields).axes[0]
+    x0, x1 = ax.get_xlim()
+    rows, cols = np.nonzero(fields["contact_mask"][-1])
+    h = (fields["x"][1] - fields["x"][0]) * 1e9
+    cx0, cx1 = fields["x"][cols.min()] * 1e9 - h / 2, fields["x"][cols.max()] * 1e9 + h / 2
+    assert x0 < cx0 and x1 > cx1  # the whole contact shows
+    assert (x1 - x0) == pytest.approx(1.3 * max(cx1 - cx0, (rows.max() - rows.min() + 1) * h), rel=1e-6)
+    assert (x1 - x0) < 0.95 * (fields["x"][-1] - fields["x"][0]) * 1e9  # zoomed in
+
+
+def test_area_map_colours_stick_orange_and_slip_blue(fields):
+    fig = plots.area_map(fields)
+    rgb = _inside_axes(fig, _rgb(fig))
+    n_orange, n_blue = _orange(rgb).sum(), _blue(rgb).sum()
+    assert n_orange > 2000 and n_blue > 2000, (n_orange, n_blue)
+    assert not _yellow(rgb).any()  # no adhesion in this file
+    # more slip than stick at the last state: more blue than orange, as in the cells
+    cells_stick, cells_slip = fields["stick_mask"][-1].sum(), (fields["contact_mask"][-1] & ~fields["stick_mask"][-1]).sum()
+    assert cells_slip > cells_stick and n_blue > n_orange
+    # the orange stick patch lies inside the blue ring of slip cells
+    ys, xs = np.nonzero(_orange(rgb))
+    yb, xb = np.nonzero(_blue(rgb))
+    assert abs(xs.mean() - xb.mean()) < 0.15 * (xb.max() - xb.min())
+    assert xb.min() < xs.min() and xb.max() > xs.max()
+
+
+@pytest.mark.parametrize("drop", [False, True])
+def test_no_adhesion_means_no_yellow_and_the_legend_says_so(fields, drop):
+    """A solve without adhesion writes zero adhesive fields; older files have none: same figure."""
+    f = dict(fields)
+    if drop:
+        for key in ("adhesive_mask", "adhesive_pressure", "adhesive_shear_x", "adhesive_shear_y"):
+            f.pop(key, None)
+    assert not plots.has_adhesion(f)
+    fig = plots.area_map(f)
+    assert not _yellow(_rgb(fig)).any()
+    texts = [t.get_text() for t in fig.legends[0].get_texts()]
+    assert any("A_{adh}" in t and "no adhesion" in t for t in texts), texts
+    for fn in (plots.field_maps, plots.profile):
+        assert isinstance(fn(f), Figure)
+
+
+def test_area_map_draws_an_adhesive_rim_yellow(fields):
+    f = {k: np.array(v) for k, v in fields.items()}
+    contact = f["contact_mask"]
+    grown = contact.copy()
+    for ax in (1, 2):
+        grown |= np.roll(contact, 1, axis=ax) | np.roll(contact, -1, axis=ax)
+    f["adhesive_mask"] = grown & ~contact
+    f["adhesive_pressure"] = np.where(f["adhesive_mask"], -1e6, 0.0)
+    fig = plots.area_map(f)
+    assert _yellow(_rgb(fig)).sum() > 200
+    texts = [t.get_text() for t in fig.legends[0].get_texts()]
+    assert any("A_{adh}" in t and "nm$^2$" in t and "no adhesion" not in t for t in texts)
+    assert isinstance(plots.profile(f), Figure)
+
+
+def test_field_maps_has_four_panels_with_unit_colour_bars(fields):
+    fig = plots.field_maps(fields)
+    labels = " ".join(ax.get_ylabel() for ax in fig.axes)
+    for unit in ("pressure [MPa]", "[MPa]", "gap $h$ [nm]"):
+        assert unit in labels, labels
+    maps = [ax for ax in fig.axes if ax.get_xlabel() == "x [nm]"]
+    assert len(maps) == 4
+    assert _orange(_rgb(fig)).any() and _blue(_rgb(fig)).any()
+
+
+def test_profile_in_mpa_and_nm_with_optional_shear_limit(fields):
+    ax = plots.profile(fields).axes[0]
+    assert ax.get_xlabel() == "x [nm]" and "MPa" in ax.get_ylabel()
+    peak = max(np.nanmax(np.asarray(line.get_ydata(), dtype=float)) for line in ax.get_lines())
+    assert peak == pytest.approx(fields["pressure"][-1].max() * 1e-6, rel=0.05)  # the centre row carries ~p0
+    assert not any("limit" in line.get_label() for line in ax.get_lines())
+    # with a shear limit (Tabor + von Mises, MODEL.md section 5), it is drawn
+    p = fields["pressure"]
+    k_vm, s_y, k_tau = 1 / np.sqrt(3), 200e6, 0.80
+    mu_b = k_vm / np.sqrt(k_tau**-2 - 1)
+    f = dict(fields, shear_limit=np.minimum(mu_b * p, k_vm * np.sqrt(np.maximum(s_y**2 - p**2, 0))))
+    ax = plots.profile(f).axes[0]
+    assert any("limit" in line.get_label() for line in ax.get_lines())
+
+
+def test_state_index_out_of_range(fields):
+    n = fields["pressure"].shape[0]
+    with pytest.raises(IndexError):
+        plots.area_map(fields, index=n)
+    assert isinstance(plots.area_map(fields, index=-n), Figure)
+
+
+# ---------------------------------------------------------------------------------------------- CLI
+
+
+def _parser():
+    parser = argparse.ArgumentParser(prog="warpcontact")
+    sub = parser.add_subparsers(dest="command", required=True)
+    add_parser(sub)
+    return parser
+
+
+def test_cmd_figure_writes_three_pngs(solved, tmp_path):
+    _, npz = solved
+    for source in (npz.parent, npz):  # a solve's folder or the NPZ itself
+        out = tmp_path / ("from_" + Path(source).name)
+        args = _parser().parse_args(["figure", str(source), "--out", str(out), "--quiet"])
+        assert cmd_figure(args) == 0
+        for name in ("area_map.png", "fields.png", "profile.png"):
+            assert (out / name).read_bytes()[:8] == PNG_SIGNATURE, name
+
+
+def test_cmd_figure_state_option(solved, tmp_path, capsys):
+    _, npz = solved
+    args = _parser().parse_args(["figure", str(npz), "--out", str(tmp_path / "s1"), "--state", "1"])
+    assert cmd_figure(args) == 0
+    assert "state 1" in capsys.readouterr().err  # not quiet: names what it wrote
+    for bad in ("4", "-5", "99"):
+        args = _parser().parse_args(["figure", str(npz), "--out", str(tmp_path / "bad"), "--state", bad])
+        with pytest.raises(InputError) as e:
+            cmd_figure(args)
+        assert e.value.key == "--state" and "out of range" in e.value.problem
+    assert not (tmp_path / "bad").exists()
+
+
+def test_cmd_figure_marks_an_unconverged_state(solved, tmp_path, capsys):
+    import json
+    import shutil
+
+    _, npz = solved
+    run = tmp_path / "run"
+    run.mkdir()
+    shutil.copy(npz, run / "fields.npz")
+    n = np.load(npz)["pressure"].shape[0]
+    (run / "result.json").write_text(json.dumps({"states": [{"converged": i != n - 1} for i in range(n)]}))
+    args = _parser().parse_args(["figure", str(run), "--out", str(tmp_path / "fig"), "--quiet"])
+    assert cmd_figure(args) == 0
+    assert "did not converge" in capsys.readouterr().err
+    args = _parser().parse_args(["figure", str(run), "--out", str(tmp_path / "fig0"), "--state", "0", "--quiet"])
+    assert cmd_figure(args) == 0
+    assert "did not converge" not in capsys.readouterr().err
+
+
+def test_cmd_figure_bad_inputs_raise_input_error(tmp_path):
+    bad = tmp_path / "not.npz"
+    bad.write_bytes(b"this is not a zip file")
+    empty = tmp_path / "empty_dir"
+    empty.mkdir()
+    partial = tmp_path / "partial.npz"
+    np.savez(partial, pressure=np.zeros((1, 4, 4)))
+    objects = tmp_path / "objects.npz"
+    np.savez(objects, pressure=np.array([{"a": 1}], dtype=object))
+    for source in (tmp_path / "missing.npz", empty, bad, partial, objects):
+        args = _parser().parse_args(["figure", str(source), "--out", str(tmp_path / "out"), "--quiet"])
+        with pytest.raises(InputError) as e:
+            cmd_figure(args)
+        assert e.value.key == str(source), e.value
+
+
+def test_figure_help_has_an_example(capsys):
+    with pytest.raises(SystemExit):
+        _parser().parse_args(["figure", "--help"])
+    text = capsys.readouterr().out
+    assert "example:" in text and "warpcontact figure" in text and "--state" in text

@@ -1,0 +1,138 @@
+"""``warpcontact figure DIR_OR_NPZ --out OUTDIR [--state K]``: the paper-style figures of a solved state.
+
+Reads ``fields.npz`` written by ``warpcontact solve`` (numpy alone, no pickles) and writes
+OUTDIR/area_map.png (A_c blue, A_st orange, A_adh yellow, as in the paper's Figures 1 and 2),
+OUTDIR/fields.png (pressure, shear magnitude, gap and the area map) and OUTDIR/profile.png
+(pressure and shear along x through the centre). Wire it into ``cli.py`` with::
+
+    from .cli_figure import add_parser, cmd_figure
+    add_parser(sub)                  # in _parser(), on the subparsers object
+    {..., "figure": cmd_figure}      # in main()'s table of commands
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+import zipfile
+from pathlib import Path
+
+import numpy as np
+
+from .errors import InputError
+
+EXAMPLE_FIGURE = """example:
+  warpcontact solve examples/table2_k080_dz5e-5.toml --out out/k080
+  warpcontact figure out/k080 --out out/k080/fig               # the last state of the path
+  warpcontact figure out/k080/fields.npz --out out/k080/fig --state 2
+
+writes OUTDIR/area_map.png (elastic contact A_c blue, stick A_st orange, adhesive contact A_adh
+yellow; axes in nm, areas in nm^2 in the legend), OUTDIR/fields.png (pressure and shear magnitude
+[MPa], gap [nm], area map) and OUTDIR/profile.png (pressure, shear_x and the shear limit when the
+file has it, MPa against x in nm, through the centre row). --state counts from 0; negative values
+count from the end (-1, the default, is the last state)."""
+
+#: Arrays a file must hold for the figures (masks are rebuilt from pressure/status when missing).
+REQUIRED = ("pressure", "shear_x", "shear_y", "gap", "x", "y")
+
+
+def add_parser(sub):
+    """Register the ``figure`` sub-command on an argparse subparsers object; returns its parser."""
+    p = sub.add_parser(
+        "figure",
+        help="draw the contact, stick and adhesive areas and the fields of a solved state (PNG)",
+        description="Draw the paper-style area map (A_c blue, A_st orange, A_adh yellow), the field maps and "
+        "the centre-line profiles of one state of a solved path, from the fields.npz that 'warpcontact solve' "
+        "writes.",
+        epilog=EXAMPLE_FIGURE,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
+    p.add_argument("fields", metavar="DIR_OR_NPZ", help="a solve's output folder (holding fields.npz) or an NPZ file")
+    p.add_argument("--out", required=True, help="output folder for the PNG files (created if needed)")
+    p.add_argument("--state", type=int, default=-1,
+                   help="state of the path to draw, from 0; negative counts from the end (default -1, the last)")
+    p.add_argument("--dpi", type=int, default=150, help="resolution of the PNG files (default 150)")
+    p.add_argument("--quiet", action="store_true", help="do not list the files written")
+    p.set_defaults(func=cmd_figure)
+    return p
+
+
+def _npz_path(arg: str) -> Path:
+    p = Path(arg)
+    if p.is_dir():
+        p = p / "fields.npz"
+    if not p.exists():
+        raise InputError(str(arg), f"no such file: {p} (give a solve's output folder or its fields.npz)")
+    if not p.is_file():
+        raise InputError(str(arg), f"{p} is not a file")
+    return p
+
+
+def load_fields(arg) -> dict:
+    """The arrays of a fields NPZ as a dict of numpy arrays; InputError when missing or unreadable."""
+    path = _npz_path(str(arg))
+    try:
+        f = np.load(path, allow_pickle=False)
+        if not isinstance(f, np.lib.npyio.NpzFile):
+            raise InputError(str(arg), f"{path} holds a single array, not the NPZ of fields that 'solve' writes")
+        with f:
+            fields = {k: f[k] for k in f.files}
+    except InputError:
+        raise
+    except (OSError, ValueError, EOFError, zipfile.BadZipFile, KeyError) as e:
+        raise InputError(str(arg), f"cannot read {path} as an NPZ of fields: {e}") from None
+    missing = [k for k in REQUIRED if k not in fields]
+    if missing:
+        raise InputError(str(arg), f"{path} lacks the array(s) {', '.join(missing)}: not a fields.npz from 'solve'")
+    shape = fields["pressure"].shape
+    if len(shape) != 3 or shape[0] < 1 or shape[1:] != (fields["y"].size, fields["x"].size) or min(shape[1:]) < 2:
+        raise InputError(str(arg), f"{path}: pressure has shape {shape}, expected (n_states, len(y), len(x)) "
+                                   f"with x, y of at least 2 cells")
+    for k in ("shear_x", "shear_y", "gap", "contact_mask", "stick_mask", "status", "adhesive_mask",
+              "adhesive_pressure", "shear_limit"):
+        if k in fields and fields[k].shape != shape:
+            raise InputError(str(arg), f"{path}: {k} has shape {fields[k].shape}, pressure {shape}")
+    return fields
+
+
+def _not_converged(npz: Path, k: int) -> bool:
+    """True when the result.json beside the NPZ marks state k as not converged (no file: False)."""
+    import json
+
+    try:
+        states = json.loads((npz.parent / "result.json").read_text()).get("states", [])
+        return k < len(states) and states[k].get("converged") is False
+    except (OSError, ValueError, AttributeError, TypeError):
+        return False
+
+
+def cmd_figure(args) -> int:
+    from . import plots
+
+    fields = load_fields(args.fields)
+    n = fields["pressure"].shape[0]
+    k = args.state
+    if not -n <= k < n:
+        raise InputError("--state", f"{k} is out of range: the file holds {n} state(s), 0 ... {n - 1} "
+                                    f"(or -{n} ... -1 from the end)")
+    dpi = getattr(args, "dpi", 150)
+    if dpi is None or not 10 <= dpi <= 1200:
+        raise InputError("--dpi", f"must be between 10 and 1200, got {dpi!r}")
+    out = Path(args.out)
+    if out.exists() and not out.is_dir():
+        raise InputError("--out", f"{out} exists and is not a folder")
+    unconverged = _not_converged(_npz_path(str(args.fields)), k % n)
+    if unconverged:
+        print(f"warpcontact: warning: state {k % n} did not converge in its solve (result.json); "
+              "the figures are marked NOT CONVERGED", file=sys.stderr)
+    written = []
+    for name, draw in (("area_map.png", plots.area_map), ("fields.png", plots.field_maps),
+                       ("profile.png", plots.profile)):
+        fig = draw(fields, k)
+        if unconverged:
+            fig.text(0.01, 0.995, "NOT CONVERGED", color="red", fontweight="bold", ha="left", va="top")
+        plots.save(fig, out / name, dpi=dpi)
+        written.append(out / name)
+    if not getattr(args, "quiet", False):
+        print(f"figure: state {k % n} (of 0-{n - 1}) -> " + ", ".join(str(p) for p in written), file=sys.stderr)
+    return 0
