@@ -69,7 +69,9 @@ def normal_gap(
             g = displacement[i] - rhs
             gap[i] = g
             p = pressure[i]
-            if p >= pressure_cap:
+            if not wp.isfinite(g) or not wp.isfinite(p):
+                s_viol += g * g + p * p  # non-finite: makes the residual non-finite, which stops the solve
+            elif p >= pressure_cap:
                 s_rhs += rhs * rhs
                 s_force += p
                 if g > zero:

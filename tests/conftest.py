@@ -4,6 +4,7 @@ import pytest
 import warp as wp
 
 wp.config.quiet = True
+wp.config.log_level = wp.LOG_WARNING
 wp.init()
 
 DEVICES = ["cpu"] + [f"cuda:{i}" for i in range(wp.get_cuda_device_count())]

@@ -136,3 +136,9 @@ def test_contact_beyond_the_domain_is_an_error(tmp_path):
 def test_coarse_contact_warns(tmp_path):
     r = run_cli("solve", small_case(tmp_path, **{"n = 128": "n = 12"}), "--out", tmp_path / "o", "--quiet")
     assert r.returncode == 0 and "warning" in r.stderr and "grid.n >=" in r.stderr
+
+
+def test_grid_too_large_for_memory_is_refused_before_allocating(tmp_path):
+    r = run_cli("solve", small_case(tmp_path, **{"n = 128": "n = 200000"}),
+                "--out", tmp_path / "o", "--quiet")
+    assert r.returncode == 2 and "grid.n" in r.stderr and "GiB" in r.stderr and "Traceback" not in r.stderr

@@ -9,7 +9,8 @@ __version__ = "0.1.0"
 
 import warp as _wp  # noqa: E402
 
-_wp.config.quiet = True  # no banner or per-module compile lines; set it back to False to see them
+_wp.config.quiet = True
+_wp.config.log_level = _wp.LOG_WARNING  # no banner or per-module compile lines (Warp 1.19 reads log_level)
 
 from .errors import ConvergenceError, InputError, NonFiniteError  # noqa: E402
 from .geometry import Grid, Sphere  # noqa: E402

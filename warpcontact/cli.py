@@ -8,6 +8,7 @@ Exit status: 0 success; 2 a mistake in the input (one line on stderr naming it, 
 from __future__ import annotations
 
 import argparse
+import math
 import sys
 from pathlib import Path
 
@@ -96,6 +97,20 @@ def _parser():
     t.add_argument("--no-adhesion", action="store_true", help="the adhesionless columns (adhesion is not implemented yet)")
     t.add_argument("--n", type=int, nargs="+", default=[128], help="cells per side; several values give a grid study")
     t.add_argument("--size-in-a", type=float, default=3.0, help="domain side in Hertz radii a = sqrt(R delta_z)")
+    po = sub.add_parser(
+        "pull-off",
+        help="approach and retract the sphere: force-displacement curve and pull-off force",
+        description="Needs an [adhesion] table. delta_z runs from -2 ranges of the law up to the case's delta_z and "
+        "back down to --retract-to (default: -(4 ranges of the law)), in --steps steps each way.",
+        epilog="example:\n  warpcontact pull-off examples/pull_off_dmt.toml --out out/pull\n\n"
+        "writes OUT/result.json (pull_off_force [N], the most tensile total F_z, and the curve) and OUT/pull_off.png.",
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
+    po.add_argument("case", help="case file (TOML) with an [adhesion] table")
+    po.add_argument("--steps", type=int, default=20, help="steps each way (default 20)")
+    po.add_argument("--retract-to", type=float, help="last delta_z [m] (default: -4 ranges of the law)")
+    _common(po)
+
     from .cli_figure import add_parser as add_figure_parser
 
     add_figure_parser(sub)
@@ -185,6 +200,75 @@ def cmd_gross_slip(args) -> int:
     return 0
 
 
+def cmd_pull_off(args) -> int:
+    from .pull_off import approach_retract, tabor_parameter
+    from .case import load_case
+    from .results import atomic_write_json
+    from .runner import build
+
+    case = load_case(args.case).with_overrides(device=args.device, dtype=args.dtype, fft=args.fft)
+    if case.adhesion is None:
+        raise InputError("adhesion", "pull-off needs an [adhesion] table (law = 'smc' or 'dugdale')")
+    if args.steps < 2:
+        raise InputError("--steps", f"must be at least 2, got {args.steps}")
+    model, solver, _ = build(case)
+    law = solver.adhesion
+    dz_max = case.load.delta_z_max
+    end = -4.0 * law.range if args.retract_to is None else args.retract_to
+    if not end < dz_max:
+        raise InputError("--retract-to", f"must lie below the deepest approach {dz_max:g} m, got {end:g}")
+    out = Path(args.out)
+
+    def on_state(k, total, summary):
+        if not args.quiet:
+            print(f"\rpull-off {k + 1}/{total} delta_z {summary['delta']['z']:+.3e} m  F_z {summary['force']['z']:+.3e} N"
+                  f"  turns {summary['outer_iterations']}   ", end="", file=sys.stderr, flush=True)
+
+    r = approach_retract(model, solver, -2.0 * law.range, dz_max, end, args.steps, on_state=on_state)
+    if not args.quiet:
+        print(file=sys.stderr)
+    R, w = case.sphere.radius, law.work_of_adhesion
+    result = {
+        **r, "work_of_adhesion": w, "tabor_parameter": tabor_parameter(case.pair, R, w, law.range),
+        "dmt_pull_off": -2 * math.pi * R * w, "jkr_pull_off": -1.5 * math.pi * R * w,
+        "device": str(model.device), "dtype": model.dtype_name, "case": case.to_dict(),
+        "software": {"warpcontact": __import__("warpcontact").__version__},
+    }
+    if not r["converged"]:
+        result["pull_off_force"] = None
+        result["note"] = "a state of the curve did not converge: the pull-off force is not reported"
+    atomic_write_json(out / "result.json", result)
+    _plot_pull_off(r, out / "pull_off.png", result)
+    if not r["converged"]:
+        print(f"not converged: a state of the approach-retract curve did not converge; see {out / 'result.json'}", file=sys.stderr)
+        return EXIT_NOT_CONVERGED
+    if not args.quiet:
+        print(f"pull-off force {r['pull_off_force']:.4e} N = {r['pull_off_force'] / (math.pi * R * w):.3f} pi R w "
+              f"(Tabor parameter {result['tabor_parameter']:.3g}) -> {out}", file=sys.stderr)
+    return 0
+
+
+def _plot_pull_off(r, path, result):
+    from matplotlib.figure import Figure
+
+    from .plots import save
+
+    fig = Figure(figsize=(6, 4.2))
+    ax = fig.add_subplot()
+    for branch, style in (("approach", "-o"), ("retract", "-s")):
+        pts = [(c["delta"]["z"] * 1e9, c["force"]["z"] * 1e6) for c in r["curve"] if c["branch"] == branch]
+        if pts:
+            x, y = zip(*pts)
+            ax.plot(x, y, style, ms=3, label=branch)
+    ax.axhline(result["dmt_pull_off"] * 1e6, color="0.5", ls="--", lw=0.8, label="DMT 2 pi R w")
+    ax.axhline(result["jkr_pull_off"] * 1e6, color="0.5", ls=":", lw=0.8, label="JKR 1.5 pi R w")
+    ax.set_xlabel("delta_z [nm]")
+    ax.set_ylabel("F_z [uN] (total, adhesive part included)")
+    ax.legend(fontsize=8)
+    ax.grid(alpha=0.3)
+    save(fig, path)
+
+
 def cmd_table2(args) -> int:
     import json
     import math
@@ -212,10 +296,16 @@ def cmd_table2(args) -> int:
                     raise InputError(name, f"{v!r} is not a cell of Table 2; choose from {known}")
             selected = [c for c in selected if any(math.isclose(c[column], v, rel_tol=1e-9) for v in values)]
     todo = [(n, k, dz) for n in args.n for k, dz in selected]
-    done = {(r["n"], r["k_tau"], r["delta_z_um"], r.get("size_in_a", 3.0)) for r in records}
+    settings_key = (args.size_in_a, args.device or "cpu", args.dtype or "float64", args.fft or "auto")
+
+    def key(n, k, dz, size_in_a, device, dtype, fft):
+        return (n, k, dz, size_in_a, device, dtype, fft)
+
+    done = {key(r["n"], r["k_tau"], r["delta_z_um"], r.get("size_in_a", 3.0), r.get("device", "cpu"),
+                r.get("dtype", "float64"), r.get("fft", "auto")) for r in records}
     interrupted = False
     for i, (n, k, dz) in enumerate(todo):
-        if (n, k, dz, args.size_in_a) in done:
+        if key(n, k, dz, *settings_key) in done:
             continue
         settings = Table2Settings(n=n, size_in_a=args.size_in_a, device=args.device or "cpu",
                                   dtype=args.dtype or "float64", fft=args.fft or "auto")
@@ -226,14 +316,21 @@ def cmd_table2(args) -> int:
         except KeyboardInterrupt:
             interrupted = True
             break
-        rec["size_in_a"] = args.size_in_a
+        rec.update(size_in_a=args.size_in_a, device=settings.device, dtype=settings.dtype, fft=settings.fft)
         records.append(rec)
-        _write_table2(out, records, atomic_write_json, atomic_write_bytes, markdown)
+        try:
+            _write_table2(out, records, atomic_write_json, atomic_write_bytes, markdown)
+        except KeyboardInterrupt:  # the atomic writes leave whole files either way
+            interrupted = True
+            break
         if not args.quiet:
             print(f"\rtable2 [{i + 1}/{len(todo)}] n {n} k_tau {k:.2f} delta_z {dz:.1e} um: delta_x_max "
                   f"{rec['delta_x_max_um']:.3e} um ({100 * rec['rel_diff_delta_x_max']:+.1f} %), mu {rec['mu']:.4f} "
                   f"({100 * rec['rel_diff_mu']:+.1f} %), {rec['elapsed_s']:.0f} s", file=sys.stderr)
-    _write_table2(out, records, atomic_write_json, atomic_write_bytes, markdown)
+    try:
+        _write_table2(out, records, atomic_write_json, atomic_write_bytes, markdown)
+    except KeyboardInterrupt:
+        interrupted = True
     if interrupted:
         print(f"interrupted: {len(records)} cell(s) written to {out}; rerun to finish", file=sys.stderr)
         return EXIT_INTERRUPTED
@@ -268,7 +365,8 @@ def main(argv=None) -> int:
     try:
         from .cli_figure import cmd_figure
 
-        commands = {"solve": cmd_solve, "gross-slip": cmd_gross_slip, "table2": cmd_table2, "figure": cmd_figure}
+        commands = {"solve": cmd_solve, "gross-slip": cmd_gross_slip, "table2": cmd_table2, "figure": cmd_figure,
+                    "pull-off": cmd_pull_off}
         return commands[args.command](args)
     except InputError as e:
         print(f"warpcontact: error: {e}", file=sys.stderr)

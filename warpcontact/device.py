@@ -15,6 +15,8 @@ _DTYPES = {"float64": wp.float64, "float32": wp.float32}
 def init_warp(quiet: bool = True):
     """Initialise Warp once, quietly."""
     wp.config.quiet = quiet
+    if quiet:
+        wp.config.log_level = wp.LOG_WARNING
     wp.init()
 
 

@@ -10,6 +10,7 @@ from . import __version__
 from .adhesion import SMC, Dugdale
 from .friction import Coulomb, TaborVonMises
 from .guards import warn_if_coarse
+from .resources import check_fits
 from .model import ContactModel
 from .results import state_fields, state_summary
 from .solvers.contact import ContactSolver
@@ -38,8 +39,9 @@ def adhesion_law(case):
 
 
 def build(case):
-    """(model, solver, state) for a case."""
+    """(model, solver, state) for a case; a case that will not fit in memory is refused first."""
     s = case.solver
+    check_fits(case.grid.n, s.dtype, s.device, case.friction is not None, s.fft)
     model = ContactModel(case.pair, case.sphere, case.grid, device=s.device, dtype=s.dtype, fft=s.fft)
     cap = case.pair.softer.hardness if case.friction is not None and case.friction.hardness_cap else math.inf
     solver = ContactSolver(model, friction_law(case), tol=s.tol, max_iter=s.max_iter, pressure_cap=cap,

@@ -48,6 +48,8 @@ class ProjectedCG:
 
     def _relative_residual(self, viol_slot: int, rhs_slot: int) -> float:
         s = self.sums.numpy().astype(np.float64)
+        if not (math.isfinite(s[viol_slot]) and math.isfinite(s[rhs_slot])):
+            return math.nan  # a non-finite traction or displacement: the caller raises NonFiniteError
         if s[rhs_slot] > 0:
             return math.sqrt(s[viol_slot] / s[rhs_slot])
         return 0.0 if s[viol_slot] == 0 else 1.0

@@ -68,6 +68,7 @@ class NormalSolver(ProjectedCG):
         if not np.any(state.pressure.numpy() > 0):
             self._initial_guess(state, float(approach), known)
         p, g, t, r = (a.flatten() for a in (state.pressure, state.gap, self.direction, self.response))
+        self.direction.zero_()  # no leftover from an earlier (possibly failed) solve
 
         def iteration():
             self.sums.zero_()

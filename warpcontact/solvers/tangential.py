@@ -50,6 +50,8 @@ class TangentialSolver(ProjectedCG):
         qx, qy, st = state.shear_x.flatten(), state.shear_y.flatten(), state.status.flatten()
         gx, gy, tx, ty, rx, ry = (a.flatten() for a in (self.grad_x, self.grad_y, self.dir_x, self.dir_y, self.resp_x, self.resp_y))
         limit = shear_limit.flatten()
+        self.dir_x.zero_()  # no leftover from an earlier (possibly failed) solve
+        self.dir_y.zero_()
         wp.launch(tk.tangential_classify, dim=m.n_cells, inputs=[limit], outputs=[qx, qy, st], device=m.device)
 
         def gradient():

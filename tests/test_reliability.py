@@ -1,0 +1,361 @@
+"""Reliability: repeatable results, float32 against float64, CPU against CUDA, properties of the
+operator and the shear laws (hypothesis), and non-finite values named where they appear."""
+
+import functools
+import math
+
+import numpy as np
+import pytest
+import warp as wp
+from hypothesis import assume, given, settings
+from hypothesis import strategies as st
+from hypothesis.extra import numpy as hnp
+
+from warpcontact.errors import NonFiniteError
+from warpcontact.friction import TaborVonMises
+from warpcontact.geometry import Grid, Sphere
+from warpcontact.gross_slip import estimate_delta_x_max
+from warpcontact.kernels import laws
+from warpcontact.kernels.tangential import STICK
+from warpcontact.materials import PAPER_PAIR
+from warpcontact.model import ContactModel
+from warpcontact.results import state_summary
+from warpcontact.solvers import NormalSolver
+from warpcontact.solvers.contact import ContactSolver
+from warpcontact.solvers.tangential import TangentialSolver
+from warpcontact.state import ContactState
+from warpcontact.table2 import Table2Settings, table2_cell
+
+R = 10e-6
+HERTZ_DZ = 1.0e-10  # m, the paper's 1e-4 um
+COUPLED_DZ = 5.0e-11  # m, the paper's 5e-5 um (Table 2: below the crossover pressure at k_tau 0.8)
+K_TAU, S_Y = 0.8, 200e6
+CUDA = [f"cuda:{i}" for i in range(wp.get_cuda_device_count())] or ["cuda:0"]
+no_cuda = pytest.mark.skipif(wp.get_cuda_device_count() == 0, reason="no CUDA device here")
+
+
+def rel(a, b) -> float:
+    return abs(a / b - 1.0)
+
+
+def hertz(n=64, device="cpu", dtype="float64", fft="auto") -> dict:
+    """Frictionless normal solve of the paper pair at 1e-4 um, domain 4a (as tests/test_hertz.py)."""
+    a = math.sqrt(R * HERTZ_DZ)
+    model = ContactModel(PAPER_PAIR, Sphere(R, "paraboloid"), Grid(n, 4 * a), device=device, dtype=dtype, fft=fft)
+    state = ContactState(model)
+    info = NormalSolver(model).solve(state, HERTZ_DZ)
+    assert info.converged, info
+    p = state.to_numpy_si()["pressure"]
+    return {"F_z": float(p.sum() * model.grid.cell_area), "p0": float(p.max()), "pressure": p}
+
+
+def coupled_path(n=48, device="cpu", dtype="float64", fft="auto") -> dict:
+    """Copper on steel, Tabor + von Mises (k_tau 0.8): delta_z in 2 steps, then delta_x at 1/4 and
+    1/2 of Mindlin's gross-slip estimate, every state by ContactSolver.step from fresh objects.
+    Partial slip throughout: the last state still has stick cells."""
+    a = math.sqrt(R * COUPLED_DZ)
+    model = ContactModel(PAPER_PAIR, Sphere(R), Grid(n, 3 * a), device=device, dtype=dtype, fft=fft)
+    law = TaborVonMises(K_TAU, S_Y)
+    solver, state = ContactSolver(model, law), ContactState(model)
+    est = estimate_delta_x_max(PAPER_PAIR, R, COUPLED_DZ, law)
+    for approach in ((0.0, 0.0, 0.5 * COUPLED_DZ), (0.0, 0.0, COUPLED_DZ), (0.25 * est, 0.0, COUPLED_DZ),
+                     (0.5 * est, 0.0, COUPLED_DZ)):
+        info = solver.step(state, approach)
+        assert info.converged, (approach, info)
+    out = state.to_numpy_si()
+    out["status"] = state.status.numpy().copy()
+    out["summary"] = state_summary(state)
+    assert np.count_nonzero(out["status"] == STICK) > 0, "the path reached gross slip"
+    return out
+
+
+# ---------------------------------------------------------------------------------------------
+# a. the same case twice in one process gives the same bits
+
+
+def test_repeated_cpu_runs_are_bit_identical():
+    """CPU kernels run serially and the reductions sum in one fixed order; scipy.fft's threads
+    split whole lines: nothing depends on timing, so two runs agree to the last bit."""
+    first, second = coupled_path(), coupled_path()
+    for name in ("pressure", "shear_x", "shear_y", "slip_x", "slip_y", "gap", "status"):
+        assert np.array_equal(first[name], second[name]), f"{name} differs between two identical runs"
+    assert first["summary"]["force"] == second["summary"]["force"]
+
+
+# ---------------------------------------------------------------------------------------------
+# b. float32 against float64
+
+
+def test_float32_against_float64_hertz():
+    """Hertz at n = 64. float32 stops at a relative residual of 1e-5 (solvers/base.py), float64 at
+    1e-10. F_z sums the pressure over the contact, so the residual's misfit averages out: allowed
+    5e-5 (5 x the float32 floor). p0 is one cell's value, where the misfit is amplified by the
+    conditioning of the contact operator (about sqrt of the ~200 contact cells, ~15): allowed 5e-4.
+    Measured here: F_z 1.7e-6, p0 1.9e-5 (n = 48: 1.8e-6, 8.2e-5; n = 128: 5.8e-6, 1.3e-4)."""
+    r64, r32 = hertz(dtype="float64"), hertz(dtype="float32")
+    d_fz, d_p0 = rel(r32["F_z"], r64["F_z"]), rel(r32["p0"], r64["p0"])
+    print(f"\nfloat32 vs float64, Hertz n=64: F_z {d_fz:.2e}, p0 {d_p0:.2e}")
+    assert d_fz < 5e-5, d_fz
+    assert d_p0 < 5e-4, d_p0
+
+
+def test_float32_against_float64_table2_cell():
+    """Table 2, k_tau 0.80, delta_z 5e-5 um, n = 48. delta_x_max: each search ends with a 1 %
+    bracket around its own gross-slip threshold, so the two may land in neighbouring brackets
+    (1 %), and float32's coupling turns stop at a relative change of 1e-3 (outer_tol = 100 tol),
+    which moves the threshold by about 0.1 %: allowed 1.5 %. mu = F_x / F_z at delta_x_max: near
+    gross slip F_x flattens (Mindlin: Q / mu P = 1 - (1 - delta / delta_max)^(3/2)), so a 1 %
+    shift in delta_x changes mu by under 0.1 %, plus float32's 1e-3 shear accuracy: allowed 0.2 %.
+    Measured here: delta_x_max 0 (same bracket), mu 2.1e-6."""
+    c64 = table2_cell(0.8, 5e-5, Table2Settings(n=48, dtype="float64"))
+    c32 = table2_cell(0.8, 5e-5, Table2Settings(n=48, dtype="float32"))
+    assert c64["converged"] and c32["converged"], (c64["converged"], c32["converged"])
+    d_dx = rel(c32["delta_x_max_um"], c64["delta_x_max_um"])
+    d_mu = rel(c32["mu"], c64["mu"])
+    print(f"\nfloat32 vs float64, Table 2 (0.80, 5e-5 um) n=48: delta_x_max {d_dx:.2e} "
+          f"({c32['delta_x_max_um']:.4e} vs {c64['delta_x_max_um']:.4e} um), mu {d_mu:.2e} "
+          f"({c32['mu']:.6f} vs {c64['mu']:.6f})")
+    assert d_dx < 0.015, d_dx
+    assert d_mu < 2e-3, d_mu
+
+
+# ---------------------------------------------------------------------------------------------
+# c. CPU against CUDA, and the CPU's two FFT libraries against each other
+
+
+def _compare(a, b, label):
+    """Integral quantities within 1e-9 relative (both sides reach a relative residual of 1e-10;
+    a force sums it away); fields within 5e-8 of the largest value of their kind (|p|, |q|, |s|):
+    pointwise the residual is amplified by the conditioning of the contact operator (measured
+    between scipy.fft and Warp's tile_fft on the CPU: forces 1.3e-10, fields 4.4e-9)."""
+    diffs = {}
+    if "summary" in a:
+        for k in ("x", "z"):
+            diffs[f"F_{k}"] = rel(b["summary"]["force"][k], a["summary"]["force"][k])
+        scales = {"pressure": np.abs(a["pressure"]).max(),
+                  "shear_x": np.hypot(a["shear_x"], a["shear_y"]).max(),
+                  "slip_x": np.hypot(a["slip_x"], a["slip_y"]).max()}
+        scales["shear_y"], scales["slip_y"] = scales["shear_x"], scales["slip_x"]
+    else:
+        diffs["F_z"], diffs["p0"] = rel(b["F_z"], a["F_z"]), rel(b["p0"], a["p0"])
+        scales = {"pressure": np.abs(a["pressure"]).max()}
+    for name, s in scales.items():
+        diffs[name] = float(np.abs(b[name] - a[name]).max() / s)
+    print(f"\n{label}: " + ", ".join(f"{k} {v:.1e}" for k, v in diffs.items()))
+    for k, v in diffs.items():
+        assert v < (5e-8 if k in scales else 1e-9), (k, v)
+
+
+def test_fft_libraries_agree_on_cpu():
+    """scipy.fft and Warp's tile_fft round differently, as the CPU and a GPU do: the solutions
+    still agree to the solvers' tolerance (the bounds of _compare)."""
+    _compare(hertz(fft="scipy"), hertz(fft="warp"), "Hertz, scipy vs warp FFT")
+    _compare(coupled_path(fft="scipy"), coupled_path(fft="warp"), "coupled partial slip, scipy vs warp FFT")
+
+
+@no_cuda
+@pytest.mark.parametrize("cuda", CUDA)
+def test_cpu_and_cuda_agree_float64(cuda):
+    _compare(hertz(), hertz(device=cuda), f"Hertz, cpu vs {cuda}")
+    _compare(coupled_path(), coupled_path(device=cuda), f"coupled partial slip, cpu vs {cuda}")
+
+
+# ---------------------------------------------------------------------------------------------
+# d. properties (hypothesis): the operator on a 12 x 12 grid, the shear laws, the disk bound
+
+N_SMALL = 12
+
+
+@functools.lru_cache(maxsize=None)
+def small_model():
+    return ContactModel(PAPER_PAIR, Sphere(R, "paraboloid"), Grid(N_SMALL, 1e-7), device="cpu", dtype="float64")
+
+
+def apply_coupled(x: np.ndarray) -> np.ndarray:
+    """The coupled 3x3 operator on a (3, n, n) traction array, as a (3, n, n) displacement array."""
+    m = small_model()
+    src = [m.field(x[i]) for i in range(3)]
+    dst = [m.field() for _ in range(3)]
+    m.operator.coupled_apply(*src, *dst)
+    return np.stack([d.numpy() for d in dst])
+
+
+def apply_normal(p: np.ndarray) -> np.ndarray:
+    m = small_model()
+    out = m.field()
+    m.operator.normal(m.field(p), out)
+    return out.numpy()
+
+
+@functools.lru_cache(maxsize=None)
+def dense_operators():
+    """The coupled operator and its normal block as dense matrices (one apply per unit vector)."""
+    size = 3 * N_SMALL * N_SMALL
+    eye = np.eye(size)
+    full = np.stack([apply_coupled(eye[k].reshape(3, N_SMALL, N_SMALL)).ravel() for k in range(size)], axis=1)
+    nn = N_SMALL * N_SMALL
+    return full, full[:nn, :nn]
+
+
+unit = st.floats(-1.0, 1.0, allow_nan=False, allow_subnormal=False)
+tractions = hnp.arrays(np.float64, (3, N_SMALL, N_SMALL), elements=unit)
+scale = st.floats(-1e3, 1e3, allow_nan=False, allow_subnormal=False)
+
+
+@settings(max_examples=25, deadline=None)
+@given(x=tractions, y=tractions, a=scale, b=scale)
+def test_operator_is_linear(x, y, a, b):
+    """K(a x + b y) = a K x + b K y to 1e-12 of |a| |Kx| + |b| |Ky| (the FFT round trip is exact
+    to ~1e-15 of the norms it transforms)."""
+    lhs = apply_coupled(a * x + b * y)
+    rhs = a * apply_coupled(x) + b * apply_coupled(y)
+    bound = 1e-12 * (abs(a) * np.linalg.norm(apply_coupled(x)) + abs(b) * np.linalg.norm(apply_coupled(y)))
+    assert np.linalg.norm(lhs - rhs) <= bound + 1e-300
+
+
+@settings(max_examples=25, deadline=None)
+@given(x=tractions, y=tractions)
+def test_coupled_operator_is_symmetric(x, y):
+    """<x, K y> = <K x, y> to 1e-12 of |x| |K| |y| (reciprocity, MODEL.md section 2; the scale of
+    either side, which can cancel to near zero)."""
+    full, _ = dense_operators()
+    k_norm = np.linalg.norm(full, 2)
+    lhs = float(np.sum(x * apply_coupled(y)))
+    rhs = float(np.sum(apply_coupled(x) * y))
+    assert abs(lhs - rhs) <= 1e-12 * np.linalg.norm(x) * np.linalg.norm(y) * k_norm
+
+
+@settings(max_examples=25, deadline=None)
+@given(p=hnp.arrays(np.float64, (N_SMALL, N_SMALL), elements=unit))
+def test_normal_block_is_positive_definite(p):
+    """<p, K_zz p> > 0 for p != 0, and at least the smallest eigenvalue of K_zz times |p|^2 (less
+    1e-12 of the largest, the rounding of the FFT apply)."""
+    assume(np.abs(p).max() > 1e-6)
+    _, kzz = dense_operators()
+    eig = np.linalg.eigvalsh(0.5 * (kzz + kzz.T))
+    energy = float(np.sum(p * apply_normal(p)))
+    assert energy > 0
+    assert energy >= (eig[0] - 1e-12 * eig[-1]) * float(np.sum(p * p))
+
+
+def _launch_law(kernel, pressure: np.ndarray, *scalars) -> np.ndarray:
+    p = wp.array(pressure, dtype=wp.float64, device="cpu")
+    out = wp.zeros(len(pressure), dtype=wp.float64, device="cpu")
+    wp.launch(kernel, dim=len(pressure), inputs=[p, *(wp.float64(s) for s in scalars)], outputs=[out], device="cpu")
+    return out.numpy()
+
+
+def _pressures(s_y):
+    """Pressures around the yield strength: negative, zero, below, at and above S_Y."""
+    specials = st.sampled_from([0.0, -0.0, s_y, -s_y, s_y * (1 - 1e-15), s_y * (1 + 1e-15), 2 * s_y, -1e-300])
+    return st.lists(st.one_of(st.floats(-3 * s_y, 3 * s_y, allow_nan=False), specials), min_size=1, max_size=64)
+
+
+@settings(max_examples=25, deadline=None)
+@given(data=st.data(), k_tau=st.floats(0.05, 0.99), k_vm=st.floats(0.1, 1.0), s_y=st.floats(1e-5, 1e-1))
+def test_tabor_limit_matches_closed_form(data, k_tau, k_vm, s_y):
+    """q_max = min(mu_b p, k_VM sqrt(max(S_Y^2 - p^2, 0))) for p > 0, 0 otherwise (MODEL.md 5),
+    to 1e-12 relative in float64, and q_max >= 0. (Scaled units: S_Y / E* ~ 2.6e-3 here.)"""
+    p = np.array(data.draw(_pressures(s_y)), dtype=np.float64)
+    mu_b = k_vm / math.sqrt(k_tau**-2 - 1.0)
+    got = _launch_law(laws.tabor_limit, p, mu_b, k_vm, s_y)
+    want = np.where(p > 0, np.minimum(mu_b * p, k_vm * np.sqrt(np.maximum(s_y * s_y - p * p, 0.0))), 0.0)
+    assert np.all(got >= 0)
+    bad = np.abs(got - want) > 1e-12 * np.abs(want)
+    assert not bad.any(), np.c_[p, got, want][bad]
+
+
+@settings(max_examples=25, deadline=None)
+@given(data=st.data(), mu=st.floats(0.0, 2.0))
+def test_coulomb_limit_matches_closed_form(data, mu):
+    """q_max = mu p for p > 0, 0 otherwise, to 1e-12 relative, and q_max >= 0."""
+    p = np.array(data.draw(_pressures(1e-2)), dtype=np.float64)
+    got = _launch_law(laws.coulomb_limit, p, mu)
+    want = np.where(p > 0, mu * p, 0.0)
+    assert np.all(got >= 0)
+    assert np.all(np.abs(got - want) <= 1e-12 * np.abs(want))
+
+
+@functools.lru_cache(maxsize=None)
+def small_tangential():
+    m = small_model()
+    return TangentialSolver(m, max_iter=300), ContactState(m)
+
+
+@settings(max_examples=25, deadline=None)
+@given(seed=st.integers(0, 2**32 - 1), out_fraction=st.floats(0.0, 0.9), load=st.floats(1e-3, 1e2))
+def test_tangential_solve_keeps_the_disk_bound(seed, out_fraction, load):
+    """After a tangential solve on a random problem (random q_max with cells out of contact,
+    random stick targets, a random starting shear partly outside the disks): |q| <= q_max (1 +
+    1e-12) on every cell (the projection and the retraction onto the circle round to a few ulp),
+    and q = 0 where q_max = 0, whether or not the solve converged."""
+    rng = np.random.default_rng(seed)
+    solver, state = small_tangential()
+    m = small_model()
+    shape = (N_SMALL, N_SMALL)
+    q_max = rng.uniform(0.0, 1e-2, shape) * (rng.uniform(size=shape) >= out_fraction)
+    target = [m.field(load * 1e-2 * rng.standard_normal(shape)) for _ in range(2)]
+    state.shear_x.assign(rng.uniform(-2e-2, 2e-2, shape))
+    state.shear_y.assign(rng.uniform(-2e-2, 2e-2, shape))
+    solver.solve(state, target[0], target[1], m.field(q_max))
+    q = np.hypot(state.shear_x.numpy(), state.shear_y.numpy())
+    assert np.all(q <= q_max * (1 + 1e-12)), float(np.max(q - q_max))
+    assert np.all(q[q_max == 0] == 0)
+
+
+# ---------------------------------------------------------------------------------------------
+# e. non-finite values are named
+
+
+def _hertz_model(n=32):
+    a = math.sqrt(R * HERTZ_DZ)
+    return ContactModel(PAPER_PAIR, Sphere(R, "paraboloid"), Grid(n, 4 * a))
+
+
+def _poison(array, cell):
+    values = array.numpy().copy()
+    values[cell] = np.nan
+    array.assign(values)
+
+
+def test_nan_in_initial_gap_names_the_cell():
+    model = _hertz_model()
+    _poison(model.initial_gap, (15, 17))  # inside the contact
+    with pytest.raises(NonFiniteError, match=r"row 15, column 17"):
+        NormalSolver(model).solve(ContactState(model), HERTZ_DZ)
+
+
+def test_nan_in_initial_gap_at_a_contact_cell_on_a_warm_start_names_the_cell():
+    """From a solved state (pressure > 0 at the cell), a NaN gap enters the residual sums: the
+    solve stops with NonFiniteError naming the field and the cell."""
+    model = _hertz_model()
+    state, solver = ContactState(model), NormalSolver(model)
+    assert solver.solve(state, HERTZ_DZ).converged
+    _poison(model.initial_gap, (15, 17))
+    with pytest.raises(NonFiniteError, match=r"gap .*row 15, column 17"):
+        solver.solve(state, HERTZ_DZ)
+
+
+def test_nan_in_starting_pressure_names_the_cell():
+    """A NaN in the pressure a solve starts from spreads through the FFT to every displacement;
+    the error names the pressure cell it came from, not the first cell it reached."""
+    model = _hertz_model()
+    state, solver = ContactState(model), NormalSolver(model)
+    assert solver.solve(state, HERTZ_DZ).converged
+    _poison(state.pressure, (14, 16))
+    with pytest.raises(NonFiniteError, match=r"pressure .*row 14, column 16"):
+        solver.solve(state, HERTZ_DZ)
+
+
+def test_solver_recovers_after_a_non_finite_error():
+    """A solver that raised NonFiniteError solves clean inputs afterwards as a fresh one does."""
+    model = _hertz_model()
+    state, solver = ContactState(model), NormalSolver(model)
+    assert solver.solve(state, HERTZ_DZ).converged
+    clean = model.initial_gap.numpy().copy()
+    _poison(model.initial_gap, (15, 17))
+    with pytest.raises(NonFiniteError):
+        solver.solve(state, HERTZ_DZ)
+    model.initial_gap.assign(clean)
+    info = solver.solve(ContactState(model), HERTZ_DZ)
+    assert info.converged, info.residual

@@ -1,0 +1,317 @@
+"""Memory a grid needs: estimate it before allocating, refuse a grid that cannot fit.
+
+The estimate is counted from the allocations in the code, not fitted:
+
+- ``ContactModel``: ``initial_gap``, one (n, n) field; its ``ElasticOperator``: 6 influence
+  spectra and 3 spectral buffers (``operator.py``), each of the FFT backend's ``spectral_shape``
+  in complex entries of the model's float type (scipy and cupy: (2n, n + 1); warp: (L/2 + 1, L),
+  L the smallest power of two >= 2n), plus the warp backend's work buffers (``_rows_q`` one
+  spectrum, ``_half_r`` (n, L/2 + 1) complex, ``_row_scale`` L/2 + 1 reals).
+- ``ContactState``: ``len(ContactState.FIELDS)`` fields and the int32 ``status``.
+- ``NormalSolver``: 3 fields (direction, response, no_displacement) and its scalars (sums,
+  scalars, a residual history of max_iter + 1); ``ContactSolver``: 9 fields (known_z/x/y,
+  adhesive_z/x/y, previous x 3) and 8 scalars; with friction also ``TangentialSolver``'s 7 fields
+  (grad, dir, resp x/y, no_displacement) with its scalars, and the solver's target_x/y,
+  shear_limit and scratch_x/y (5 fields).
+- The FFT library's temporaries, an allowance (``FFT_TEMPORARY_SPECTRA``): scipy on the
+  CPU allocates a (n, n + 1) row pass and a (2n, n + 1) column pass per transform, 1.5 spectra;
+  CuPy keeps what cuFFT's calls allocated (padded copies, outputs, plan work areas) in its memory
+  pool: 4.0 spectra measured (5.5 at n = 4096) on an H100 with CuPy 14.2, 6 allowed; Warp's
+  tile_fft needs none beyond its work buffers (one (n, n) field allowed for the zero round trip
+  that checks the kernels at set-up on CUDA).
+- On the CPU, the normal solver's first guess holds up to 3 float64 (n, n) host arrays.
+
+Building the influence spectra needs more host memory for a moment than all of this on the CPU
+(``setup_host_bytes``): float64 coefficient arrays on the (2n, 2n) grid and three copies of the
+six spectra. ``check_fits`` checks both against the memory there is.
+
+Not counted: a path's saved fields (``runner.run_path`` keeps about 13 float64 (n, n) arrays per
+state of the path on the host, and ``results.state_summary`` makes that many temporarily), and
+extra states (``find_gross_slip`` holds 3: pass ``states=3``).
+"""
+
+from __future__ import annotations
+
+import math
+import os
+
+import numpy as np
+
+from .device import resolve_dtype
+from .errors import InputError
+from .geometry import MIN_CELLS
+
+GIB = 1024**3
+
+#: influence spectra kept by ElasticOperator (KERNELS) and its spectral buffers
+N_INFLUENCE_SPECTRA = 6
+N_SPECTRAL_BUFFERS = 3
+#: (n, n) fields of the solvers (counted in solvers/normal.py, contact.py, tangential.py)
+NORMAL_SOLVER_FIELDS = 3
+CONTACT_SOLVER_FIELDS = 9
+TANGENTIAL_SOLVER_FIELDS = 7
+FRICTION_FIELDS = 5  # ContactSolver.target_x, target_y, shear_limit, scratch_x, scratch_y
+CONTACT_SOLVER_SCALARS = 6 + 2  # change, adhesive_change
+#: float64 (n, n) host arrays of NormalSolver._initial_guess alive during its FFT
+INITIAL_GUESS_HOST_FIELDS = 3
+#: library temporaries during a transform, in spectra of the backend's shape (see module docstring)
+FFT_TEMPORARY_SPECTRA = {"scipy": 1.5, "cupy": 6.0, "warp": 0.0}
+#: peak of influence.influence_coefficients, in float64 arrays of the (2n, 2n) grid (measured:
+#: 15.1 at n = 256: the two meshes, six cell integrals and the corner terms of one of them)
+INFLUENCE_PEAK_ARRAYS = 16
+
+
+def _kind(device_kind) -> str:
+    name = str(device_kind)
+    if name == "cpu":
+        return "cpu"
+    if name.startswith("cuda"):
+        return "cuda"
+    raise InputError("solver.device", f"unknown device {device_kind!r}; use 'cpu', 'cuda' or 'cuda:N'")
+
+
+def _resolve_fft(fft: str, kind: str) -> str:
+    if fft not in ("auto", "scipy", "cupy", "warp"):
+        raise InputError("solver.fft", f"unknown FFT backend {fft!r}; choose one of auto, scipy, cupy, warp")
+    if fft != "auto":
+        return fft
+    if kind == "cpu":
+        return "scipy"
+    from .fft import cupy_backend
+
+    return "cupy" if cupy_backend.available() else "warp"
+
+
+def _padded_length(n: int) -> int:
+    from .fft.warp_backend import padded_length
+
+    return padded_length(n)
+
+
+def spectral_entries(n: int, fft: str) -> int:
+    """Complex entries of one spectrum of backend ``fft`` ("scipy", "cupy" or "warp") on n x n."""
+    if fft == "warp":
+        length = _padded_length(n)
+        return (length // 2 + 1) * length
+    return 2 * n * (n + 1)
+
+
+def breakdown(n: int, dtype="float64", device_kind="cpu", friction: bool = True, fft: str = "auto", *,
+              states: int = 1, max_iter: int = 2000) -> dict:
+    """Bytes per part of a ContactModel + ``states`` ContactStates + a ContactSolver, on the device.
+
+    Keys: ``spectra`` (influence and buffers), ``fft_work`` (the warp backend's work buffers),
+    ``fields`` ((n, n) arrays of the model, states and solvers), ``scalars`` (reductions and
+    residual histories), ``arrays`` (the sum of those four: what the objects hold), ``fft_temporaries``
+    (allowance for the FFT library), ``host_temporaries`` (the first guess's host arrays, counted
+    on the CPU only), ``total``.
+    """
+    from warpcontact.kernels import normal as nk
+    from warpcontact.kernels import tangential as tk
+
+    from .state import ContactState
+
+    n = int(n)
+    kind = _kind(device_kind)
+    fft = _resolve_fft(fft, kind)
+    wdt = resolve_dtype(dtype)
+    real = np.dtype(_np_name(wdt)).itemsize
+    cplx = 2 * real
+    cells = n * n
+    spectrum = spectral_entries(n, fft) * cplx
+    spectra = (N_INFLUENCE_SPECTRA + N_SPECTRAL_BUFFERS) * spectrum
+    fft_work = 0
+    if fft == "warp":
+        half = _padded_length(n) // 2 + 1
+        fft_work = spectrum + n * half * cplx + half * real
+    n_fields = 1 + states * len(ContactState.FIELDS) + NORMAL_SOLVER_FIELDS + CONTACT_SOLVER_FIELDS
+    n_scalars = nk.N_SUMS + nk.N_SCALARS + (max_iter + 1) + CONTACT_SOLVER_SCALARS
+    if friction:
+        n_fields += TANGENTIAL_SOLVER_FIELDS + FRICTION_FIELDS
+        n_scalars += tk.N_SUMS + tk.N_SCALARS + (max_iter + 1)
+    fields = n_fields * cells * real + states * cells * 4  # + int32 status per state
+    scalars = n_scalars * real
+    arrays = spectra + fft_work + fields + scalars
+    fft_temporaries = int(math.ceil(FFT_TEMPORARY_SPECTRA[fft] * spectrum))
+    if fft == "warp" and kind == "cuda":
+        fft_temporaries = cells * real
+    host_temporaries = INITIAL_GUESS_HOST_FIELDS * cells * 8 if kind == "cpu" else 0
+    return {
+        "spectra": spectra,
+        "fft_work": fft_work,
+        "fields": fields,
+        "scalars": scalars,
+        "arrays": arrays,
+        "fft_temporaries": fft_temporaries,
+        "host_temporaries": host_temporaries,
+        "total": arrays + fft_temporaries + host_temporaries,
+    }
+
+
+def _np_name(wdt) -> str:
+    import warp as wp
+
+    return "float64" if wdt == wp.float64 else "float32"
+
+
+def estimate_bytes(n: int, dtype: str, device_kind: str, friction: bool, fft: str, *, states: int = 1,
+                   max_iter: int = 2000) -> int:
+    """Bytes on the device that a ContactModel + ContactState + ContactSolver of n x n cells hold
+    during a solve: their Warp arrays plus the FFT library's temporaries (and, on the CPU, the
+    normal solver's host temporaries). See the module docstring for what is counted.
+
+    Args:
+        n: cells per side.
+        dtype: "float64" or "float32".
+        device_kind: "cpu", "cuda" or "cuda:N".
+        friction: whether the solver has a friction law (a TangentialSolver and its buffers).
+        fft: "auto", "scipy", "cupy" or "warp" ("auto" as ``fft.make_fft`` picks it).
+        states: ContactStates alive at once (``find_gross_slip`` holds 3).
+        max_iter: iteration limit of the inner solvers (sets the residual histories).
+    """
+    return breakdown(n, dtype, device_kind, friction, fft, states=states, max_iter=max_iter)["total"]
+
+
+def setup_host_bytes(n: int, dtype="float64", fft: str = "scipy", device_kind="cpu") -> int:
+    """Peak host memory while ContactModel builds the influence spectra [bytes].
+
+    ``influence_coefficients`` returns six float64 (2n, 2n) arrays (its own peak is about 16 of
+    them); ElasticOperator then holds them with the list of six complex128 spectra and their
+    ``np.stack`` (stack phase), then with the stack, its cast to the model's complex type and, on
+    the CPU, Warp's copy of that: the device array itself, made by Warp's allocator (cast phase).
+    Measured with tracemalloc (numpy's part only) at n = 256, scipy: 578 n^2 bytes in float64 and
+    in float32, against 576 n^2 here; Warp's copy adds 192 n^2 (float64) on the CPU.
+    """
+    n = int(n)
+    kind = _kind(device_kind)
+    fft = _resolve_fft(fft, kind)
+    real = np.dtype(_np_name(resolve_dtype(dtype))).itemsize
+    padded = (2 * n) ** 2 * 8
+    coefficients = N_INFLUENCE_SPECTRA * padded
+    e = spectral_entries(n, fft)
+    warp_copy = N_INFLUENCE_SPECTRA * e * 2 * real if kind == "cpu" else 0
+    stack_phase = coefficients + 2 * N_INFLUENCE_SPECTRA * e * 16
+    cast_phase = coefficients + N_INFLUENCE_SPECTRA * e * (16 + 2 * real) + warp_copy
+    initial_gap = n * n * real if kind == "cpu" else 0  # the model's first field, already made
+    return max(INFLUENCE_PEAK_ARRAYS * padded, stack_phase, cast_phase) + initial_gap
+
+
+def host_memory_bytes() -> int:
+    """Total RAM of this machine [bytes], lowered to the cgroup's memory limit where one is set."""
+    total = 0
+    try:
+        with open("/proc/meminfo") as fh:
+            for line in fh:
+                if line.startswith("MemTotal:"):
+                    total = int(line.split()[1]) * 1024
+                    break
+    except OSError:
+        pass
+    if not total:
+        try:
+            total = os.sysconf("SC_PHYS_PAGES") * os.sysconf("SC_PAGE_SIZE")
+        except (ValueError, OSError, AttributeError):
+            total = 0
+    for path in ("/sys/fs/cgroup/memory.max", "/sys/fs/cgroup/memory/memory.limit_in_bytes"):
+        try:
+            with open(path) as fh:
+                text = fh.read().strip()
+        except OSError:
+            continue
+        if text.isdigit() and 0 < int(text) < (total or 2**62):
+            total = int(text)
+    return total
+
+
+def memory_limit(device) -> tuple[int, str]:
+    """(bytes, description) of the memory a problem on ``device`` may use.
+
+    CPU: the machine's total RAM (``host_memory_bytes``). CUDA: the device's free memory now
+    (Warp 1.19 ``Device.free_memory``, cudaMemGetInfo), after a synchronise so that freed
+    mempool blocks are returned.
+    """
+    import warp as wp
+
+    from .device import resolve_device
+
+    dev = resolve_device(device) if isinstance(device, str) else wp.get_device(device)
+    if dev.is_cpu:
+        return host_memory_bytes(), "RAM of this machine"
+    wp.synchronize_device(dev)
+    free = int(dev.free_memory)
+    total = int(dev.total_memory)
+    return free, f"free memory of {dev} (of {total / GIB:.1f} GiB)"
+
+
+def _required(n, dtype, kind, friction, fft, states) -> int:
+    """Peak bytes in the memory of ``kind``: on the CPU also the set-up peak, which shares it."""
+    est = estimate_bytes(n, dtype, kind, friction, fft, states=states)
+    if kind == "cpu":
+        return max(est, setup_host_bytes(n, dtype, fft, kind))
+    return est
+
+
+def largest_grid(dtype, memory_bytes: int, friction: bool, *, device_kind="cpu", fft: str = "auto",
+                 states: int = 1) -> int:
+    """Largest n whose peak memory fits in ``memory_bytes`` (0 if not even the smallest grid).
+
+    On the CPU the peak is the larger of ``estimate_bytes`` and ``setup_host_bytes``; on CUDA it
+    is ``estimate_bytes`` (the set-up peak is on the host). With the warp FFT backend the answer is
+    also capped at the largest grid that backend transforms (``fft.warp_backend.MAX_LENGTH``).
+    """
+    kind = _kind(device_kind)
+    fft = _resolve_fft(fft, kind)
+    cap = None
+    if fft == "warp":
+        from .fft.warp_backend import MAX_LENGTH
+
+        cap = MAX_LENGTH[(kind, resolve_dtype(dtype))] // 2
+
+    def fits(n):
+        if cap is not None and n > cap:
+            return False
+        return _required(n, dtype, kind, friction, fft, states) <= memory_bytes
+
+    if not fits(MIN_CELLS):
+        return 0
+    lo, hi = MIN_CELLS, 2 * MIN_CELLS
+    while fits(hi):
+        lo, hi = hi, 2 * hi
+    while hi - lo > 1:  # fits(lo), not fits(hi); the need grows with n
+        mid = (lo + hi) // 2
+        if fits(mid):
+            lo = mid
+        else:
+            hi = mid
+    return lo
+
+
+def check_fits(n: int, dtype, device, friction: bool, fft: str = "auto", *, states: int = 1) -> int:
+    """Raise InputError("grid.n", ...) when an n x n problem cannot fit in the memory of ``device``.
+
+    Returns the estimate [bytes] when it fits. The message gives the estimate, the limit and the
+    largest grid that fits, in GiB. On CUDA the set-up peak (host) is checked against the RAM too.
+    """
+    kind = _kind(device)
+    fft_name = _resolve_fft(fft, kind)
+    limit, what = memory_limit(device)
+    need = _required(n, dtype, kind, friction, fft_name, states)
+    dname = dtype if isinstance(dtype, str) else _np_name(dtype)
+    if limit and need > limit:
+        best = largest_grid(dtype, limit, friction, device_kind=kind, fft=fft_name, states=states)
+        raise InputError(
+            "grid.n",
+            f"n = {n} needs about {need / GIB:,.2f} GiB ({dname}, {fft_name} FFT, "
+            f"{'with' if friction else 'without'} friction) but the {what} is {limit / GIB:,.2f} GiB; "
+            f"the largest grid that fits is n = {best}",
+        )
+    if kind == "cuda":
+        host = host_memory_bytes()
+        setup = setup_host_bytes(n, dtype, fft_name, kind)
+        if host and setup > host:
+            raise InputError(
+                "grid.n",
+                f"n = {n} needs about {setup / GIB:,.2f} GiB of host memory to build the influence spectra "
+                f"but the RAM of this machine is {host / GIB:,.2f} GiB",
+            )
+    return estimate_bytes(n, dtype, kind, friction, fft_name, states=states)
