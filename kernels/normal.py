@@ -8,7 +8,7 @@ Polonsky, I. A. & Keer, L. M. (1999), "A numerical method for solving rough cont
 based on the multi-level multi-summation and conjugate gradient techniques", Wear 231, 206-219.
 
 Per iteration: ``normal_gap`` -> ``normal_direction`` -> (r = K t) -> ``normal_step_sums`` ->
-``normal_update`` -> ``normal_advance``. Scalars live in two device arrays: ``sums`` (zeroed at
+``normal_update`` -> ``reduce.cg_advance``. Scalars live in two device arrays: ``sums`` (zeroed at
 the start of each iteration) and ``scalars`` (carried: G_old, delta, iteration count).
 """
 
@@ -17,22 +17,15 @@ from typing import Any
 import warp as wp
 
 from .overloads import register_float_overloads
-from .reduce import block_add, cell_index
+from .reduce import C_DELTA, C_G_OLD, N_SCALARS, S_G, S_RHS, S_VIOL, block_add, cell_index  # noqa: F401  (shared slots)
+from .reduce import S_RESTART as S_IOL  # cells that re-enter contact (or leave the cap)
 
-# slots of ``sums``
-S_G = wp.constant(0)  # sum of g^2 over the contact set
-S_VIOL = wp.constant(1)  # squared complementarity violation
-S_RHS = wp.constant(2)  # squared right-hand side (rigid interference) over the contact set
+# slots of ``sums`` (0-2 and 5 shared with kernels/reduce.py: g^2 on the free set, violation,
+# right-hand side, re-entries)
 S_GT = wp.constant(3)  # sum of g t over the contact set
 S_RT = wp.constant(4)  # sum of (K t) t over the contact set
-S_IOL = wp.constant(5)  # count of cells that re-enter contact (penetrating with p = 0)
 S_FORCE = wp.constant(6)  # sum of p
 N_SUMS = 7
-# slots of ``scalars``
-C_G_OLD = wp.constant(0)
-C_DELTA = wp.constant(1)
-C_ITER = wp.constant(2)
-N_SCALARS = 3
 
 
 @wp.kernel
@@ -183,25 +176,6 @@ def normal_update(
     block_add(sums, S_IOL, count)
 
 
-@wp.kernel
-def normal_advance(
-    sums: wp.array(dtype=Any), scalars: wp.array(dtype=Any), residual_history: wp.array(dtype=Any)
-):
-    """One thread: G_old <- G, delta <- (no cell re-entered), record the relative residual."""
-    zero = sums[S_G] - sums[S_G]
-    one = type(zero)(1.0)
-    it = int(scalars[C_ITER])
-    res = zero
-    if sums[S_RHS] > zero:
-        res = wp.sqrt(sums[S_VIOL] / sums[S_RHS])
-    elif sums[S_VIOL] > zero:
-        res = one
-    if it < residual_history.shape[0]:
-        residual_history[it] = res
-    scalars[C_G_OLD] = sums[S_G]
-    scalars[C_DELTA] = wp.where(sums[S_IOL] > zero, zero, one)
-    scalars[C_ITER] = scalars[C_ITER] + one
 
-
-for _k in (normal_gap, normal_direction, normal_step_sums, normal_update, normal_advance):
+for _k in (normal_gap, normal_direction, normal_step_sums, normal_update):
     register_float_overloads(_k)

@@ -11,6 +11,18 @@ from typing import Any
 
 import warp as wp
 
+from .overloads import register_float_overloads
+
+# slots shared by the conjugate-gradient solvers (kernels/normal.py, kernels/tangential.py)
+S_G = wp.constant(0)  # the (preconditioned) squared gradient over the free set
+S_VIOL = wp.constant(1)  # squared violation of the optimality conditions
+S_RHS = wp.constant(2)  # squared right-hand side over the active cells
+S_RESTART = wp.constant(5)  # cells that re-entered the free set: restart the conjugacy
+C_G_OLD = wp.constant(0)
+C_DELTA = wp.constant(1)
+C_ITER = wp.constant(2)
+N_SCALARS = 3
+
 
 @wp.func
 def cell_index(thread: int, outer: int, inner: int, k: int) -> int:
@@ -23,3 +35,25 @@ def block_add(sums: wp.array(dtype=Any), slot: int, value: Any):
     """sums[slot] += the sum of ``value`` over the threads of this block."""
     total = wp.tile_sum(wp.tile(value))
     wp.tile_atomic_add(sums, total, offset=slot)
+
+
+@wp.kernel
+def cg_advance(sums: wp.array(dtype=Any), scalars: wp.array(dtype=Any), residual_history: wp.array(dtype=Any)):
+    """One thread, end of an iteration: G_old <- G, delta <- (no cell re-entered the free set),
+    and the relative residual sqrt(S_VIOL / S_RHS) of the iterate the iteration started from."""
+    zero = sums[S_G] - sums[S_G]
+    one = type(zero)(1.0)
+    it = int(scalars[C_ITER])
+    res = zero
+    if sums[S_RHS] > zero:
+        res = wp.sqrt(sums[S_VIOL] / sums[S_RHS])
+    elif sums[S_VIOL] > zero:
+        res = one
+    if it < residual_history.shape[0]:
+        residual_history[it] = res
+    scalars[C_G_OLD] = sums[S_G]
+    scalars[C_DELTA] = wp.where(sums[S_RESTART] > zero, zero, one)
+    scalars[C_ITER] = scalars[C_ITER] + one
+
+
+register_float_overloads(cg_advance)

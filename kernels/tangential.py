@@ -26,20 +26,14 @@ from typing import Any
 import warp as wp
 
 from .overloads import register_float_overloads
-from .reduce import block_add, cell_index
+from .reduce import C_DELTA, C_G_OLD, N_SCALARS, S_G, S_RHS, S_VIOL, block_add, cell_index  # noqa: F401  (shared slots)
+from .reduce import S_RESTART as S_RELEASED  # slip cells released into stick by the last step
 
-S_G = wp.constant(0)  # g.z, z = M^-1 P g the preconditioned projected gradient
-S_VIOL = wp.constant(1)  # squared optimality violation
-S_RHS = wp.constant(2)  # squared right-hand side over contact cells
+# slots of ``sums`` (0-2 and 5 shared with kernels/reduce.py; S_G holds g.z, z = M^-1 P g)
 S_GT = wp.constant(3)
 S_RT = wp.constant(4)
-S_RELEASED = wp.constant(5)  # slip cells released into stick by the last step
 S_STICK = wp.constant(6)  # count of stick cells
 N_SUMS = 7
-C_G_OLD = wp.constant(0)
-C_DELTA = wp.constant(1)
-C_ITER = wp.constant(2)
-N_SCALARS = 3
 
 OUT = wp.constant(0)
 STICK = wp.constant(1)
@@ -298,25 +292,6 @@ def tangential_update(
     block_add(sums, S_RELEASED, released)
 
 
-@wp.kernel
-def tangential_advance(
-    sums: wp.array(dtype=Any), scalars: wp.array(dtype=Any), residual_history: wp.array(dtype=Any)
-):
-    """One thread: G_old <- G, delta <- (no cell released), record the relative residual."""
-    zero = sums[S_G] - sums[S_G]
-    one = type(zero)(1.0)
-    it = int(scalars[C_ITER])
-    res = zero
-    if sums[S_RHS] > zero:
-        res = wp.sqrt(sums[S_VIOL] / sums[S_RHS])
-    elif sums[S_VIOL] > zero:
-        res = one
-    if it < residual_history.shape[0]:
-        residual_history[it] = res
-    scalars[C_G_OLD] = sums[S_G]
-    scalars[C_DELTA] = wp.where(sums[S_RELEASED] > zero, zero, one)
-    scalars[C_ITER] = scalars[C_ITER] + one
-
 
 for _k in (
     tangential_classify,
@@ -324,6 +299,5 @@ for _k in (
     tangential_direction,
     tangential_step_sums,
     tangential_update,
-    tangential_advance,
 ):
     register_float_overloads(_k)

@@ -142,3 +142,20 @@ def test_grid_too_large_for_memory_is_refused_before_allocating(tmp_path):
     r = run_cli("solve", small_case(tmp_path, **{"n = 128": "n = 200000"}),
                 "--out", tmp_path / "o", "--quiet")
     assert r.returncode == 2 and "grid.n" in r.stderr and "GiB" in r.stderr and "Traceback" not in r.stderr
+
+
+def test_pull_off_command(tmp_path):
+    """DMT regime (Tabor parameter 0.074): the pull-off force is within 3 % of 2 pi R w and the
+    curve and its plot are written."""
+    case = small_case(tmp_path, (ROOT / "examples" / "pull_off_dmt.toml").read_text())
+    r = run_cli("pull-off", case, "--out", tmp_path / "po", "--steps", "8", "--quiet")
+    assert r.returncode == 0, r.stderr
+    res = json.loads((tmp_path / "po" / "result.json").read_text())
+    assert res["converged"] and res["tabor_parameter"] == pytest.approx(0.0743, rel=1e-2)
+    assert abs(res["pull_off_force"] / res["dmt_pull_off"] - 1) < 0.03
+    assert len(res["curve"]) == 17 and (tmp_path / "po" / "pull_off.png").read_bytes()[:4] == b"\x89PNG"
+
+
+def test_pull_off_needs_adhesion(tmp_path):
+    r = run_cli("pull-off", small_case(tmp_path), "--out", tmp_path / "po", "--quiet")
+    assert r.returncode == 2 and "adhesion" in r.stderr and "Traceback" not in r.stderr

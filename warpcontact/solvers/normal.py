@@ -8,6 +8,7 @@ import numpy as np
 import warp as wp
 
 from warpcontact.kernels import normal as nk
+from warpcontact.kernels import reduce
 
 from ..state import SolveInfo
 from .base import ProjectedCG, default_tolerance, raise_non_finite  # noqa: F401  (re-export)
@@ -77,7 +78,7 @@ class NormalSolver(ProjectedCG):
             m.operator.normal(self.direction, self.response)
             self._launch_reduce(nk.normal_step_sums, [g, t, r, p, self._cap], [self.sums])
             self._launch_reduce(nk.normal_update, [g, t, self._cap, m.scalar(self.active_tol)], [p, self.sums])
-            wp.launch(nk.normal_advance, dim=1, inputs=[self.sums, self.scalars], outputs=[self.history], device=m.device)
+            wp.launch(reduce.cg_advance, dim=1, inputs=[self.sums, self.scalars], outputs=[self.history], device=m.device)
 
         def final_fields():
             self.sums.zero_()

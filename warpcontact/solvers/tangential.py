@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import warp as wp
 
+from warpcontact.kernels import reduce
 from warpcontact.kernels import tangential as tk
 
 from ..state import SolveInfo
@@ -69,7 +70,7 @@ class TangentialSolver(ProjectedCG):
             m.operator.tangential(self.dir_x, self.dir_y, self.resp_x, self.resp_y)
             self._launch_reduce(tk.tangential_step_sums, [gx, gy, tx, ty, rx, ry, qx, qy, limit, st], [self.sums])
             self._launch_reduce(tk.tangential_update, [gx, gy, tx, ty, limit, self.slip_step, m.scalar(self.active_tol)], [qx, qy, st, self.sums])
-            wp.launch(tk.tangential_advance, dim=1, inputs=[self.sums, self.scalars], outputs=[self.history], device=m.device)
+            wp.launch(reduce.cg_advance, dim=1, inputs=[self.sums, self.scalars], outputs=[self.history], device=m.device)
 
         def final_fields():
             self.sums.zero_()
