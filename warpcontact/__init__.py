@@ -15,9 +15,18 @@ _wp.config.log_level = _wp.LOG_WARNING  # no banner or per-module compile lines 
 from .errors import ConvergenceError, InputError, NonFiniteError  # noqa: E402
 from .geometry import Grid, Sphere  # noqa: E402
 from .materials import COPPER, HARDENED_STEEL, PAPER_PAIR, Material, MaterialPair  # noqa: E402
+from .case import Case, case_from_dict, load_case  # noqa: E402
+from .api import gross_slip, path, pull_off, solve  # noqa: E402
 
 __all__ = [
     "__version__",
+    "Case",
+    "case_from_dict",
+    "load_case",
+    "solve",
+    "path",
+    "gross_slip",
+    "pull_off",
     "InputError",
     "ConvergenceError",
     "NonFiniteError",
