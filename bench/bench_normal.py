@@ -32,9 +32,9 @@ R, DZ = 10e-6, 1.0e-10
 A = math.sqrt(R * DZ)
 
 
-def time_warpcontact(n, device, dtype, fft, repeats):
+def time_warpcontact(n, device, dtype, fft, repeats, one_convolution=None):
     model = ContactModel(PAPER_PAIR, Sphere(R, "paraboloid"), Grid(n, 4 * A), device=device, dtype=dtype, fft=fft)
-    solver = NormalSolver(model)
+    solver = NormalSolver(model, one_convolution=one_convolution)
     best = math.inf
     info = None
     for rep in range(repeats + 1):  # the first solve compiles and warms caches: not timed
@@ -83,6 +83,8 @@ def main():
     ap.add_argument("--dtype", nargs="*", default=["float64"])
     ap.add_argument("--repeats", type=int, default=2)
     ap.add_argument("--no-tamaas", action="store_true")
+    ap.add_argument("--modes", nargs="*", default=["default"], choices=["default", "one-conv", "two-conv"],
+                    help="normal-solver variants to time side by side: one or two convolutions per iteration")
     ap.add_argument("--json", help="also write the rows to this file")
     args = ap.parse_args()
     wp.config.quiet = True
@@ -98,19 +100,22 @@ def main():
         have_tamaas = False
     print(f"# Hertz normal solve, paper pair, delta_z = {DZ} m, domain 4a; device {device} ({platform.processor() or platform.machine()}), "
           f"warp {wp.__version__}, {time.strftime('%Y-%m-%d')}")
-    print(f"{'N':>6} {'dtype':>8} {'fft':>6} {'iters':>6} {'ms/iter':>9} {'total s':>9} {'F err':>9}" + ("  tamaas s  ratio" if have_tamaas else ""))
+    print(f"{'N':>6} {'dtype':>8} {'fft':>6} {'mode':>8} {'iters':>6} {'ms/iter':>9} {'total s':>9} {'F err':>9}"
+          + ("  tamaas s  ratio" if have_tamaas else ""))
     rows = []
     for n in sizes:
         tam = time_tamaas(n) if have_tamaas else None
         for dtype in args.dtype:
-            for fft in backends:
+            for fft, mode in [(f, md) for f in backends for md in args.modes]:
+                one_conv = {"default": None, "one-conv": True, "two-conv": False}[mode]
                 try:
-                    r = time_warpcontact(n, args.device, dtype, fft, args.repeats)
+                    r = time_warpcontact(n, args.device, dtype, fft, args.repeats, one_conv)
                 except (ValueError, RuntimeError) as e:  # e.g. a size the tile-FFT backend cannot do
                     print(f"{n:>6} {dtype:>8} {fft:>6}  not run: {str(e).splitlines()[0][:90]}", flush=True)
                     continue
-                row = {"n": n, "dtype": dtype, "fft": fft, "device": str(device), **r}
-                line = f"{n:>6} {dtype:>8} {fft:>6} {r['iterations']:>6} {r['per_iter_ms']:>9.2f} {r['total_s']:>9.3f} {r['force_err']:>9.1e}"
+                row = {"n": n, "dtype": dtype, "fft": fft, "mode": mode, "device": str(device), **r}
+                line = (f"{n:>6} {dtype:>8} {fft:>6} {mode:>8} {r['iterations']:>6} {r['per_iter_ms']:>9.2f} "
+                        f"{r['total_s']:>9.3f} {r['force_err']:>9.1e}")
                 if tam:
                     row["tamaas_s"] = tam["total_s"]
                     line += f"  {tam['total_s']:>8.2f}  {tam['total_s'] / r['total_s']:>5.1f}x"

@@ -25,7 +25,8 @@ from .reduce import S_RESTART as S_IOL  # cells that re-enter contact (or leave 
 S_GT = wp.constant(3)  # sum of g t over the contact set
 S_RT = wp.constant(4)  # sum of (K t) t over the contact set
 S_FORCE = wp.constant(6)  # sum of p
-N_SUMS = 7
+S_CORRECTED = wp.constant(7)  # cells the projection changed (the step's K t no longer gives K p)
+N_SUMS = 8
 
 
 @wp.kernel
@@ -158,11 +159,13 @@ def normal_update(
     if sums[S_RT] > zero:
         tau = sums[S_GT] / sums[S_RT]
     count = zero
+    corrected = zero
     done = sums[S_VIOL] <= tol * tol * sums[S_RHS]
     for k in range(per):
         i = cell_index(thread, outer, inner, k)
         if i < n and not done:
             p = pressure[i]
+            unprojected = p - tau * direction[i]  # what K t accounts for (t = 0 off the free set)
             if p >= pressure_cap:
                 if gap[i] > zero:
                     p = wp.max(pressure_cap - tau * gap[i], zero)
@@ -172,10 +175,28 @@ def normal_update(
             elif gap[i] < zero:
                 p = wp.min(-tau * gap[i], pressure_cap)
                 count += type(zero)(1.0)
+            if p != unprojected:
+                corrected += type(zero)(1.0)
             pressure[i] = p
     block_add(sums, S_IOL, count)
+    block_add(sums, S_CORRECTED, corrected)
 
 
 
-for _k in (normal_gap, normal_direction, normal_step_sums, normal_update):
+@wp.kernel
+def normal_displacement_step(response: wp.array(dtype=Any), sums: wp.array(dtype=Any), tol: Any,
+                             displacement: wp.array(dtype=Any)):
+    """u <- u - tau K t: the displacement of the updated pressure when no cell was projected
+    (the same tau, and the same converged-iterate rule, as ``normal_update``)."""
+    i = wp.tid()
+    zero = tol - tol
+    if sums[S_VIOL] <= tol * tol * sums[S_RHS]:
+        return
+    tau = zero
+    if sums[S_RT] > zero:
+        tau = sums[S_GT] / sums[S_RT]
+    displacement[i] = displacement[i] - tau * response[i]
+
+
+for _k in (normal_gap, normal_direction, normal_step_sums, normal_update, normal_displacement_step):
     register_float_overloads(_k)

@@ -31,9 +31,12 @@ class NormalSolver(ProjectedCG):
         tol: relative residual to reach (default: 1e-10 in float64, 1e-5 in float32).
         max_iter: iteration limit; a solve that reaches it returns ``converged = False``.
         check_every: iterations between reads of the residual on the host.
+        pressure_cap: upper bound of the pressure [Pa] (hardness), inf for none.
+        one_convolution: carry K p incrementally between projections (default: on the CPU).
     """
 
-    def __init__(self, model, tol=None, max_iter: int = 2000, check_every=None, pressure_cap: float = math.inf):
+    def __init__(self, model, tol=None, max_iter: int = 2000, check_every=None, pressure_cap: float = math.inf,
+                 one_convolution: bool | None = None):
         super().__init__(model, nk.N_SUMS, nk.N_SCALARS, tol, max_iter, check_every)
         #: upper bound of the pressure [Pa] (the softer body's hardness: elastic-perfectly-plastic
         #: surface; MODEL.md section 5); inf for none
@@ -43,11 +46,18 @@ class NormalSolver(ProjectedCG):
         self.direction = model.field()
         self.response = model.field()
         self.no_displacement = model.field()
+        #: carry u = K p incrementally (one convolution per iteration); default: on the CPU only,
+        #: where reading the projection count back each iteration costs nothing
+        self.one_convolution = model.device.is_cpu if one_convolution is None else bool(one_convolution)
+        #: iterations between exact recomputations of K p in the one-convolution mode
+        self.exact_every = 50
 
-    def _gap(self, state, approach, known):
-        """state.disp_z <- K p; state.gap <- gap; sums <- residual sums of the current pressure."""
+    def _gap(self, state, approach, known, exact: bool = True):
+        """state.disp_z <- K p (unless ``exact`` is False: then state.disp_z already holds it);
+        state.gap <- gap; sums <- residual sums of the current pressure."""
         m = self.model
-        m.operator.normal(state.pressure, state.disp_z)
+        if exact:
+            m.operator.normal(state.pressure, state.disp_z)
         self._launch_reduce(
             nk.normal_gap,
             [m.initial_gap.flatten(), state.disp_z.flatten(), known.flatten(), state.pressure.flatten(), approach, self._cap],
@@ -70,15 +80,27 @@ class NormalSolver(ProjectedCG):
             self._initial_guess(state, float(approach), known)
         p, g, t, r = (a.flatten() for a in (state.pressure, state.gap, self.direction, self.response))
         self.direction.zero_()  # no leftover from an earlier (possibly failed) solve
+        # One convolution per iteration where the host can look cheaply (CPU): u = K p is carried
+        # as u - tau K t while no cell is projected, and recomputed after a projection and every
+        # ``exact_every`` iterations (rounding). On CUDA, u is recomputed every iteration.
+        incremental = self.one_convolution
+        exact = [True, 0]
 
         def iteration():
             self.sums.zero_()
-            self._gap(state, approach, known)
+            self._gap(state, approach, known, exact=exact[0])
             wp.launch(nk.normal_direction, dim=m.n_cells, inputs=[g, p, self._cap, self.sums, self.scalars], outputs=[t], device=m.device)
             m.operator.normal(self.direction, self.response)
             self._launch_reduce(nk.normal_step_sums, [g, t, r, p, self._cap], [self.sums])
-            self._launch_reduce(nk.normal_update, [g, t, self._cap, m.scalar(self.active_tol)], [p, self.sums])
+            tol_scalar = m.scalar(self.active_tol)
+            self._launch_reduce(nk.normal_update, [g, t, self._cap, tol_scalar], [p, self.sums])
+            if incremental:
+                wp.launch(nk.normal_displacement_step, dim=m.n_cells, inputs=[r, self.sums, tol_scalar],
+                          outputs=[state.disp_z.flatten()], device=m.device)
             wp.launch(reduce.cg_advance, dim=1, inputs=[self.sums, self.scalars], outputs=[self.history], device=m.device)
+            if incremental:
+                exact[1] += 1
+                exact[0] = self.sums.numpy()[nk.S_CORRECTED] > 0 or exact[1] % self.exact_every == 0
 
         def final_fields():
             self.sums.zero_()

@@ -1,0 +1,188 @@
+"""``warpcontact sweep``: every combination run and written at once, reruns skip finished cases,
+bad sweep files refused naming the key."""
+
+import argparse
+import csv
+import json
+import time
+from pathlib import Path
+
+import pytest
+
+from warpcontact import api
+from warpcontact.cli_sweep import add_parser, cmd_sweep
+from warpcontact.errors import InputError
+from warpcontact.sweep import case_id, load_sweep
+
+ROOT = Path(__file__).resolve().parents[1]
+PAPER_CASE = ROOT / "examples" / "table2_k080_dz5e-5.toml"
+HERTZ_CASE = ROOT / "examples" / "hertz.toml"
+MU_B_080 = 0.7698  # k_vm / sqrt(k_tau^-2 - 1) at k_tau = 0.80
+
+
+def parse(*argv):
+    parser = argparse.ArgumentParser(prog="warpcontact")
+    add_parser(parser.add_subparsers(dest="command", required=True))
+    return parser.parse_args([str(a) for a in argv])
+
+
+def write_sweep(tmp_path, text, name="sweep.toml"):
+    p = tmp_path / name
+    p.write_text(text)
+    return p
+
+
+def paper_base(tmp_path, n=32):
+    """The paper's k_tau = 0.80 case with n cells, beside the sweep file."""
+    text = PAPER_CASE.read_text().replace("n = 96", f"n = {n}")
+    (tmp_path / "base.toml").write_text(text)
+    return 'base = "base.toml"\n'
+
+
+def read_csv(path):
+    with open(path, newline="") as fh:
+        return list(csv.DictReader(fh))
+
+
+def test_sweep_writes_cases_and_csv_and_resumes(tmp_path, capsys):
+    sweep = write_sweep(tmp_path, paper_base(tmp_path) + '[sweep]\n"friction.k_tau" = [0.8, 0.95]\n'
+                        '"load.delta_z" = [5e-11]\n')
+    out = tmp_path / "out"
+    assert cmd_sweep(parse("sweep", sweep, "--out", out)) == 0
+    err = capsys.readouterr().err
+    assert "k_tau=0.8,delta_z=5e-11" in err and "k_tau=0.95,delta_z=5e-11" in err  # a line per case
+
+    files = sorted((out / "cases").glob("*.json"))
+    assert len(files) == 2
+    recs = {json.loads(f.read_text())["params"]["friction.k_tau"]: json.loads(f.read_text()) for f in files}
+    assert set(recs) == {0.8, 0.95}
+    for k, rec in recs.items():
+        assert rec["params"] == {"friction.k_tau": k, "load.delta_z": 5e-11}
+        assert rec["id"] == case_id(rec["params"]) and (out / "cases" / f"{rec['id']}.json").exists()
+        assert rec["task"] == "gross-slip" and rec["status"] == "ok" and rec["converged"]
+        assert rec["case"]["friction"]["k_tau"] == k and rec["case"]["grid"]["n"] == 32
+        assert rec["case"]["load"]["delta_z"] == 5e-11 and rec["elapsed_s"] > 0
+        s = rec["summary"]
+        assert s["converged"] and s["delta_x_max"] > 0 and s["mu"] == pytest.approx(s["force"]["x"] / s["force"]["z"])
+    assert recs[0.8]["summary"]["mu"] == pytest.approx(MU_B_080, rel=0.03)
+    assert recs[0.95]["summary"]["mu"] > recs[0.8]["summary"]["mu"]
+
+    rows = read_csv(out / "sweep.csv")
+    assert len(rows) == 2
+    header = list(rows[0])
+    assert header[:2] == ["friction.k_tau", "load.delta_z"]  # parameter columns first
+    assert [float(r["friction.k_tau"]) for r in rows] == [0.8, 0.95]  # in sweep order
+    assert all(float(r["load.delta_z"]) == 5e-11 and r["status"] == "ok" for r in rows)
+    assert float(rows[0]["mu"]) == pytest.approx(recs[0.8]["summary"]["mu"], rel=1e-12)
+    assert {"id", "label", "delta_x_max", "force_x", "force_z", "elapsed_s"} <= set(header)
+
+    before = {f.name: f.read_bytes() for f in files}
+    csv_before = (out / "sweep.csv").read_bytes()
+    t0 = time.perf_counter()
+    assert cmd_sweep(parse("sweep", sweep, "--out", out, "--quiet")) == 0  # nothing left to compute
+    assert time.perf_counter() - t0 < 2.0
+    assert {f.name: f.read_bytes() for f in sorted((out / "cases").glob("*.json"))} == before
+    assert (out / "sweep.csv").read_bytes() == csv_before
+
+    # a changed base (another grid) is not the same case: recomputed, only the one asked for
+    sweep2 = write_sweep(tmp_path, paper_base(tmp_path, n=24) + '[sweep]\n"friction.k_tau" = [0.8]\n'
+                         '"load.delta_z" = [5e-11]\n', name="sweep2.toml")
+    assert cmd_sweep(parse("sweep", sweep2, "--out", out, "--quiet")) == 0
+    rows = read_csv(out / "sweep.csv")
+    assert len(rows) == 1 and json.loads((out / "cases" / f"{rows[0]['id']}.json").read_text())["case"]["grid"]["n"] == 24
+
+
+SOLVE_SWEEP = f"""base = "{HERTZ_CASE.as_posix()}"
+[sweep]
+"grid.n" = [32]
+# the second path reaches the domain's edge: an InputError at run time, recorded
+"load.path" = [[[0.0, 0.0, 1.0e-10]], [[0.0, 0.0, 1.0e-10], [0.0, 0.0, 3.9e-10]]]
+[run]
+task = "solve"
+"""
+
+
+def test_solve_task_records_an_error_and_goes_on(tmp_path, capsys):
+    out = tmp_path / "out"
+    assert cmd_sweep(parse("sweep", write_sweep(tmp_path, SOLVE_SWEEP), "--out", out, "--quiet")) == 3
+    assert "grid.size" in capsys.readouterr().err
+    rows = read_csv(out / "sweep.csv")
+    assert [r["status"] for r in rows] == ["ok", "error"]
+    ok = json.loads((out / "cases" / f"{rows[0]['id']}.json").read_text())
+    assert ok["summary"]["converged"] and ok["summary"]["n_states"] == 1 and ok["summary"]["force"]["z"] > 0
+    bad = json.loads((out / "cases" / f"{rows[1]['id']}.json").read_text())
+    assert "edge" in bad["error"] and "grid.size" in bad["error"] and not bad["converged"] and "summary" not in bad
+
+
+def test_ctrl_c_keeps_what_finished(tmp_path, monkeypatch, capsys):
+    real, calls = api.solve, []
+
+    def solve_then_interrupt(case, **kw):
+        calls.append(case)
+        if len(calls) > 1:
+            raise KeyboardInterrupt
+        return real(case, **kw)
+
+    monkeypatch.setattr(api, "solve", solve_then_interrupt)
+    sweep = write_sweep(tmp_path, f'base = "{HERTZ_CASE.as_posix()}"\n[sweep]\n"grid.n" = [24, 32]\n')
+    out = tmp_path / "out"
+    assert cmd_sweep(parse("sweep", sweep, "--out", out, "--quiet")) == 130
+    assert "interrupted" in capsys.readouterr().err
+    assert len(list((out / "cases").glob("*.json"))) == 1 and len(read_csv(out / "sweep.csv")) == 1
+    monkeypatch.setattr(api, "solve", real)
+    assert cmd_sweep(parse("sweep", sweep, "--out", out, "--quiet")) == 0  # resumes: the second case only
+    assert [r["grid.n"] for r in read_csv(out / "sweep.csv")] == ["24", "32"]
+
+
+@pytest.mark.parametrize(
+    "sweep_text, key",
+    [
+        ('[sweep]\n"friction.k_tua" = [0.5]\n', "sweep.friction.k_tua"),
+        ('[sweep]\n"grid.cells" = [32]\n', "sweep.grid.cells"),
+        ('[sweep]\n"rubber.k_tau" = [0.5]\n', "sweep.rubber.k_tau"),
+        ('[sweep]\n"friction.k_tau" = []\n', "sweep.friction.k_tau"),
+        ('[sweep]\n"friction.k_tau" = 0.5\n', "sweep.friction.k_tau"),
+        ('[sweep]\n"friction.k_tau" = [0.5, 0.5]\n', "sweep.friction.k_tau"),
+        ('[sweep]\n"friction.k_tau" = [0.5]\n[run]\ntask = "bisect"\n', "run.task"),
+        ('[sweep]\n"friction.k_tau" = [0.5]\n[run]\ntask = "gross-slip"\nspeed = 2\n', "run.speed"),
+        ('[sweep]\n"friction.k_tau" = [0.5, 1.5]\n', "sweep.friction.k_tau"),  # a combination the case check refuses
+        ('[sweep]\n', "sweep"),
+        ('[sweep]\n"friction.k_tau" = [0.5]\n[grid]\nn = 32\n', "grid"),
+    ],
+)
+def test_bad_sweep_files_name_the_key(tmp_path, sweep_text, key):
+    sweep = write_sweep(tmp_path, paper_base(tmp_path) + sweep_text)
+    with pytest.raises(InputError) as e:
+        cmd_sweep(parse("sweep", sweep, "--out", tmp_path / "out"))
+    assert e.value.key == key, str(e.value)
+    assert not (tmp_path / "out").exists()  # refused before anything runs
+
+
+def test_combination_errors_name_the_combination(tmp_path):
+    # 2a at delta_z = 2e-10 m is 89 nm: the 67 nm domain of the base cannot hold it
+    sweep = write_sweep(tmp_path, paper_base(tmp_path) + '[sweep]\n"friction.k_tau" = [0.8]\n'
+                        '"load.delta_z" = [5e-11, 2e-10]\n')
+    with pytest.raises(InputError) as e:
+        load_sweep(sweep)
+    assert e.value.key == "grid.size" and "k_tau=0.8,delta_z=2e-10" in str(e.value)
+
+
+def test_inline_base_nested_keys_and_default_task(tmp_path):
+    base = "".join(f"[base.{line[1:]}" if line.startswith("[") else line
+                   for line in HERTZ_CASE.read_text().splitlines(keepends=True))
+    sw = load_sweep(write_sweep(tmp_path, base + "[sweep]\ngrid.n = [16, 24]\nload.delta_z = [5e-11, 1e-10]\n"),
+                    dtype="float32")
+    assert sw.task == "solve" and sw.keys == ("grid.n", "load.delta_z") and len(sw.cases) == 4
+    assert [c.label for c in sw.cases][:2] == ["n=16,delta_z=5e-11", "n=16,delta_z=1e-10"]
+    assert len({c.id for c in sw.cases}) == 4
+    c = sw.cases[-1].case
+    assert c.grid.n == 24 and c.load.delta_z == 1e-10 and c.solver.dtype == "float32" and c.solver.tol == 1e-5
+    with pytest.raises(InputError) as e:  # the base of this sweep has no [base.friction]
+        load_sweep(write_sweep(tmp_path, base + '[sweep]\n"grid.n" = [16]\n[run]\ntask = "gross-slip"\n'))
+    assert e.value.key == "run.task"
+
+
+def test_help_has_an_example(capsys):
+    with pytest.raises(SystemExit):
+        parse("sweep", "--help")
+    assert "example:" in capsys.readouterr().out

@@ -1,0 +1,648 @@
+"""Parameter sweeps: the cartesian product of listed case values, each finished case written at once.
+
+A sweep file is TOML (the format, with an example, is in ``docs/sweeps.md``)::
+
+    base = "table2_k080_dz5e-5.toml"        # or a [base] table holding a whole case
+    [sweep]
+    "friction.k_tau" = [0.5, 0.8, 0.95]     # dotted case keys -> lists of values
+    "load.delta_z" = [1e-11, 5e-11]
+    [run]
+    task = "gross-slip"                     # or "solve"; default: gross-slip with [friction]
+
+From Python::
+
+    from warpcontact.sweep import load_sweep, run_sweep
+
+    sw = load_sweep("examples/sweep_k_tau.toml")      # every combination built and validated
+    report = run_sweep(sw, "out/sweep")               # DIR/cases/<id>.json, DIR/sweep.csv
+    report.records                                    # one dict per finished case, in sweep order
+
+Every combination is a case built by :func:`~warpcontact.case.case_from_dict` from the base's
+``to_dict()`` with the swept values put in, so the case checks hold for every one of them; a
+combination that fails them is refused before anything runs, its message naming the combination.
+Mistakes raise :class:`~warpcontact.errors.InputError` naming the key (``sweep.friction.k_tau``,
+``run.task``, ``base.sphere.E``).
+
+Output folder: ``DIR/cases/<id>.json`` per finished case (parameters, summary, elapsed_s, the case
+dict), written atomically as soon as the case is done, and ``DIR/sweep.csv`` (one row per
+finished case, parameter columns first), rewritten atomically after each case. ``<id>`` is a
+short hash of the swept values. A rerun skips each case whose JSON holds the same parameters,
+task and case (solver settings included); a case that raised ``InputError`` (a contact reaching
+the domain's edge, say) is recorded with ``"error"`` and the sweep goes on.
+"""
+
+from __future__ import annotations
+
+import copy
+import csv
+import difflib
+import hashlib
+import io
+import itertools
+import json
+import numbers
+import sys
+import time
+import warnings
+from dataclasses import dataclass, field
+from os import PathLike
+from pathlib import Path
+from typing import Mapping
+
+try:
+    import tomllib
+except ModuleNotFoundError:  # Python < 3.11
+    import tomli as tomllib
+
+from . import __version__
+from .case import (ADHESION_KEYS, FLAT_KEYS, GRID_KEYS, LOAD_KEYS, SOLVER_KEYS, SPHERE_KEYS, Case,
+                   case_from_dict, load_case)
+from .errors import ConvergenceError, InputError, NonFiniteError
+
+#: Tables of a sweep file.
+SWEEP_TABLES = ("base", "sweep", "run")
+#: Keys of the ``[run]`` table.
+RUN_KEYS = ("task", "rel_tol")
+#: What each case runs: ``api.solve`` (the case's load path) or ``api.gross_slip``.
+TASKS = ("solve", "gross-slip")
+#: Default bisection bracket of delta_x_max (relative), as in ``warpcontact gross-slip``.
+DEFAULT_REL_TOL = 0.01
+#: The case keys a sweep may vary: table -> keys (the case-file schema, docs/case-files.md).
+CASE_SCHEMA = {
+    "sphere": SPHERE_KEYS,
+    "flat": FLAT_KEYS,
+    "grid": GRID_KEYS,
+    "load": LOAD_KEYS,
+    "solver": SOLVER_KEYS,
+    "friction": ("law", "mu", "k_tau", "k_vm", "hardness_cap"),
+    "adhesion": tuple(dict.fromkeys(k for keys in ADHESION_KEYS.values() for k in keys)),
+}
+DOTTED_KEYS = tuple(f"{t}.{k}" for t, keys in CASE_SCHEMA.items() for k in keys)
+#: Load keys of the default path, which an explicit ``load.path`` replaces (and the reverse).
+_DEFAULT_PATH_KEYS = ("delta_z", "delta_x", "delta_y", "steps")
+#: Keys of a case's JSON summary in the CSV, first (the rest follow in the order met).
+_CSV_FIXED = ("id", "label", "status", "converged")
+#: InputError keys that concern the machine, not a case: they stop the sweep instead of being recorded.
+_SETUP_KEYS = ("solver.device", "solver.fft", "solver.dtype")
+
+
+# ---------------------------------------------------------------------------------------------
+# The sweep file.
+
+
+@dataclass(frozen=True)
+class SweepCase:
+    """One combination of a sweep.
+
+    Attributes:
+        index: position in the sweep (0-based; the last swept key varies fastest).
+        params: swept key -> value (as written in the sweep file, JSON-ready), in sweep order.
+        id: short hash of ``params`` (12 hex digits), the name of its JSON file.
+        label: readable form of ``params``, e.g. ``k_tau=0.8,delta_z=5e-11``.
+        case: the validated case (command-line overrides applied).
+    """
+
+    index: int
+    params: dict
+    id: str
+    label: str
+    case: Case
+
+
+@dataclass(frozen=True)
+class Sweep:
+    """A validated sweep: the base case, the swept keys and values, the task, every combination.
+
+    Attributes:
+        base: the base case.
+        keys: swept dotted case keys, in file order.
+        values: per key, the list of values.
+        task: "solve" or "gross-slip".
+        rel_tol: bisection bracket of delta_x_max (gross-slip).
+        cases: every combination, in order.
+        source: the sweep file, or None.
+    """
+
+    base: Case
+    keys: tuple
+    values: tuple
+    task: str
+    rel_tol: float
+    cases: tuple
+    source: str | None = None
+
+
+def _jsonable(x):
+    """x as it reads back from JSON (tuples become lists), for comparing with stored records."""
+    return json.loads(json.dumps(x, allow_nan=True))
+
+
+def case_id(params: Mapping) -> str:
+    """Stable short id of a combination: the first 12 hex digits of the SHA-256 of its swept
+    keys and values (canonical JSON)."""
+    text = json.dumps([[k, v] for k, v in params.items()], sort_keys=True, separators=(",", ":"), allow_nan=True)
+    return hashlib.sha256(text.encode()).hexdigest()[:12]
+
+
+def _show_value(v) -> str:
+    if isinstance(v, bool):
+        return "true" if v else "false"
+    if isinstance(v, float):
+        return repr(v)
+    if isinstance(v, (str, numbers.Number)):
+        return str(v)
+    return json.dumps(v, separators=(",", ":"))
+
+
+def case_label(params: Mapping) -> str:
+    """``k_tau=0.8,delta_z=5e-11``: each swept key by its last part (the whole dotted key where
+    two swept keys share it, as sphere.E and flat.E)."""
+    short = [k.split(".", 1)[1] for k in params]
+    names = [s if short.count(s) == 1 else k for k, s in zip(params, short)]
+    return ",".join(f"{n}={_show_value(v)}" for n, v in zip(names, params.values()))
+
+
+def _sweep_entries(table: Mapping) -> list:
+    """(dotted key, value) pairs of the [sweep] table; TOML's unquoted dotted keys (friction.k_tau
+    = [...]) arrive as nested tables and are flattened back."""
+    out = []
+    for k, v in table.items():
+        if isinstance(v, Mapping):
+            for sub, w in v.items():
+                out.append((f"{k}.{sub}", w))
+        else:
+            out.append((str(k), v))
+    return out
+
+
+def _check_sweep_key(key: str) -> None:
+    if key in DOTTED_KEYS:
+        return
+    near = difflib.get_close_matches(key, DOTTED_KEYS, n=1)
+    hint = f"did you mean {near[0]!r}? " if near else ""
+    if "." not in key:
+        raise InputError(f"sweep.{key}", f"must be a dotted case key (table.key), such as 'friction.k_tau'; {hint}"
+                                         "see docs/case-files.md")
+    table = key.split(".", 1)[0]
+    if table not in CASE_SCHEMA:
+        raise InputError(f"sweep.{key}", f"unknown case table {table!r}; {hint}expected one of {', '.join(CASE_SCHEMA)}")
+    raise InputError(f"sweep.{key}", f"unknown case key; {hint}[{table}] has {', '.join(CASE_SCHEMA[table])} "
+                                     "(docs/case-files.md)")
+
+
+def _check_values(key: str, v) -> list:
+    if isinstance(v, (str, bytes, Mapping)) or not isinstance(v, (list, tuple)):
+        kind = "table" if isinstance(v, Mapping) else type(v).__name__
+        raise InputError(f"sweep.{key}", f"must be a list (TOML array) of values to try, got {kind} {v!r}")
+    if len(v) == 0:
+        raise InputError(f"sweep.{key}", "must list at least one value, got an empty list")
+    seen = {}
+    for i, x in enumerate(v):
+        canon = json.dumps(x, sort_keys=True, allow_nan=True)
+        if canon in seen:
+            raise InputError(f"sweep.{key}", f"lists {_show_value(x)} twice (entries {seen[canon]} and {i})")
+        seen[canon] = i
+    return list(v)
+
+
+def _base_from(data: Mapping, source: Path | None) -> Case:
+    if "base" not in data:
+        raise InputError("base", 'is required: a [base] table holding a whole case, or base = "case.toml" '
+                                 "(relative to the sweep file)")
+    b = data["base"]
+    if isinstance(b, str):
+        path = Path(b)
+        if not path.is_absolute() and source is not None:
+            path = source.parent / path
+        try:
+            return load_case(path)
+        except InputError as e:
+            if e.key == str(path):
+                raise InputError("base", f"{path}: {e.problem}") from None
+            raise InputError(e.key, f"{e.problem} (in the base case file {path})") from None
+    if not isinstance(b, Mapping):
+        raise InputError("base", f"must be a table holding a case or the path of a case file (string), got {b!r}")
+    try:
+        return case_from_dict(b)
+    except InputError as e:
+        raise InputError(f"base.{e.key}", e.problem) from None
+
+
+def _run_settings(data: Mapping, base: Case) -> tuple[str, float]:
+    run = data.get("run", {})
+    if not isinstance(run, Mapping):
+        raise InputError("run", f"must be a table ([run]), got {run!r}")
+    for k in run:
+        if k not in RUN_KEYS:
+            near = difflib.get_close_matches(str(k), RUN_KEYS, n=1)
+            hint = f"did you mean {near[0]!r}? " if near else ""
+            raise InputError(f"run.{k}", f"unknown key; {hint}expected one of {', '.join(RUN_KEYS)}")
+    task = run.get("task", "gross-slip" if base.friction is not None else "solve")
+    if not isinstance(task, str) or task not in TASKS:
+        raise InputError("run.task", f"must be one of {', '.join(repr(t) for t in TASKS)}, got {task!r}")
+    rel_tol = run.get("rel_tol", DEFAULT_REL_TOL)
+    if isinstance(rel_tol, bool) or not isinstance(rel_tol, numbers.Real) or not 0.0 < float(rel_tol) <= 0.5:
+        raise InputError("run.rel_tol", f"must be a number in (0, 0.5] (bisection bracket of delta_x_max), got {rel_tol!r}")
+    if "rel_tol" in run and task != "gross-slip":
+        raise InputError("run.rel_tol", "is used by task 'gross-slip' only")
+    return task, float(rel_tol)
+
+
+def _substitute(base: dict, params: Mapping) -> dict:
+    """The base case dict with the swept values put in (an explicit load.path replaces the default
+    path's keys, and the reverse)."""
+    d = copy.deepcopy(base)
+    swept = {tuple(k.split(".", 1)) for k in params}
+    load = d.get("load", {})
+    if ("load", "path") in swept:
+        for k in _DEFAULT_PATH_KEYS:
+            if ("load", k) not in swept:
+                load.pop(k, None)
+    elif any(t == "load" and k in _DEFAULT_PATH_KEYS for t, k in swept):
+        load.pop("path", None)
+    for key, v in params.items():
+        table, name = key.split(".", 1)
+        d.setdefault(table, {})[name] = copy.deepcopy(v)
+    return d
+
+
+def _build_case(base_dict: dict, params: Mapping, label: str, overrides: Mapping) -> Case:
+    def wrap(e: InputError) -> InputError:
+        key = f"sweep.{e.key}" if e.key in params else e.key
+        return InputError(key, f"{e.problem} (in the sweep case {label})")
+
+    try:
+        case = case_from_dict(_substitute(base_dict, params))
+        return case.with_overrides(**overrides)
+    except InputError as e:
+        raise wrap(e) from None
+
+
+def _check_task(sc: SweepCase, task: str) -> None:
+    """What the task needs of each case, checked before anything runs."""
+    from .runner import adhesion_law, friction_law
+
+    where = f" (in the sweep case {sc.label})"
+    if task == "gross-slip":
+        if sc.case.friction is None:
+            raise InputError("run.task", "'gross-slip' needs a [friction] table in the base case (or swept friction.* "
+                                         f"keys); use task = 'solve' for a frictionless sweep{where}")
+        dz = sc.case.load.delta_z_max
+        if not dz > 0:
+            key = "sweep.load.delta_z" if "load.delta_z" in sc.params else "load.delta_z"
+            raise InputError(key, f"gross-slip needs a positive normal approach, got {dz!r}{where}")
+    try:  # the laws check what the case checks do not (Tabor needs a finite yield strength)
+        friction_law(sc.case)
+        adhesion_law(sc.case)
+    except InputError as e:
+        raise InputError(e.key, e.problem + where) from None
+
+
+def sweep_from_dict(data: Mapping, source: str | PathLike | None = None, device: str | None = None,
+                    dtype: str | None = None, fft: str | None = None) -> Sweep:
+    """Validate a parsed sweep file and build every combination.
+
+    ``source`` (the sweep file's path) anchors a relative ``base = "case.toml"``; ``device``,
+    ``dtype``, ``fft`` override the solver settings of every case (a swept solver key may not be
+    overridden too).
+
+    Raises:
+        InputError: naming the key (``sweep.friction.k_tau``, ``run.task``, ``base.grid.n``) of the
+            first problem; a combination that fails the case checks is named in the message.
+    """
+    if not isinstance(data, Mapping):
+        raise InputError("sweep file", f"must hold tables [base], [sweep], [run], got {type(data).__name__}")
+    src = Path(source) if source is not None else None
+    for k in data:
+        if k not in SWEEP_TABLES:
+            near = difflib.get_close_matches(str(k), SWEEP_TABLES, n=1)
+            hint = f"did you mean {near[0]!r}? " if near else ""
+            what = "a case table belongs inside [base]; " if k in CASE_SCHEMA else ""
+            raise InputError(str(k), f"unknown table of a sweep file; {what}{hint}expected {', '.join(SWEEP_TABLES)}")
+    base = _base_from(data, src)
+    if "sweep" not in data:
+        raise InputError("sweep", 'is required: a [sweep] table of dotted case keys and lists, e.g. '
+                                  '"friction.k_tau" = [0.5, 0.8]')
+    table = data["sweep"]
+    if not isinstance(table, Mapping):
+        raise InputError("sweep", f"must be a table of dotted case keys and lists, got {table!r}")
+    entries = _sweep_entries(table)
+    if not entries:
+        raise InputError("sweep", 'must list at least one case key, e.g. "friction.k_tau" = [0.5, 0.8]')
+    keys, values = [], []
+    for key, v in entries:
+        _check_sweep_key(key)
+        values.append(_check_values(key, v))
+        keys.append(key)
+    task, rel_tol = _run_settings(data, base)
+
+    overrides = {"device": device, "dtype": dtype, "fft": fft}
+    for name, v in overrides.items():
+        if v is not None and f"solver.{name}" in keys:
+            raise InputError(f"sweep.solver.{name}", f"is swept, so it cannot also be overridden (--{name} / {name}=)")
+    base_dict = base.to_dict()
+    if base.solver.tol_default:  # a defaulted tol follows each case's dtype (swept or overridden)
+        base_dict["solver"].pop("tol", None)
+
+    cases = []
+    for index, combo in enumerate(itertools.product(*values)):
+        params = _jsonable(dict(zip(keys, combo)))
+        label = case_label(params)
+        case = _build_case(base_dict, params, label, overrides)
+        sc = SweepCase(index=index, params=params, id=case_id(params), label=label, case=case)
+        _check_task(sc, task)
+        cases.append(sc)
+    return Sweep(base=base, keys=tuple(keys), values=tuple(values), task=task, rel_tol=rel_tol, cases=tuple(cases),
+                 source=str(src) if src is not None else None)
+
+
+def load_sweep(path: str | PathLike, device: str | None = None, dtype: str | None = None,
+               fft: str | None = None) -> Sweep:
+    """Read, parse and validate a sweep file (TOML); see :func:`sweep_from_dict`.
+
+    Raises:
+        InputError: key = the file path when it cannot be read or parsed, else as sweep_from_dict.
+    """
+    key = str(path)
+    try:
+        raw = Path(path).read_bytes()
+    except FileNotFoundError:
+        raise InputError(key, "no such file") from None
+    except IsADirectoryError:
+        raise InputError(key, "is a directory, not a sweep file") from None
+    except OSError as e:
+        raise InputError(key, f"cannot be read: {e.strerror or e}") from None
+    try:
+        data = tomllib.loads(raw.decode("utf-8-sig"))
+    except UnicodeDecodeError as e:
+        raise InputError(key, f"is not UTF-8 text (byte 0x{raw[e.start]:02x} at offset {e.start})") from None
+    except tomllib.TOMLDecodeError as e:
+        raise InputError(key, "is not valid TOML: " + " ".join(str(e).split())) from None
+    return sweep_from_dict(data, source=path, device=device, dtype=dtype, fft=fft)
+
+
+# ---------------------------------------------------------------------------------------------
+# Running.
+
+
+@dataclass
+class SweepReport:
+    """What a run of a sweep did.
+
+    Attributes:
+        records: the JSON record of every finished case (computed now or before), in sweep order.
+        computed: ids of the cases computed by this run.
+        skipped: ids of the cases finished before (their JSON was kept).
+        interrupted: Ctrl-C stopped the run (finished cases are written).
+        elapsed_s: wall time of this run [s].
+        total: number of cases in the sweep.
+    """
+
+    records: list = field(default_factory=list)
+    computed: list = field(default_factory=list)
+    skipped: list = field(default_factory=list)
+    interrupted: bool = False
+    elapsed_s: float = 0.0
+    total: int = 0
+
+    @property
+    def errors(self) -> list:
+        return [r for r in self.records if r.get("status") == "error"]
+
+    @property
+    def not_converged(self) -> list:
+        """Records with no converged result: not converged, or an error recorded."""
+        return [r for r in self.records if not r.get("converged")]
+
+    @property
+    def all_converged(self) -> bool:
+        return len(self.records) == self.total and not self.not_converged
+
+
+def _record_path(out: Path, sc: SweepCase) -> Path:
+    return out / "cases" / f"{sc.id}.json"
+
+
+def _identity(sweep: Sweep, sc: SweepCase) -> dict:
+    """What a stored record must match to be reused."""
+    ident = {"params": sc.params, "task": sweep.task, "case": _jsonable(sc.case.to_dict())}
+    if sweep.task == "gross-slip":
+        ident["rel_tol"] = sweep.rel_tol
+    return ident
+
+
+def finished_record(out: str | PathLike, sweep: Sweep, sc: SweepCase) -> dict | None:
+    """The stored record of a case when it was finished with the same parameters, task and case."""
+    path = _record_path(Path(out), sc)
+    try:
+        rec = json.loads(path.read_text())
+    except (OSError, ValueError):
+        return None
+    if not isinstance(rec, dict):
+        return None
+    ident = _identity(sweep, sc)
+    return rec if all(rec.get(k) == v for k, v in ident.items()) else None
+
+
+def _gross_slip_summary(r: dict) -> dict:
+    s = {k: r[k] for k in ("delta_x_max", "delta_x_gross", "mu", "force", "converged", "stick_area", "contact_area")}
+    s["n_states"] = len(r["states"])
+    if not r["converged"]:  # as `warpcontact gross-slip`: no values from an unconverged path
+        s["delta_x_max"] = None
+        s["mu"] = None
+        s["note"] = "a state on the path did not converge: delta_x_max and mu are not reported"
+    return s
+
+
+def _run_case(sweep: Sweep, sc: SweepCase, progress) -> dict:
+    """Solve one case; returns its summary. KeyboardInterrupt propagates (nothing is recorded)."""
+    from . import api
+
+    if sweep.task == "gross-slip":
+        r = api.gross_slip(sc.case, rel_tol=sweep.rel_tol, on_state=lambda k, s: progress(k, None, s))
+        return _gross_slip_summary(r)
+    result = api.solve(sc.case, on_state=lambda k, total, s, res: progress(k, total, s))
+    if result.interrupted:  # run_path keeps what finished; a sweep records whole cases only
+        raise KeyboardInterrupt
+    summary = dict(result.states[-1])
+    summary["converged"] = result.converged
+    summary["n_states"] = len(result.states)
+    return summary
+
+
+def _csv_cell(v):
+    if v is None:
+        return ""
+    if isinstance(v, (list, dict)):
+        return json.dumps(v, separators=(",", ":"))
+    return v
+
+
+def _flatten(prefix: str, v, out: dict) -> None:
+    if isinstance(v, Mapping):
+        for k, w in v.items():
+            _flatten(f"{prefix}_{k}" if prefix else str(k), w, out)
+    else:
+        out[prefix] = v
+
+
+def csv_text(sweep: Sweep, records: list) -> str:
+    """sweep.csv: one row per record, the swept keys first (named as in the sweep file), then id,
+    label, status, converged, the summary (nested values joined with '_': force_x), elapsed_s,
+    error."""
+    rows = []
+    columns = dict.fromkeys([*sweep.keys, *_CSV_FIXED])
+    for r in records:
+        row = {k: _csv_cell(r["params"].get(k)) for k in sweep.keys}
+        row.update(id=r["id"], label=r["label"], status=r["status"], converged=r["converged"])
+        flat = {}
+        _flatten("", {k: v for k, v in (r.get("summary") or {}).items() if k not in ("converged", "note")}, flat)
+        for k, v in flat.items():
+            row[k] = _csv_cell(v)
+            columns.setdefault(k, None)
+        row["elapsed_s"] = r.get("elapsed_s")
+        row["error"] = r.get("error", "")
+        rows.append(row)
+    fieldnames = [*columns, "elapsed_s", "error"]
+    buf = io.StringIO()
+    w = csv.DictWriter(buf, fieldnames=fieldnames, restval="", lineterminator="\n")
+    w.writeheader()
+    w.writerows(rows)
+    return buf.getvalue()
+
+
+def _write_csv(out: Path, sweep: Sweep, records: list) -> None:
+    from .results import atomic_write_bytes
+
+    data = csv_text(sweep, records).encode()
+    path = out / "sweep.csv"
+    try:
+        if path.read_bytes() == data:
+            return
+    except OSError:
+        pass
+    atomic_write_bytes(path, data)
+
+
+def _result_text(task: str, summary: dict) -> str:
+    if task == "gross-slip":
+        if summary["mu"] is None:
+            return "not converged"
+        return f"delta_x_max {summary['delta_x_max']:.4e} m, mu {summary['mu']:.4f}"
+    f = summary["force"]
+    text = f"F_z {f['z']:.4e} N, F_x {f['x']:.4e} N, contact radius {summary['contact_radius']:.4e} m"
+    return text if summary["converged"] else text + " (not converged)"
+
+
+def run_sweep(sweep: Sweep, out: str | PathLike, quiet: bool = False, log=None) -> SweepReport:
+    """Run every case of ``sweep`` not finished before in ``out``; write each at once.
+
+    After each case: ``out/cases/<id>.json`` (params, label, task, status "ok" / "not converged"
+    / "error", converged, summary, elapsed_s [s], warnings, the case dict) and ``out/sweep.csv``
+    (every finished case of this sweep), both atomically. A case that raises InputError (not a
+    device or FFT problem, which stops the sweep), NonFiniteError or ConvergenceError is recorded
+    with ``error`` and the sweep continues. Ctrl-C stops the run; what finished is written and the
+    report says ``interrupted``. A progress line per case goes to ``log`` (stderr) unless quiet;
+    warnings and errors are printed either way.
+    """
+    from .results import atomic_write_json
+
+    log = sys.stderr if log is None else log
+    out = Path(out)
+    t0 = time.perf_counter()
+    report = SweepReport(total=len(sweep.cases))
+    n = len(sweep.cases)
+    width = len(str(n))
+    records: dict[str, dict] = {}
+
+    def ordered():
+        return [records[sc.id] for sc in sweep.cases if sc.id in records]
+
+    for sc in sweep.cases:
+        rec = finished_record(out, sweep, sc)
+        if rec is not None:
+            records[sc.id] = rec
+            report.skipped.append(sc.id)
+    if report.skipped and not quiet:
+        print(f"sweep: {len(report.skipped)} of {n} case(s) finished before in {out}, skipped", file=log, flush=True)
+
+    try:
+        out.mkdir(parents=True, exist_ok=True)
+        _write_csv(out, sweep, ordered())
+        for sc in sweep.cases:
+            if sc.id in records:
+                continue
+            head = f"sweep [{sc.index + 1:>{width}}/{n}] {sc.label}"
+
+            def progress(k, total, s, head=head):
+                if quiet:
+                    return
+                where = f"state {k + 1}/{total}" if total else f"state {k + 1} ({s.get('kind', '')})"
+                print(f"\r{head}: {where}, res {s['residual']:.1e}   ", end="", file=log, flush=True)
+
+            t1 = time.perf_counter()
+            error = None
+            with warnings.catch_warnings(record=True) as caught:
+                warnings.simplefilter("always")
+                try:
+                    summary = _run_case(sweep, sc, progress)
+                except InputError as e:
+                    if e.key in _SETUP_KEYS:
+                        raise
+                    error = str(e)
+                except (NonFiniteError, ConvergenceError) as e:
+                    error = f"{type(e).__name__}: {e}"
+            messages = list(dict.fromkeys(str(w.message) for w in caught))
+            rec = {
+                "id": sc.id,
+                "label": sc.label,
+                "index": sc.index,
+                **_identity(sweep, sc),
+                "status": "error" if error else ("ok" if summary["converged"] else "not converged"),
+                "converged": False if error else bool(summary["converged"]),
+            }
+            if error:
+                rec["error"] = error
+            else:
+                rec["summary"] = summary
+            rec.update(elapsed_s=time.perf_counter() - t1, warnings=messages,
+                       software={"warpcontact": __version__})
+            case = rec.pop("case")
+            rec["case"] = case  # the long case dict last, for reading
+            atomic_write_json(_record_path(out, sc), rec)
+            records[sc.id] = rec
+            report.computed.append(sc.id)
+            _write_csv(out, sweep, ordered())
+            if not quiet:
+                what = f"error: {error}" if error else _result_text(sweep.task, summary)
+                print(f"\r{head}: {what} ({rec['elapsed_s']:.1f} s)" + " " * 8, file=log, flush=True)
+            elif error:
+                print(f"warpcontact: sweep case {sc.label}: error: {error} (recorded; the sweep goes on)",
+                      file=log, flush=True)
+            for m in messages:
+                print(f"warpcontact: warning: {sc.label}: {m}", file=log, flush=True)
+    except KeyboardInterrupt:
+        report.interrupted = True
+        if not quiet:
+            print(file=log, flush=True)
+        try:  # every record is whole (atomic writes); bring the CSV up to date
+            _write_csv(out, sweep, ordered())
+        except KeyboardInterrupt:
+            pass
+    report.records = ordered()
+    report.elapsed_s = time.perf_counter() - t0
+    return report
+
+
+__all__ = [
+    "Sweep",
+    "SweepCase",
+    "SweepReport",
+    "case_id",
+    "case_label",
+    "csv_text",
+    "finished_record",
+    "load_sweep",
+    "run_sweep",
+    "sweep_from_dict",
+]
