@@ -39,10 +39,19 @@ def smc_shear(gap: Any, slip: Any, tau_max: Any, delta_n: Any, delta_t: Any):
 
 
 @wp.func
-def dugdale_normal(gap: Any, sigma_0: Any, h_0: Any):
-    """Dugdale: a constant tension sigma_0 where 0 < h <= h_0, none beyond (Maugis 1992)."""
+def dugdale_normal(gap: Any, sigma_0: Any, h_0: Any, ramp: Any):
+    """Dugdale (Maugis 1992): tension sigma_0 for 0 < h <= h_0, none beyond; with ``ramp`` > 0 the
+    two jumps become linear ramps of width ramp (rising over 0 < h < ramp, falling over h_0 < h <
+    h_0 + ramp), which keeps the work of adhesion sigma_0 h_0 exact."""
     zero = type(gap)(0.0)
-    return wp.where(gap > zero and gap <= h_0, -sigma_0, zero)
+    one = type(gap)(1.0)
+    if gap <= zero or gap >= h_0 + ramp:
+        return zero
+    if ramp <= zero:
+        return wp.where(gap <= h_0, -sigma_0, zero)
+    rise = wp.min(gap / ramp, one)
+    fall = wp.min((h_0 + ramp - gap) / ramp, one)
+    return -sigma_0 * wp.min(rise, fall)
 
 
 @wp.kernel
@@ -109,6 +118,7 @@ def dugdale_update(
     contact_pressure: wp.array(dtype=Any),
     sigma_0: Any,
     h_0: Any,
+    ramp: Any,
     relax: Any,
     n: int,
     outer: int,
@@ -129,7 +139,7 @@ def dugdale_update(
         if i < n:
             p = zero
             if contact_pressure[i] <= zero:
-                p = dugdale_normal(gap[i], sigma_0, h_0)
+                p = dugdale_normal(gap[i], sigma_0, h_0, ramp)
             p = (one - relax) * adhesive_pressure[i] + relax * p
             dp = p - adhesive_pressure[i]
             s_change += dp * dp

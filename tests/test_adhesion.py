@@ -46,11 +46,22 @@ def test_smc_and_dugdale_kernels_match_closed_forms(device):
     # the work of pure opening is e sigma_max delta_n
     w = law.sigma_max * law.delta_n * integrate.quad(lambda x: x * math.exp(1 - x), 0, np.inf)[0]
     assert w == pytest.approx(law.work_of_adhesion, rel=1e-9)
-    dug = Dugdale(sigma_0=1e8, h_0=4e-10)
+    dug = Dugdale(sigma_0=1e8, h_0=4e-10, smoothing=0.0)  # the sharp law
     state.adhesive_pressure.zero_()
     dug.update(model, state, 1.0, model.scalars(2))
     ref = np.where(out & (h > 0) & (h <= dug.h_0), -dug.sigma_0, 0.0)
     assert np.allclose(state.to_numpy_si()["adhesive_pressure"], ref, rtol=1e-12, atol=1e-6)
+    smooth = Dugdale(sigma_0=1e8, h_0=4e-10, smoothing=0.1)  # ramps of width 0.1 h_0 at both ends
+    state.adhesive_pressure.zero_()
+    smooth.update(model, state, 1.0, model.scalars(2))
+    ramp = 0.1 * smooth.h_0
+    shape = np.clip(np.minimum(h / ramp, (smooth.h_0 + ramp - h) / ramp), 0.0, 1.0)
+    ref = np.where(out & (h > 0), -smooth.sigma_0 * shape, 0.0)
+    assert np.allclose(state.to_numpy_si()["adhesive_pressure"], ref, rtol=1e-9, atol=1e-6)
+    # the ramps keep the work of adhesion: integral of the law over h is sigma_0 h_0
+    hh = np.linspace(0, 2 * smooth.h_0, 200001)
+    law = np.clip(np.minimum(hh / ramp, (smooth.h_0 + ramp - hh) / ramp), 0, 1) * smooth.sigma_0
+    assert np.trapezoid(law, hh) == pytest.approx(smooth.work_of_adhesion, rel=1e-6)
 
 
 def test_pull_off_dmt_limit():

@@ -554,6 +554,7 @@ def run_sweep(sweep: Sweep, out: str | PathLike, quiet: bool = False, log=None) 
     n = len(sweep.cases)
     width = len(str(n))
     records: dict[str, dict] = {}
+    live = bool(getattr(log, "isatty", lambda: False)())
 
     def ordered():
         return [records[sc.id] for sc in sweep.cases if sc.id in records]
@@ -575,7 +576,7 @@ def run_sweep(sweep: Sweep, out: str | PathLike, quiet: bool = False, log=None) 
             head = f"sweep [{sc.index + 1:>{width}}/{n}] {sc.label}"
 
             def progress(k, total, s, head=head):
-                if quiet:
+                if quiet or not live:  # state by state only on a terminal; a log gets a line per case
                     return
                 where = f"state {k + 1}/{total}" if total else f"state {k + 1} ({s.get('kind', '')})"
                 print(f"\r{head}: {where}, res {s['residual']:.1e}   ", end="", file=log, flush=True)
@@ -615,7 +616,7 @@ def run_sweep(sweep: Sweep, out: str | PathLike, quiet: bool = False, log=None) 
             _write_csv(out, sweep, ordered())
             if not quiet:
                 what = f"error: {error}" if error else _result_text(sweep.task, summary)
-                print(f"\r{head}: {what} ({rec['elapsed_s']:.1f} s)" + " " * 8, file=log, flush=True)
+                print(f"\r{head}: {what} ({rec['elapsed_s']:.1f} s)" + (" " * 8 if live else ""), file=log, flush=True)
             elif error:
                 print(f"warpcontact: sweep case {sc.label}: error: {error} (recorded; the sweep goes on)",
                       file=log, flush=True)
@@ -623,7 +624,7 @@ def run_sweep(sweep: Sweep, out: str | PathLike, quiet: bool = False, log=None) 
                 print(f"warpcontact: warning: {sc.label}: {m}", file=log, flush=True)
     except KeyboardInterrupt:
         report.interrupted = True
-        if not quiet:
+        if live and not quiet:
             print(file=log, flush=True)
         try:  # every record is whole (atomic writes); bring the CSV up to date
             _write_csv(out, sweep, ordered())
