@@ -61,7 +61,7 @@ def test_smc_and_dugdale_kernels_match_closed_forms(device):
     # the ramps keep the work of adhesion: integral of the law over h is sigma_0 h_0
     hh = np.linspace(0, 2 * smooth.h_0, 200001)
     law = np.clip(np.minimum(hh / ramp, (smooth.h_0 + ramp - hh) / ramp), 0, 1) * smooth.sigma_0
-    assert np.trapezoid(law, hh) == pytest.approx(smooth.work_of_adhesion, rel=1e-6)
+    assert integrate.trapezoid(law, hh) == pytest.approx(smooth.work_of_adhesion, rel=1e-6)
 
 
 def test_pull_off_dmt_limit():
