@@ -11,7 +11,7 @@ from warpcontact.adhesion import SMC, Dugdale
 from warpcontact.geometry import Grid, Sphere
 from warpcontact.materials import PAPER_PAIR
 from warpcontact.model import ContactModel
-from warpcontact.pull_off import approach_retract, tabor_parameter
+from warpcontact.approach_retract import approach_retract, tabor_parameter
 from warpcontact.reference import maugis_dugdale_pull_off
 from warpcontact.solvers.contact import ContactSolver
 from warpcontact.state import ContactState

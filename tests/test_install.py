@@ -43,3 +43,15 @@ def test_pip_install_into_a_folder(tmp_path):
                        env={"PYTHONPATH": str(target), "PATH": "/usr/bin:/bin"}, timeout=300)
     assert r.returncode == 0, r.stderr[-2000:]
     assert r.stdout.strip().startswith(str(target))
+
+
+def test_api_functions_stay_functions():
+    """Calling the API twice works: no submodule of the same name shadows a function."""
+    import warpcontact as wc
+
+    for name in ("solve", "path", "gross_slip", "pull_off", "load_case", "case_from_dict"):
+        assert callable(getattr(wc, name)), name
+    import warpcontact.approach_retract  # noqa: F401
+    import warpcontact.slip_search  # noqa: F401
+
+    assert callable(wc.gross_slip) and callable(wc.pull_off)

@@ -7,7 +7,7 @@ import pytest
 
 from warpcontact.friction import Coulomb, TaborVonMises
 from warpcontact.geometry import Grid, Sphere
-from warpcontact.gross_slip import find_gross_slip
+from warpcontact.slip_search import find_gross_slip
 from warpcontact.materials import COPPER, PAPER_PAIR, MaterialPair
 from warpcontact.model import ContactModel
 from warpcontact.reference import hertz, mindlin

@@ -14,7 +14,7 @@ from hypothesis.extra import numpy as hnp
 from warpcontact.errors import NonFiniteError
 from warpcontact.friction import TaborVonMises
 from warpcontact.geometry import Grid, Sphere
-from warpcontact.gross_slip import estimate_delta_x_max
+from warpcontact.slip_search import estimate_delta_x_max
 from warpcontact.kernels import laws
 from warpcontact.kernels.tangential import STICK
 from warpcontact.materials import PAPER_PAIR

@@ -61,7 +61,7 @@ def gross_slip(case: Case, device=None, dtype=None, fft=None, rel_tol: float = 0
     delta_x rises until no cell sticks, and bisection narrows the bracket to ``rel_tol``.
     Returns delta_x_max, delta_x_gross [m], mu, force [N], converged, states.
     """
-    from .gross_slip import find_gross_slip
+    from .slip_search import find_gross_slip
     from .runner import build
 
     case = _prepare(case, device, dtype, fft)
@@ -77,7 +77,7 @@ def pull_off(case: Case, steps: int = 20, retract_to: float | None = None, devic
     """Approach to the case's delta_z and retract to ``retract_to`` [m] (default: -4 ranges of the
     adhesion law), ``steps`` steps each way. Returns pull_off_force [N] (the most tensile total
     F_z), its delta_z, the curve (summaries) and converged. The case needs ``[adhesion]``."""
-    from .pull_off import approach_retract
+    from .approach_retract import approach_retract
     from .runner import build
 
     case = _prepare(case, device, dtype, fft)

@@ -112,8 +112,10 @@ def _parser():
     _common(po)
 
     from .cli_figure import add_parser as add_figure_parser
+    from .cli_sweep import add_parser as add_sweep_parser
 
     add_figure_parser(sub)
+    add_sweep_parser(sub)
     t.add_argument("--k-tau", type=float, nargs="+", help="only these k_tau columns (0.50, 0.80, 0.95)")
     t.add_argument("--delta-z-um", type=float, nargs="+", help="only these delta_z rows in um (1e-5, 5e-5, 1e-4, 1.5e-4)")
     _common(t)
@@ -162,7 +164,7 @@ def cmd_solve(args) -> int:
 
 def cmd_gross_slip(args) -> int:
     from .case import load_case
-    from .gross_slip import find_gross_slip
+    from .slip_search import find_gross_slip
     from .results import atomic_write_json
     from .runner import build
 
@@ -201,7 +203,7 @@ def cmd_gross_slip(args) -> int:
 
 
 def cmd_pull_off(args) -> int:
-    from .pull_off import approach_retract, tabor_parameter
+    from .approach_retract import approach_retract, tabor_parameter
     from .case import load_case
     from .results import atomic_write_json
     from .runner import build
@@ -364,9 +366,10 @@ def main(argv=None) -> int:
     args = _parser().parse_args(argv)
     try:
         from .cli_figure import cmd_figure
+        from .cli_sweep import cmd_sweep
 
         commands = {"solve": cmd_solve, "gross-slip": cmd_gross_slip, "table2": cmd_table2, "figure": cmd_figure,
-                    "pull-off": cmd_pull_off}
+                    "pull-off": cmd_pull_off, "sweep": cmd_sweep}
         return commands[args.command](args)
     except InputError as e:
         print(f"warpcontact: error: {e}", file=sys.stderr)

@@ -144,11 +144,25 @@ def case_id(params: Mapping) -> str:
     return hashlib.sha256(text.encode()).hexdigest()[:12]
 
 
+def _short_float(v: float) -> str:
+    """The shorter of repr and the shortest exact exponent form: 1e8 (not 100000000.0), 6.708e-8, 0.8."""
+    r = repr(v)
+    if v == 0 or v != v or v in (float("inf"), float("-inf")):
+        return r
+    for digits in range(17):
+        e = f"{v:.{digits}e}"
+        if float(e) == v:
+            break
+    mant, exp = e.split("e")
+    e = f"{mant}e{int(exp)}"
+    return e if len(e) < len(r) else r
+
+
 def _show_value(v) -> str:
     if isinstance(v, bool):
         return "true" if v else "false"
     if isinstance(v, float):
-        return repr(v)
+        return _short_float(v)
     if isinstance(v, (str, numbers.Number)):
         return str(v)
     return json.dumps(v, separators=(",", ":"))
@@ -290,7 +304,8 @@ def _check_task(sc: SweepCase, task: str) -> None:
         dz = sc.case.load.delta_z_max
         if not dz > 0:
             key = "sweep.load.delta_z" if "load.delta_z" in sc.params else "load.delta_z"
-            raise InputError(key, f"gross-slip needs a positive normal approach, got {dz!r}{where}")
+            raise InputError(key, f"gross-slip needs a positive normal approach; the deepest state of the path is "
+                                  f"delta_z = {dz!r} m{where}")
     try:  # the laws check what the case checks do not (Tabor needs a finite yield strength)
         friction_law(sc.case)
         adhesion_law(sc.case)
@@ -318,7 +333,8 @@ def sweep_from_dict(data: Mapping, source: str | PathLike | None = None, device:
             near = difflib.get_close_matches(str(k), SWEEP_TABLES, n=1)
             hint = f"did you mean {near[0]!r}? " if near else ""
             what = "a case table belongs inside [base]; " if k in CASE_SCHEMA else ""
-            raise InputError(str(k), f"unknown table of a sweep file; {what}{hint}expected {', '.join(SWEEP_TABLES)}")
+            raise InputError(str(k), f"unknown {'table' if isinstance(data[k], Mapping) else 'key'} of a sweep file; "
+                                     f"{what}{hint}expected {', '.join(SWEEP_TABLES)}")
     base = _base_from(data, src)
     if "sweep" not in data:
         raise InputError("sweep", 'is required: a [sweep] table of dotted case keys and lists, e.g. '

@@ -14,7 +14,7 @@ from pathlib import Path
 
 from .friction import TaborVonMises
 from .geometry import Grid, Sphere
-from .gross_slip import find_gross_slip
+from .slip_search import find_gross_slip
 from .materials import PAPER_PAIR
 from .model import ContactModel
 from .solvers.contact import ContactSolver

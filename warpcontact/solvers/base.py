@@ -25,6 +25,10 @@ class ProjectedCG:
     ``check_every`` iterations (every iteration on the CPU, where a read is free).
     """
 
+    #: iterations between restarts of the conjugacy (beta = 0); 0 for none. Restarts cure the
+    #: stalls of conjugate directions built while the active set was changing.
+    restart_every = 0
+
     def __init__(self, model, n_sums: int, n_scalars: int, tol=None, max_iter: int = 2000, check_every=None):
         self.model = model
         self.tol = default_tolerance(model.dtype) if tol is None else float(tol)
@@ -66,6 +70,8 @@ class ProjectedCG:
         while not residual < tol and it < self.max_iter:
             if not math.isfinite(residual):
                 on_non_finite(it)
+            if self.restart_every and it and it % self.restart_every == 0:
+                self.scalars[0:1].zero_()  # G_old = 0: the next direction is the (preconditioned) gradient
             iteration()
             it += 1
             if it % self.check_every == 0 or it == self.max_iter:

@@ -83,7 +83,11 @@ class NormalSolver(ProjectedCG):
         # One convolution per iteration where the host can look cheaply (CPU): u = K p is carried
         # as u - tau K t while no cell is projected, and recomputed after a projection and every
         # ``exact_every`` iterations (rounding). On CUDA, u is recomputed every iteration.
-        incremental = self.one_convolution
+        # mode[0]: carry K p incrementally; switched off for the rest of the solve as soon as an
+        # exact check contradicts the carried displacement (the carried u said "converged", the
+        # recomputed one does not: rounding or an undetected projection), which then behaves
+        # exactly like the two-convolution iteration.
+        mode = [self.one_convolution]
         exact = [True, 0]
 
         def iteration():
@@ -94,18 +98,26 @@ class NormalSolver(ProjectedCG):
             self._launch_reduce(nk.normal_step_sums, [g, t, r, p, self._cap], [self.sums])
             tol_scalar = m.scalar(self.active_tol)
             self._launch_reduce(nk.normal_update, [g, t, self._cap, tol_scalar], [p, self.sums])
-            if incremental:
+            if mode[0]:
                 wp.launch(nk.normal_displacement_step, dim=m.n_cells, inputs=[r, self.sums, tol_scalar],
                           outputs=[state.disp_z.flatten()], device=m.device)
             wp.launch(reduce.cg_advance, dim=1, inputs=[self.sums, self.scalars], outputs=[self.history], device=m.device)
-            if incremental:
+            if mode[0]:
                 exact[1] += 1
                 exact[0] = self.sums.numpy()[nk.S_CORRECTED] > 0 or exact[1] % self.exact_every == 0
+            else:
+                exact[0] = True
+
+        checks = [0]
 
         def final_fields():
             self.sums.zero_()
             self._gap(state, approach, known)
-            return self._relative_residual(nk.S_VIOL, nk.S_RHS)
+            residual = self._relative_residual(nk.S_VIOL, nk.S_RHS)
+            checks[0] += 1
+            if checks[0] > 1 and not residual < self.active_tol:
+                mode[0] = False  # the carried u disagreed with the exact one: recompute from now on
+            return residual
 
         def on_non_finite(it):
             raise_non_finite("normal solve", state, ("pressure", "gap", "disp_z"), it)

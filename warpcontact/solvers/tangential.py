@@ -22,6 +22,8 @@ class TangentialSolver(ProjectedCG):
     right-hand side delta - s_prev - u_known on the contact.
     """
 
+    restart_every = 100
+
     def __init__(self, model, tol=None, max_iter: int = 2000, check_every=None):
         super().__init__(model, tk.N_SUMS, tk.N_SCALARS, tol, max_iter, check_every)
         f = model.field
