@@ -17,13 +17,13 @@ from typing import Any
 import warp as wp
 
 from .overloads import register_float_overloads
-from .reduce import C_DELTA, C_G_OLD, N_SCALARS, S_G, S_RHS, S_VIOL, block_add, cell_index  # noqa: F401  (shared slots)
+from .reduce import (  # noqa: F401  (shared slots)
+    C_DELTA, C_G_OLD, N_SCALARS, S_G, S_GT, S_RHS, S_RT, S_VIOL, block_add, cell_index, cg_converged, cg_step_length,
+)
 from .reduce import S_RESTART as S_IOL  # cells that re-enter contact (or leave the cap)
 
 # slots of ``sums`` (0-2 and 5 shared with kernels/reduce.py: g^2 on the free set, violation,
 # right-hand side, re-entries)
-S_GT = wp.constant(3)  # sum of g t over the contact set
-S_RT = wp.constant(4)  # sum of (K t) t over the contact set
 S_FORCE = wp.constant(6)  # sum of p
 S_CORRECTED = wp.constant(7)  # cells the projection changed (the step's K t no longer gives K p)
 N_SUMS = 8
@@ -155,12 +155,10 @@ def normal_update(
     block, lane = wp.tid()
     thread = block * wp.block_dim() + lane
     zero = gap[0] - gap[0]
-    tau = zero
-    if sums[S_RT] > zero:
-        tau = sums[S_GT] / sums[S_RT]
+    tau = cg_step_length(sums)
     count = zero
     corrected = zero
-    done = sums[S_VIOL] <= tol * tol * sums[S_RHS]
+    done = cg_converged(sums, tol)
     for k in range(per):
         i = cell_index(thread, outer, inner, k)
         if i < n and not done:
@@ -189,13 +187,9 @@ def normal_displacement_step(response: wp.array(dtype=Any), sums: wp.array(dtype
     """u <- u - tau K t: the displacement of the updated pressure when no cell was projected
     (the same tau, and the same converged-iterate rule, as ``normal_update``)."""
     i = wp.tid()
-    zero = tol - tol
-    if sums[S_VIOL] <= tol * tol * sums[S_RHS]:
+    if cg_converged(sums, tol):
         return
-    tau = zero
-    if sums[S_RT] > zero:
-        tau = sums[S_GT] / sums[S_RT]
-    displacement[i] = displacement[i] - tau * response[i]
+    displacement[i] = displacement[i] - cg_step_length(sums) * response[i]
 
 
 for _k in (normal_gap, normal_direction, normal_step_sums, normal_update, normal_displacement_step):

@@ -37,6 +37,24 @@ def block_add(sums: wp.array(dtype=Any), slot: int, value: Any):
     wp.tile_atomic_add(sums, total, offset=slot)
 
 
+S_GT = wp.constant(3)  # g . t over the free set
+S_RT = wp.constant(4)  # t . (K t) (+ curvature) over the free set
+
+
+@wp.func
+def cg_step_length(sums: wp.array(dtype=Any)):
+    """The conjugate-gradient step tau = (g . t) / (t . H t), 0 when the denominator vanishes."""
+    zero = sums[S_GT] - sums[S_GT]
+    return wp.where(sums[S_RT] > zero, sums[S_GT] / sums[S_RT], zero)
+
+
+@wp.func
+def cg_converged(sums: wp.array(dtype=Any), tol: Any):
+    """Whether the iterate this iteration started from already meets the relative tolerance:
+    then it is left as it is (near the solution tau is a ratio of rounding noise)."""
+    return sums[S_VIOL] <= tol * tol * sums[S_RHS]
+
+
 @wp.kernel
 def cg_advance(sums: wp.array(dtype=Any), scalars: wp.array(dtype=Any), residual_history: wp.array(dtype=Any)):
     """One thread, end of an iteration: G_old <- G, delta <- (no cell re-entered the free set),

@@ -26,12 +26,12 @@ from typing import Any
 import warp as wp
 
 from .overloads import register_float_overloads
-from .reduce import C_DELTA, C_G_OLD, N_SCALARS, S_G, S_RHS, S_VIOL, block_add, cell_index  # noqa: F401  (shared slots)
+from .reduce import (  # noqa: F401  (shared slots)
+    C_DELTA, C_G_OLD, N_SCALARS, S_G, S_GT, S_RHS, S_RT, S_VIOL, block_add, cell_index, cg_converged, cg_step_length,
+)
 from .reduce import S_RESTART as S_RELEASED  # slip cells released into stick by the last step
 
 # slots of ``sums`` (0-2 and 5 shared with kernels/reduce.py; S_G holds g.z, z = M^-1 P g)
-S_GT = wp.constant(3)
-S_RT = wp.constant(4)
 S_STICK = wp.constant(6)  # count of stick cells
 N_SUMS = 7
 
@@ -253,11 +253,9 @@ def tangential_update(
     block, lane = wp.tid()
     thread = block * wp.block_dim() + lane
     zero = grad_x[0] - grad_x[0]
-    tau = zero
-    if sums[S_RT] > zero:
-        tau = sums[S_GT] / sums[S_RT]
+    tau = cg_step_length(sums)
     tau_release = wp.where(tau > zero, tau, slip_step)
-    done = sums[S_VIOL] <= tol * tol * sums[S_RHS]
+    done = cg_converged(sums, tol)
     released = zero
     for k in range(per):
         i = cell_index(thread, outer, inner, k)
