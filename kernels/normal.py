@@ -24,9 +24,8 @@ from .reduce import S_RESTART as S_IOL  # cells that re-enter contact (or leave 
 
 # slots of ``sums`` (0-2 and 5 shared with kernels/reduce.py: g^2 on the free set, violation,
 # right-hand side, re-entries)
-S_FORCE = wp.constant(6)  # sum of p
-S_CORRECTED = wp.constant(7)  # cells the projection changed (the step's K t no longer gives K p)
-N_SUMS = 8
+S_CORRECTED = wp.constant(6)  # cells the projection changed (the step's K t no longer gives K p)
+N_SUMS = 7
 
 
 @wp.kernel
@@ -55,7 +54,6 @@ def normal_gap(
     s_g = zero
     s_viol = zero
     s_rhs = zero
-    s_force = zero
     for k in range(per):
         i = cell_index(thread, outer, inner, k)
         if i < n:
@@ -67,20 +65,17 @@ def normal_gap(
                 s_viol += g * g + p * p  # non-finite: makes the residual non-finite, which stops the solve
             elif p >= pressure_cap:
                 s_rhs += rhs * rhs
-                s_force += p
                 if g > zero:
                     s_viol += g * g
             elif p > zero:
                 s_g += g * g
                 s_viol += g * g
                 s_rhs += rhs * rhs
-                s_force += p
             elif g < zero:
                 s_viol += g * g
     block_add(sums, S_G, s_g)
     block_add(sums, S_VIOL, s_viol)
     block_add(sums, S_RHS, s_rhs)
-    block_add(sums, S_FORCE, s_force)
 
 
 @wp.kernel

@@ -75,22 +75,16 @@ class ContactSolver:
 
     def _known_displacements(self, state):
         """known_z, known_x, known_y <- displacements of the tractions held fixed in a turn: the
-        coupling of the other unknown and the adhesive tractions."""
+        coupling of the other unknown, plus the adhesive tractions' (computed once per update in
+        ``_update_adhesion``)."""
         m = self.model
-        op = m.operator
         for a in (self.known_z, self.known_x, self.known_y):
             a.zero_()
         if self.coupled:
-            op.cross(state.pressure, state.shear_x, state.shear_y, self.known_z, self.known_x, self.known_y)
+            m.operator.cross(state.pressure, state.shear_x, state.shear_y, self.known_z, self.known_x, self.known_y)
         if self.adhesion is not None:
-            if self.friction is not None:
-                op.coupled_apply(state.adhesive_pressure, state.adhesive_shear_x, state.adhesive_shear_y,
-                                 self.adhesive_z, self.adhesive_x, self.adhesive_y)
-                pairs = ((self.adhesive_z, self.known_z), (self.adhesive_x, self.known_x), (self.adhesive_y, self.known_y))
-            else:
-                op.normal(state.adhesive_pressure, self.adhesive_z)
-                pairs = ((self.adhesive_z, self.known_z),)
-            for src, dst in pairs:
+            pairs = ((self.adhesive_z, self.known_z), (self.adhesive_x, self.known_x), (self.adhesive_y, self.known_y))
+            for src, dst in pairs if self.friction is not None else pairs[:1]:
                 wp.launch(ak.add_to, dim=m.n_cells, inputs=[src.flatten()], outputs=[dst.flatten()], device=m.device)
 
     def _update_slip(self, state, dx, dy, final: bool = False):
@@ -190,9 +184,16 @@ class ContactSolver:
         return info
 
     def _update_adhesion(self, state, relax) -> float:
-        """Relaxed update of the adhesive tractions; returns their relative change."""
+        """Relaxed update of the adhesive tractions and of their displacements; returns the
+        tractions' relative change."""
         self.adhesive_change.zero_()
         self.adhesion.update(self.model, state, relax, self.adhesive_change)
+        op = self.model.operator
+        if self.friction is not None:  # the adhesive tractions' displacements, for the whole turn
+            op.coupled_apply(state.adhesive_pressure, state.adhesive_shear_x, state.adhesive_shear_y,
+                             self.adhesive_z, self.adhesive_x, self.adhesive_y)
+        else:
+            op.normal(state.adhesive_pressure, self.adhesive_z)
         s = self.adhesive_change.numpy().astype(np.float64)
         return math.sqrt(s[0] / s[1]) if s[1] > 0 else 0.0
 
