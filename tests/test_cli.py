@@ -100,8 +100,12 @@ def test_gross_slip_needs_friction(tmp_path):
 def test_table2_writes_cells_and_resumes(tmp_path):
     out = tmp_path / "t2"
     sel = ["--k-tau", "0.8", "--delta-z-um", "5e-5", "1e-5"]
-    r = run_cli("table2", "--no-adhesion", "--n", "24", *sel, "--out", out, "--quiet")
+    r = run_cli("table2", "--no-adhesion", "--n", "24", *sel, "--out", out)
     assert r.returncode in (0, 3), r.stderr
+    results = [ln for ln in r.stderr.splitlines() if ln.startswith("table2 [")]  # not a terminal: result lines
+    assert [ln.split(": delta_x_max ")[0] for ln in results] == ["table2 [1/2] n 24 k_tau 0.80 delta_z 1.0e-05 um",
+                                                                 "table2 [2/2] n 24 k_tau 0.80 delta_z 5.0e-05 um"]
+    assert "\r" not in r.stderr
     cells = json.loads((out / "table2.json").read_text())["cells"]
     assert {(c["k_tau"], c["delta_z_um"]) for c in cells} == {(0.8, 5e-5), (0.8, 1e-5)}
     for c in cells:
@@ -159,3 +163,80 @@ def test_pull_off_command(tmp_path):
 def test_pull_off_needs_adhesion(tmp_path):
     r = run_cli("pull-off", small_case(tmp_path), "--out", tmp_path / "po", "--quiet")
     assert r.returncode == 2 and "adhesion" in r.stderr and "Traceback" not in r.stderr
+
+
+# --- a solve that cannot converge: exit 3, one line, results written and marked ---
+
+#: the paper's k_tau = 0.80 case on 32 cells, the flat of the sphere's material (no coupling: one
+#: turn a state, about a second), each conjugate-gradient solve stopped after 1 iteration
+UNCONVERGED_GROSS_SLIP = {"n = 96": "n = 32", "E = 205e9\nnu = 0.31": "E = 106e9\nnu = 0.33",
+                          'dtype = "float64"': 'dtype = "float64"\nmax_iter = 1'}
+
+
+def one_line(r):
+    lines = [ln for ln in r.stderr.strip().splitlines() if not ln.startswith("Warp CUDA warning")]
+    assert len(lines) == 1 and "Traceback" not in r.stderr, r.stderr
+    return lines[0]
+
+
+def test_gross_slip_not_converged_exits_3(tmp_path):
+    case = small_case(tmp_path, TABLE2_CASE, **UNCONVERGED_GROSS_SLIP)
+    r = run_cli("gross-slip", case, "--out", tmp_path / "gs", "--quiet")
+    assert r.returncode == 3 and one_line(r).startswith("not converged: ")
+    res = json.loads((tmp_path / "gs" / "result.json").read_text())
+    assert res["converged"] is False and res["case"]["solver"]["max_iter"] == 1
+    assert not all(s["converged"] for s in res["states"])
+    # the bracket comes from unconverged states: no number for it, and a note saying why
+    assert res["delta_x_max"] is None and res["delta_x_gross"] is None and res["mu"] is None
+    assert "did not converge" in res["note"] and "delta_x_max" in res["note"] and "mu" in res["note"]
+
+
+def test_pull_off_not_converged_exits_3(tmp_path):
+    text = (ROOT / "examples" / "pull_off_dmt.toml").read_text().replace("n = 64", "n = 32")
+    text += "\n[solver]\nmax_iter = 1\n"  # each conjugate-gradient solve stopped after 1 iteration
+    r = run_cli("pull-off", small_case(tmp_path, text), "--out", tmp_path / "po", "--steps", "2", "--quiet")
+    assert r.returncode == 3 and one_line(r).startswith("not converged: ")
+    res = json.loads((tmp_path / "po" / "result.json").read_text())
+    assert res["converged"] is False and len(res["curve"]) == 5 and not all(c["converged"] for c in res["curve"])
+    assert res["pull_off_force"] is None and res["pull_off_delta_z"] is None and "pull_off_force" in res["note"]
+    assert (tmp_path / "po" / "pull_off.png").exists()
+
+
+# --- an adhesive law still pulling on the domain's edge: one warning naming grid.size ---
+
+EDGE_SMC = "\n[adhesion]\nlaw = \"smc\"\nsigma_max = 3.6788e7\ntau_max = 3.6788e7\ndelta_n = 5e-10\ndelta_t = 5e-10\n"
+
+
+def test_adhesion_at_the_edge_warns(tmp_path):
+    """delta_n = 5e-10 m on the 4 a domain of hertz.toml: the gap at the edge is 0.2 delta_n."""
+    case = small_case(tmp_path, HERTZ + EDGE_SMC, **{"n = 128": "n = 32"})
+    r = run_cli("solve", case, "--out", tmp_path / "o", "--quiet")
+    assert r.returncode == 0, r.stderr
+    warned = [ln for ln in r.stderr.splitlines() if ln.startswith("warpcontact: warning: the adhesive tension")]
+    assert len(warned) == 1 and "grid.size >= 6.1" in warned[0], r.stderr
+
+
+def test_gross_slip_ctrl_c_keeps_the_finished_states(tmp_path, monkeypatch, capsys):
+    """Ctrl-C during the search: exit 130, result.json with the states finished so far, the
+    search's results null and the file marked interrupted."""
+    from warpcontact import slip_search
+    from warpcontact.cli import main
+
+    real = slip_search.find_gross_slip
+
+    def interrupted_after_3(*a, on_state, **kw):
+        def hook(k, s):
+            on_state(k, s)
+            if k == 2:
+                raise KeyboardInterrupt
+
+        return real(*a, on_state=hook, **kw)
+
+    monkeypatch.setattr(slip_search, "find_gross_slip", interrupted_after_3)
+    fast = {k: v for k, v in UNCONVERGED_GROSS_SLIP.items() if k != 'dtype = "float64"'}
+    case = small_case(tmp_path, TABLE2_CASE, **fast)
+    assert main(["gross-slip", str(case), "--out", str(tmp_path / "gs"), "--quiet"]) == 130
+    assert capsys.readouterr().err.startswith("interrupted: 3 state(s) finished and written to ")
+    res = json.loads((tmp_path / "gs" / "result.json").read_text())
+    assert res["interrupted"] and res["converged"] is False and len(res["states"]) == 3
+    assert res["delta_x_max"] is None and res["mu"] is None and res["case"]["grid"]["n"] == 32

@@ -365,3 +365,103 @@ def test_solver_recovers_after_a_non_finite_error():
     model.initial_gap.assign(clean)
     info = solver.solve(ContactState(model), HERTZ_DZ)
     assert info.converged, info.residual
+
+
+# ---------------------------------------------------------------------------------------------
+# f. an adhesive law still pulling on the domain's edge: one warning, naming grid.size
+
+
+def _smc_case(size, n, delta_n=5e-10, sigma_max=3.6788e7, delta_z=HERTZ_DZ):
+    """The paper pair, R = 10 um (paraboloid), frictionless, one normal state at ``delta_z`` [m],
+    SMC law (w = e sigma_max delta_n = 0.05 J/m^2 by default) on an ``n`` x ``n`` grid of side
+    ``size`` [m]."""
+    from warpcontact.case import case_from_dict
+
+    return case_from_dict({
+        "sphere": {"radius": R, "E": 106e9, "nu": 0.33, "profile": "paraboloid"},
+        "flat": {"E": 205e9, "nu": 0.31},
+        "grid": {"n": n, "size": size},
+        "load": {"delta_z": delta_z},
+        "adhesion": {"law": "smc", "sigma_max": sigma_max, "tau_max": sigma_max, "delta_n": delta_n,
+                     "delta_t": delta_n},
+    })
+
+
+def _edge_warnings(run, case, **kw):
+    """(result of run(case), the AdhesionAtEdgeWarnings it gave)."""
+    import warnings
+
+    from warpcontact.guards import AdhesionAtEdgeWarning
+
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        result = run(case, **kw)
+    return result, [w for w in caught if issubclass(w.category, AdhesionAtEdgeWarning)]
+
+
+def _edge_fraction(tension) -> float:
+    return max(tension[0].max(), tension[-1].max(), tension[:, 0].max(), tension[:, -1].max()) / tension.max()
+
+
+def test_adhesion_at_the_edge_warns_and_the_suggested_domain_holds_the_tail():
+    """delta_n = 5e-10 m on 4 contact radii (126 nm): the gap at the edge is 0.2 delta_n, the law
+    pulls there at its full strength. The suggested side (616 nm, 2.2 sqrt(2 R (delta_z + 7.64
+    delta_n))) holds the tail; a side 5 % under the tail's own reach (without the 1.1 margin)
+    still warns, so the check is not idle. The force the small domain misses is most of it."""
+    import re
+
+    from warpcontact.adhesion import SMC
+    from warpcontact.api import solve
+    from warpcontact.guards import suggested_adhesive_size
+
+    a = math.sqrt(R * HERTZ_DZ)
+    small, warned = _edge_warnings(solve, _smc_case(4 * a, 32))
+    assert len(warned) == 1, [str(w.message) for w in warned]
+    message = str(warned[0].message)
+    suggested = float(re.search(r"grid\.size >= (\S+) m", message).group(1))
+    law = SMC(3.6788e7, 3.6788e7, 5e-10, 5e-10)
+    assert suggested == pytest.approx(suggested_adhesive_size(R, HERTZ_DZ, law), rel=1e-3)
+    assert suggested == pytest.approx(2.2 * math.sqrt(2 * R * (HERTZ_DZ + 7.64 * 5e-10)), rel=1e-3)
+    assert "100 % of its peak" in message and "tail" in message
+
+    wide, warned = _edge_warnings(solve, _smc_case(suggested, 64))
+    assert not warned and wide.converged
+    assert _edge_fraction(-wide.fields[-1]["adhesive_pressure"]) < 0.01
+    assert wide.states[-1]["force"]["z"] < -2e-6 < 0 < small.states[-1]["force"]["z"]  # the tail's pull is lost
+
+    _, warned = _edge_warnings(solve, _smc_case(0.95 * suggested / 1.1, 64))
+    assert len(warned) == 1
+
+
+def test_short_ranged_law_on_a_wide_domain_does_not_warn():
+    """delta_n = 2e-12 m at delta_z = 5e-11 m on 4 contact radii: the law pulls at its peak near
+    the contact, while the gap at the edge (about 25 delta_n) leaves it no tension there."""
+    from warpcontact.api import solve
+
+    a = math.sqrt(R * COUPLED_DZ)
+    result, warned = _edge_warnings(solve, _smc_case(4 * a, 32, delta_n=2e-12, sigma_max=3e7, delta_z=COUPLED_DZ))
+    assert not warned and result.converged
+    tension = -result.fields[-1]["adhesive_pressure"]
+    assert tension.max() > 0.5 * 3e7 and _edge_fraction(tension) < 1e-3  # the law acts, not at the edge
+
+
+def test_adhesion_at_the_edge_warns_once_per_curve():
+    """An approach-retract curve with the tail cut at several states warns once."""
+    from warpcontact.api import pull_off
+
+    a = math.sqrt(R * HERTZ_DZ)
+    curve, warned = _edge_warnings(pull_off, _smc_case(4 * a, 32), steps=2)
+    assert len(curve["curve"]) == 5 and len(warned) == 1
+
+
+def test_adhesive_tail_lengths():
+    """SMC: x e^(1 - x) falls to 1 % of its peak at x = 7.64; Dugdale: no tension past its range."""
+    from warpcontact.adhesion import SMC, Dugdale
+    from warpcontact.guards import SMC_TAIL_IN_DELTA_N, adhesion_tail, suggested_adhesive_size
+
+    x = SMC_TAIL_IN_DELTA_N
+    assert x * math.exp(1 - x) == pytest.approx(0.01, rel=0.01)
+    assert adhesion_tail(SMC(1e8, 1e8, 1e-9, 2e-9)) == pytest.approx(7.64e-9)
+    law = Dugdale(1e8, 1e-9)
+    assert adhesion_tail(law) == law.range == pytest.approx(1.05e-9)
+    assert suggested_adhesive_size(R, 1e-10, law) == pytest.approx(2.2 * math.sqrt(2 * R * (1e-10 + 1.05e-9)))

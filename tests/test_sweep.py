@@ -3,6 +3,7 @@ bad sweep files refused naming the key."""
 
 import argparse
 import csv
+import io
 import json
 import time
 from pathlib import Path
@@ -187,3 +188,30 @@ def test_help_has_an_example(capsys):
     with pytest.raises(SystemExit):
         parse("sweep", "--help")
     assert "example:" in capsys.readouterr().out
+
+
+class Terminal(io.StringIO):
+    def isatty(self):
+        return True
+
+
+def test_progress_bar_over_cases_on_a_terminal(tmp_path):
+    """On a terminal: a bar over the cases, redrawn with the running case's states, and each
+    finished case's result line kept whole above it; with quiet, nothing."""
+    from warpcontact.sweep import run_sweep
+
+    text = PAPER_CASE.read_text().replace("n = 96", "n = 32").replace("E = 205e9\nnu = 0.31", "E = 106e9\nnu = 0.33")
+    (tmp_path / "base.toml").write_text(text)  # the flat of the sphere's material: one turn a state, fast
+    sw = load_sweep(write_sweep(tmp_path, 'base = "base.toml"\n[sweep]\n"friction.k_tau" = [0.5, 0.8]\n'))
+    term = Terminal()
+    report = run_sweep(sw, tmp_path / "out", log=term)
+    assert report.all_converged
+    chunks = term.getvalue().split("\r")
+    assert any(c.startswith("sweep [###############---------------] 1/2  it ") for c in chunks)
+    lines = [c.rstrip() for c in chunks if c.endswith("\n")]
+    assert [ln.split(":")[0] for ln in lines[:2]] == ["sweep [1/2] k_tau=0.5", "sweep [2/2] k_tau=0.8"]
+    assert term.getvalue().endswith("\n") and lines[-1].startswith("sweep [" + "#" * 30 + "] 2/2")
+    term = Terminal()
+    run_sweep(load_sweep(write_sweep(tmp_path, 'base = "base.toml"\n[sweep]\n"friction.k_tau" = [0.95]\n')),
+              tmp_path / "out", quiet=True, log=term)
+    assert term.getvalue() == ""

@@ -13,6 +13,7 @@ import sys
 from pathlib import Path
 
 from .errors import InputError, NonFiniteError
+from .progress import Progress, end_line, write_above
 
 EXIT_INPUT = 2
 EXIT_NOT_CONVERGED = 3
@@ -25,27 +26,6 @@ EXAMPLE_SOLVE = """example:
 writes OUT/result.json (forces [N], contact area [m^2] and radius [m], max pressure [Pa],
 convergence, timings, the case) and OUT/fields.npz (pressure, shear, gap, slip fields in SI
 units for every state of the path, with masks; loads with numpy alone)."""
-
-
-class Progress:
-    """A one-line progress bar on stderr (silent with --quiet or when stderr is not a terminal
-    and quiet is asked for)."""
-
-    def __init__(self, quiet: bool, label: str):
-        self.quiet, self.label = quiet, label
-
-    def __call__(self, k, total, summary, result=None):
-        if self.quiet:
-            return
-        width = 30
-        done = int(width * (k + 1) / total)
-        bar = "#" * done + "-" * (width - done)
-        msg = (
-            f"\r{self.label} [{bar}] {k + 1}/{total}  it {summary['iterations']}"
-            f"  res {summary['residual']:.1e}  Fz {summary['force']['z']:.3e} N"
-        )
-        end = "\n" if k + 1 == total else ""
-        print(msg, end=end, file=sys.stderr, flush=True)
 
 
 def _common(p):
@@ -129,13 +109,16 @@ def cmd_solve(args) -> int:
 
     case = load_case(args.case).with_overrides(device=args.device, dtype=args.dtype, fft=args.fft)
     out = Path(args.out)
-    progress = Progress(args.quiet, "solve")
+    progress = Progress("solve", total=len(case.load.path()), quiet=args.quiet)
 
     def on_state(k, total, summary, result):
-        progress(k, total, summary)
+        progress.update(k + 1, summary["iterations"], summary["residual"], f"F_z {summary['force']['z']:.3e} N")
         atomic_write_json(out / "result.json", result.summary())  # nothing finished is lost
 
-    result = run_path(case, on_state=on_state)
+    try:
+        result = run_path(case, on_state=on_state)
+    finally:
+        progress.close()
     if result.states:
         atomic_write_json(out / "result.json", result.summary())
         atomic_write_npz(out / "fields.npz", result.stacked_fields())
@@ -164,6 +147,7 @@ def cmd_solve(args) -> int:
 
 def cmd_gross_slip(args) -> int:
     from .case import load_case
+    from .guards import GROSS_SLIP_RESULTS, withhold_if_unconverged
     from .slip_search import find_gross_slip
     from .results import atomic_write_json
     from .runner import build
@@ -177,22 +161,23 @@ def cmd_gross_slip(args) -> int:
     model, solver, _ = build(case)
     out = Path(args.out)
 
-    def on_state(k, summary):
-        if not args.quiet:
-            print(f"\rgross-slip state {k + 1} ({summary['kind']}) delta_x {summary['delta']['x']:.4e} m  "
-                  f"stick cells {summary['stick_cells']}  it {summary['iterations']}  res {summary['residual']:.1e}   ",
-                  end="", file=sys.stderr, flush=True)
+    progress = Progress("gross-slip", quiet=args.quiet)  # a search: the number of states is not known
+    states = []  # the finished states, written on Ctrl-C
+
+    def on_state(k, s):
+        states.append(s)
+        progress.update(k + 1, s["iterations"], s["residual"],
+                        f"{s['kind']} delta_x {s['delta']['x']:.4e} m, {s['stick_cells']} stick cells")
 
     steps = case.load.steps if not case.load.explicit else 4
-    r = find_gross_slip(model, solver, dz, normal_steps=steps, on_state=on_state)
-    if not args.quiet:
-        print(file=sys.stderr)
-    result = {**r, "device": str(model.device), "dtype": model.dtype_name, "fft": model.fft_name,
-              "software": {"warpcontact": __import__("warpcontact").__version__}, "case": case.to_dict()}
-    if not r["converged"]:
-        result["delta_x_max"] = None
-        result["mu"] = None
-        result["note"] = "a state on the path did not converge: delta_x_max and mu are not reported"
+    try:
+        r = find_gross_slip(model, solver, dz, normal_steps=steps, on_state=on_state)
+    except KeyboardInterrupt:
+        progress.close()
+        return _interrupted(out, {"states": states}, _run_info(model, case), GROSS_SLIP_RESULTS)
+    finally:
+        progress.close()
+    result = withhold_if_unconverged({**r, **_run_info(model, case)}, GROSS_SLIP_RESULTS)
     atomic_write_json(out / "result.json", result)
     if not r["converged"]:
         print(f"not converged: a state of the gross-slip path did not converge; see {out / 'result.json'}", file=sys.stderr)
@@ -205,6 +190,7 @@ def cmd_gross_slip(args) -> int:
 def cmd_pull_off(args) -> int:
     from .approach_retract import approach_retract, tabor_parameter
     from .case import load_case
+    from .guards import PULL_OFF_RESULTS, withhold_if_unconverged
     from .results import atomic_write_json
     from .runner import build
 
@@ -221,24 +207,27 @@ def cmd_pull_off(args) -> int:
         raise InputError("--retract-to", f"must lie below the deepest approach {dz_max:g} m, got {end:g}")
     out = Path(args.out)
 
-    def on_state(k, total, summary):
-        if not args.quiet:
-            print(f"\rpull-off {k + 1}/{total} delta_z {summary['delta']['z']:+.3e} m  F_z {summary['force']['z']:+.3e} N"
-                  f"  turns {summary['outer_iterations']}   ", end="", file=sys.stderr, flush=True)
+    progress = Progress("pull-off", total=2 * args.steps + 1, quiet=args.quiet)
+    curve = []  # the finished states, written on Ctrl-C
 
-    r = approach_retract(model, solver, -2.0 * law.range, dz_max, end, args.steps, on_state=on_state)
-    if not args.quiet:
-        print(file=sys.stderr)
+    def on_state(k, total, s):
+        curve.append(s)
+        progress.update(k + 1, s["iterations"], s["residual"],
+                        f"delta_z {s['delta']['z']:+.3e} m, F_z {s['force']['z']:+.3e} N, {s['outer_iterations']} turns")
+
+    try:
+        r = approach_retract(model, solver, -2.0 * law.range, dz_max, end, args.steps, on_state=on_state)
+    except KeyboardInterrupt:
+        progress.close()
+        return _interrupted(out, {"curve": curve}, _run_info(model, case), PULL_OFF_RESULTS)
+    finally:
+        progress.close()
     R, w = case.sphere.radius, law.work_of_adhesion
     result = {
         **r, "work_of_adhesion": w, "tabor_parameter": tabor_parameter(case.pair, R, w, law.range),
-        "dmt_pull_off": -2 * math.pi * R * w, "jkr_pull_off": -1.5 * math.pi * R * w,
-        "device": str(model.device), "dtype": model.dtype_name, "case": case.to_dict(),
-        "software": {"warpcontact": __import__("warpcontact").__version__},
+        "dmt_pull_off": -2 * math.pi * R * w, "jkr_pull_off": -1.5 * math.pi * R * w, **_run_info(model, case),
     }
-    if not r["converged"]:
-        result["pull_off_force"] = None
-        result["note"] = "a state of the curve did not converge: the pull-off force is not reported"
+    result = withhold_if_unconverged(result, PULL_OFF_RESULTS)
     atomic_write_json(out / "result.json", result)
     _plot_pull_off(r, out / "pull_off.png", result)
     if not r["converged"]:
@@ -248,6 +237,28 @@ def cmd_pull_off(args) -> int:
         print(f"pull-off force {r['pull_off_force']:.4e} N = {r['pull_off_force'] / (math.pi * R * w):.3f} pi R w "
               f"(Tabor parameter {result['tabor_parameter']:.3g}) -> {out}", file=sys.stderr)
     return 0
+
+
+def _run_info(model, case) -> dict:
+    """What a result.json records of the run: device, dtype, FFT, software version, the case."""
+    from . import __version__
+
+    return {"device": str(model.device), "dtype": model.dtype_name, "fft": model.fft_name,
+            "software": {"warpcontact": __version__}, "case": case.to_dict()}
+
+
+def _interrupted(out: Path, finished: dict, info: dict, keys) -> int:
+    """After Ctrl-C: OUT/result.json with what finished (``finished``: one list of state summaries,
+    by its name) and ``info``, the results ``keys`` null, marked interrupted and not converged.
+    Returns EXIT_INTERRUPTED."""
+    from .results import atomic_write_json
+
+    (name, states), = finished.items()
+    atomic_write_json(out / "result.json", {
+        **{k: None for k in keys}, "converged": False, "interrupted": True, name: states, **info,
+        "note": f"interrupted (Ctrl-C) after {len(states)} state(s): {', '.join(keys)} not reported"})
+    print(f"interrupted: {len(states)} state(s) finished and written to {out}", file=sys.stderr)
+    return EXIT_INTERRUPTED
 
 
 def _plot_pull_off(r, path, result):
@@ -306,15 +317,21 @@ def cmd_table2(args) -> int:
     done = {key(r["n"], r["k_tau"], r["delta_z_um"], r.get("size_in_a", 3.0), r.get("device", "cpu"),
                 r.get("dtype", "float64"), r.get("fft", "auto")) for r in records}
     interrupted = False
+    finished = sum(1 for c in todo if key(*c, *settings_key) in done)
+    progress = Progress("table2", total=len(todo), quiet=args.quiet, start=finished)  # a bar over the cells
     for i, (n, k, dz) in enumerate(todo):
         if key(n, k, dz, *settings_key) in done:
             continue
         settings = Table2Settings(n=n, size_in_a=args.size_in_a, device=args.device or "cpu",
                                   dtype=args.dtype or "float64", fft=args.fft or "auto")
-        if not args.quiet:
-            print(f"\rtable2 [{i + 1}/{len(todo)}] n {n} k_tau {k:.2f} delta_z {dz:.1e} um ...", end="", file=sys.stderr, flush=True)
+        cell = f"n {n} k_tau {k:.2f} delta_z {dz:.1e} um"
+        progress.status(finished, extra=cell)
+
+        def on_state(j, s, cell=cell):  # the current cell's states, on a terminal
+            progress.status(finished, s["iterations"], s["residual"], f"{cell}: state {j + 1} ({s['kind']})")
+
         try:
-            rec = table2_cell(k, dz, settings)
+            rec = table2_cell(k, dz, settings, on_state=on_state)
         except KeyboardInterrupt:
             interrupted = True
             break
@@ -325,10 +342,10 @@ def cmd_table2(args) -> int:
         except KeyboardInterrupt:  # the atomic writes leave whole files either way
             interrupted = True
             break
-        if not args.quiet:
-            print(f"\rtable2 [{i + 1}/{len(todo)}] n {n} k_tau {k:.2f} delta_z {dz:.1e} um: delta_x_max "
-                  f"{rec['delta_x_max_um']:.3e} um ({100 * rec['rel_diff_delta_x_max']:+.1f} %), mu {rec['mu']:.4f} "
-                  f"({100 * rec['rel_diff_mu']:+.1f} %), {rec['elapsed_s']:.0f} s", file=sys.stderr)
+        finished += 1
+        progress.write(f"table2 [{i + 1}/{len(todo)}] {cell}: {_table2_result(rec)}")
+        progress.status(finished)
+    progress.close()
     try:
         _write_table2(out, records, atomic_write_json, atomic_write_bytes, markdown)
     except KeyboardInterrupt:
@@ -337,6 +354,13 @@ def cmd_table2(args) -> int:
         print(f"interrupted: {len(records)} cell(s) written to {out}; rerun to finish", file=sys.stderr)
         return EXIT_INTERRUPTED
     return 0 if all(r["converged"] for r in records) else EXIT_NOT_CONVERGED
+
+
+def _table2_result(rec) -> str:
+    """A finished cell's result line: delta_x_max [um] and mu against the paper, the time [s]."""
+    text = (f"delta_x_max {rec['delta_x_max_um']:.3e} um ({100 * rec['rel_diff_delta_x_max']:+.1f} %), "
+            f"mu {rec['mu']:.4f} ({100 * rec['rel_diff_mu']:+.1f} %), {rec['elapsed_s']:.0f} s")
+    return text if rec["converged"] else text + " (not converged)"
 
 
 def _write_table2(out, records, atomic_write_json, atomic_write_bytes, markdown):
@@ -356,7 +380,7 @@ def _write_table2(out, records, atomic_write_json, atomic_write_bytes, markdown)
 
 
 def _show_warning(message, category, filename, lineno, file=None, line=None):
-    print(f"warpcontact: warning: {message}", file=sys.stderr)
+    write_above(f"warpcontact: warning: {message}")  # above a progress bar being drawn
 
 
 def main(argv=None) -> int:
@@ -372,9 +396,11 @@ def main(argv=None) -> int:
                     "pull-off": cmd_pull_off, "sweep": cmd_sweep}
         return commands[args.command](args)
     except InputError as e:
+        end_line()  # of a progress bar being drawn
         print(f"warpcontact: error: {e}", file=sys.stderr)
         return EXIT_INPUT
     except NonFiniteError as e:
+        end_line()
         print(f"warpcontact: error: {e}", file=sys.stderr)
         return EXIT_NOT_CONVERGED
 

@@ -9,7 +9,7 @@ from dataclasses import dataclass, field
 from . import __version__
 from .adhesion import SMC, Dugdale
 from .friction import Coulomb, TaborVonMises
-from .guards import warn_if_coarse
+from .guards import warn_if_adhesion_at_edge, warn_if_coarse
 from .resources import check_fits
 from .model import ContactModel
 from .results import state_fields, state_summary
@@ -96,16 +96,20 @@ class PathResult:
 def run_path(case, on_state=None, keep_fields: bool = True) -> PathResult:
     """Solve every state of the case's load path in order (slip history carried along).
 
-    ``on_state(index, total, summary)`` is called after each state (progress, saving).
+    ``on_state(index, total, summary)`` is called after each state (progress, saving). Warns
+    (guards: a coarse contact; the adhesive tail cut by the domain, once per path).
     """
     t0 = time.perf_counter()
     model, solver, state = build(case)
     result = PathResult(case=case, model=model)
     path = case.load.path()
+    edge_warned = False  # the adhesive tail cut by the domain: one warning per path
     try:
         for k, approach in enumerate(path):
             solver.step(state, approach)
             warn_if_coarse(state)
+            if not edge_warned:
+                edge_warned = warn_if_adhesion_at_edge(state, solver.adhesion, case.load.delta_z_max)
             summary = state_summary(state, solver.adhesion)
             result.states.append(summary)
             if keep_fields:

@@ -58,6 +58,7 @@ from . import __version__
 from .case import (ADHESION_KEYS, FLAT_KEYS, GRID_KEYS, LOAD_KEYS, SOLVER_KEYS, SPHERE_KEYS, Case,
                    case_from_dict, load_case)
 from .errors import ConvergenceError, InputError, NonFiniteError
+from .guards import GROSS_SLIP_RESULTS, withhold_if_unconverged
 
 #: Tables of a sweep file.
 SWEEP_TABLES = ("base", "sweep", "run")
@@ -463,21 +464,19 @@ def finished_record(out: str | PathLike, sweep: Sweep, sc: SweepCase) -> dict | 
 def _gross_slip_summary(r: dict) -> dict:
     s = {k: r[k] for k in ("delta_x_max", "delta_x_gross", "mu", "force", "converged", "stick_area", "contact_area")}
     s["n_states"] = len(r["states"])
-    if not r["converged"]:  # as `warpcontact gross-slip`: no values from an unconverged path
-        s["delta_x_max"] = None
-        s["mu"] = None
-        s["note"] = "a state on the path did not converge: delta_x_max and mu are not reported"
-    return s
+    # as `warpcontact gross-slip`: no values from an unconverged path
+    return withhold_if_unconverged(s, GROSS_SLIP_RESULTS)
 
 
-def _run_case(sweep: Sweep, sc: SweepCase, progress) -> dict:
-    """Solve one case; returns its summary. KeyboardInterrupt propagates (nothing is recorded)."""
+def _run_case(sweep: Sweep, sc: SweepCase, on_state) -> dict:
+    """Solve one case; returns its summary. ``on_state(index, total or None, summary)`` follows
+    its states. KeyboardInterrupt propagates (nothing is recorded)."""
     from . import api
 
     if sweep.task == "gross-slip":
-        r = api.gross_slip(sc.case, rel_tol=sweep.rel_tol, on_state=lambda k, s: progress(k, None, s))
+        r = api.gross_slip(sc.case, rel_tol=sweep.rel_tol, on_state=lambda k, s: on_state(k, None, s))
         return _gross_slip_summary(r)
-    result = api.solve(sc.case, on_state=lambda k, total, s, res: progress(k, total, s))
+    result = api.solve(sc.case, on_state=lambda k, total, s, res: on_state(k, total, s))
     if result.interrupted:  # run_path keeps what finished; a sweep records whole cases only
         raise KeyboardInterrupt
     summary = dict(result.states[-1])
@@ -558,9 +557,11 @@ def run_sweep(sweep: Sweep, out: str | PathLike, quiet: bool = False, log=None) 
     (every finished case of this sweep), both atomically. A case that raises InputError (not a
     device or FFT problem, which stops the sweep), NonFiniteError or ConvergenceError is recorded
     with ``error`` and the sweep continues. Ctrl-C stops the run; what finished is written and the
-    report says ``interrupted``. A progress line per case goes to ``log`` (stderr) unless quiet;
-    warnings and errors are printed either way.
+    report says ``interrupted``. Unless quiet, a result line per case goes to ``log`` (stderr),
+    under a progress bar on a terminal (:mod:`warpcontact.progress`); warnings and errors are
+    printed either way.
     """
+    from .progress import Progress
     from .results import atomic_write_json
 
     log = sys.stderr if log is None else log
@@ -570,7 +571,6 @@ def run_sweep(sweep: Sweep, out: str | PathLike, quiet: bool = False, log=None) 
     n = len(sweep.cases)
     width = len(str(n))
     records: dict[str, dict] = {}
-    live = bool(getattr(log, "isatty", lambda: False)())
 
     def ordered():
         return [records[sc.id] for sc in sweep.cases if sc.id in records]
@@ -583,6 +583,8 @@ def run_sweep(sweep: Sweep, out: str | PathLike, quiet: bool = False, log=None) 
     if report.skipped and not quiet:
         print(f"sweep: {len(report.skipped)} of {n} case(s) finished before in {out}, skipped", file=log, flush=True)
 
+    # a bar over the cases on a terminal, redrawn with the running case's states; a log gets a line per case
+    progress = Progress("sweep", total=n, quiet=quiet, stream=log, start=len(records))
     try:
         out.mkdir(parents=True, exist_ok=True)
         _write_csv(out, sweep, ordered())
@@ -590,19 +592,18 @@ def run_sweep(sweep: Sweep, out: str | PathLike, quiet: bool = False, log=None) 
             if sc.id in records:
                 continue
             head = f"sweep [{sc.index + 1:>{width}}/{n}] {sc.label}"
+            progress.status(len(records), extra=sc.label)
 
-            def progress(k, total, s, head=head):
-                if quiet or not live:  # state by state only on a terminal; a log gets a line per case
-                    return
+            def on_state(k, total, s, label=sc.label):
                 where = f"state {k + 1}/{total}" if total else f"state {k + 1} ({s.get('kind', '')})"
-                print(f"\r{head}: {where}, res {s['residual']:.1e}   ", end="", file=log, flush=True)
+                progress.status(len(records), s["iterations"], s["residual"], f"{label}: {where}")
 
             t1 = time.perf_counter()
             error = None
             with warnings.catch_warnings(record=True) as caught:
                 warnings.simplefilter("always")
                 try:
-                    summary = _run_case(sweep, sc, progress)
+                    summary = _run_case(sweep, sc, on_state)
                 except InputError as e:
                     if e.key in _SETUP_KEYS:
                         raise
@@ -630,22 +631,22 @@ def run_sweep(sweep: Sweep, out: str | PathLike, quiet: bool = False, log=None) 
             records[sc.id] = rec
             report.computed.append(sc.id)
             _write_csv(out, sweep, ordered())
-            if not quiet:
-                what = f"error: {error}" if error else _result_text(sweep.task, summary)
-                print(f"\r{head}: {what} ({rec['elapsed_s']:.1f} s)" + (" " * 8 if live else ""), file=log, flush=True)
-            elif error:
-                print(f"warpcontact: sweep case {sc.label}: error: {error} (recorded; the sweep goes on)",
-                      file=log, flush=True)
+            what = f"error: {error}" if error else _result_text(sweep.task, summary)
+            progress.write(f"{head}: {what} ({rec['elapsed_s']:.1f} s)")
+            if quiet and error:
+                progress.write(f"warpcontact: sweep case {sc.label}: error: {error} (recorded; the sweep goes on)",
+                               always=True)
             for m in messages:
-                print(f"warpcontact: warning: {sc.label}: {m}", file=log, flush=True)
+                progress.write(f"warpcontact: warning: {sc.label}: {m}", always=True)
+            progress.status(len(records))
     except KeyboardInterrupt:
         report.interrupted = True
-        if live and not quiet:
-            print(file=log, flush=True)
         try:  # every record is whole (atomic writes); bring the CSV up to date
             _write_csv(out, sweep, ordered())
         except KeyboardInterrupt:
             pass
+    finally:
+        progress.close()
     report.records = ordered()
     report.elapsed_s = time.perf_counter() - t0
     return report
