@@ -6,8 +6,8 @@ total shear there is the tangential solver's unknown, bounded as a whole. Conven
 warpcontact/influence.py: the adhesive shear is the traction on the flat, along the slip s of
 the sphere relative to the flat (on the sphere it opposes s).
 
-Each update relaxes: t <- (1 - relax) t + relax law(h, s), and sums the squared change and the
-squared new value for the fixed-point test.
+The law kernels evaluate the tractions of the current gap and slip; the fixed point over them is
+accelerated by kernels/fixed_point.py (Anderson mixing, driven from warpcontact/solvers/fixed_point.py).
 """
 
 from typing import Any
@@ -55,7 +55,7 @@ def dugdale_normal(gap: Any, sigma_0: Any, h_0: Any, ramp: Any):
 
 
 @wp.kernel
-def smc_update(
+def smc_tractions(
     gap: wp.array(dtype=Any),
     slip_x: wp.array(dtype=Any),
     slip_y: wp.array(dtype=Any),
@@ -64,89 +64,46 @@ def smc_update(
     tau_max: Any,
     delta_n: Any,
     delta_t: Any,
-    relax: Any,
-    n: int,
-    outer: int,
-    inner: int,
-    per: int,
-    adhesive_pressure: wp.array(dtype=Any),
-    adhesive_shear_x: wp.array(dtype=Any),
-    adhesive_shear_y: wp.array(dtype=Any),
-    sums: wp.array(dtype=Any),
+    law_pressure: wp.array(dtype=Any),
+    law_shear_x: wp.array(dtype=Any),
+    law_shear_y: wp.array(dtype=Any),
 ):
-    """Relaxed SMC update on cells out of contact (zero on contact cells); sums[0] += |change|^2,
-    sums[1] += |new|^2."""
-    block, lane = wp.tid()
-    thread = block * wp.block_dim() + lane
-    zero = relax - relax
-    one = zero + type(relax)(1.0)
-    s_change = zero
-    s_norm = zero
-    for k in range(per):
-        i = cell_index(thread, outer, inner, k)
-        if i < n:
-            p = zero
-            qx = zero
-            qy = zero
-            if contact_pressure[i] <= zero:
-                sx = slip_x[i]
-                sy = slip_y[i]
-                s = wp.sqrt(sx * sx + sy * sy)
-                p = smc_normal(gap[i], s, sigma_max, delta_n, delta_t)
-                if s > zero:
-                    q = smc_shear(gap[i], s, tau_max, delta_n, delta_t)
-                    qx = q * sx / s
-                    qy = q * sy / s
-            p = (one - relax) * adhesive_pressure[i] + relax * p
-            qx = (one - relax) * adhesive_shear_x[i] + relax * qx
-            qy = (one - relax) * adhesive_shear_y[i] + relax * qy
-            dp = p - adhesive_pressure[i]
-            dqx = qx - adhesive_shear_x[i]
-            dqy = qy - adhesive_shear_y[i]
-            s_change += dp * dp + dqx * dqx + dqy * dqy
-            s_norm += p * p + qx * qx + qy * qy
-            adhesive_pressure[i] = p
-            adhesive_shear_x[i] = qx
-            adhesive_shear_y[i] = qy
-    block_add(sums, 0, s_change)
-    block_add(sums, 1, s_norm)
+    """The SMC tractions of the current gap and slip on cells out of contact (zero on contact cells)."""
+    i = wp.tid()
+    zero = sigma_max - sigma_max
+    p = zero
+    qx = zero
+    qy = zero
+    if contact_pressure[i] <= zero:
+        sx = slip_x[i]
+        sy = slip_y[i]
+        s = wp.sqrt(sx * sx + sy * sy)
+        p = smc_normal(gap[i], s, sigma_max, delta_n, delta_t)
+        if s > zero:
+            q = smc_shear(gap[i], s, tau_max, delta_n, delta_t)
+            qx = q * sx / s
+            qy = q * sy / s
+    law_pressure[i] = p
+    law_shear_x[i] = qx
+    law_shear_y[i] = qy
 
 
 @wp.kernel
-def dugdale_update(
+def dugdale_tractions(
     gap: wp.array(dtype=Any),
     contact_pressure: wp.array(dtype=Any),
     sigma_0: Any,
     h_0: Any,
     ramp: Any,
-    relax: Any,
-    n: int,
-    outer: int,
-    inner: int,
-    per: int,
-    adhesive_pressure: wp.array(dtype=Any),
-    sums: wp.array(dtype=Any),
+    law_pressure: wp.array(dtype=Any),
 ):
-    """Relaxed Dugdale update on cells out of contact; sums as in ``smc_update``."""
-    block, lane = wp.tid()
-    thread = block * wp.block_dim() + lane
-    zero = relax - relax
-    one = zero + type(relax)(1.0)
-    s_change = zero
-    s_norm = zero
-    for k in range(per):
-        i = cell_index(thread, outer, inner, k)
-        if i < n:
-            p = zero
-            if contact_pressure[i] <= zero:
-                p = dugdale_normal(gap[i], sigma_0, h_0, ramp)
-            p = (one - relax) * adhesive_pressure[i] + relax * p
-            dp = p - adhesive_pressure[i]
-            s_change += dp * dp
-            s_norm += p * p
-            adhesive_pressure[i] = p
-    block_add(sums, 0, s_change)
-    block_add(sums, 1, s_norm)
+    """The Dugdale tension of the current gap on cells out of contact (zero on contact cells)."""
+    i = wp.tid()
+    zero = sigma_0 - sigma_0
+    p = zero
+    if contact_pressure[i] <= zero:
+        p = dugdale_normal(gap[i], sigma_0, h_0, ramp)
+    law_pressure[i] = p
 
 
 @wp.kernel
@@ -156,5 +113,5 @@ def add_to(source: wp.array(dtype=Any), target: wp.array(dtype=Any)):
     target[i] = target[i] + source[i]
 
 
-for _k in (smc_update, dugdale_update, add_to):
+for _k in (smc_tractions, dugdale_tractions, add_to):
     register_float_overloads(_k)

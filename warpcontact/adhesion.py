@@ -1,7 +1,8 @@
 """Adhesion laws (MODEL.md section 6). Each law launches one kernel of kernels/adhesion.py.
 
-To add a law: its ``@wp.func`` and update kernel in ``kernels/adhesion.py`` and a small class here
-with ``update(model, state, relax, sums)``, ``range`` and ``work_of_adhesion``.
+To add a law: its ``@wp.func`` and tractions kernel in ``kernels/adhesion.py`` and a small class
+here with ``tractions(model, state, law_pressure, law_shear_x, law_shear_y)``, ``range`` and
+``work_of_adhesion``. The fixed point over the law (relaxation, convergence) is the solver's.
 """
 
 from __future__ import annotations
@@ -56,20 +57,19 @@ class SMC:
         """Gap [m] up to which a cell counts as adhesive contact (the rising branch: delta_n)."""
         return self.delta_n
 
-    def update(self, model, state, relax: float, sums):
+    def tractions(self, model, state, law_pressure, law_shear_x, law_shear_y):
+        """The law's tractions (scaled) of the state's gap and slip, on cells out of contact."""
         s = model.traction_scale
         L = model.length_scale
-        r = model.reduction
-        wp.launch_tiled(
-            ak.smc_update,
-            dim=[r.num_blocks],
+        wp.launch(
+            ak.smc_tractions,
+            dim=model.n_cells,
             inputs=[
                 state.gap.flatten(), state.slip_x.flatten(), state.slip_y.flatten(), state.pressure.flatten(),
                 model.scalar(self.sigma_max / s), model.scalar(self.tau_max / s), model.scalar(self.delta_n / L),
-                model.scalar(self.delta_t / L), model.scalar(relax), *r.args(model.n_cells),
+                model.scalar(self.delta_t / L),
             ],
-            outputs=[state.adhesive_pressure.flatten(), state.adhesive_shear_x.flatten(), state.adhesive_shear_y.flatten(), sums],
-            block_dim=r.block_dim,
+            outputs=[law_pressure.flatten(), law_shear_x.flatten(), law_shear_y.flatten()],
             device=model.device,
         )
 
@@ -111,20 +111,21 @@ class Dugdale:
     def range(self) -> float:
         return self.h_0 * (1.0 + self.smoothing)
 
-    def update(self, model, state, relax: float, sums):
-        r = model.reduction
-        wp.launch_tiled(
-            ak.dugdale_update,
-            dim=[r.num_blocks],
+    def tractions(self, model, state, law_pressure, law_shear_x, law_shear_y):
+        """The law's tension (scaled) of the state's gap on cells out of contact; no shear."""
+        L = model.length_scale
+        wp.launch(
+            ak.dugdale_tractions,
+            dim=model.n_cells,
             inputs=[
                 state.gap.flatten(), state.pressure.flatten(), model.scalar(self.sigma_0 / model.traction_scale),
-                model.scalar(self.h_0 / model.length_scale), model.scalar(self.smoothing * self.h_0 / model.length_scale),
-                model.scalar(relax), *r.args(model.n_cells),
+                model.scalar(self.h_0 / L), model.scalar(self.smoothing * self.h_0 / L),
             ],
-            outputs=[state.adhesive_pressure.flatten(), sums],
-            block_dim=r.block_dim,
+            outputs=[law_pressure.flatten()],
             device=model.device,
         )
+        law_shear_x.zero_()
+        law_shear_y.zero_()
 
     def describe(self) -> dict:
         return {"law": "dugdale", "sigma_0": self.sigma_0, "h_0": self.h_0, "smoothing": self.smoothing,

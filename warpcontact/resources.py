@@ -12,7 +12,9 @@ The estimate is counted from the allocations in the code, not fitted:
   scalars, a residual history of max_iter + 1); ``ContactSolver``: 9 fields (known_z/x/y,
   adhesive_z/x/y, previous x 3) and 8 scalars; with friction also ``TangentialSolver``'s 7 fields
   (grad, dir, resp x/y, no_displacement) with its scalars, and the solver's target_x/y,
-  shear_limit and scratch_x/y (5 fields).
+  shear_limit and scratch_x/y (5 fields). With adhesion, ``AndersonMixing`` holds 3 + 2 x DEPTH
+  fields per component of the adhesive vector (1 component without friction, 3 with) and
+  2 + 3 x DEPTH scalars.
 - The FFT library's temporaries, an allowance (``FFT_TEMPORARY_SPECTRA``): scipy on the
   CPU allocates a (n, n + 1) row pass and a (2n, n + 1) column pass per transform, 1.5 spectra;
   CuPy keeps what cuFFT's calls allocated (padded copies, outputs, plan work areas) in its memory
@@ -51,7 +53,7 @@ NORMAL_SOLVER_FIELDS = 3
 CONTACT_SOLVER_FIELDS = 9
 TANGENTIAL_SOLVER_FIELDS = 7
 FRICTION_FIELDS = 5  # ContactSolver.target_x, target_y, shear_limit, scratch_x, scratch_y
-CONTACT_SOLVER_SCALARS = 6 + 2  # change, adhesive_change
+CONTACT_SOLVER_SCALARS = 6  # change
 #: float64 (n, n) host arrays of NormalSolver._initial_guess alive during its FFT
 INITIAL_GUESS_HOST_FIELDS = 3
 #: library temporaries during a transform, in spectra of the backend's shape (see module docstring)
@@ -97,7 +99,7 @@ def spectral_entries(n: int, fft: str) -> int:
 
 
 def breakdown(n: int, dtype="float64", device_kind="cpu", friction: bool = True, fft: str = "auto", *,
-              states: int = 1, max_iter: int = 2000) -> dict:
+              states: int = 1, max_iter: int = 2000, adhesion: bool = False) -> dict:
     """Bytes per part of a ContactModel + ``states`` ContactStates + a ContactSolver, on the device.
 
     Keys: ``spectra`` (influence and buffers), ``fft_work`` (the warp backend's work buffers),
@@ -109,6 +111,7 @@ def breakdown(n: int, dtype="float64", device_kind="cpu", friction: bool = True,
     from warpcontact.kernels import normal as nk
     from warpcontact.kernels import tangential as tk
 
+    from .solvers.fixed_point import DEPTH
     from .state import ContactState
 
     n = int(n)
@@ -129,6 +132,9 @@ def breakdown(n: int, dtype="float64", device_kind="cpu", friction: bool = True,
     if friction:
         n_fields += TANGENTIAL_SOLVER_FIELDS + FRICTION_FIELDS
         n_scalars += tk.N_SUMS + tk.N_SCALARS + (max_iter + 1)
+    if adhesion:
+        n_fields += (3 if friction else 1) * (3 + 2 * DEPTH)
+        n_scalars += 2 + 3 * DEPTH
     fields = n_fields * cells * real + states * cells * 4  # + int32 status per state
     scalars = n_scalars * real
     arrays = spectra + fft_work + fields + scalars
@@ -155,7 +161,7 @@ def _np_name(wdt) -> str:
 
 
 def estimate_bytes(n: int, dtype: str, device_kind: str, friction: bool, fft: str, *, states: int = 1,
-                   max_iter: int = 2000) -> int:
+                   max_iter: int = 2000, adhesion: bool = False) -> int:
     """Bytes on the device that a ContactModel + ContactState + ContactSolver of n x n cells hold
     during a solve: their Warp arrays plus the FFT library's temporaries (and, on the CPU, the
     normal solver's host temporaries). See the module docstring for what is counted.
@@ -168,8 +174,9 @@ def estimate_bytes(n: int, dtype: str, device_kind: str, friction: bool, fft: st
         fft: "auto", "scipy", "cupy" or "warp" ("auto" as ``fft.make_fft`` picks it).
         states: ContactStates alive at once (``find_gross_slip`` holds 3).
         max_iter: iteration limit of the inner solvers (sets the residual histories).
+        adhesion: whether the solver has an adhesion law (the fixed point's buffers).
     """
-    return breakdown(n, dtype, device_kind, friction, fft, states=states, max_iter=max_iter)["total"]
+    return breakdown(n, dtype, device_kind, friction, fft, states=states, max_iter=max_iter, adhesion=adhesion)["total"]
 
 
 def setup_host_bytes(n: int, dtype="float64", fft: str = "scipy", device_kind="cpu") -> int:
@@ -243,16 +250,16 @@ def memory_limit(device) -> tuple[int, str]:
     return free, f"free memory of {dev} (of {total / GIB:.1f} GiB)"
 
 
-def _required(n, dtype, kind, friction, fft, states) -> int:
+def _required(n, dtype, kind, friction, fft, states, adhesion=False) -> int:
     """Peak bytes in the memory of ``kind``: on the CPU also the set-up peak, which shares it."""
-    est = estimate_bytes(n, dtype, kind, friction, fft, states=states)
+    est = estimate_bytes(n, dtype, kind, friction, fft, states=states, adhesion=adhesion)
     if kind == "cpu":
         return max(est, setup_host_bytes(n, dtype, fft, kind))
     return est
 
 
 def largest_grid(dtype, memory_bytes: int, friction: bool, *, device_kind="cpu", fft: str = "auto",
-                 states: int = 1) -> int:
+                 states: int = 1, adhesion: bool = False) -> int:
     """Largest n whose peak memory fits in ``memory_bytes`` (0 if not even the smallest grid).
 
     On the CPU the peak is the larger of ``estimate_bytes`` and ``setup_host_bytes``; on CUDA it
@@ -270,7 +277,7 @@ def largest_grid(dtype, memory_bytes: int, friction: bool, *, device_kind="cpu",
     def fits(n):
         if cap is not None and n > cap:
             return False
-        return _required(n, dtype, kind, friction, fft, states) <= memory_bytes
+        return _required(n, dtype, kind, friction, fft, states, adhesion) <= memory_bytes
 
     if not fits(MIN_CELLS):
         return 0
@@ -286,7 +293,8 @@ def largest_grid(dtype, memory_bytes: int, friction: bool, *, device_kind="cpu",
     return lo
 
 
-def check_fits(n: int, dtype, device, friction: bool, fft: str = "auto", *, states: int = 1) -> int:
+def check_fits(n: int, dtype, device, friction: bool, fft: str = "auto", *, states: int = 1,
+               adhesion: bool = False) -> int:
     """Raise InputError("grid.n", ...) when an n x n problem cannot fit in the memory of ``device``.
 
     Returns the estimate [bytes] when it fits. The message gives the estimate, the limit and the
@@ -295,14 +303,14 @@ def check_fits(n: int, dtype, device, friction: bool, fft: str = "auto", *, stat
     kind = _kind(device)
     fft_name = _resolve_fft(fft, kind)
     limit, what = memory_limit(device)
-    need = _required(n, dtype, kind, friction, fft_name, states)
+    need = _required(n, dtype, kind, friction, fft_name, states, adhesion)
     dname = dtype if isinstance(dtype, str) else _np_name(dtype)
     if limit and need > limit:
-        best = largest_grid(dtype, limit, friction, device_kind=kind, fft=fft_name, states=states)
+        best = largest_grid(dtype, limit, friction, device_kind=kind, fft=fft_name, states=states, adhesion=adhesion)
         raise InputError(
             "grid.n",
             f"n = {n} needs about {need / GIB:,.2f} GiB ({dname}, {fft_name} FFT, "
-            f"{'with' if friction else 'without'} friction) but the {what} is {limit / GIB:,.2f} GiB; "
+            f"{'with' if friction else 'without'} friction{', with adhesion' if adhesion else ''}) but the {what} is {limit / GIB:,.2f} GiB; "
             f"the largest grid that fits is n = {best}",
         )
     if kind == "cuda":
@@ -314,4 +322,4 @@ def check_fits(n: int, dtype, device, friction: bool, fft: str = "auto", *, stat
                 f"n = {n} needs about {setup / GIB:,.2f} GiB of host memory to build the influence spectra "
                 f"but the RAM of this machine is {host / GIB:,.2f} GiB",
             )
-    return estimate_bytes(n, dtype, kind, friction, fft_name, states=states)
+    return estimate_bytes(n, dtype, kind, friction, fft_name, states=states, adhesion=adhesion)

@@ -12,6 +12,7 @@ from warpcontact.kernels import coupling as ck
 
 from ..guards import check_contact_fits
 from ..state import SolveInfo
+from .fixed_point import AndersonMixing
 from .normal import NormalSolver
 from .tangential import TangentialSolver
 
@@ -38,8 +39,8 @@ class ContactSolver:
         max_outer: limit on the turns.
         pressure_cap: upper bound of the contact pressure [Pa], e.g. the softer body's hardness
             (elastic-perfectly-plastic surface); inf for none.
-        relax: relaxation of the adhesive update (halved, down to 1/64, when the adhesive
-            tractions' change grows from one turn to the next; recovering by 1.25x when it falls).
+        relax: mixing of the adhesive fixed point (``AndersonMixing``'s beta). Its residual is
+            |law(h, s) - t| / |law(h, s)|.
     """
 
     def __init__(self, model, friction=None, tol=None, outer_tol=None, max_iter: int = 2000, max_outer: int = 200,
@@ -57,7 +58,8 @@ class ContactSolver:
         self.adhesive_z, self.adhesive_x, self.adhesive_y = f(), f(), f()
         self.previous = [f(), f(), f()]
         self.change = model.scalars(6)
-        self.adhesive_change = model.scalars(2)
+        if adhesion is not None:  # the adhesive fixed point over the pressure (and the shears with friction)
+            self.mixing = AndersonMixing(model, 3 if friction is not None else 1, beta=self.relax)
         if friction is not None:
             self.tangential = TangentialSolver(model, tol, max_iter)
             self.target_x, self.target_y = f(), f()
@@ -129,14 +131,14 @@ class ContactSolver:
             )
         for prev, cur in zip(self.previous, (state.pressure, state.shear_x, state.shear_y)):
             wp.copy(prev, cur)
-        change, last_adhesive_change, relax = math.inf, math.inf, self.relax
+        change = math.inf
         outer = 0
         converged_turns = not self.iterative
         while outer < self.max_outer:
             outer += 1
             # inexact turns: early ones solve loosely, the last one at full tolerance
             turn_tol = max(self.tol, min(1e-3, 0.01 * change)) if self.iterative else self.tol
-            adhesive_change = self._update_adhesion(state, relax) if self.adhesion is not None else 0.0
+            adhesive_change = self._update_adhesion(state, first=outer == 1) if self.adhesion is not None else 0.0
             if self.iterative:
                 self._known_displacements(state)
             normal_info = self.normal.solve(state, dz, self.known_z if self.iterative else None, tol=turn_tol)
@@ -160,13 +162,6 @@ class ContactSolver:
             if change < self.outer_tol and turn_tol == self.tol:
                 converged_turns = True
                 break
-            if self.adhesion is not None and outer > 2:
-                # damp the adhesive update when its own change grows, let it recover when it falls
-                if adhesive_change > last_adhesive_change:
-                    relax = max(relax * 0.5, 1.0 / 64)
-                else:
-                    relax = min(relax * 1.25, self.relax)
-            last_adhesive_change = adhesive_change
         if self.iterative:  # gap and u_z with the final tractions held fixed
             self._known_displacements(state)
             final = self.normal.solve(state, dz, self.known_z)
@@ -183,19 +178,28 @@ class ContactSolver:
         check_contact_fits(state)
         return info
 
-    def _update_adhesion(self, state, relax) -> float:
-        """Relaxed update of the adhesive tractions and of their displacements; returns the
-        tractions' relative change."""
-        self.adhesive_change.zero_()
-        self.adhesion.update(self.model, state, relax, self.adhesive_change)
-        op = self.model.operator
+    def _update_adhesion(self, state, first: bool) -> float:
+        """One accelerated step of the adhesive fixed point t = law(h, s) (history reset on the
+        ``first`` turn of a step), then the adhesive tractions' displacements for the turn.
+        Returns the residual |law - t| / |law| before the step."""
+        m = self.model
+        mixing = self.mixing
+        if first:
+            mixing.reset()
+        if self.friction is not None:
+            iterates = (state.adhesive_pressure, state.adhesive_shear_x, state.adhesive_shear_y)
+            self.adhesion.tractions(m, state, *mixing.residual)
+        else:  # the adhesive shear does not act back without friction: taken as the law gives it
+            iterates = (state.adhesive_pressure,)
+            self.adhesion.tractions(m, state, mixing.residual[0], state.adhesive_shear_x, state.adhesive_shear_y)
+        residual = mixing.step(iterates)
+        op = m.operator
         if self.friction is not None:  # the adhesive tractions' displacements, for the whole turn
             op.coupled_apply(state.adhesive_pressure, state.adhesive_shear_x, state.adhesive_shear_y,
                              self.adhesive_z, self.adhesive_x, self.adhesive_y)
         else:
             op.normal(state.adhesive_pressure, self.adhesive_z)
-        s = self.adhesive_change.numpy().astype(np.float64)
-        return math.sqrt(s[0] / s[1]) if s[1] > 0 else 0.0
+        return residual
 
     def _relative_change(self, state) -> float:
         """Largest relative change of pressure and shear since the last turn; updates the copies."""

@@ -1,0 +1,117 @@
+"""Anderson acceleration of the adhesive fixed point t = law(h(t), s(t)) (MODEL.md section 6).
+
+Each turn of ContactSolver evaluates the law at the last gap and slip (G(t)) and asks this class
+for the next tractions. Plain relaxation t <- t + beta (G - t) converges slowly or not at all when
+the law is stiff against the elastic compliance of the adhesive zone (large Tabor parameters):
+the error modes of that zone have gains of both signs and many sizes, and no one beta damps them
+all. Anderson mixing (Walker & Ni 2011, "Anderson acceleration for fixed-point iterations", SIAM J.
+Numer. Anal. 49, 1715) combines the last ``depth`` residuals by least squares: for a linear map it
+is equivalent to GMRES, and it keeps the cost to a few reductions per turn.
+
+Device work per turn: one pass to form the residual and the new history column, ``depth`` passes
+of dot products, one update pass. The host solves a depth x depth least-squares problem.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import warp as wp
+
+from warpcontact.kernels import fixed_point as fk
+
+#: history columns kept (5 reached the tolerance in the fewest turns on the Table 2 cases)
+DEPTH = 5
+#: columns whose Gram matrix is worse conditioned than this are dropped, oldest first
+MAX_CONDITION = 1e10
+
+
+class AndersonMixing:
+    """Anderson mixing for a vector of ``len(iterates)`` (n, n) fields held by the caller.
+
+    Args:
+        model: the contact model (device, dtype, reductions).
+        components: number of fields in the vector (1: the adhesive pressure; 3: with the shears).
+        beta: mixing of the residual (the relaxation of the first step after a reset).
+        depth: history columns.
+    """
+
+    def __init__(self, model, components: int, beta: float = 0.5, depth: int = DEPTH):
+        self.model = model
+        self.beta = float(beta)
+        self.depth = int(depth)
+        n = model.n_cells
+        z = lambda *shape: wp.zeros(shape, dtype=model.dtype, device=model.device)  # noqa: E731
+        self.residual = [z(n) for _ in range(components)]  # G(x) on entry, then f = G(x) - x
+        self.previous_residual = [z(n) for _ in range(components)]
+        self.previous_iterate = [z(n) for _ in range(components)]
+        self.residual_diff = [z(self.depth, n) for _ in range(components)]
+        self.iterate_diff = [z(self.depth, n) for _ in range(components)]
+        self.sums = z(fk.GRAM_SLOTS + 2 * self.depth)
+        self.gamma = z(self.depth)
+        self.reset()
+
+    def reset(self):
+        """Forget the history (a new load step)."""
+        self.columns: list[int] = []  # used history columns, oldest first
+        self.gram = np.zeros((self.depth, self.depth))
+        self._has_previous = False
+        self._next = 0
+
+    def step(self, iterates) -> float:
+        """x <- the next iterate, from ``self.residual`` = G(x) filled by the caller; returns the
+        residual |G(x) - x| / |G(x)| before the step (0 when G(x) = 0)."""
+        m = self.model
+        r = m.reduction
+        column = self._next
+        self.sums.zero_()
+        for k, x in enumerate(iterates):
+            wp.launch_tiled(
+                fk.anderson_residual, dim=[r.num_blocks],
+                inputs=[x.flatten(), column, int(self._has_previous), self.depth, *r.args(m.n_cells)],
+                outputs=[self.residual[k], self.previous_residual[k], self.previous_iterate[k],
+                         self.residual_diff[k], self.iterate_diff[k], self.sums],
+                block_dim=r.block_dim, device=m.device,
+            )
+        if self._has_previous:
+            if column in self.columns:
+                self.columns.remove(column)
+            self.columns.append(column)
+            self._next = (column + 1) % self.depth
+            for j in self.columns:
+                for k in range(len(iterates)):
+                    wp.launch_tiled(
+                        fk.anderson_dots, dim=[r.num_blocks],
+                        inputs=[self.residual[k], self.residual_diff[k], column, j, self.depth, *r.args(m.n_cells)],
+                        outputs=[self.sums], block_dim=r.block_dim, device=m.device,
+                    )
+        s = self.sums.numpy().astype(np.float64)
+        gamma = np.zeros(self.depth)
+        if self.columns:
+            for j in self.columns:
+                self.gram[column, j] = self.gram[j, column] = s[fk.GRAM_SLOTS + j]
+            rhs = s[fk.GRAM_SLOTS + self.depth:]
+            gamma = self._least_squares(rhs)
+        self.gamma.assign(gamma.astype(m.np_dtype))
+        for k, x in enumerate(iterates):
+            wp.launch(fk.anderson_update, dim=m.n_cells,
+                      inputs=[self.residual[k], self.residual_diff[k], self.iterate_diff[k], self.gamma, self.depth,
+                              m.scalar(self.beta)],
+                      outputs=[x.flatten()], device=m.device)
+        self._has_previous = True
+        residual = math.sqrt(s[fk.S_RESIDUAL] / s[fk.S_IMAGE]) if s[fk.S_IMAGE] > 0 else 0.0
+        return residual
+
+    def _least_squares(self, rhs):
+        """gamma = argmin |f - dF gamma| over the used columns through the normal equations,
+        dropping the oldest columns while the Gram matrix is ill-conditioned."""
+        gamma = np.zeros(self.depth)
+        while self.columns:
+            idx = np.array(self.columns)
+            g = self.gram[np.ix_(idx, idx)]
+            if np.all(np.isfinite(g)) and np.linalg.cond(g) < MAX_CONDITION:
+                gamma[idx] = np.linalg.solve(g, rhs[idx])
+                return gamma
+            self.columns.pop(0)
+        return gamma
