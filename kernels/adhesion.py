@@ -54,21 +54,38 @@ def dugdale_normal(gap: Any, sigma_0: Any, h_0: Any, ramp: Any):
     return -sigma_0 * wp.min(rise, fall)
 
 
+@wp.func
+def touching_segment(t: Any, g: Any):
+    """For a touching cell: the point of the segment [0, g] nearest to t (a scalar traction)."""
+    zero = g - g
+    if g == zero:
+        return zero
+    return wp.clamp(t / g, zero, type(g)(1.0)) * g
+
+
 @wp.kernel
 def smc_tractions(
     gap: wp.array(dtype=Any),
     slip_x: wp.array(dtype=Any),
     slip_y: wp.array(dtype=Any),
     contact_pressure: wp.array(dtype=Any),
+    adhesive_pressure: wp.array(dtype=Any),
+    adhesive_shear_x: wp.array(dtype=Any),
+    adhesive_shear_y: wp.array(dtype=Any),
     sigma_max: Any,
     tau_max: Any,
     delta_n: Any,
     delta_t: Any,
+    touching: Any,
     law_pressure: wp.array(dtype=Any),
     law_shear_x: wp.array(dtype=Any),
     law_shear_y: wp.array(dtype=Any),
 ):
-    """The SMC tractions of the current gap and slip on cells out of contact (zero on contact cells)."""
+    """The SMC tractions of the current gap and slip on cells out of contact (zero on contact
+    cells). A cell out of contact with gap <= ``touching`` sits on the law's jump to the contact
+    side (zero adhesive traction there): it may carry any traction on the segment between the
+    two, so its current traction (``adhesive_*``) is kept where it lies on that segment and
+    projected onto it otherwise."""
     i = wp.tid()
     zero = sigma_max - sigma_max
     p = zero
@@ -83,6 +100,13 @@ def smc_tractions(
             q = smc_shear(gap[i], s, tau_max, delta_n, delta_t)
             qx = q * sx / s
             qy = q * sy / s
+        if gap[i] <= touching:
+            p = touching_segment(adhesive_pressure[i], p)
+            qq = qx * qx + qy * qy
+            if qq > zero:
+                lam = wp.clamp((adhesive_shear_x[i] * qx + adhesive_shear_y[i] * qy) / qq, zero, type(qq)(1.0))
+                qx = lam * qx
+                qy = lam * qy
     law_pressure[i] = p
     law_shear_x[i] = qx
     law_shear_y[i] = qy
@@ -92,17 +116,22 @@ def smc_tractions(
 def dugdale_tractions(
     gap: wp.array(dtype=Any),
     contact_pressure: wp.array(dtype=Any),
+    adhesive_pressure: wp.array(dtype=Any),
     sigma_0: Any,
     h_0: Any,
     ramp: Any,
+    touching: Any,
     law_pressure: wp.array(dtype=Any),
 ):
-    """The Dugdale tension of the current gap on cells out of contact (zero on contact cells)."""
+    """The Dugdale tension of the current gap on cells out of contact (zero on contact cells);
+    touching cells as in ``smc_tractions``."""
     i = wp.tid()
     zero = sigma_0 - sigma_0
     p = zero
     if contact_pressure[i] <= zero:
         p = dugdale_normal(gap[i], sigma_0, h_0, ramp)
+        if gap[i] <= touching:
+            p = touching_segment(adhesive_pressure[i], p)
     law_pressure[i] = p
 
 

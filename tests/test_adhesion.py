@@ -7,7 +7,7 @@ import pytest
 import warp as wp
 from scipy import integrate
 
-from warpcontact.adhesion import SMC, Dugdale
+from warpcontact.adhesion import SMC, TOUCHING, Dugdale
 from warpcontact.geometry import Grid, Sphere
 from warpcontact.materials import PAPER_PAIR
 from warpcontact.model import ContactModel
@@ -31,31 +31,51 @@ def test_smc_and_dugdale_kernels_match_closed_forms(device):
     p_c = np.where(rng.random((n, n)) < 0.2, 1e-3, 0.0)  # some cells in contact: no adhesive traction
     for name, v in (("gap", h / L), ("slip_x", sx / L), ("slip_y", sy / L), ("pressure", p_c)):
         getattr(state, name).assign(v)
+    h[1, :4] = np.array([0.0, 0.2, 0.5, 0.9]) * TOUCHING * law.delta_n  # touching cells (out of contact)
+    p_c[1, :4] = 0.0
+    for name, v in (("gap", h / L), ("pressure", p_c)):
+        getattr(state, name).assign(v)
     out_fields = (state.adhesive_pressure, state.adhesive_shear_x, state.adhesive_shear_y)
-    law.tractions(model, state, *out_fields)
+    law.tractions(model, state, *out_fields)  # the current adhesive tractions are zero
     xn = np.maximum(h, 0) / law.delta_n
     s = np.hypot(sx, sy)
     xt = s / law.delta_t
     e = np.exp(1 - np.sqrt(xn**2 + xt**2))
-    out = p_c <= 0
+    out = (p_c <= 0) & (h > TOUCHING * law.delta_n)  # touching cells keep their traction (0) on [0, law]
     p_ref = np.where(out, -law.sigma_max * xn * e, 0.0)
     q = np.where(out, law.tau_max * xt * e, 0.0)
     qx_ref = np.where(s > 0, q * sx / np.where(s > 0, s, 1), 0.0)
     f = state.to_numpy_si()
     assert np.allclose(f["adhesive_pressure"], p_ref, rtol=1e-12, atol=1e-12 * law.sigma_max)
     assert np.allclose(f["adhesive_shear_x"], qx_ref, rtol=1e-12, atol=1e-12 * law.tau_max)
+    # a touching cell keeps a traction that lies on the segment [0, law] and is projected onto it
+    # otherwise (the law's jump to the contact side, see warpcontact.adhesion.TOUCHING)
+    law_p = -law.sigma_max * np.maximum(h, 0) / law.delta_n * e
+    start = np.zeros((n, n))
+    start[1, 1] = 0.5 * law_p[1, 1]  # on the segment: kept
+    start[1, 2] = 2.0 * law_p[1, 2]  # beyond the law's value: projected to it
+    start[1, 3] = -law_p[1, 3]  # the wrong sign: projected to 0
+    state.adhesive_pressure.assign(start / E)
+    state.adhesive_shear_x.zero_()
+    state.adhesive_shear_y.zero_()
+    law.tractions(model, state, *out_fields)
+    got = state.to_numpy_si()["adhesive_pressure"][1, 1:4]
+    assert np.allclose(got, [0.5 * law_p[1, 1], law_p[1, 2], 0.0], rtol=1e-12, atol=1e-12 * law.sigma_max)
     # the work of pure opening is e sigma_max delta_n
     w = law.sigma_max * law.delta_n * integrate.quad(lambda x: x * math.exp(1 - x), 0, np.inf)[0]
     assert w == pytest.approx(law.work_of_adhesion, rel=1e-9)
     dug = Dugdale(sigma_0=1e8, h_0=4e-10, smoothing=0.0)  # the sharp law
+    for a in out_fields:
+        a.zero_()
     dug.tractions(model, state, *out_fields)
-    ref = np.where(out & (h > 0) & (h <= dug.h_0), -dug.sigma_0, 0.0)
+    ref = np.where((p_c <= 0) & (h > TOUCHING * dug.h_0) & (h <= dug.h_0), -dug.sigma_0, 0.0)
     assert np.allclose(state.to_numpy_si()["adhesive_pressure"], ref, rtol=1e-12, atol=1e-6)
     smooth = Dugdale(sigma_0=1e8, h_0=4e-10, smoothing=0.1)  # ramps of width 0.1 h_0 at both ends
+    state.adhesive_pressure.zero_()
     smooth.tractions(model, state, *out_fields)
     ramp = 0.1 * smooth.h_0
     shape = np.clip(np.minimum(h / ramp, (smooth.h_0 + ramp - h) / ramp), 0.0, 1.0)
-    ref = np.where(out & (h > 0), -smooth.sigma_0 * shape, 0.0)
+    ref = np.where((p_c <= 0) & (h > TOUCHING * smooth.h_0), -smooth.sigma_0 * shape, 0.0)
     assert np.allclose(state.to_numpy_si()["adhesive_pressure"], ref, rtol=1e-9, atol=1e-6)
     # the ramps keep the work of adhesion: integral of the law over h is sigma_0 h_0
     hh = np.linspace(0, 2 * smooth.h_0, 200001)

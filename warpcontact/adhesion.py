@@ -16,6 +16,13 @@ from warpcontact.kernels import adhesion as ak
 
 from .errors import InputError
 
+#: a cell out of contact with a gap under TOUCHING x the law's length is touching: it sits on the
+#: model's jump between the law (h = 0+) and the contact side (no adhesive traction), and may
+#: carry any traction between the two. Within 1e-2 delta_n the SMC tractions differ from their
+#: h = 0 values by under 1e-2 sigma_max; cells there otherwise flip in and out of contact from one
+#: turn to the next (measured: the fixed point cycled forever on such cells).
+TOUCHING = 1e-2
+
 
 def _positive(key, v):
     if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v) or v <= 0:
@@ -58,7 +65,8 @@ class SMC:
         return self.delta_n
 
     def tractions(self, model, state, law_pressure, law_shear_x, law_shear_y):
-        """The law's tractions (scaled) of the state's gap and slip, on cells out of contact."""
+        """The law's tractions (scaled) of the state's gap and slip, on cells out of contact
+        (touching cells: see ``TOUCHING``)."""
         s = model.traction_scale
         L = model.length_scale
         wp.launch(
@@ -66,8 +74,9 @@ class SMC:
             dim=model.n_cells,
             inputs=[
                 state.gap.flatten(), state.slip_x.flatten(), state.slip_y.flatten(), state.pressure.flatten(),
+                state.adhesive_pressure.flatten(), state.adhesive_shear_x.flatten(), state.adhesive_shear_y.flatten(),
                 model.scalar(self.sigma_max / s), model.scalar(self.tau_max / s), model.scalar(self.delta_n / L),
-                model.scalar(self.delta_t / L),
+                model.scalar(self.delta_t / L), model.scalar(TOUCHING * self.delta_n / L),
             ],
             outputs=[law_pressure.flatten(), law_shear_x.flatten(), law_shear_y.flatten()],
             device=model.device,
@@ -118,8 +127,9 @@ class Dugdale:
             ak.dugdale_tractions,
             dim=model.n_cells,
             inputs=[
-                state.gap.flatten(), state.pressure.flatten(), model.scalar(self.sigma_0 / model.traction_scale),
-                model.scalar(self.h_0 / L), model.scalar(self.smoothing * self.h_0 / L),
+                state.gap.flatten(), state.pressure.flatten(), state.adhesive_pressure.flatten(),
+                model.scalar(self.sigma_0 / model.traction_scale), model.scalar(self.h_0 / L),
+                model.scalar(self.smoothing * self.h_0 / L), model.scalar(TOUCHING * self.h_0 / L),
             ],
             outputs=[law_pressure.flatten()],
             device=model.device,
