@@ -103,8 +103,8 @@ def test_table2_writes_cells_and_resumes(tmp_path):
     r = run_cli("table2", "--no-adhesion", "--n", "24", *sel, "--out", out)
     assert r.returncode in (0, 3), r.stderr
     results = [ln for ln in r.stderr.splitlines() if ln.startswith("table2 [")]  # not a terminal: result lines
-    assert [ln.split(": delta_x_max ")[0] for ln in results] == ["table2 [1/2] n 24 k_tau 0.80 delta_z 1.0e-05 um",
-                                                                 "table2 [2/2] n 24 k_tau 0.80 delta_z 5.0e-05 um"]
+    assert [ln.split(": ")[0] for ln in results] == ["table2 [1/2] n 24 k_tau 0.80 delta_z 1.0e-05 um adhesionless",
+                                                     "table2 [2/2] n 24 k_tau 0.80 delta_z 5.0e-05 um adhesionless"]
     assert "\r" not in r.stderr
     cells = json.loads((out / "table2.json").read_text())["cells"]
     assert {(c["k_tau"], c["delta_z_um"]) for c in cells} == {(0.8, 5e-5), (0.8, 1e-5)}
@@ -122,9 +122,24 @@ def test_table2_unknown_cell_is_refused(tmp_path):
     assert r.returncode == 2 and "--k-tau" in r.stderr
 
 
-def test_table2_refuses_adhesion_until_it_exists(tmp_path):
-    r = run_cli("table2", "--out", tmp_path / "t", "--quiet")
-    assert r.returncode == 2 and "--no-adhesion" in r.stderr
+def test_table2_adhesive_cell_and_its_law_in_the_resume_key(tmp_path):
+    """An adhesive cell runs with the given SMC parameters and records them; a rerun with other
+    parameters computes the cell again instead of taking the old one."""
+    out = tmp_path / "t2a"
+    sel = ["--adhesion-only", "--n", "24", "--k-tau", "0.5", "--delta-z-um", "1e-4", "--out", out, "--quiet"]
+    r = run_cli("table2", *sel)
+    assert r.returncode in (0, 3), r.stderr
+    (cell,) = json.loads((out / "table2.json").read_text())["cells"]
+    assert cell["adhesion"] and cell["adhesion_law"]["sigma_max"] == 2e7 and cell["paper_mu"] == 0.357
+    r = run_cli("table2", *sel, "--sigma-max", "1e7")
+    cells = json.loads((out / "table2.json").read_text())["cells"]
+    assert sorted(c["adhesion_law"]["sigma_max"] for c in cells) == [1e7, 2e7]
+
+
+@pytest.mark.parametrize("option, value", [("--sigma-max", "-1"), ("--delta-n", "0"), ("--tau-max", "nan")])
+def test_table2_bad_adhesion_option_is_refused(tmp_path, option, value):
+    r = run_cli("table2", option, value, "--out", tmp_path / "t", "--quiet")
+    assert r.returncode == 2 and option in r.stderr and "Traceback" not in r.stderr
 
 
 def test_contact_beyond_the_domain_is_an_error(tmp_path):

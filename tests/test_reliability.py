@@ -465,3 +465,17 @@ def test_adhesive_tail_lengths():
     law = Dugdale(1e8, 1e-9)
     assert adhesion_tail(law) == law.range == pytest.approx(1.05e-9)
     assert suggested_adhesive_size(R, 1e-10, law) == pytest.approx(2.2 * math.sqrt(2 * R * (1e-10 + 1.05e-9)))
+
+
+@pytest.mark.parametrize("key, value", [("rel_tol", 0.0), ("rel_tol", -0.1), ("rel_tol", 1.0), ("rel_tol", float("nan")),
+                                        ("normal_steps", 0), ("tangential_steps", 2.5)])
+def test_gross_slip_search_settings_are_checked(key, value):
+    """A bisection tolerance outside (0, 1) would never end (or end at once); step counts must be
+    whole and positive. Refused before any solve, naming the argument."""
+    from warpcontact.errors import InputError
+    from warpcontact.friction import Coulomb
+    from warpcontact.slip_search import find_gross_slip
+
+    model = ContactModel(PAPER_PAIR, Sphere(10e-6), Grid(16, 1e-7))
+    with pytest.raises(InputError, match=key):
+        find_gross_slip(model, ContactSolver(model, Coulomb(0.3)), 1e-10, **{key: value})

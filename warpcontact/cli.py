@@ -12,7 +12,7 @@ import math
 import sys
 from pathlib import Path
 
-from .errors import InputError, NonFiniteError
+from .errors import ConvergenceError, InputError, NonFiniteError
 from .progress import Progress, end_line, write_above
 
 EXIT_INPUT = 2
@@ -66,15 +66,25 @@ def _parser():
 
     t = sub.add_parser(
         "table2",
-        help="compute the paper's Table 2 (12 adhesionless cells)",
+        help="compute the paper's Table 2 (24 cells: 12 adhesionless, 12 adhesive)",
         description="delta_x_max and mu for k_tau in (0.50, 0.80, 0.95) x delta_z in (1e-5, 5e-5, 1e-4, 1.5e-4) um, "
-        "copper sphere R = 10 um on hardened steel, compared with the paper. Each finished cell is written at once; "
-        "a rerun with the same settings skips finished cells.",
-        epilog="example:\n  warpcontact table2 --no-adhesion --out out/table2 --n 128\n"
-        "  warpcontact table2 --no-adhesion --out out/table2 --n 64 128   # grid convergence: both resolutions",
+        "copper sphere R = 10 um on hardened steel, without and with adhesion (the SMC law; the paper gives no "
+        "parameters: the defaults below are ours, README 'Adhesion defaults' says why), compared with the paper. "
+        "Each finished cell is written at once; a rerun with the same settings skips finished cells.",
+        epilog="example:\n  warpcontact table2 --out out/table2 --n 128\n"
+        "  warpcontact table2 --no-adhesion --out out/table2 --n 64 128   # grid convergence: both resolutions\n"
+        "  warpcontact table2 --adhesion-only --sigma-max 5e7 --out out/t2_s5e7",
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
-    t.add_argument("--no-adhesion", action="store_true", help="the adhesionless columns (adhesion is not implemented yet)")
+    from .table2 import Table2Settings as _T2
+
+    col = t.add_mutually_exclusive_group()
+    col.add_argument("--no-adhesion", action="store_true", help="only the adhesionless columns")
+    col.add_argument("--adhesion-only", action="store_true", help="only the adhesive columns")
+    t.add_argument("--sigma-max", type=float, default=_T2.sigma_max, help=f"SMC peak normal traction [Pa] (default {_T2.sigma_max:g})")
+    t.add_argument("--tau-max", type=float, default=_T2.tau_max, help=f"SMC peak shear traction [Pa] (default {_T2.tau_max:g})")
+    t.add_argument("--delta-n", type=float, default=_T2.delta_n, help=f"SMC normal length [m] (default {_T2.delta_n:g})")
+    t.add_argument("--delta-t", type=float, default=_T2.delta_t, help=f"SMC tangential length [m] (default {_T2.delta_t:g})")
     t.add_argument("--n", type=int, nargs="+", default=[128], help="cells per side; several values give a grid study")
     t.add_argument("--size-in-a", type=float, default=3.0, help="domain side in Hertz radii a = sqrt(R delta_z)")
     po = sub.add_parser(
@@ -289,14 +299,17 @@ def cmd_table2(args) -> int:
     from .results import atomic_write_bytes, atomic_write_json
     from .table2 import Table2Settings, cells, markdown, table2_cell
 
-    if not args.no_adhesion:
-        raise InputError("table2", "the adhesive columns need the SMC adhesion law, which is not implemented yet; "
-                         "run with --no-adhesion")
     for n in args.n:
         if n < 8:
             raise InputError("--n", f"must be at least 8, got {n}")
     if not (args.size_in_a > 2.0):
         raise InputError("--size-in-a", f"the domain must hold the contact diameter 2a: use more than 2, got {args.size_in_a}")
+    law = dict(sigma_max=args.sigma_max, tau_max=args.tau_max, delta_n=args.delta_n, delta_t=args.delta_t)
+    try:
+        Table2Settings(**law).adhesion_law()
+    except InputError as e:  # name the option, not the case-file key
+        raise InputError("--" + e.key.split(".")[-1].replace("_", "-"), e.problem) from None
+    columns = (False,) if args.no_adhesion else (True,) if args.adhesion_only else (False, True)
     out = Path(args.out)
     path = out / "table2.json"
     records = json.loads(path.read_text())["cells"] if path.exists() else []
@@ -308,30 +321,35 @@ def cmd_table2(args) -> int:
                 if not any(math.isclose(v, k, rel_tol=1e-9) for k in known):
                     raise InputError(name, f"{v!r} is not a cell of Table 2; choose from {known}")
             selected = [c for c in selected if any(math.isclose(c[column], v, rel_tol=1e-9) for v in values)]
-    todo = [(n, k, dz) for n in args.n for k, dz in selected]
+    todo = [(n, k, dz, adh) for adh in columns for n in args.n for k, dz in selected]
     settings_key = (args.size_in_a, args.device or "cpu", args.dtype or "float64", args.fft or "auto")
+    law_key = tuple(sorted(law.items()))
 
-    def key(n, k, dz, size_in_a, device, dtype, fft):
-        return (n, k, dz, size_in_a, device, dtype, fft)
+    def key(n, k, dz, adh, size_in_a, device, dtype, fft, law=None):
+        return (n, k, dz, adh, size_in_a, device, dtype, fft, law if adh else None)
 
-    done = {key(r["n"], r["k_tau"], r["delta_z_um"], r.get("size_in_a", 3.0), r.get("device", "cpu"),
-                r.get("dtype", "float64"), r.get("fft", "auto")) for r in records}
+    def record_law(r):
+        d = r.get("adhesion_law") or {}
+        return tuple(sorted((name, d.get(name)) for name in law))
+
+    done = {key(r["n"], r["k_tau"], r["delta_z_um"], r.get("adhesion", False), r.get("size_in_a", 3.0),
+                r.get("device", "cpu"), r.get("dtype", "float64"), r.get("fft", "auto"), record_law(r)) for r in records}
     interrupted = False
-    finished = sum(1 for c in todo if key(*c, *settings_key) in done)
+    finished = sum(1 for c in todo if key(*c, *settings_key, law_key) in done)
     progress = Progress("table2", total=len(todo), quiet=args.quiet, start=finished)  # a bar over the cells
-    for i, (n, k, dz) in enumerate(todo):
-        if key(n, k, dz, *settings_key) in done:
+    for i, (n, k, dz, adh) in enumerate(todo):
+        if key(n, k, dz, adh, *settings_key, law_key) in done:
             continue
         settings = Table2Settings(n=n, size_in_a=args.size_in_a, device=args.device or "cpu",
-                                  dtype=args.dtype or "float64", fft=args.fft or "auto")
-        cell = f"n {n} k_tau {k:.2f} delta_z {dz:.1e} um"
+                                  dtype=args.dtype or "float64", fft=args.fft or "auto", **law)
+        cell = f"n {n} k_tau {k:.2f} delta_z {dz:.1e} um {'adhesive' if adh else 'adhesionless'}"
         progress.status(finished, extra=cell)
 
         def on_state(j, s, cell=cell):  # the current cell's states, on a terminal
             progress.status(finished, s["iterations"], s["residual"], f"{cell}: state {j + 1} ({s['kind']})")
 
         try:
-            rec = table2_cell(k, dz, settings, on_state=on_state)
+            rec = table2_cell(k, dz, settings, on_state=on_state, adhesion=adh)
         except KeyboardInterrupt:
             interrupted = True
             break
@@ -358,21 +376,22 @@ def cmd_table2(args) -> int:
 
 def _table2_result(rec) -> str:
     """A finished cell's result line: delta_x_max [um] and mu against the paper, the time [s]."""
-    text = (f"delta_x_max {rec['delta_x_max_um']:.3e} um ({100 * rec['rel_diff_delta_x_max']:+.1f} %), "
+    if not rec["converged"]:
+        return f"not converged (a state of the path did not converge), {rec['elapsed_s']:.0f} s"
+    return (f"delta_x_max {rec['delta_x_max_um']:.3e} um ({100 * rec['rel_diff_delta_x_max']:+.1f} %), "
             f"mu {rec['mu']:.4f} ({100 * rec['rel_diff_mu']:+.1f} %), {rec['elapsed_s']:.0f} s")
-    return text if rec["converged"] else text + " (not converged)"
 
 
 def _write_table2(out, records, atomic_write_json, atomic_write_bytes, markdown):
     import csv
     import io
 
-    records = sorted(records, key=lambda r: (r["n"], r["k_tau"], r["delta_z_um"]))
+    records = sorted(records, key=lambda r: (r.get("adhesion", False), r["n"], r["k_tau"], r["delta_z_um"]))
     atomic_write_json(out / "table2.json", {"cells": records})
     atomic_write_bytes(out / "table2.md", markdown(records).encode())
     buf = io.StringIO()
-    keys = ["n", "k_tau", "delta_z_um", "delta_x_max_um", "paper_delta_x_max_um", "rel_diff_delta_x_max", "mu",
-            "paper_mu", "rel_diff_mu", "converged", "elapsed_s"]
+    keys = ["n", "k_tau", "delta_z_um", "adhesion", "delta_x_max_um", "paper_delta_x_max_um", "rel_diff_delta_x_max",
+            "mu", "paper_mu", "rel_diff_mu", "mu_elastic", "converged", "elapsed_s"]
     w = csv.DictWriter(buf, fieldnames=keys, extrasaction="ignore")
     w.writeheader()
     w.writerows(records)
@@ -399,7 +418,7 @@ def main(argv=None) -> int:
         end_line()  # of a progress bar being drawn
         print(f"warpcontact: error: {e}", file=sys.stderr)
         return EXIT_INPUT
-    except NonFiniteError as e:
+    except (NonFiniteError, ConvergenceError) as e:
         end_line()
         print(f"warpcontact: error: {e}", file=sys.stderr)
         return EXIT_NOT_CONVERGED

@@ -13,7 +13,7 @@ from .errors import InputError
 MIN_CONTACT_RADIUS_CELLS = 8
 #: The results of a gross-slip search, taken from its final bracket: not reported when a state of
 #: the path did not converge (the bracket may then be anywhere).
-GROSS_SLIP_RESULTS = ("delta_x_max", "delta_x_gross", "mu")
+GROSS_SLIP_RESULTS = ("delta_x_max", "delta_x_gross", "mu", "mu_elastic", "force", "force_elastic")
 #: The results of an approach-retract curve: not reported when a state of the curve did not converge.
 PULL_OFF_RESULTS = ("pull_off_force", "pull_off_delta_z")
 

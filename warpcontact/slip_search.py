@@ -9,6 +9,8 @@ import numpy as np
 
 from warpcontact.kernels.tangential import STICK
 
+from .errors import ConvergenceError, InputError
+from .guards import warn_if_adhesion_at_edge
 from .reference import hertz
 from .results import state_summary
 from .state import ContactState
@@ -41,9 +43,15 @@ def find_gross_slip(
     history), until the bracket is narrower than ``rel_tol`` of its lower end.
 
     Returns a dict: delta_x_max [m] (lower end of the final bracket), delta_x_gross [m] (upper
-    end), mu, force [N] at delta_x_max, converged (every state on the way converged), the states
+    end), mu (F_x / F_z, total forces), mu_elastic (F_x / F_z of the contact pressure alone),
+    force and force_elastic [N] at delta_x_max, converged (every state on the way converged), the states
     of the path (summaries), and elapsed_s.
     """
+    if isinstance(rel_tol, bool) or not isinstance(rel_tol, (int, float)) or not 0.0 < rel_tol < 1.0:
+        raise InputError("rel_tol", f"must lie in (0, 1), got {rel_tol!r}")
+    for key, v in (("normal_steps", normal_steps), ("tangential_steps", tangential_steps)):
+        if isinstance(v, bool) or not isinstance(v, int) or v < 1:
+            raise InputError(key, f"must be an integer >= 1, got {v!r}")
     t0 = time.perf_counter()
     pair, radius = model.pair, model.sphere.radius
     state = ContactState(model)
@@ -64,6 +72,7 @@ def find_gross_slip(
 
     for k in range(1, normal_steps + 1):
         solve(state, (0.0, 0.0, delta_z * k / normal_steps), "normal")
+    warn_if_adhesion_at_edge(state, solver.adhesion, delta_z)
     step = estimate_delta_x_max(pair, radius, delta_z, solver.friction) / tangential_steps
     last_stick = ContactState(model)
     last_stick.copy_from(state)
@@ -76,7 +85,11 @@ def find_gross_slip(
         lo, lo_summary = k * step, s
         last_stick.copy_from(state)
     if hi is None:
-        raise RuntimeError(f"no gross slip up to delta_x = {20 * tangential_steps * step:.3e} m")
+        raise ConvergenceError(
+            f"no gross slip up to delta_x = {20 * tangential_steps * step:.3e} m (20 x Mindlin's estimate with the "
+            "friction law's slope): the stick area did not vanish; the interface holds far more than the law's "
+            "friction (strong adhesion?)"
+        )
     trial = ContactState(model)
     while (hi - lo) > rel_tol * max(lo, 1e-300):
         mid = 0.5 * (lo + hi)
@@ -87,12 +100,14 @@ def find_gross_slip(
         else:
             lo, lo_summary = mid, s
             last_stick.copy_from(trial)
-    force = lo_summary["force"]
+    force, elastic = lo_summary["force"], lo_summary["force_elastic"]
     return {
         "delta_x_max": lo,
         "delta_x_gross": hi,
         "mu": force["x"] / force["z"] if force["z"] > 0 else math.nan,
+        "mu_elastic": force["x"] / elastic["z"] if elastic["z"] > 0 else math.nan,
         "force": force,
+        "force_elastic": elastic,
         "converged": bool(converged),
         "stick_area": lo_summary["stick_area"],
         "contact_area": lo_summary["contact_area"],

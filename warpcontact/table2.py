@@ -1,7 +1,9 @@
 """The seed paper's Table 2: delta_x at gross slip and the static friction coefficient.
 
-Copper sphere (R = 10 um) on hardened steel (Table 1), Tabor + von Mises shear limit, the 12
-adhesionless cells k_tau in (0.50, 0.80, 0.95) x delta_z in (1.0e-5, 5.0e-5, 1.0e-4, 1.5e-4) um.
+Copper sphere (R = 10 um) on hardened steel (Table 1), Tabor + von Mises shear limit, the 24
+cells k_tau in (0.50, 0.80, 0.95) x delta_z in (1.0e-5, 5.0e-5, 1.0e-4, 1.5e-4) um, without and
+with adhesion (the SMC law with ``Table2Settings``' parameters; the paper gives none: README
+"Adhesion defaults" gives the reasoning and docs/img/adhesion_sensitivity.png the dependence).
 """
 
 from __future__ import annotations
@@ -12,8 +14,10 @@ import time
 from dataclasses import dataclass
 from pathlib import Path
 
+from .adhesion import SMC
 from .friction import TaborVonMises
 from .geometry import Grid, Sphere
+from .guards import withhold_if_unconverged
 from .slip_search import find_gross_slip
 from .materials import PAPER_PAIR
 from .model import ContactModel
@@ -23,6 +27,14 @@ RADIUS = 10e-6
 K_TAU = (0.50, 0.80, 0.95)
 DELTA_Z_UM = (1.0e-5, 5.0e-5, 1.0e-4, 1.5e-4)
 UM = 1e-6
+#: what a cell reports only when every state of its path converged
+TABLE2_RESULTS = ("delta_x_max_um", "delta_x_gross_um", "mu", "mu_elastic", "force_N", "force_elastic_N",
+                  "rel_diff_delta_x_max", "rel_diff_mu")
+#: adhesion defaults of the adhesive cells (README "Adhesion defaults": why these)
+SIGMA_MAX = 2.0e7
+TAU_MAX = 2.0e7
+DELTA_N = 5.0e-12
+DELTA_T = 5.0e-12
 
 
 def paper_table(path=None) -> dict:
@@ -44,7 +56,7 @@ def paper_table(path=None) -> dict:
     return rows
 
 
-# transcription of the paper's Table 2 (adhesionless columns), used when the CSV is not beside us
+# transcription of the paper's Table 2, used when the CSV is not beside us
 _PAPER = {
     (0.50, 1.0e-5, False): (4.2e-6, 0.332), (0.50, 5.0e-5, False): (2.1e-5, 0.332),
     (0.50, 1.0e-4, False): (4.2e-5, 0.332), (0.50, 1.5e-4, False): (5.5e-5, 0.308),
@@ -52,6 +64,12 @@ _PAPER = {
     (0.80, 1.0e-4, False): (7.3e-5, 0.665), (0.80, 1.5e-4, False): (7.7e-5, 0.495),
     (0.95, 1.0e-5, False): (2.2e-5, 1.755), (0.95, 5.0e-5, False): (6.7e-5, 1.250),
     (0.95, 1.0e-4, False): (8.2e-5, 0.827), (0.95, 1.5e-4, False): (8.5e-5, 0.583),
+    (0.50, 1.0e-5, True): (4.4e-6, 0.340), (0.50, 5.0e-5, True): (2.4e-5, 0.350),
+    (0.50, 1.0e-4, True): (4.9e-5, 0.357), (0.50, 1.5e-4, True): (6.5e-5, 0.325),
+    (0.80, 1.0e-5, True): (1.0e-5, 0.788), (0.80, 5.0e-5, True): (5.4e-5, 0.809),
+    (0.80, 1.0e-4, True): (8.5e-5, 0.688), (0.80, 1.5e-4, True): (8.8e-5, 0.502),
+    (0.95, 1.0e-5, True): (2.3e-5, 1.798), (0.95, 5.0e-5, True): (7.5e-5, 1.277),
+    (0.95, 1.0e-4, True): (9.5e-5, 0.843), (0.95, 1.5e-4, True): (9.8e-5, 0.587),
 }
 
 
@@ -64,6 +82,8 @@ class Table2Settings:
         size_in_a: domain side in Hertz contact radii a = sqrt(R delta_z) of each cell.
         device, dtype, fft: as in case files.
         rel_tol: bisection bracket of delta_x_max, relative.
+        sigma_max, tau_max: the SMC law's peak normal and shear tractions [Pa] (adhesive cells).
+        delta_n, delta_t: its characteristic lengths [m].
     """
 
     n: int = 128
@@ -72,26 +92,43 @@ class Table2Settings:
     dtype: str = "float64"
     fft: str = "auto"
     rel_tol: float = 0.01
+    sigma_max: float = SIGMA_MAX
+    tau_max: float = TAU_MAX
+    delta_n: float = DELTA_N
+    delta_t: float = DELTA_T
+
+    def adhesion_law(self) -> SMC:
+        return SMC(self.sigma_max, self.tau_max, self.delta_n, self.delta_t)
 
 
-def table2_cell(k_tau: float, delta_z_um: float, settings: Table2Settings, on_state=None) -> dict:
-    """One adhesionless cell: delta_x_max, mu and the paper's values, with relative differences."""
+def table2_cell(k_tau: float, delta_z_um: float, settings: Table2Settings, on_state=None, adhesion: bool = False) -> dict:
+    """One cell: delta_x_max, mu and the paper's values, with relative differences.
+
+    With ``adhesion`` the SMC law of ``settings`` acts; mu = F_x / F_z with the total F_z
+    (adhesive part included, MODEL.md section 7), and mu_elastic = F_x / F_z of the contact
+    pressure alone is reported beside it.
+    """
     dz = delta_z_um * UM
     a = math.sqrt(RADIUS * dz)
     model = ContactModel(PAPER_PAIR, Sphere(RADIUS), Grid(settings.n, settings.size_in_a * a),
                          device=settings.device, dtype=settings.dtype, fft=settings.fft)
     law = TaborVonMises(k_tau, PAPER_PAIR.softer.yield_strength)
+    adhesive = settings.adhesion_law() if adhesion else None
     t0 = time.perf_counter()
-    r = find_gross_slip(model, ContactSolver(model, law), dz, rel_tol=settings.rel_tol, on_state=on_state)
-    paper_dx, paper_mu = paper_table().get((k_tau, delta_z_um, False), (math.nan, math.nan))
+    r = find_gross_slip(model, ContactSolver(model, law, adhesion=adhesive), dz, rel_tol=settings.rel_tol,
+                        on_state=on_state)
+    paper_dx, paper_mu = paper_table().get((k_tau, delta_z_um, bool(adhesion)), (math.nan, math.nan))
     dx_um = r["delta_x_max"] / UM
-    return {
+    record = {
         "k_tau": k_tau,
         "delta_z_um": delta_z_um,
-        "adhesion": False,
+        "adhesion": bool(adhesion),
         "delta_x_max_um": dx_um,
         "delta_x_gross_um": r["delta_x_gross"] / UM,
         "mu": r["mu"],
+        "mu_elastic": r["mu_elastic"],
+        "force_N": r["force"],
+        "force_elastic_N": r["force_elastic"],
         "paper_delta_x_max_um": paper_dx,
         "paper_mu": paper_mu,
         "rel_diff_delta_x_max": dx_um / paper_dx - 1.0,
@@ -105,17 +142,21 @@ def table2_cell(k_tau: float, delta_z_um: float, settings: Table2Settings, on_st
         "elapsed_s": time.perf_counter() - t0,
         "states": len(r["states"]),
     }
+    if adhesive is not None:
+        record["adhesion_law"] = adhesive.describe()
+    return withhold_if_unconverged(record, TABLE2_RESULTS)
 
 
 def cells():
+    """The (k_tau, delta_z_um) cells of each column (with or without adhesion)."""
     return [(k, dz) for k in K_TAU for dz in DELTA_Z_UM]
 
 
 def markdown(records: list) -> str:
     """The table as Markdown: computed, paper, relative difference; unconverged cells marked."""
     lines = [
-        "| k_tau | delta_z (um) | delta_x_max (um) | paper | diff | mu | paper | diff | n | converged |",
-        "|---|---|---|---|---|---|---|---|---|---|",
+        "| k_tau | delta_z (um) | adhesion | delta_x_max (um) | paper | diff | mu | paper | diff | n | converged |",
+        "|---|---|---|---|---|---|---|---|---|---|---|",
     ]
     for r in records:
         if r["converged"]:
@@ -124,7 +165,7 @@ def markdown(records: list) -> str:
         else:
             dx = mu = ddx = dmu = "not converged"
         lines.append(
-            f"| {r['k_tau']:.2f} | {r['delta_z_um']:.1e} | {dx} | {r['paper_delta_x_max_um']:.1e} | {ddx} | "
+            f"| {r['k_tau']:.2f} | {r['delta_z_um']:.1e} | {'yes' if r.get('adhesion') else 'no'} | {dx} | {r['paper_delta_x_max_um']:.1e} | {ddx} | "
             f"{mu} | {r['paper_mu']:.3f} | {dmu} | {r['n']} | {r['converged']} |"
         )
     return "\n".join(lines) + "\n"
