@@ -1,16 +1,45 @@
 #!/usr/bin/env bash
-# One device session's plan: install the project, run the test suite on CPU + CUDA, benchmark.
-# Run on the GPU machine after `source .gpu/p2/stage2.sh` (see ../shared/gpu/README.md); logs go to $OUT.
+# One device session's plan: install the project, then the parts asked for. Logs go to $OUT.
+# Run on the GPU machine after `source .gpu/p2/stage2.sh` (see ../shared/gpu/README.md).
+#   TESTS=1   the test suite on CPU + CUDA (PYTEST_ARGS)
+#   BENCH=1   bench_normal.py on cuda:0 (BENCH_ARGS)
+#   ITER=1    bench_iteration.py on cuda:0, with and without adhesion (ITER_ARGS)
+#   TABLE2=1  warpcontact table2 (both columns) at 256 x 256 on cuda:0, timed (TABLE2_ARGS)
+#   ADH=W     bench/adhesion_sensitivity.py on W CPU workers, in the background while the rest runs
+#             (its cells.jsonl is kept in $OUT/adh; a copy in bench_results/adh/ is resumed)
 set -u
 OUT=${OUT:-/tmp/out}
 mkdir -p "$OUT"
+ROOT=$PWD
 python3 -m pip install -q --no-deps --no-build-isolation --no-index --upgrade --target /opt/wstage/proj . > "$OUT/install.log" 2>&1 \
   || { cat "$OUT/install.log"; exit 1; }
 export PYTHONPATH=/opt/wstage/proj:${PYTHONPATH}
 nvidia-smi --query-gpu=name,memory.total,driver_version --format=csv > "$OUT/gpu.txt" 2>&1
-cp -r tests /tmp/wc_tests && cp -r examples /tmp/examples && cp -r docs /tmp/docs
-(cd /tmp && timeout 420 python3 -m pytest -q -rs -p no:cacheprovider /tmp/wc_tests ${PYTEST_ARGS:-} 2>&1 | tee "$OUT/pytest.log" | tail -25)
-(cd /tmp && timeout 300 python3 "$OLDPWD/bench/bench_normal.py" --device cuda:0 ${BENCH_ARGS:-} --json "$OUT/bench_gpu.json" 2>&1 | tee "$OUT/bench_gpu.log")
-# Table 2 (adhesionless, 12 cells) at 256 x 256 on the GPU, timed (TABLE2=1 to run it)
-[ "${TABLE2:-0}" = 1 ] && (cd /tmp && /usr/bin/time -v timeout 400 python3 -m warpcontact.cli table2 --no-adhesion --n 256 --device cuda:0 \
-   --out "$OUT/table2_gpu" 2>&1 | tail -40 > "$OUT/table2_gpu.log"; cat "$OUT/table2_gpu.log" | tail -16)
+if [ "${ADH:-0}" != 0 ]; then
+  mkdir -p "$OUT/adh"
+  [ -f "$ROOT/bench_results/adh/cells.jsonl" ] && cp "$ROOT/bench_results/adh/cells.jsonl" "$OUT/adh/"
+  (cd /tmp && timeout "${ADH_TIMEOUT:-560}" python3 "$ROOT/bench/adhesion_sensitivity.py" --out "$OUT/adh" --workers "$ADH" \
+     ${ADH_ARGS:-} > "$OUT/adh/run.log" 2>&1) &
+  ADH_PID=$!
+fi
+if [ "${TESTS:-0}" = 1 ]; then
+  rm -rf /tmp/wc_tests && cp -r tests /tmp/wc_tests && cp -r examples /tmp/examples && cp -r docs /tmp/docs
+  (cd /tmp && timeout "${TESTS_TIMEOUT:-420}" python3 -m pytest -q -rs -p no:cacheprovider /tmp/wc_tests ${PYTEST_ARGS:-} 2>&1 \
+     | tee "$OUT/pytest.log" | tail -25)
+fi
+[ "${BENCH:-0}" = 1 ] && (cd /tmp && timeout 300 python3 "$ROOT/bench/bench_normal.py" --device cuda:0 ${BENCH_ARGS:-} \
+   --json "$OUT/bench_gpu.json" 2>&1 | tee "$OUT/bench_gpu.log")
+if [ "${ITER:-0}" = 1 ]; then
+  (cd /tmp && timeout 240 python3 "$ROOT/bench/bench_iteration.py" --device cuda:0 ${ITER_ARGS:-} --json "$OUT/iter_gpu.json" 2>&1 \
+     | tee "$OUT/iter_gpu.log")
+  (cd /tmp && timeout 200 python3 "$ROOT/bench/bench_iteration.py" --device cuda:0 --adhesion ${ITER_ARGS:-} \
+     --json "$OUT/iter_gpu_adh.json" 2>&1 | tee "$OUT/iter_gpu_adh.log")
+fi
+if [ "${TABLE2:-0}" = 1 ]; then
+  (cd /tmp && /usr/bin/time -v timeout "${TABLE2_TIMEOUT:-400}" python3 -m warpcontact.cli table2 --n 256 --device cuda:0 \
+     ${TABLE2_ARGS:-} --out "$OUT/table2_gpu" > "$OUT/table2_gpu.log" 2>&1; tail -30 "$OUT/table2_gpu.log")
+fi
+if [ "${ADH:-0}" != 0 ]; then
+  wait "$ADH_PID"
+  tail -30 "$OUT/adh/run.log"
+fi

@@ -1,0 +1,164 @@
+"""Benchmark: time per solver iteration against the FFT floor measured on the same device, same run.
+
+For each grid size N, on the problem of bench_normal.py (paper pair, R = 10 um, delta_z = 1e-4 um,
+domain 4a):
+
+- normal: the Hertz normal solve (Polonsky-Keer); ms per iteration;
+- floor1: one forward + one inverse transform of the padded 2N x 2N field by the model's FFT
+  backend plus one elementwise pass (a device copy of an N x N field): what one normal iteration
+  cannot go below (the issue's floor); ratio = normal / floor1;
+- coupled: one load step of the coupled problem (Tabor + von Mises, k_tau = 0.8, delta_x = half
+  of Mindlin's delta_x_max) from the solved normal state: its inner iterations (normal and
+  tangential CG) and ms per inner iteration; with --adhesion also the SMC law;
+- floor3: three forward + three inverse transforms + one pass (the floor of a (p, q_x, q_y)
+  iteration); ratio = coupled / floor3;
+- memory: the device memory in use after the solves (CUDA: total - free, less the baseline
+  before the model was built; CPU: the process's peak resident set) and resources.estimate_bytes
+  for the same problem.
+
+    python bench/bench_iteration.py --device cuda:0 --sizes 256 512 1024 2048 4096 --json out.json
+    python bench/bench_iteration.py --sizes 128 256 512 1024                          # CPU
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import platform
+import resource
+import time
+
+import warp as wp
+
+from warpcontact import resources
+from warpcontact.adhesion import SMC
+from warpcontact.friction import TaborVonMises
+from warpcontact.geometry import Grid, Sphere
+from warpcontact.materials import PAPER_PAIR
+from warpcontact.model import ContactModel
+from warpcontact.slip_search import estimate_delta_x_max
+from warpcontact.solvers import NormalSolver
+from warpcontact.solvers.contact import ContactSolver
+from warpcontact.state import ContactState
+
+R, DZ = 10e-6, 1.0e-10
+A = math.sqrt(R * DZ)
+
+
+def _timed(device, fn, repeats):
+    """Best wall time of fn() over ``repeats`` runs after one untimed warm-up [s]."""
+    fn()
+    best = math.inf
+    for _ in range(repeats):
+        wp.synchronize_device(device)
+        t0 = time.perf_counter()
+        fn()
+        wp.synchronize_device(device)
+        best = min(best, time.perf_counter() - t0)
+    return best
+
+
+def floor_ms(model, pairs: int, repeats: int) -> float:
+    """``pairs`` forward + inverse transforms of the backend plus one N x N device copy [ms]."""
+    fft = model.operator.fft
+    field, out = model.field(), model.field()
+    spec = fft.alloc_spectra(1)[0]
+
+    def run():
+        for _ in range(pairs):
+            fft.forward(field, spec)
+            fft.inverse(spec, out)
+        wp.copy(out, field)
+
+    loops = 20
+
+    def many():
+        for _ in range(loops):
+            run()
+
+    return 1e3 * _timed(model.device, many, repeats) / loops
+
+
+def used_bytes(device) -> int:
+    if device.is_cpu:
+        return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024
+    wp.synchronize_device(device)
+    return int(device.total_memory - device.free_memory)
+
+
+def bench(n, device, dtype, fft, repeats, adhesion: bool):
+    base = used_bytes(device)
+    model = ContactModel(PAPER_PAIR, Sphere(R, "paraboloid"), Grid(n, 4 * A), device=device, dtype=dtype, fft=fft)
+    row = {"n": n, "dtype": dtype, "fft": model.operator.fft.name if hasattr(model.operator.fft, "name") else fft}
+    normal = NormalSolver(model)
+    info = {}
+
+    def solve_normal():
+        st = ContactState(model)
+        info["normal"] = normal.solve(st, DZ)
+
+    t = _timed(model.device, solve_normal, repeats)
+    row.update(normal_iters=info["normal"].iterations, normal_ms=1e3 * t / info["normal"].iterations)
+    law = TaborVonMises(0.8, PAPER_PAIR.softer.yield_strength)
+    adh = SMC(2e7, 2e7, 5e-12, 5e-12) if adhesion else None
+    solver = ContactSolver(model, law, adhesion=adh)
+    start = ContactState(model)
+    solver.step(start, (0.0, 0.0, DZ))
+    dx = 0.5 * estimate_delta_x_max(PAPER_PAIR, R, DZ, law)
+    trial = ContactState(model)
+
+    def solve_coupled():
+        trial.copy_from(start)
+        info["coupled"] = solver.step(trial, (dx, 0.0, DZ))
+
+    t = _timed(model.device, solve_coupled, repeats)
+    c = info["coupled"]
+    row.update(coupled_iters=c.iterations, coupled_turns=c.outer_iterations, coupled_s=t,
+               coupled_ms=1e3 * t / max(c.iterations, 1), coupled_converged=bool(c.converged))
+    row["floor1_ms"] = floor_ms(model, 1, repeats)
+    row["floor3_ms"] = floor_ms(model, 3, repeats)
+    row["normal_ratio"] = row["normal_ms"] / row["floor1_ms"]
+    row["coupled_ratio"] = row["coupled_ms"] / row["floor3_ms"]
+    row["memory_MiB"] = (used_bytes(device) - (0 if device.is_cpu else base)) / 2**20
+    kind = "cpu" if device.is_cpu else "cuda"
+    row["estimate_MiB"] = resources.estimate_bytes(n, dtype, kind, True, fft, states=2, adhesion=adhesion) / 2**20
+    return row
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--device", default="cpu")
+    ap.add_argument("--sizes", type=int, nargs="*")
+    ap.add_argument("--fft", default="auto")
+    ap.add_argument("--dtype", nargs="*", default=["float64"])
+    ap.add_argument("--repeats", type=int, default=2)
+    ap.add_argument("--adhesion", action="store_true", help="the coupled step with the SMC law (2e7 Pa, 5e-12 m)")
+    ap.add_argument("--json")
+    args = ap.parse_args()
+    wp.config.quiet = True
+    wp.init()
+    device = wp.get_device(args.device)
+    sizes = args.sizes or ([128, 256, 512, 1024] if device.is_cpu else [256, 512, 1024, 2048, 4096])
+    name = device.name if not device.is_cpu else (platform.processor() or platform.machine())
+    print(f"# iteration vs FFT floor; device {device} ({name}), warp {wp.__version__}, fft {args.fft}, "
+          f"{time.strftime('%Y-%m-%d')}; coupled step {'with' if args.adhesion else 'without'} adhesion")
+    print(f"{'N':>6} {'dtype':>8} {'it':>5} {'ms/it':>8} {'floor1':>7} {'ratio':>6} | {'it':>6} {'turns':>5} "
+          f"{'ms/it':>8} {'floor3':>7} {'ratio':>6} {'step s':>8} | {'mem MiB':>8} {'est MiB':>8}")
+    rows = []
+    for n in sizes:
+        for dtype in args.dtype:
+            r = bench(n, device, dtype, args.fft, args.repeats, args.adhesion)
+            rows.append({"device": str(device), **r})
+            print(f"{n:>6} {dtype:>8} {r['normal_iters']:>5} {r['normal_ms']:>8.3f} {r['floor1_ms']:>7.3f} "
+                  f"{r['normal_ratio']:>6.2f} | {r['coupled_iters']:>6} {r['coupled_turns']:>5} {r['coupled_ms']:>8.3f} "
+                  f"{r['floor3_ms']:>7.3f} {r['coupled_ratio']:>6.2f} {r['coupled_s']:>8.3f} | {r['memory_MiB']:>8.0f} "
+                  f"{r['estimate_MiB']:>8.0f}" + ("" if r["coupled_converged"] else "  (coupled step not converged)"),
+                  flush=True)
+    if args.json:
+        with open(args.json, "w") as fh:
+            json.dump(rows, fh, indent=2)
+
+
+if __name__ == "__main__":
+    main()
