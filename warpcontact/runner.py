@@ -41,7 +41,7 @@ def adhesion_law(case):
 def build(case):
     """(model, solver, state) for a case; a case that will not fit in memory is refused first."""
     s = case.solver
-    check_fits(case.grid.n, s.dtype, s.device, case.friction is not None, s.fft)
+    check_fits(case.grid.n, s.dtype, s.device, case.friction is not None, s.fft, adhesion=case.adhesion is not None)
     model = ContactModel(case.pair, case.sphere, case.grid, device=s.device, dtype=s.dtype, fft=s.fft)
     cap = case.pair.softer.hardness if case.friction is not None and case.friction.hardness_cap else math.inf
     solver = ContactSolver(model, friction_law(case), tol=s.tol, max_iter=s.max_iter, pressure_cap=cap,
