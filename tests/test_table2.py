@@ -36,3 +36,29 @@ def test_table2_converged_in_the_grid(k_tau, delta_z_um):
     check(fine)
     assert abs(fine["mu"] / coarse["mu"] - 1) < 5e-3
     assert abs(fine["delta_x_max_um"] / coarse["delta_x_max_um"] - 1) <= 0.0101
+
+
+def test_cell_grid_holds_the_adhesive_tail_at_the_same_cell_side():
+    """Adhesionless cells keep n cells over size_in_a radii; an adhesive cell whose law reaches
+    past that domain gets one that holds the tail (guards.suggested_adhesive_size) with the same
+    cell side (to the rounding of n up to an FFT-friendly length), so resolution is not traded
+    for domain."""
+    import math
+
+    from warpcontact.guards import suggested_adhesive_size
+    from warpcontact.table2 import RADIUS, cell_grid
+
+    dz = 5e-11  # m
+    st = Table2Settings(n=64, sigma_max=5e6, tau_max=5e6, delta_n=2e-11, delta_t=2e-11)
+    plain = cell_grid(dz, st)
+    assert plain.n == 64 and math.isclose(plain.size, 3.0 * math.sqrt(RADIUS * dz))
+    law = st.adhesion_law()
+    g = cell_grid(dz, st, law)
+    need = suggested_adhesive_size(RADIUS, dz, law)
+    assert need > plain.size  # this law's tail lies outside the 3a domain
+    assert g.size >= need and g.n > 64
+    assert math.isclose(g.dx, plain.dx, rel_tol=1e-12)
+    # a short-range law whose tail a 4a domain already holds (the contact's edge 2 sqrt(2) a
+    # with the guard's margin) leaves the grid alone
+    tiny = Table2Settings(n=64, size_in_a=4.0, sigma_max=5e6, tau_max=5e6, delta_n=1e-14, delta_t=1e-14)
+    assert cell_grid(dz, tiny, tiny.adhesion_law()).n == 64

@@ -17,7 +17,7 @@ from pathlib import Path
 from .adhesion import SMC
 from .friction import TaborVonMises
 from .geometry import Grid, Sphere
-from .guards import withhold_if_unconverged
+from .guards import suggested_adhesive_size, withhold_if_unconverged
 from .slip_search import find_gross_slip
 from .materials import PAPER_PAIR
 from .model import ContactModel
@@ -78,7 +78,9 @@ class Table2Settings:
     """Grid and solver settings of a Table 2 run.
 
     Attributes:
-        n: cells per side.
+        n: cells per side of a domain of ``size_in_a`` contact radii (the resolution: cell side
+            size_in_a a / n). Adhesive cells whose law reaches beyond that domain get a larger
+            one with the same cell side (see :func:`cell_grid`).
         size_in_a: domain side in Hertz contact radii a = sqrt(R delta_z) of each cell.
         device, dtype, fft: as in case files.
         rel_tol: bisection bracket of delta_x_max, relative.
@@ -101,6 +103,27 @@ class Table2Settings:
         return SMC(self.sigma_max, self.tau_max, self.delta_n, self.delta_t)
 
 
+def cell_grid(delta_z: float, settings: Table2Settings, adhesion=None) -> Grid:
+    """The grid of a cell at normal approach ``delta_z`` [m]: ``settings.n`` cells over
+    ``settings.size_in_a`` Hertz radii; with an adhesive law whose tail (the gap where its
+    traction falls to 1 % of its peak) lies beyond that domain, the domain grows to hold it
+    (:func:`warpcontact.guards.suggested_adhesive_size`) and the cell count with it, so the cell side
+    stays the same. Outside the contact the adhesive annulus at gap h carries 2 pi R sigma(h) dh, a
+    force that does not fall with r: a domain that cuts the tail cuts the adhesive force (for the
+    SMC law, a fraction (1 + x) e^-x of it is left out beyond gap x delta_n)."""
+    a = math.sqrt(RADIUS * delta_z)
+    size = settings.size_in_a * a
+    n = settings.n
+    if adhesion is not None:
+        need = suggested_adhesive_size(RADIUS, delta_z, adhesion)
+        if need > size:
+            from scipy.fft import next_fast_len
+
+            n = next_fast_len(math.ceil(settings.n * need / size))
+            size *= n / settings.n
+    return Grid(n, size)
+
+
 def table2_cell(k_tau: float, delta_z_um: float, settings: Table2Settings, on_state=None, adhesion: bool = False) -> dict:
     """One cell: delta_x_max, mu and the paper's values, with relative differences.
 
@@ -109,11 +132,10 @@ def table2_cell(k_tau: float, delta_z_um: float, settings: Table2Settings, on_st
     pressure alone is reported beside it.
     """
     dz = delta_z_um * UM
-    a = math.sqrt(RADIUS * dz)
-    model = ContactModel(PAPER_PAIR, Sphere(RADIUS), Grid(settings.n, settings.size_in_a * a),
+    adhesive = settings.adhesion_law() if adhesion else None
+    model = ContactModel(PAPER_PAIR, Sphere(RADIUS), cell_grid(dz, settings, adhesive),
                          device=settings.device, dtype=settings.dtype, fft=settings.fft)
     law = TaborVonMises(k_tau, PAPER_PAIR.softer.yield_strength)
-    adhesive = settings.adhesion_law() if adhesion else None
     t0 = time.perf_counter()
     r = find_gross_slip(model, ContactSolver(model, law, adhesion=adhesive), dz, rel_tol=settings.rel_tol,
                         on_state=on_state)
@@ -135,6 +157,7 @@ def table2_cell(k_tau: float, delta_z_um: float, settings: Table2Settings, on_st
         "rel_diff_mu": r["mu"] / paper_mu - 1.0,
         "converged": r["converged"],
         "n": settings.n,
+        "grid_n": model.grid.n,
         "size_m": model.grid.size,
         "cell_m": model.grid.dx,
         "mu_b": law.mu_b,
