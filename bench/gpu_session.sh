@@ -5,6 +5,7 @@
 #   BENCH=1   bench_normal.py on cuda:0 (BENCH_ARGS)
 #   ITER=1    bench_iteration.py on cuda:0, with and without adhesion (ITER_ARGS)
 #   TABLE2=1  warpcontact table2 (both columns) at 256 x 256 on cuda:0, timed (TABLE2_ARGS)
+#   FIGS=1    warpcontact figure for every examples/figure*.toml on cuda:0 (the paper's Figures 1 and 2)
 #   ADH=W     bench/adhesion_sensitivity.py on W CPU workers, in the background while the rest runs
 #             (its cells.jsonl is kept in $OUT/adh; a copy in bench_results/adh/ is resumed)
 set -u
@@ -30,14 +31,23 @@ fi
 [ "${BENCH:-0}" = 1 ] && (cd /tmp && timeout 300 python3 "$ROOT/bench/bench_normal.py" --device cuda:0 ${BENCH_ARGS:-} \
    --json "$OUT/bench_gpu.json" 2>&1 | tee "$OUT/bench_gpu.log")
 if [ "${ITER:-0}" = 1 ]; then
-  (cd /tmp && timeout 240 python3 "$ROOT/bench/bench_iteration.py" --device cuda:0 ${ITER_ARGS:-} --json "$OUT/iter_gpu.json" 2>&1 \
+  (cd /tmp && timeout "${ITER_TIMEOUT:-240}" python3 "$ROOT/bench/bench_iteration.py" --device cuda:0 ${ITER_ARGS:-} --json "$OUT/iter_gpu.json" 2>&1 \
      | tee "$OUT/iter_gpu.log")
-  (cd /tmp && timeout 200 python3 "$ROOT/bench/bench_iteration.py" --device cuda:0 --adhesion ${ITER_ARGS:-} \
+  (cd /tmp && timeout "${ITER_ADH_TIMEOUT:-200}" python3 "$ROOT/bench/bench_iteration.py" --device cuda:0 --adhesion ${ITER_ARGS:-} \
      --json "$OUT/iter_gpu_adh.json" 2>&1 | tee "$OUT/iter_gpu_adh.log")
 fi
 if [ "${TABLE2:-0}" = 1 ]; then
   (cd /tmp && /usr/bin/time -v timeout "${TABLE2_TIMEOUT:-400}" python3 -m warpcontact.cli table2 --n 256 --device cuda:0 \
      ${TABLE2_ARGS:-} --out "$OUT/table2_gpu" > "$OUT/table2_gpu.log" 2>&1; tail -30 "$OUT/table2_gpu.log")
+fi
+if [ "${FIGS:-0}" = 1 ]; then
+  mkdir -p "$OUT/figs"
+  for f in examples/figure*.toml; do
+    name=$(basename "$f" .toml)
+    (cd /tmp && timeout "${FIGS_TIMEOUT:-120}" python3 -m warpcontact.cli figure "$ROOT/$f" --device cuda:0 --quiet \
+       --out "$OUT/figs/$name" > "$OUT/figs/$name.log" 2>&1; echo "$name: exit $?" | tee -a "$OUT/figs/status.txt")
+    rm -f "$OUT/figs/$name/fields.npz"  # large; the PNGs and result.json come back
+  done
 fi
 if [ "${ADH:-0}" != 0 ]; then
   wait "$ADH_PID"

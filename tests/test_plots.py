@@ -228,6 +228,21 @@ def test_cmd_figure_writes_three_pngs(solved, tmp_path):
             assert (out / name).read_bytes()[:8] == PNG_SIGNATURE, name
 
 
+def test_cmd_figure_of_a_case_file_solves_it_then_draws(tmp_path):
+    """A case file is solved into --out as 'solve' would (result.json, fields.npz), then drawn."""
+    import json
+
+    case = _partial_slip_case(tmp_path)
+    out = tmp_path / "fig"
+    args = _parser().parse_args(["figure", str(case), "--out", str(out), "--quiet"])
+    assert cmd_figure(args) == 0
+    result = json.loads((out / "result.json").read_text())
+    assert all(s["converged"] for s in result["states"]) and len(result["states"]) == 4
+    assert np.load(out / "fields.npz")["pressure"].shape == (4, 48, 48)
+    for name in ("area_map.png", "fields.png", "profile.png"):
+        assert (out / name).read_bytes()[:8] == PNG_SIGNATURE, name
+
+
 def test_cmd_figure_state_option(solved, tmp_path, capsys):
     _, npz = solved
     args = _parser().parse_args(["figure", str(npz), "--out", str(tmp_path / "s1"), "--state", "1"])

@@ -1,6 +1,8 @@
-"""``warpcontact figure DIR_OR_NPZ --out OUTDIR [--state K]``: the paper-style figures of a solved state.
+"""``warpcontact figure CASE.toml|DIR|NPZ --out OUTDIR [--state K]``: the paper-style figures of a state.
 
-Reads ``fields.npz`` written by ``warpcontact solve`` (numpy alone, no pickles) and writes
+Given a case file it first solves it as ``warpcontact solve CASE --out OUTDIR`` does (result.json
+and fields.npz in OUTDIR); given a solve's folder or NPZ it reads ``fields.npz`` (numpy alone, no
+pickles). Then it writes
 OUTDIR/area_map.png (A_c blue, A_st orange, A_adh yellow, as in the paper's Figures 1 and 2),
 OUTDIR/fields.png (pressure, shear magnitude, gap and the area map) and OUTDIR/profile.png
 (pressure and shear along x through the centre). Wire it into ``cli.py`` with::
@@ -22,6 +24,7 @@ import numpy as np
 from .errors import InputError
 
 EXAMPLE_FIGURE = """example:
+  warpcontact figure examples/figure1b.toml --out out/fig1b      # solve the case, then draw its last state
   warpcontact solve examples/table2_k080_dz5e-5.toml --out out/k080
   warpcontact figure out/k080 --out out/k080/fig               # the last state of the path
   warpcontact figure out/k080/fields.npz --out out/k080/fig --state 2
@@ -47,8 +50,13 @@ def add_parser(sub):
         epilog=EXAMPLE_FIGURE,
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
-    p.add_argument("fields", metavar="DIR_OR_NPZ", help="a solve's output folder (holding fields.npz) or an NPZ file")
+    p.add_argument("fields", metavar="CASE_OR_DIR_OR_NPZ",
+                   help="a case file (.toml: solved first, into --out), a solve's output folder (holding "
+                   "fields.npz) or an NPZ file")
     p.add_argument("--out", required=True, help="output folder for the PNG files (created if needed)")
+    p.add_argument("--device", help="with a case file: override [solver] device: cpu, cuda, cuda:N")
+    p.add_argument("--dtype", choices=("float64", "float32"), help="with a case file: override [solver] dtype")
+    p.add_argument("--fft", choices=("auto", "scipy", "cupy", "warp"), help="with a case file: override [solver] fft")
     p.add_argument("--state", type=int, default=-1,
                    help="state of the path to draw, from 0; negative counts from the end (default -1, the last)")
     p.add_argument("--dpi", type=int, default=150, help="resolution of the PNG files (default 150)")
@@ -109,7 +117,21 @@ def _not_converged(npz: Path, k: int) -> bool:
 def cmd_figure(args) -> int:
     from . import plots
 
-    fields = load_fields(args.fields)
+    if str(args.fields).lower().endswith(".toml"):  # a case: solve it into --out first, as 'solve' does
+        from .cli import cmd_solve
+
+        solve_args = argparse.Namespace(case=args.fields, out=args.out, device=getattr(args, "device", None),
+                                        dtype=getattr(args, "dtype", None), fft=getattr(args, "fft", None),
+                                        quiet=getattr(args, "quiet", False))
+        status = cmd_solve(solve_args)
+        if status not in (0, 3):  # interrupted: nothing whole to draw; unconverged: drawn and marked
+            return status
+        args.fields = args.out
+        fields = load_fields(args.fields)
+        fig_status = status
+    else:
+        fields = load_fields(args.fields)
+        fig_status = 0
     n = fields["pressure"].shape[0]
     k = args.state
     if not -n <= k < n:
@@ -135,4 +157,4 @@ def cmd_figure(args) -> int:
         written.append(out / name)
     if not getattr(args, "quiet", False):
         print(f"figure: state {k % n} (of 0-{n - 1}) -> " + ", ".join(str(p) for p in written), file=sys.stderr)
-    return 0
+    return fig_status
