@@ -15,7 +15,8 @@ there. Then it writes:
   adhesionless - 1) and the paper's (``rms_change``, in the same units: 0.05 = 5 points), which
   the best pair minimises: it compares what adhesion does, apart from the differences of the
   adhesionless cells themselves; and the RMS of the relative difference from the paper's adhesive
-  columns (``rms``). Pairs with an unconverged cell are listed and left out of the fit.
+  columns (``rms``). Pairs with an unconverged cell, or a cell where F_z <= 0 at gross slip
+  (adhesion holds the sphere in tension, mu undefined), are listed and left out of the fit.
 
 Adhesive cells run on the domain that holds the law's tail (``table2.cell_grid``: the cell side
 of ``--n`` over ``--size-in-a`` radii, more cells), so the cost grows with delta_n.
@@ -130,6 +131,8 @@ def load(out: Path) -> list:
     for line in (out / "cells.jsonl").read_text().splitlines():
         if line.strip():
             r = json.loads(line)
+            if isinstance(r.get("mu"), float) and math.isnan(r["mu"]):
+                r["mu"] = None  # records written before mu became None where F_z <= 0
             rows[_key(r)] = r  # the last record of a cell wins
     return list(rows.values())
 
@@ -146,8 +149,9 @@ def fit(records, paper) -> dict:
     table = []
     for (s, d), rs in sorted(pairs.items()):
         bad = [(r["k_tau"], r["delta_z_um"]) for r in rs if not r.get("converged")]
-        entry = {"sigma_max": s, "delta_n": d, "cells": len(rs), "unconverged": bad}
-        if not bad and len(rs) == 12 and all((r["k_tau"], r["delta_z_um"]) in base for r in rs):
+        tensile = [(r["k_tau"], r["delta_z_um"]) for r in rs if r.get("converged") and r["mu"] is None]
+        entry = {"sigma_max": s, "delta_n": d, "cells": len(rs), "unconverged": bad, "mu_undefined": tensile}
+        if not bad and not tensile and len(rs) == 12 and all((r["k_tau"], r["delta_z_um"]) in base for r in rs):
             diffs, changes = [], []
             for r in rs:
                 k, dz = r["k_tau"], r["delta_z_um"]
@@ -173,7 +177,7 @@ def trends(records) -> dict:
     base = {(r["k_tau"], r["delta_z_um"]): r for r in records if not r["adhesion"] and r.get("converged")}
     out = {}
     for r in records:
-        if not (r["adhesion"] and r.get("converged")) or (r["k_tau"], r["delta_z_um"]) not in base:
+        if not (r["adhesion"] and r.get("converged")) or (r["k_tau"], r["delta_z_um"]) not in base or r["mu"] is None:
             continue
         b = base[(r["k_tau"], r["delta_z_um"])]
         law = r["adhesion_law"]
@@ -214,7 +218,8 @@ def plot(records, paper, path: Path):
                 continue
             by_dn = {}
             for r in records:
-                if r["adhesion"] and r.get("converged") and (r["k_tau"], r["delta_z_um"]) == (k, dz):
+                if (r["adhesion"] and r.get("converged") and r[name] is not None
+                        and (r["k_tau"], r["delta_z_um"]) == (k, dz)):
                     law = r["adhesion_law"]
                     by_dn.setdefault(law["delta_n"], []).append((law["sigma_max"], 100 * (r[name] / b[name] - 1)))
             for dn, pts in sorted(by_dn.items()):
@@ -247,12 +252,12 @@ def report(out: Path):
     f["trends"] = trends(records)
     (out / "fit.json").write_text(json.dumps(f, indent=1))
     plot(records, paper, out / "adhesion_sensitivity.png")
-    print("sigma_max   delta_n   w [J/m2]  change: rms   max     value: rms   max     unconverged cells")
+    print("sigma_max   delta_n   w [J/m2]  change: rms   max     value: rms   max     unconverged / F_z <= 0 cells")
     for e in f["pairs"]:
         cols = "".join(f"{100 * e[c]:7.1f} %" if c in e else "     -   "
                        for c in ("rms_change", "max_abs_change", "rms", "max_abs"))
         print(f"{e['sigma_max']:9.1e} {e['delta_n']:9.1e} {math.e * e['sigma_max'] * e['delta_n']:9.2e} {cols}  "
-              f"{e['unconverged'] or ''}")
+              f"{e['unconverged'] or ''} {e['mu_undefined'] or ''}")
     if f["best"]:
         b = f["best"]
         print(f"best fit of the change by adhesion: sigma_max {b['sigma_max']:.1e} Pa, delta_n {b['delta_n']:.1e} m "

@@ -130,10 +130,10 @@ def test_table2_adhesive_cell_and_its_law_in_the_resume_key(tmp_path):
     r = run_cli("table2", *sel)
     assert r.returncode in (0, 3), r.stderr
     (cell,) = json.loads((out / "table2.json").read_text())["cells"]
-    assert cell["adhesion"] and cell["adhesion_law"]["sigma_max"] == 2e7 and cell["paper_mu"] == 0.357
-    r = run_cli("table2", *sel, "--sigma-max", "1e7")
+    assert cell["adhesion"] and cell["adhesion_law"]["sigma_max"] == 1e6 and cell["paper_mu"] == 0.357
+    r = run_cli("table2", *sel, "--sigma-max", "2e6")
     cells = json.loads((out / "table2.json").read_text())["cells"]
-    assert sorted(c["adhesion_law"]["sigma_max"] for c in cells) == [1e7, 2e7]
+    assert sorted(c["adhesion_law"]["sigma_max"] for c in cells) == [1e6, 2e6]
 
 
 @pytest.mark.parametrize("option, value", [("--sigma-max", "-1"), ("--delta-n", "0"), ("--tau-max", "nan")])

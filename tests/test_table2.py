@@ -62,3 +62,31 @@ def test_cell_grid_holds_the_adhesive_tail_at_the_same_cell_side():
     # with the guard's margin) leaves the grid alone
     tiny = Table2Settings(n=64, size_in_a=4.0, sigma_max=5e6, tau_max=5e6, delta_n=1e-14, delta_t=1e-14)
     assert cell_grid(dz, tiny, tiny.adhesion_law()).n == 64
+
+
+def test_adhesive_cell_with_the_default_law_raises_mu_as_the_paper_does():
+    """Cell (k_tau 0.50, delta_z 1e-5 um) with the default SMC law (README "Adhesion defaults"):
+    the adhesive pull lowers the total F_z below the contact part, and adhesion raises mu and
+    delta_x_max over the adhesionless cell, as in the paper (+2.4 % and +4.8 % there; ours is
+    larger at this load: bench_results/adh). A coarse grid (n = 32, 12 cells across the contact
+    radius) keeps it short; the comparison is between two cells on the same cell side."""
+    settings = Table2Settings(n=32)
+    dry = table2_cell(0.50, 1.0e-5, settings)
+    wet = table2_cell(0.50, 1.0e-5, settings, adhesion=True)
+    assert dry["converged"] and wet["converged"]
+    assert wet["cell_m"] == dry["cell_m"]
+    assert wet["force_N"]["z"] < wet["force_elastic_N"]["z"]
+    assert wet["mu"] > dry["mu"] and wet["delta_x_max_um"] >= dry["delta_x_max_um"]
+    assert wet["mu"] == wet["force_N"]["x"] / wet["force_N"]["z"]
+
+
+def test_mu_is_undefined_not_a_number_when_adhesion_holds_the_sphere_in_tension():
+    from warpcontact.slip_search import friction_coefficient
+    from warpcontact.table2 import markdown
+
+    assert friction_coefficient({"x": 2.0, "z": 4.0}) == 0.5
+    assert friction_coefficient({"x": 2.0, "z": -1e-9}) is None and friction_coefficient({"x": 2.0, "z": 0.0}) is None
+    rec = {"k_tau": 0.5, "delta_z_um": 1e-5, "adhesion": True, "delta_x_max_um": 6e-6, "mu": None,
+           "rel_diff_delta_x_max": 0.36, "rel_diff_mu": None, "paper_delta_x_max_um": 4.4e-6, "paper_mu": 0.34,
+           "n": 64, "converged": True}
+    assert "undefined (F_z <= 0)" in markdown([rec])

@@ -193,7 +193,8 @@ def cmd_gross_slip(args) -> int:
         print(f"not converged: a state of the gross-slip path did not converge; see {out / 'result.json'}", file=sys.stderr)
         return EXIT_NOT_CONVERGED
     if not args.quiet:
-        print(f"delta_x_max = {r['delta_x_max']:.4e} m, mu = {r['mu']:.4f}  [{r['elapsed_s']:.1f} s] -> {out}", file=sys.stderr)
+        mu = "undefined (F_z <= 0: adhesion holds the sphere in tension)" if r["mu"] is None else f"{r['mu']:.4f}"
+        print(f"delta_x_max = {r['delta_x_max']:.4e} m, mu = {mu}  [{r['elapsed_s']:.1f} s] -> {out}", file=sys.stderr)
     return 0
 
 
@@ -378,8 +379,10 @@ def _table2_result(rec) -> str:
     """A finished cell's result line: delta_x_max [um] and mu against the paper, the time [s]."""
     if not rec["converged"]:
         return f"not converged (a state of the path did not converge), {rec['elapsed_s']:.0f} s"
+    mu = ("undefined (F_z <= 0)" if rec["mu"] is None
+          else f"{rec['mu']:.4f} ({100 * rec['rel_diff_mu']:+.1f} %)")
     return (f"delta_x_max {rec['delta_x_max_um']:.3e} um ({100 * rec['rel_diff_delta_x_max']:+.1f} %), "
-            f"mu {rec['mu']:.4f} ({100 * rec['rel_diff_mu']:+.1f} %), {rec['elapsed_s']:.0f} s")
+            f"mu {mu}, {rec['elapsed_s']:.0f} s")
 
 
 def _write_table2(out, records, atomic_write_json, atomic_write_bytes, markdown):

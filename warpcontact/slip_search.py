@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import math
 import time
 
 import numpy as np
@@ -31,6 +30,16 @@ def estimate_delta_x_max(pair, radius: float, delta_z: float, friction) -> float
     return 3.0 * mu * h["force"] / (16.0 * h["a"]) * pair.mindlin_compliance
 
 
+#: why mu is None: a net tensile (or zero) normal load
+MU_UNDEFINED = "F_z <= 0 at gross slip: adhesion holds the sphere in tension, F_x / F_z is not a friction coefficient"
+
+
+def friction_coefficient(force: dict):
+    """F_x / F_z [-] of a force dict [N]; None where F_z <= 0 (adhesion holds the sphere in
+    tension, so the ratio is no friction coefficient: never a negative or infinite mu)."""
+    return force["x"] / force["z"] if force["z"] > 0 else None
+
+
 def find_gross_slip(
     model, solver, delta_z: float, normal_steps: int = 4, tangential_steps: int = 10, rel_tol: float = 0.01,
     delta_y: float = 0.0, on_state=None,
@@ -43,7 +52,7 @@ def find_gross_slip(
     history), until the bracket is narrower than ``rel_tol`` of its lower end.
 
     Returns a dict: delta_x_max [m] (lower end of the final bracket), delta_x_gross [m] (upper
-    end), mu (F_x / F_z, total forces), mu_elastic (F_x / F_z of the contact pressure alone),
+    end), mu (F_x / F_z, total forces; None where F_z <= 0, see ``friction_coefficient``), mu_elastic (F_x / F_z of the contact pressure alone),
     force and force_elastic [N] at delta_x_max, converged (every state on the way converged), the states
     of the path (summaries), and elapsed_s.
     """
@@ -104,8 +113,8 @@ def find_gross_slip(
     return {
         "delta_x_max": lo,
         "delta_x_gross": hi,
-        "mu": force["x"] / force["z"] if force["z"] > 0 else math.nan,
-        "mu_elastic": force["x"] / elastic["z"] if elastic["z"] > 0 else math.nan,
+        "mu": friction_coefficient(force),
+        "mu_elastic": friction_coefficient(elastic),
         "force": force,
         "force_elastic": elastic,
         "converged": bool(converged),

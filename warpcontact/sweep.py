@@ -541,9 +541,10 @@ def _write_csv(out: Path, sweep: Sweep, records: list) -> None:
 
 def _result_text(task: str, summary: dict) -> str:
     if task == "gross-slip":
-        if summary["mu"] is None:
+        if summary["delta_x_max"] is None:
             return "not converged"
-        return f"delta_x_max {summary['delta_x_max']:.4e} m, mu {summary['mu']:.4f}"
+        mu = "undefined (F_z <= 0)" if summary["mu"] is None else f"{summary['mu']:.4f}"
+        return f"delta_x_max {summary['delta_x_max']:.4e} m, mu {mu}"
     f = summary["force"]
     text = f"F_z {f['z']:.4e} N, F_x {f['x']:.4e} N, contact radius {summary['contact_radius']:.4e} m"
     return text if summary["converged"] else text + " (not converged)"
