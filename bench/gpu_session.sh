@@ -4,7 +4,9 @@
 #   TESTS=1   the test suite on CPU + CUDA (PYTEST_ARGS)
 #   BENCH=1   bench_normal.py on cuda:0 (BENCH_ARGS)
 #   ITER=1    bench_iteration.py on cuda:0, with and without adhesion (ITER_ARGS)
-#   TABLE2=1  warpcontact table2 (both columns) at 256 x 256 on cuda:0, timed (TABLE2_ARGS)
+#   TABLE2=1  warpcontact table2 (both columns) at 256 x 256 on cuda:0, timed (TABLE2_ARGS); into
+#             TABLE2_DIR (default $OUT/table2_gpu; a folder outside $OUT, kept while the machine is
+#             warm, lets the next call resume the table), copied to $OUT/table2_gpu
 #   FIGS=1    warpcontact figure for every examples/figure*.toml on cuda:0 (the paper's Figures 1 and 2)
 #   ADH=W     bench/adhesion_sensitivity.py on W CPU workers, in the background while the rest runs
 #             (its cells.jsonl is kept in $OUT/adh; a copy in bench_results/adh/ is resumed)
@@ -37,8 +39,10 @@ if [ "${ITER:-0}" = 1 ]; then
      --json "$OUT/iter_gpu_adh.json" 2>&1 | tee "$OUT/iter_gpu_adh.log")
 fi
 if [ "${TABLE2:-0}" = 1 ]; then
+  T2=${TABLE2_DIR:-$OUT/table2_gpu}
   (cd /tmp && /usr/bin/time -v timeout "${TABLE2_TIMEOUT:-400}" python3 -m warpcontact.cli table2 --n 256 --device cuda:0 \
-     ${TABLE2_ARGS:-} --out "$OUT/table2_gpu" > "$OUT/table2_gpu.log" 2>&1; tail -30 "$OUT/table2_gpu.log")
+     ${TABLE2_ARGS:-} --out "$T2" > "$OUT/table2_gpu.log" 2>&1; tail -40 "$OUT/table2_gpu.log")
+  [ "$T2" != "$OUT/table2_gpu" ] && cp -r "$T2" "$OUT/table2_gpu"
 fi
 if [ "${FIGS:-0}" = 1 ]; then
   mkdir -p "$OUT/figs"
