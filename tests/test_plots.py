@@ -295,3 +295,53 @@ def test_figure_help_has_an_example(capsys):
         _parser().parse_args(["figure", "--help"])
     text = capsys.readouterr().out
     assert "example:" in text and "warpcontact figure" in text and "--state" in text
+
+
+# the paper's Figures 1 and 2 (captions): (delta_z, delta_x) [m] per figure, (k_tau, adhesion) per panel
+FIGURE_STATES = {"1": (5.0e-11, 4.5e-11), "2": (1.5e-10, 7.5e-11)}
+FIGURE_PANELS = {"a": (0.80, False), "b": (0.80, True), "c": (0.95, False), "d": (0.95, True)}
+
+
+@pytest.mark.parametrize("fig", sorted(FIGURE_STATES))
+@pytest.mark.parametrize("panel", sorted(FIGURE_PANELS))
+def test_figure_examples_are_the_papers_states(fig, panel):
+    """examples/figureNX.toml hold the state of the paper's caption, with the table2 adhesion
+    defaults on panels b and d, on one grid per figure whose domain holds the adhesive tail."""
+    from warpcontact import table2
+    from warpcontact.guards import suggested_adhesive_size
+
+    case = load_case(ROOT / "examples" / f"figure{fig}{panel}.toml")
+    dz, dx = FIGURE_STATES[fig]
+    k_tau, adhesive = FIGURE_PANELS[panel]
+    assert (case.load.delta_z, case.load.delta_x, case.load.delta_y) == (dz, dx, 0.0)
+    assert case.friction.k_tau == k_tau
+    assert (case.adhesion is not None) == adhesive
+    if adhesive:
+        law = case.adhesion
+        assert (law.sigma_max, law.tau_max, law.delta_n, law.delta_t) == (
+            table2.SIGMA_MAX, table2.TAU_MAX, table2.DELTA_N, table2.DELTA_T)
+    other = load_case(ROOT / "examples" / f"figure{fig}{'b' if panel in 'ab' else 'd'}.toml")
+    assert case.grid == other.grid
+    assert case.grid.size >= suggested_adhesive_size(table2.RADIUS, dz, table2.SMC(
+        table2.SIGMA_MAX, table2.TAU_MAX, table2.DELTA_N, table2.DELTA_T))
+
+
+def test_figure2c_stick_area_is_a_ring_off_the_slipping_centre():
+    """The paper's Figure 2c (k_tau 0.95, delta_z 1.5e-4 um, delta_x 7.5e-5 um) on a coarser grid
+    (80 cells of 1.7 nm, the coarsest without the coarse-grid warning): at the centre the pressure exceeds the crossover p* (62 MPa), the von Mises
+    branch lowers q_max there and the centre slips, while a ring of stick cells remains, shifted
+    towards the sliding direction (+x) by the material dissimilarity (paper: "a hollow disc")."""
+    import dataclasses
+
+    case = load_case(ROOT / "examples" / "figure2c.toml")
+    coarse = dataclasses.replace(case, grid=dataclasses.replace(case.grid, n=80))
+    result = run_path(coarse)
+    assert result.converged
+    last = result.fields[-1]
+    stick, contact = last["stick_mask"].astype(bool), last["contact_mask"].astype(bool)
+    n = stick.shape[0]
+    centre = (slice(n // 2 - 1, n // 2 + 1),) * 2
+    assert contact[centre].all() and not stick[centre].any()
+    assert stick.sum() > 0.2 * contact.sum()
+    x = (np.arange(n) + 0.5) / n - 0.5
+    assert (stick * x[None, :]).sum() / stick.sum() > 0  # columns are x (fields are [y, x])
