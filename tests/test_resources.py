@@ -151,11 +151,14 @@ def test_setup_peak_on_the_host():
         assert on_cpu >= peak
 
 
-def test_check_fits_refuses_a_grid_too_large():
+def test_check_fits_refuses_a_grid_too_large(monkeypatch):
+    monkeypatch.setattr(resources, "memory_limit", lambda device: (2 * 2**30, "RAM of this machine"))
     with pytest.raises(InputError) as e:
-        resources.check_fits(10**6, "float64", "cpu", True, "auto")
+        resources.check_fits(4000, "float64", "cpu", True, "auto")
     msg = str(e.value)
-    assert e.value.key == "grid.n" and "GiB" in msg and "1000000" in msg and "largest grid" in msg, msg
+    best = resources.largest_grid("float64", 2 * 2**30, True)
+    assert e.value.key == "grid.n" and "2.00 GiB" in msg and "n = 4000" in msg and f"largest grid that fits is n = {best}" in msg, msg
+    monkeypatch.undo()
     # a small grid fits and the estimate comes back
     fits = resources.check_fits(64, "float64", "cpu", True)
     assert fits == resources.estimate_bytes(64, "float64", "cpu", True, "auto")
@@ -175,3 +178,22 @@ def test_largest_grid_is_the_boundary():
     assert max(resources.estimate_bytes(n + 1, "float64", "cpu", True, "auto"),
                resources.setup_host_bytes(n + 1, "float64", "scipy")) > mem
     assert resources.largest_grid("float64", 1000, True) == 0
+
+
+def test_grids_warp_cannot_index_are_refused_before_allocating():
+    """Warp's array strides are 32-bit: a stacked spectra array whose first stride (one spectrum,
+    2n (n + 1) complex entries) passes 2^31 - 1 bytes wraps and the kernels read outside it (a
+    CUDA illegal address at n = 8192 in float64 on an H100). 8191 is the last n in float64
+    (16 bytes per entry: 2,147,221,504 bytes), 11584 in float32 (8 bytes)."""
+    assert resources.index_limit("float64", "scipy") == 8191 == resources.index_limit("float64", "cupy")
+    assert resources.index_limit("float32", "cupy") == 11584
+    assert 2 * 8192 * 8193 * 16 > resources.WARP_MAX_STRIDE_BYTES >= 2 * 8191 * 8192 * 16
+    with pytest.raises(InputError) as e:
+        resources.check_fits(8192, "float64", "cuda:0", True, "cupy", adhesion=True)
+    assert e.value.key == "grid.n" and "n = 8191" in str(e.value) and "11584" in str(e.value)
+    with pytest.raises(InputError) as e:  # the model refuses it too, before the influence spectra
+        ContactModel(PAPER_PAIR, Sphere(R), Grid(11585, SIZE), dtype="float32")
+    assert "n = 11584" in str(e.value)
+    huge = 10 * 2**40  # memory would allow far more: the index limit caps the answer
+    assert resources.largest_grid("float64", huge, True, device_kind="cuda", fft="cupy", adhesion=True) == 8191
+    assert resources.largest_grid("float32", huge, True, device_kind="cuda", fft="cupy") == 11584

@@ -12,6 +12,7 @@ from .device import dtype_name, numpy_dtype, resolve_device, resolve_dtype
 from .geometry import Grid, Sphere
 from .materials import MaterialPair
 from .operator import ElasticOperator
+from .resources import check_index_limit
 
 
 @dataclass(frozen=True)
@@ -57,6 +58,7 @@ class ContactModel:
         self.pair, self.sphere, self.grid = pair, sphere, grid
         self.device = resolve_device(device)
         self.dtype = resolve_dtype(dtype)
+        check_index_limit(grid.n, self.dtype, fft)  # before anything is allocated
         self.np_dtype = numpy_dtype(self.dtype)
         self.length_scale = grid.dx
         self.traction_scale = pair.E_star

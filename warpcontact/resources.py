@@ -90,6 +90,36 @@ def _padded_length(n: int) -> int:
     return padded_length(n)
 
 
+#: Warp keeps array strides as 32-bit ints (warp/native/array.h: ``int strides[]``), so a stride
+#: over 2^31 - 1 bytes wraps and the kernels read outside the array (measured: CUDA illegal
+#: address at n = 8192, float64, on an H100). The operator stacks its spectra in (k, rows, cols)
+#: arrays whose first stride is one whole spectrum: that spectrum must stay under 2 GiB.
+WARP_MAX_STRIDE_BYTES = 2**31 - 1
+
+
+def index_limit(dtype, fft: str) -> int:
+    """Largest n whose spectrum (stride of the stacked spectra) Warp can address: 8191 in float64
+    and 11584 in float32 with scipy or cupy (2n (n + 1) complex entries)."""
+    fft = _resolve_fft(fft, "cpu") if fft == "auto" else fft
+    entry = 2 * np.dtype(_np_name(resolve_dtype(dtype))).itemsize
+    lo, hi = MIN_CELLS, 1 << 20
+    while hi - lo > 1:
+        mid = (lo + hi) // 2
+        lo, hi = (mid, hi) if spectral_entries(mid, fft) * entry <= WARP_MAX_STRIDE_BYTES else (lo, mid)
+    return lo
+
+
+def check_index_limit(n: int, dtype, fft: str):
+    """Raise InputError("grid.n", ...) when Warp cannot index the n x n problem's spectra."""
+    limit = index_limit(dtype, fft)
+    if n > limit:
+        dname = dtype if isinstance(dtype, str) else _np_name(dtype)
+        raise InputError("grid.n", f"n = {n} is over the largest grid Warp can index in {dname}, n = {limit}: "
+                                   "its array strides are 32-bit, and one spectrum of the padded grid must stay "
+                                   "under 2 GiB (use float32 for up to n = "
+                                   f"{index_limit('float32', fft)})")
+
+
 def spectral_entries(n: int, fft: str) -> int:
     """Complex entries of one spectrum of backend ``fft`` ("scipy", "cupy" or "warp") on n x n."""
     if fft == "warp":
@@ -274,8 +304,10 @@ def largest_grid(dtype, memory_bytes: int, friction: bool, *, device_kind="cpu",
 
         cap = MAX_LENGTH[(kind, resolve_dtype(dtype))] // 2
 
+    cap = min(cap or index_limit(dtype, fft), index_limit(dtype, fft))
+
     def fits(n):
-        if cap is not None and n > cap:
+        if n > cap:
             return False
         return _required(n, dtype, kind, friction, fft, states, adhesion) <= memory_bytes
 
@@ -302,6 +334,7 @@ def check_fits(n: int, dtype, device, friction: bool, fft: str = "auto", *, stat
     """
     kind = _kind(device)
     fft_name = _resolve_fft(fft, kind)
+    check_index_limit(n, dtype, fft_name)
     limit, what = memory_limit(device)
     need = _required(n, dtype, kind, friction, fft_name, states, adhesion)
     dname = dtype if isinstance(dtype, str) else _np_name(dtype)
