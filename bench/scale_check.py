@@ -56,6 +56,8 @@ def run(n, device, dtype, fft) -> dict:
     solver = ContactSolver(model, law, adhesion=SMC(SIGMA_MAX, TAU_MAX, DELTA_N, DELTA_T))
     state = ContactState(model)
     row["setup_s"] = time.perf_counter() - t0
+    print(f"  n {n} {dtype}: set-up {row['setup_s']:.1f} s, {(used_bytes(device) - base) / 2**30:.2f} GiB in use",
+          flush=True)
     for name, approach in (("normal", (0.0, 0.0, DZ)),
                            ("tangential", (0.5 * estimate_delta_x_max(PAPER_PAIR, R, DZ, law), 0.0, DZ))):
         t0 = time.perf_counter()
