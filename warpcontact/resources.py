@@ -18,7 +18,10 @@ The estimate is counted from the allocations in the code, not fitted:
 - The FFT library's temporaries, an allowance (``FFT_TEMPORARY_SPECTRA``): scipy on the
   CPU allocates a (n, n + 1) row pass and a (2n, n + 1) column pass per transform, 1.5 spectra;
   CuPy keeps what cuFFT's calls allocated (padded copies, outputs, plan work areas) in its memory
-  pool: 4.0 spectra measured (5.5 at n = 4096) on an H100 with CuPy 14.2, 6 allowed; Warp's
+  pool: 4.0 spectra measured (5.5 at n = 4096) on an H100 with CuPy 14.2, but at n = 8191
+  (float64, adhesion; bench/scale_check.py) the first coupled step ran out of memory with 11.0
+  spectra in the pool after the 56.25 GiB of Warp arrays this module counts: 12 allowed, which
+  overcounts n = 4096 by about 3 GiB (a refusal there errs on the safe side); Warp's
   tile_fft needs none beyond its work buffers (one (n, n) field allowed for the zero round trip
   that checks the kernels at set-up on CUDA).
 - On the CPU, the normal solver's first guess holds up to 3 float64 (n, n) host arrays.
@@ -57,7 +60,7 @@ CONTACT_SOLVER_SCALARS = 6  # change
 #: float64 (n, n) host arrays of NormalSolver._initial_guess alive during its FFT
 INITIAL_GUESS_HOST_FIELDS = 3
 #: library temporaries during a transform, in spectra of the backend's shape (see module docstring)
-FFT_TEMPORARY_SPECTRA = {"scipy": 1.5, "cupy": 6.0, "warp": 0.0}
+FFT_TEMPORARY_SPECTRA = {"scipy": 1.5, "cupy": 12.0, "warp": 0.0}
 #: peak of influence.influence_coefficients, in float64 arrays of the (2n, 2n) grid (measured:
 #: 15.1 at n = 256: the two meshes, six cell integrals and the corner terms of one of them)
 INFLUENCE_PEAK_ARRAYS = 16
