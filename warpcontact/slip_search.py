@@ -110,10 +110,12 @@ def find_gross_slip(
             lo, lo_summary = mid, s
             last_stick.copy_from(trial)
     force, elastic = lo_summary["force"], lo_summary["force_elastic"]
+    mu = friction_coefficient(force)
     return {
         "delta_x_max": lo,
         "delta_x_gross": hi,
-        "mu": friction_coefficient(force),
+        "mu": mu,
+        **({"mu_note": MU_UNDEFINED} if mu is None else {}),
         "mu_elastic": friction_coefficient(elastic),
         "force": force,
         "force_elastic": elastic,

@@ -18,7 +18,7 @@ from .adhesion import SMC
 from .friction import TaborVonMises
 from .geometry import Grid, Sphere
 from .guards import suggested_adhesive_size, withhold_if_unconverged
-from .slip_search import MU_UNDEFINED, find_gross_slip
+from .slip_search import find_gross_slip
 from .materials import PAPER_PAIR
 from .model import ContactModel
 from .solvers.contact import ContactSolver
@@ -169,8 +169,8 @@ def table2_cell(k_tau: float, delta_z_um: float, settings: Table2Settings, on_st
         "elapsed_s": time.perf_counter() - t0,
         "states": len(r["states"]),
     }
-    if r["mu"] is None:
-        record["mu_note"] = MU_UNDEFINED
+    if "mu_note" in r:
+        record["mu_note"] = r["mu_note"]
     if adhesive is not None:
         record["adhesion_law"] = adhesive.describe()
     return withhold_if_unconverged(record, TABLE2_RESULTS)
