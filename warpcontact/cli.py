@@ -73,7 +73,7 @@ def _parser():
         "Each finished cell is written at once; a rerun with the same settings skips finished cells.",
         epilog="example:\n  warpcontact table2 --out out/table2 --n 128\n"
         "  warpcontact table2 --no-adhesion --out out/table2 --n 64 128   # grid convergence: both resolutions\n"
-        "  warpcontact table2 --adhesion-only --sigma-max 5e7 --out out/t2_s5e7",
+        "  warpcontact table2 --adhesion-only --sigma-max 2e6 --tau-max 2e6 --out out/t2_s2e6",
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
     from .table2 import Table2Settings as _T2
