@@ -3,11 +3,13 @@
 For each device and FFT backend available and each grid size, prints iterations, time per
 iteration and total solve time (the clock stops after a device synchronisation; the first,
 compiling solve is not timed). When the ``tamaas`` package is installed, Tamaas' own solver is
-timed on the same problem in the same run and the ratio printed.
+timed on the same problem in the same run and the ratio printed; with ``--slippy-python PY``,
+slippy 0.5.2 too (``bench/slippy_hertz.py`` in that interpreter: slippy needs a venv of its own).
 
     python bench/bench_normal.py                       # CPU: N = 128 ... 1024
     python bench/bench_normal.py --device cuda         # GPU: N = 256 ... 4096
     python bench/bench_normal.py --sizes 256 512 --fft scipy warp --json out.json
+    python bench/bench_normal.py --fft scipy --slippy-python /tmp/slippy_venv/bin/python
 """
 
 from __future__ import annotations
@@ -75,6 +77,18 @@ def time_tamaas(n):
     return {"total_s": elapsed, "p0_err": float(p.max() / hertz(PAPER_PAIR, R, DZ)["p0"] - 1.0)}
 
 
+def time_slippy(n, python):
+    """slippy 0.5.2 on the same problem, in its own interpreter (bench/slippy_hertz.py)."""
+    import subprocess
+    from pathlib import Path
+
+    script = Path(__file__).with_name("slippy_hertz.py")
+    r = subprocess.run([python, str(script), str(n)], capture_output=True, text=True, timeout=3600)
+    if r.returncode != 0:
+        raise RuntimeError(f"slippy run failed: {r.stderr.strip().splitlines()[-1] if r.stderr.strip() else r.returncode}")
+    return json.loads(r.stdout.strip().splitlines()[-1])
+
+
 def main():
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--device", default="cpu")
@@ -83,6 +97,7 @@ def main():
     ap.add_argument("--dtype", nargs="*", default=["float64"])
     ap.add_argument("--repeats", type=int, default=2)
     ap.add_argument("--no-tamaas", action="store_true")
+    ap.add_argument("--slippy-python", help="interpreter of a venv with slippy 0.5.2: time it side by side")
     ap.add_argument("--modes", nargs="*", default=["default"], choices=["default", "one-conv", "two-conv"],
                     help="normal-solver variants to time side by side: one or two convolutions per iteration")
     ap.add_argument("--json", help="also write the rows to this file")
@@ -101,10 +116,12 @@ def main():
     print(f"# Hertz normal solve, paper pair, delta_z = {DZ} m, domain 4a; device {device} ({platform.processor() or platform.machine()}), "
           f"warp {wp.__version__}, {time.strftime('%Y-%m-%d')}")
     print(f"{'N':>6} {'dtype':>8} {'fft':>6} {'mode':>8} {'iters':>6} {'ms/iter':>9} {'total s':>9} {'F err':>9}"
-          + ("  tamaas s  ratio" if have_tamaas else ""))
+          + ("  tamaas s  ratio" if have_tamaas else "")
+          + ("  slippy s  ratio  slippy F err" if args.slippy_python else ""))
     rows = []
     for n in sizes:
         tam = time_tamaas(n) if have_tamaas else None
+        slip = time_slippy(n, args.slippy_python) if args.slippy_python else None
         for dtype in args.dtype:
             for fft, mode in [(f, md) for f in backends for md in args.modes]:
                 one_conv = {"default": None, "one-conv": True, "two-conv": False}[mode]
@@ -119,6 +136,9 @@ def main():
                 if tam:
                     row["tamaas_s"] = tam["total_s"]
                     line += f"  {tam['total_s']:>8.2f}  {tam['total_s'] / r['total_s']:>5.1f}x"
+                if slip:
+                    row["slippy_s"], row["slippy_force_err"] = slip["total_s"], slip["force_err"]
+                    line += f"  {slip['total_s']:>8.2f}  {slip['total_s'] / r['total_s']:>5.1f}x  {slip['force_err']:>+9.1e}"
                 print(line, flush=True)
                 rows.append(row)
     if args.json:
