@@ -99,29 +99,34 @@ def test_pull_off_dmt_limit():
     assert abs(ratio - 1) < 0.03, f"pull-off / (2 pi R w) = {ratio:.4f} (Maugis-Dugdale at lambda = 1.16 mu: {expected:.4f})"
 
 
-def test_pull_off_moves_towards_jkr_at_a_larger_tabor_parameter():
-    """Tabor parameter 2.74 (R = 1 um, w = 1 J/m^2, delta_n = 0.2 nm): the pull-off leaves the DMT
-    value 2 pi R w for the JKR side, 1.5 pi R w at the limit. Maugis-Dugdale for the Dugdale law of
-    the same peak stress and work (sigma_0 = sigma_max, h_0 = w / sigma_max, lambda = 1.14) gives
-    1.585 pi R w; with Johnson-Greenwood's lambda = 1.16 mu (3.18) 1.515: the mapping of an
-    exponential law onto Dugdale's is not exact, so the check is the regime: the pull-off lies
-    between the limits and nearer the JKR one. Measured: 1.631 pi R w at n = 128 (cell 1.8 nm,
-    a0 = 57 nm) and the same to 4 digits on the curve at n = 256; 2.9 % above Maugis-Dugdale at the
-    peak-stress mapping. The approach starts in contact of the adhesive zone (-delta_n) and the
-    retraction passes the force minimum before the jump-off."""
-    R, w, dn = 1e-6, 1.0, 2e-10
-    mu = tabor_parameter(PAPER_PAIR, R, w, dn)
-    assert 2.5 < mu < 3.0
-    a0 = (9 * math.pi * w * R**2 / (2 * PAPER_PAIR.E_star)) ** (1 / 3)  # JKR contact radius at zero load
-    law = SMC(w / (math.e * dn), w / (math.e * dn), dn, dn)
-    model = ContactModel(PAPER_PAIR, Sphere(R), Grid(128, 4 * a0))
-    r = approach_retract(model, ContactSolver(model, None, adhesion=law), -dn, 2e-9, -1.5e-9, 16)
-    assert r["converged"]
-    ratio = -r["pull_off_force"] / (math.pi * R * w)
-    assert 1.5 < ratio < 1.75, f"pull-off = {ratio:.4f} pi R w (JKR 1.5, DMT 2)"
-    lam = law.sigma_max * (9 * R / (2 * math.pi * w * PAPER_PAIR.E_star**2)) ** (1 / 3)
-    print(f"\npull-off at Tabor {mu:.2f}: {ratio:.4f} pi R w; Maugis-Dugdale (lambda {lam:.3f}): "
-          f"{-maugis_dugdale_pull_off(lam):.4f}")
+def test_pull_off_moves_towards_jkr_at_larger_tabor_parameters():
+    """Tabor parameters 2.74 and 4.35 (R = 1 um, delta_n = 0.2 nm, w = 1 and 2 J/m^2): the pull-off
+    leaves the DMT value 2 pi R w for the JKR side (1.5 pi R w at the limit), falling as the
+    parameter grows. The reference is Maugis-Dugdale, but an exponential law maps onto Dugdale's
+    only approximately: matching the peak stress and the work (sigma_0 = sigma_max, lambda = 1.14
+    and 1.80) gives 1.585 and 1.541 pi R w, Johnson-Greenwood's lambda = 1.16 mu gives 1.515 and
+    1.506. The allowed difference from the first is the spread between the two mappings. Measured:
+    1.631 and 1.570 pi R w (+2.9 %, +1.9 %) at n = 128 (cells 1.8 and 2.2 nm across contact radii
+    a0 = 57 and 71 nm); n = 256 gives 1.631 again at 2.74. At 5.7 (w = 3 J/m^2) the fixed point
+    did not converge (README, known gaps)."""
+    R, dn = 1e-6, 2e-10
+    ratios = []
+    for w in (1.0, 2.0):
+        mu = tabor_parameter(PAPER_PAIR, R, w, dn)
+        a0 = (9 * math.pi * w * R**2 / (2 * PAPER_PAIR.E_star)) ** (1 / 3)  # JKR contact radius, zero load
+        law = SMC(w / (math.e * dn), w / (math.e * dn), dn, dn)
+        model = ContactModel(PAPER_PAIR, Sphere(R), Grid(128, 4 * a0))
+        r = approach_retract(model, ContactSolver(model, None, adhesion=law), -dn, 2e-9, -1.5e-9, 16)
+        assert r["converged"], f"Tabor {mu:.2f}"
+        ratio = -r["pull_off_force"] / (math.pi * R * w)
+        lam = law.sigma_max * (9 * R / (2 * math.pi * w * PAPER_PAIR.E_star**2)) ** (1 / 3)
+        peak, jg = -maugis_dugdale_pull_off(lam), -maugis_dugdale_pull_off(1.16 * mu)
+        print(f"\npull-off at Tabor {mu:.2f}: {ratio:.4f} pi R w; Maugis-Dugdale {peak:.4f} (peak stress), "
+              f"{jg:.4f} (1.16 mu)")
+        assert 1.5 < ratio < 1.75, f"pull-off = {ratio:.4f} pi R w (JKR 1.5, DMT 2)"
+        assert abs(ratio - peak) < abs(peak - jg), (ratio, peak, jg)
+        ratios.append(ratio)
+    assert ratios[1] < ratios[0]
 
 
 def test_maugis_dugdale_reference_limits():
