@@ -1,5 +1,7 @@
 """The command line: results written, user mistakes end with exit 2 and one line."""
 
+import csv
+import io
 import json
 import subprocess
 import sys
@@ -134,6 +136,11 @@ def test_table2_adhesive_cell_and_its_law_in_the_resume_key(tmp_path):
     r = run_cli("table2", *sel, "--sigma-max", "2e6")
     cells = json.loads((out / "table2.json").read_text())["cells"]
     assert sorted(c["adhesion_law"]["sigma_max"] for c in cells) == [1e6, 2e6]
+    # the law is in every output: Markdown and CSV name it per row
+    md = (out / "table2.md").read_text()
+    assert "SMC 1e+06 / 1e+06 Pa, 5e-12 / 5e-12 m" in md and "SMC 2e+06 / 1e+06 Pa" in md
+    rows = list(csv.DictReader(io.StringIO((out / "table2.csv").read_text())))
+    assert sorted(float(r["sigma_max"]) for r in rows) == [1e6, 2e6] and {r["delta_n"] for r in rows} == {"5e-12"}
 
 
 @pytest.mark.parametrize("option, value", [("--sigma-max", "-1"), ("--delta-n", "0"), ("--tau-max", "nan")])

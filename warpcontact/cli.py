@@ -393,11 +393,12 @@ def _write_table2(out, records, atomic_write_json, atomic_write_bytes, markdown)
     atomic_write_json(out / "table2.json", {"cells": records})
     atomic_write_bytes(out / "table2.md", markdown(records).encode())
     buf = io.StringIO()
-    keys = ["n", "k_tau", "delta_z_um", "adhesion", "delta_x_max_um", "paper_delta_x_max_um", "rel_diff_delta_x_max",
-            "mu", "paper_mu", "rel_diff_mu", "mu_elastic", "converged", "elapsed_s"]
+    law_keys = ["sigma_max", "tau_max", "delta_n", "delta_t"]
+    keys = ["n", "k_tau", "delta_z_um", "adhesion", *law_keys, "delta_x_max_um", "paper_delta_x_max_um",
+            "rel_diff_delta_x_max", "mu", "paper_mu", "rel_diff_mu", "mu_elastic", "converged", "elapsed_s"]
     w = csv.DictWriter(buf, fieldnames=keys, extrasaction="ignore")
     w.writeheader()
-    w.writerows(records)
+    w.writerows({**r, **{k: (r.get("adhesion_law") or {}).get(k, "") for k in law_keys}} for r in records)
     atomic_write_bytes(out / "table2.csv", buf.getvalue().encode())
 
 

@@ -181,6 +181,17 @@ def cells():
     return [(k, dz) for k in K_TAU for dz in DELTA_Z_UM]
 
 
+def _law_text(record) -> str:
+    """The adhesion column of the Markdown table: "no", or the SMC law's parameters."""
+    law = record.get("adhesion_law")
+    if not record.get("adhesion"):
+        return "no"
+    if not law:
+        return "yes"
+    return (f"SMC {law['sigma_max']:g} / {law['tau_max']:g} Pa, "
+            f"{law['delta_n']:g} / {law['delta_t']:g} m")
+
+
 def markdown(records: list) -> str:
     """The table as Markdown: computed, paper, relative difference; unconverged cells marked."""
     lines = [
@@ -197,7 +208,7 @@ def markdown(records: list) -> str:
         else:
             dx = mu = ddx = dmu = "not converged"
         lines.append(
-            f"| {r['k_tau']:.2f} | {r['delta_z_um']:.1e} | {'yes' if r.get('adhesion') else 'no'} | {dx} | {r['paper_delta_x_max_um']:.1e} | {ddx} | "
+            f"| {r['k_tau']:.2f} | {r['delta_z_um']:.1e} | {_law_text(r)} | {dx} | {r['paper_delta_x_max_um']:.1e} | {ddx} | "
             f"{mu} | {r['paper_mu']:.3f} | {dmu} | {r['n']} | {r['converged']} |"
         )
     return "\n".join(lines) + "\n"
