@@ -345,3 +345,20 @@ def test_figure2c_stick_area_is_a_ring_off_the_slipping_centre():
     assert stick.sum() > 0.2 * contact.sum()
     x = (np.arange(n) + 0.5) / n - 0.5
     assert (stick * x[None, :]).sum() / stick.sum() > 0  # columns are x (fields are [y, x])
+
+
+def test_case_caption_names_the_laws_as_a_figure_caption_would(tmp_path):
+    """figure writes the friction and adhesion laws of the case under each plot (from result.json)."""
+    import json
+
+    from warpcontact.cli_figure import case_caption
+
+    case = {"friction": {"law": "tabor", "k_tau": 0.95}, "adhesion": {"law": "smc", "sigma_max": 1e6, "tau_max": 1e6,
+                                                                      "delta_n": 5e-12, "delta_t": 5e-12}}
+    (tmp_path / "result.json").write_text(json.dumps({"case": case}))
+    text = case_caption(tmp_path / "fields.npz")
+    assert "$k_\\tau$ = 0.95" in text and "SMC adhesion" in text and "1e+06 Pa" in text and "5e-12 m" in text
+    case = {"friction": {"law": "coulomb", "mu": 0.3}, "adhesion": None}
+    (tmp_path / "result.json").write_text(json.dumps({"case": case}))
+    assert case_caption(tmp_path / "fields.npz") == "Coulomb, $\\mu$ = 0.3;  no adhesion"
+    assert case_caption(tmp_path / "elsewhere" / "fields.npz") == ""  # no result.json: no caption

@@ -114,6 +114,34 @@ def _not_converged(npz: Path, k: int) -> bool:
         return False
 
 
+def case_caption(npz: Path) -> str:
+    """One line naming the friction law and the adhesion law of the case in the result.json beside
+    the NPZ ("" when there is none): what the paper puts in its figure captions."""
+    import json
+
+    try:
+        case = json.loads((npz.parent / "result.json").read_text())["case"]
+    except (OSError, ValueError, KeyError, TypeError):
+        return ""
+    parts = []
+    friction = case.get("friction") or {}
+    if friction.get("law") == "tabor":
+        parts.append(f"Tabor + von Mises, $k_\\tau$ = {friction['k_tau']:g}")
+    elif friction.get("law") == "coulomb":
+        parts.append(f"Coulomb, $\\mu$ = {friction['mu']:g}")
+    else:
+        parts.append("frictionless")
+    adhesion = case.get("adhesion")
+    if not adhesion:
+        parts.append("no adhesion")
+    elif adhesion.get("law") == "smc":
+        parts.append(f"SMC adhesion: $\\sigma_{{max}}$ = {adhesion['sigma_max']:.3g} Pa, "
+                     f"$\\delta_n$ = {adhesion['delta_n']:.3g} m")
+    else:
+        parts.append(f"Dugdale adhesion: $\\sigma_0$ = {adhesion['sigma_0']:.3g} Pa, $h_0$ = {adhesion['h_0']:.3g} m")
+    return ";  ".join(parts)
+
+
 def cmd_figure(args) -> int:
     from . import plots
 
@@ -148,9 +176,12 @@ def cmd_figure(args) -> int:
         print(f"warpcontact: warning: state {k % n} did not converge in its solve (result.json); "
               "the figures are marked NOT CONVERGED", file=sys.stderr)
     written = []
+    caption = case_caption(_npz_path(str(args.fields)))
     for name, draw in (("area_map.png", plots.area_map), ("fields.png", plots.field_maps),
                        ("profile.png", plots.profile)):
         fig = draw(fields, k)
+        if caption:
+            fig.text(0.5, 0.0, caption, color="dimgray", fontsize="small", ha="center", va="top")
         if unconverged:
             fig.text(0.01, 0.995, "NOT CONVERGED", color="red", fontweight="bold", ha="left", va="top")
         plots.save(fig, out / name, dpi=dpi)

@@ -372,7 +372,8 @@ def save(fig: Figure, path, dpi=None) -> None:
     """Write ``fig`` as a PNG at ``path``, whole or not at all (a temporary file, then os.replace)."""
     path = Path(path)
     buf = io.BytesIO()
-    fig.savefig(buf, format="png", dpi=dpi if dpi is not None else "figure")
+    # tight: the canvas grows to hold text placed outside it (the case caption of `figure`)
+    fig.savefig(buf, format="png", dpi=dpi if dpi is not None else "figure", bbox_inches="tight", pad_inches=0.08)
     path.parent.mkdir(parents=True, exist_ok=True)
     tmp = path.parent / f".{path.name}.{secrets.token_hex(6)}.tmp"
     # O_EXCL: a name of our own; mode 0666 less the umask, an ordinary file's mode (not mkstemp's 0600)
