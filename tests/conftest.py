@@ -16,6 +16,7 @@ def pytest_addoption(parser):
 
 def pytest_configure(config):
     config.addinivalue_line("markers", "slow: long validation studies; opt in with --runslow")
+    config.addinivalue_line("markers", "gpu: the CUDA-device half of a device test (pytest -m gpu runs only those)")
 
 
 def pytest_collection_modifyitems(config, items):
@@ -31,7 +32,7 @@ def pytest_report_header(config):
     return f"warpcontact test devices: {', '.join(DEVICES)}"
 
 
-@pytest.fixture(params=DEVICES)
+@pytest.fixture(params=[pytest.param(d, marks=pytest.mark.gpu) if d.startswith("cuda") else d for d in DEVICES])
 def device(request):
     """Every device present: the CPU always, each CUDA device when there is one."""
     return request.param

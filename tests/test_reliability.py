@@ -154,6 +154,7 @@ def test_fft_libraries_agree_on_cpu():
 
 
 @no_cuda
+@pytest.mark.gpu
 @pytest.mark.parametrize("cuda", CUDA)
 def test_cpu_and_cuda_agree_float64(cuda):
     _compare(hertz(), hertz(device=cuda), f"Hertz, cpu vs {cuda}")
