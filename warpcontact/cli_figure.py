@@ -155,11 +155,10 @@ def cmd_figure(args) -> int:
         if status not in (0, 3):  # interrupted: nothing whole to draw; unconverged: drawn and marked
             return status
         args.fields = args.out
-        fields = load_fields(args.fields)
         fig_status = status
     else:
-        fields = load_fields(args.fields)
         fig_status = 0
+    fields = load_fields(args.fields)
     n = fields["pressure"].shape[0]
     k = args.state
     if not -n <= k < n:

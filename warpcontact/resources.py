@@ -103,7 +103,7 @@ WARP_MAX_STRIDE_BYTES = 2**31 - 1
 def index_limit(dtype, fft: str) -> int:
     """Largest n whose spectrum (stride of the stacked spectra) Warp can address: 8191 in float64
     and 11584 in float32 with scipy or cupy (2n (n + 1) complex entries)."""
-    fft = _resolve_fft(fft, "cpu") if fft == "auto" else fft
+    fft = _resolve_fft(fft, "cpu")  # "auto": scipy and cupy share the (2n, n + 1) spectrum
     entry = 2 * np.dtype(_np_name(resolve_dtype(dtype))).itemsize
     lo, hi = MIN_CELLS, 1 << 20
     while hi - lo > 1:
@@ -307,7 +307,8 @@ def largest_grid(dtype, memory_bytes: int, friction: bool, *, device_kind="cpu",
 
         cap = MAX_LENGTH[(kind, resolve_dtype(dtype))] // 2
 
-    cap = min(cap or index_limit(dtype, fft), index_limit(dtype, fft))
+    limit = index_limit(dtype, fft)
+    cap = limit if cap is None else min(cap, limit)
 
     def fits(n):
         if n > cap:

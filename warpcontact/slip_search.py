@@ -52,9 +52,10 @@ def find_gross_slip(
     history), until the bracket is narrower than ``rel_tol`` of its lower end.
 
     Returns a dict: delta_x_max [m] (lower end of the final bracket), delta_x_gross [m] (upper
-    end), mu (F_x / F_z, total forces; None where F_z <= 0, see ``friction_coefficient``), mu_elastic (F_x / F_z of the contact pressure alone),
-    force and force_elastic [N] at delta_x_max, converged (every state on the way converged), the states
-    of the path (summaries), and elapsed_s.
+    end), mu (F_x / F_z, total forces; None with ``mu_note`` where F_z <= 0, see
+    ``friction_coefficient``), mu_elastic (F_x / F_z of the contact pressure alone), force and
+    force_elastic [N] at delta_x_max, converged (every state on the way converged), the states of
+    the path (summaries), and elapsed_s.
     """
     if isinstance(rel_tol, bool) or not isinstance(rel_tol, (int, float)) or not 0.0 < rel_tol < 1.0:
         raise InputError("rel_tol", f"must lie in (0, 1), got {rel_tol!r}")
