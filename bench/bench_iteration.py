@@ -3,10 +3,14 @@
 For each grid size N, on the problem of bench_normal.py (paper pair, R = 10 um, delta_z = 1e-4 um,
 domain 4a):
 
-- normal: the Hertz normal solve (Polonsky-Keer); ms per iteration;
-- floor1: one forward + one inverse transform of the padded 2N x 2N field by the model's FFT
-  backend plus one elementwise pass (a device copy of an N x N field): what one normal iteration
-  cannot go below (the issue's floor); ratio = normal / floor1;
+- normal: the Hertz normal solve (Polonsky-Keer) as the solver runs it by default; ms per
+  iteration; on CUDA side by side with the same solve replayed without CUDA graphs ("eager": a
+  Python launch per kernel and per transform) and with one convolution per iteration
+  ("1-conv": K p carried between projections, a host read of the projection count per iteration);
+- floor1: one forward + one inverse transform of the padded 2N x 2N field by the FFT library
+  alone (``FFTBackend.library_transforms``: cuFFT's D2Z + Z2D with the cupy backend, without the
+  padding and cropping passes) plus one elementwise pass (a device copy of an N x N field): what
+  one normal iteration cannot go below (the issue's floor); ratio = normal / floor1;
 - coupled: one load step of the coupled problem (Tabor + von Mises, k_tau = 0.8, delta_x = half
   of Mindlin's delta_x_max) from the solved normal state: its inner iterations (normal and
   tangential CG) and ms per inner iteration; with --adhesion also the SMC law;
@@ -67,8 +71,7 @@ def floor_ms(model, pairs: int, repeats: int) -> float:
 
     def run():
         for _ in range(pairs):
-            fft.forward(field, spec)
-            fft.inverse(spec, out)
+            fft.library_transforms(field, spec)
         wp.copy(out, field)
 
     loops = 20
@@ -91,15 +94,20 @@ def bench(n, device, dtype, fft, repeats, adhesion: bool):
     base = used_bytes(device)
     model = ContactModel(PAPER_PAIR, Sphere(R, "paraboloid"), Grid(n, 4 * A), device=device, dtype=dtype, fft=fft)
     row = {"n": n, "dtype": dtype, "fft": model.operator.fft.name if hasattr(model.operator.fft, "name") else fft}
-    normal = NormalSolver(model)
     info = {}
 
-    def solve_normal():
-        st = ContactState(model)
-        info["normal"] = normal.solve(st, DZ)
+    def normal_ms(solver):
+        def solve_normal():
+            st = ContactState(model)
+            info["normal"] = solver.solve(st, DZ)
 
-    t = _timed(model.device, solve_normal, repeats)
-    row.update(normal_iters=info["normal"].iterations, normal_ms=1e3 * t / info["normal"].iterations)
+        t = _timed(model.device, solve_normal, repeats)
+        return info["normal"].iterations, 1e3 * t / info["normal"].iterations
+
+    if model.device.is_cuda:
+        row["eager_iters"], row["eager_ms"] = normal_ms(NormalSolver(model, use_graphs=False))
+        row["one_conv_iters"], row["one_conv_ms"] = normal_ms(NormalSolver(model, one_convolution=True))
+    row["normal_iters"], row["normal_ms"] = normal_ms(NormalSolver(model))
     law = TaborVonMises(0.8, PAPER_PAIR.softer.yield_strength)
     adh = SMC(2e7, 2e7, 5e-12, 5e-12) if adhesion else None
     solver = ContactSolver(model, law, adhesion=adh)
@@ -143,15 +151,17 @@ def main():
     name = device.name if not device.is_cpu else (platform.processor() or platform.machine())
     print(f"# iteration vs FFT floor; device {device} ({name}), warp {wp.__version__}, fft {args.fft}, "
           f"{time.strftime('%Y-%m-%d')}; coupled step {'with' if args.adhesion else 'without'} adhesion")
-    print(f"{'N':>6} {'dtype':>8} {'it':>5} {'ms/it':>8} {'floor1':>7} {'ratio':>6} | {'it':>6} {'turns':>5} "
-          f"{'ms/it':>8} {'floor3':>7} {'ratio':>6} {'step s':>8} | {'mem MiB':>8} {'est MiB':>8}")
+    print(f"{'N':>6} {'dtype':>8} {'it':>5} {'ms/it':>8} {'floor1':>7} {'ratio':>6} | {'eager':>7} {'1-conv':>7} {'ratio':>6} | "
+          f"{'it':>6} {'turns':>5} {'ms/it':>8} {'floor3':>7} {'ratio':>6} {'step s':>8} | {'mem MiB':>8} {'est MiB':>8}")
     rows = []
     for n in sizes:
         for dtype in args.dtype:
             r = bench(n, device, dtype, args.fft, args.repeats, args.adhesion)
             rows.append({"device": str(device), **r})
+            side = (f"{r['eager_ms']:>7.3f} {r['one_conv_ms']:>7.3f} {r['one_conv_ms'] / r['floor1_ms']:>6.2f}"
+                    if "eager_ms" in r else f"{'-':>7} {'-':>7} {'-':>6}")
             print(f"{n:>6} {dtype:>8} {r['normal_iters']:>5} {r['normal_ms']:>8.3f} {r['floor1_ms']:>7.3f} "
-                  f"{r['normal_ratio']:>6.2f} | {r['coupled_iters']:>6} {r['coupled_turns']:>5} {r['coupled_ms']:>8.3f} "
+                  f"{r['normal_ratio']:>6.2f} | {side} | {r['coupled_iters']:>6} {r['coupled_turns']:>5} {r['coupled_ms']:>8.3f} "
                   f"{r['floor3_ms']:>7.3f} {r['coupled_ratio']:>6.2f} {r['coupled_s']:>8.3f} | {r['memory_MiB']:>8.0f} "
                   f"{r['estimate_MiB']:>8.0f}" + ("" if r["coupled_converged"] else "  (coupled step not converged)"),
                   flush=True)

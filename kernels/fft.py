@@ -112,3 +112,30 @@ def row_fft_kernels(length: int, dtype) -> dict:
     }
     _ROW_FFT_KERNELS[key] = kernels
     return kernels
+
+
+# --- zero padding and truncation for library transforms (the cupy backend's cuFFT plans) ---
+
+from typing import Any  # noqa: E402
+
+from .overloads import register_float_overloads  # noqa: E402
+
+
+@wp.kernel
+def pad_field(field: wp.array2d(dtype=Any), padded: wp.array2d(dtype=Any)):
+    """padded[i, j] <- field[i, j] on the (ny, nx) corner of the (2 ny, 2 nx) ``padded``, whose
+    other entries are zero and never written."""
+    i, j = wp.tid()
+    padded[i, j] = field[i, j]
+
+
+@wp.kernel
+def crop_field(padded: wp.array2d(dtype=Any), scale: Any, field: wp.array2d(dtype=Any)):
+    """field[i, j] <- scale * padded[i, j]: the kept (ny, nx) corner of an unnormalised inverse
+    transform, with its 1 / (4 nx ny)."""
+    i, j = wp.tid()
+    field[i, j] = padded[i, j] * scale
+
+
+for _k in (pad_field, crop_field):
+    register_float_overloads(_k)

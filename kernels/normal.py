@@ -18,7 +18,8 @@ import warp as wp
 
 from .overloads import register_float_overloads
 from .reduce import (  # noqa: F401  (shared slots)
-    C_DELTA, C_G_OLD, N_SCALARS, S_G, S_GT, S_RHS, S_RT, S_VIOL, block_add, cell_index, cg_converged, cg_step_length,
+    C_DELTA, C_G_OLD, N_SCALARS, N_SETTINGS, P_APPROACH, P_TOL, S_G, S_GT, S_RHS, S_RT, S_VIOL, block_add, cell_index,
+    cg_converged, cg_step_length,
 )
 from .reduce import S_RESTART as S_IOL  # cells that re-enter contact (or leave the cap)
 
@@ -34,7 +35,7 @@ def normal_gap(
     displacement: wp.array(dtype=Any),
     known_displacement: wp.array(dtype=Any),
     pressure: wp.array(dtype=Any),
-    approach: Any,
+    settings: wp.array(dtype=Any),
     pressure_cap: Any,
     n: int,
     outer: int,
@@ -46,10 +47,12 @@ def normal_gap(
     """gap = h0 - delta_z + u_z + u_known, and the residual sums of the current pressure.
 
     Free cells (0 < p < cap) must close (g = 0); cells at p = 0 must not penetrate (g >= 0);
-    cells at the cap (the hardness: a perfectly plastic surface) must not open (g <= 0).
+    cells at the cap (the hardness: a perfectly plastic surface) must not open (g <= 0). The
+    approach delta_z is ``settings[P_APPROACH]``.
     """
     block, lane = wp.tid()
     thread = block * wp.block_dim() + lane
+    approach = settings[P_APPROACH]
     zero = approach - approach
     s_g = zero
     s_viol = zero
@@ -134,7 +137,7 @@ def normal_update(
     gap: wp.array(dtype=Any),
     direction: wp.array(dtype=Any),
     pressure_cap: Any,
-    tol: Any,
+    settings: wp.array(dtype=Any),
     n: int,
     outer: int,
     inner: int,
@@ -145,7 +148,7 @@ def normal_update(
     """p <- clip(p - tau t, 0, cap); penetrating cells with p = 0 re-enter with p = -tau g, and
     opening cells at the cap leave it with p = cap - tau g (Polonsky-Keer's re-entry rule).
 
-    An iterate whose relative residual is already under ``tol`` is left as it is.
+    An iterate whose relative residual is already under ``settings[P_TOL]`` is left as it is.
     """
     block, lane = wp.tid()
     thread = block * wp.block_dim() + lane
@@ -153,7 +156,7 @@ def normal_update(
     tau = cg_step_length(sums)
     count = zero
     corrected = zero
-    done = cg_converged(sums, tol)
+    done = cg_converged(sums, settings[P_TOL])
     for k in range(per):
         i = cell_index(thread, outer, inner, k)
         if i < n and not done:
@@ -177,12 +180,12 @@ def normal_update(
 
 
 @wp.kernel
-def normal_displacement_step(response: wp.array(dtype=Any), sums: wp.array(dtype=Any), tol: Any,
+def normal_displacement_step(response: wp.array(dtype=Any), sums: wp.array(dtype=Any), settings: wp.array(dtype=Any),
                              displacement: wp.array(dtype=Any)):
     """u <- u - tau K t: the displacement of the updated pressure when no cell was projected
     (the same tau, and the same converged-iterate rule, as ``normal_update``)."""
     i = wp.tid()
-    if cg_converged(sums, tol):
+    if cg_converged(sums, settings[P_TOL]):
         return
     displacement[i] = displacement[i] - cg_step_length(sums) * response[i]
 

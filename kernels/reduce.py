@@ -22,6 +22,11 @@ C_G_OLD = wp.constant(0)
 C_DELTA = wp.constant(1)
 C_ITER = wp.constant(2)
 N_SCALARS = 3
+# slots of a solver's ``settings`` array: the values of one solve that its iteration reads on the
+# device (so that a captured CUDA graph of the iteration serves every solve)
+P_TOL = wp.constant(0)  # relative residual to reach
+P_APPROACH = wp.constant(1)  # rigid approach delta_z, scaled (normal solver)
+N_SETTINGS = 2
 
 
 @wp.func

@@ -27,7 +27,8 @@ import warp as wp
 
 from .overloads import register_float_overloads
 from .reduce import (  # noqa: F401  (shared slots)
-    C_DELTA, C_G_OLD, N_SCALARS, S_G, S_GT, S_RHS, S_RT, S_VIOL, block_add, cell_index, cg_converged, cg_step_length,
+    C_DELTA, C_G_OLD, N_SCALARS, N_SETTINGS, P_TOL, S_G, S_GT, S_RHS, S_RT, S_VIOL, block_add, cell_index, cg_converged,
+    cg_step_length,
 )
 from .reduce import S_RESTART as S_RELEASED  # slip cells released into stick by the last step
 
@@ -233,7 +234,7 @@ def tangential_update(
     dir_y: wp.array(dtype=Any),
     shear_limit: wp.array(dtype=Any),
     slip_step: Any,
-    tol: Any,
+    settings: wp.array(dtype=Any),
     n: int,
     outer: int,
     inner: int,
@@ -248,14 +249,15 @@ def tangential_update(
 
     tau is the conjugate-gradient step; ``slip_step`` (about 1 / the self-influence coefficient)
     stands in for it when the free subspace is empty. An iterate whose relative residual is
-    already under ``tol`` is left as it is (near the solution tau is a ratio of rounding noise).
+    already under ``settings[P_TOL]`` is left as it is (near the solution tau is a ratio of rounding
+    noise).
     """
     block, lane = wp.tid()
     thread = block * wp.block_dim() + lane
     zero = grad_x[0] - grad_x[0]
     tau = cg_step_length(sums)
     tau_release = wp.where(tau > zero, tau, slip_step)
-    done = cg_converged(sums, tol)
+    done = cg_converged(sums, settings[P_TOL])
     released = zero
     for k in range(per):
         i = cell_index(thread, outer, inner, k)

@@ -112,7 +112,8 @@ def test_one_convolution_mode_matches_two(device):
 
         model.operator.normal = counted
         state = ContactState(model)
-        info = NormalSolver(model, one_convolution=one_conv).solve(state, DELTA_Z)
+        # eager launches: the count is of Python calls, which a CUDA graph's replay does not make
+        info = NormalSolver(model, one_convolution=one_conv, use_graphs=False).solve(state, DELTA_Z)
         assert info.converged
         results[one_conv] = (state.pressure.numpy(), calls[0], info.iterations)
     p1, c1, it1 = results[True]

@@ -38,25 +38,25 @@ def rel(a, b) -> float:
     return abs(a / b - 1.0)
 
 
-def hertz(n=64, device="cpu", dtype="float64", fft="auto") -> dict:
+def hertz(n=64, device="cpu", dtype="float64", fft="auto", use_graphs=None) -> dict:
     """Frictionless normal solve of the paper pair at 1e-4 um, domain 4a (as tests/test_hertz.py)."""
     a = math.sqrt(R * HERTZ_DZ)
     model = ContactModel(PAPER_PAIR, Sphere(R, "paraboloid"), Grid(n, 4 * a), device=device, dtype=dtype, fft=fft)
     state = ContactState(model)
-    info = NormalSolver(model).solve(state, HERTZ_DZ)
+    info = NormalSolver(model, use_graphs=use_graphs).solve(state, HERTZ_DZ)
     assert info.converged, info
     p = state.to_numpy_si()["pressure"]
     return {"F_z": float(p.sum() * model.grid.cell_area), "p0": float(p.max()), "pressure": p}
 
 
-def coupled_path(n=48, device="cpu", dtype="float64", fft="auto") -> dict:
+def coupled_path(n=48, device="cpu", dtype="float64", fft="auto", use_graphs=None) -> dict:
     """Copper on steel, Tabor + von Mises (k_tau 0.8): delta_z in 2 steps, then delta_x at 1/4 and
     1/2 of Mindlin's gross-slip estimate, every state by ContactSolver.step from fresh objects.
     Partial slip throughout: the last state still has stick cells."""
     a = math.sqrt(R * COUPLED_DZ)
     model = ContactModel(PAPER_PAIR, Sphere(R), Grid(n, 3 * a), device=device, dtype=dtype, fft=fft)
     law = TaborVonMises(K_TAU, S_Y)
-    solver, state = ContactSolver(model, law), ContactState(model)
+    solver, state = ContactSolver(model, law, use_graphs=use_graphs), ContactState(model)
     est = estimate_delta_x_max(PAPER_PAIR, R, COUPLED_DZ, law)
     for approach in ((0.0, 0.0, 0.5 * COUPLED_DZ), (0.0, 0.0, COUPLED_DZ), (0.25 * est, 0.0, COUPLED_DZ),
                      (0.5 * est, 0.0, COUPLED_DZ)):
@@ -65,6 +65,7 @@ def coupled_path(n=48, device="cpu", dtype="float64", fft="auto") -> dict:
     out = state.to_numpy_si()
     out["status"] = state.status.numpy().copy()
     out["summary"] = state_summary(state)
+    out["graphs"] = len(solver.normal._graphs) + len(solver.tangential._graphs)
     assert np.count_nonzero(out["status"] == STICK) > 0, "the path reached gross slip"
     return out
 
@@ -159,6 +160,20 @@ def test_fft_libraries_agree_on_cpu():
 def test_cpu_and_cuda_agree_float64(cuda):
     _compare(hertz(), hertz(device=cuda), f"Hertz, cpu vs {cuda}")
     _compare(coupled_path(), coupled_path(device=cuda), f"coupled partial slip, cpu vs {cuda}")
+
+
+@no_cuda
+@pytest.mark.gpu
+@pytest.mark.parametrize("cuda", CUDA)
+def test_cuda_graphs_match_eager_launches(cuda):
+    """Iterations replayed from captured CUDA graphs give the solution of the same launches made
+    one by one (bounds of _compare: the block sums' atomics may add in another order), and the
+    graphs are captured once per set of arrays, not per solve: the coupled path's 4 steps, dozens
+    of solves, keep one graph for the normal solver and one for the tangential."""
+    _compare(hertz(device=cuda, use_graphs=False), hertz(device=cuda), f"Hertz on {cuda}, eager vs graphs")
+    eager, graphs = coupled_path(device=cuda, use_graphs=False), coupled_path(device=cuda)
+    _compare(eager, graphs, f"coupled partial slip on {cuda}, eager vs graphs")
+    assert eager["graphs"] == 0 and graphs["graphs"] == 2, (eager["graphs"], graphs["graphs"])
 
 
 # ---------------------------------------------------------------------------------------------

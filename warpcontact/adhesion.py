@@ -10,7 +10,6 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
-import warp as wp
 
 from warpcontact.kernels import adhesion as ak
 
@@ -69,7 +68,7 @@ class SMC:
         (touching cells: see ``TOUCHING``)."""
         s = model.traction_scale
         L = model.length_scale
-        wp.launch(
+        model.launch(
             ak.smc_tractions,
             dim=model.n_cells,
             inputs=[
@@ -79,7 +78,6 @@ class SMC:
                 model.scalar(self.delta_t / L), model.scalar(TOUCHING * self.delta_n / L),
             ],
             outputs=[law_pressure.flatten(), law_shear_x.flatten(), law_shear_y.flatten()],
-            device=model.device,
         )
 
     def describe(self) -> dict:
@@ -123,7 +121,7 @@ class Dugdale:
     def tractions(self, model, state, law_pressure, law_shear_x, law_shear_y):
         """The law's tension (scaled) of the state's gap on cells out of contact; no shear."""
         L = model.length_scale
-        wp.launch(
+        model.launch(
             ak.dugdale_tractions,
             dim=model.n_cells,
             inputs=[
@@ -132,7 +130,6 @@ class Dugdale:
                 model.scalar(self.smoothing * self.h_0 / L), model.scalar(TOUCHING * self.h_0 / L),
             ],
             outputs=[law_pressure.flatten()],
-            device=model.device,
         )
         law_shear_x.zero_()
         law_shear_y.zero_()

@@ -34,7 +34,7 @@ class Coulomb:
 
     def shear_limit(self, model, pressure: wp.array, out: wp.array):
         """out <- q_max(pressure), scaled units, flattened (n_cells,) arrays."""
-        wp.launch(laws.coulomb_limit, dim=model.n_cells, inputs=[pressure, model.scalar(self.mu)], outputs=[out], device=model.device)
+        model.launch(laws.coulomb_limit, dim=model.n_cells, inputs=[pressure, model.scalar(self.mu)], outputs=[out])
 
     def describe(self) -> dict:
         return {"law": "coulomb", "mu": self.mu}
@@ -78,7 +78,7 @@ class TaborVonMises:
         return self.k_vm * self.yield_strength / math.sqrt(self.mu_b**2 + self.k_vm**2)
 
     def shear_limit(self, model, pressure, out):
-        wp.launch(
+        model.launch(
             laws.tabor_limit,
             dim=model.n_cells,
             inputs=[
@@ -88,7 +88,6 @@ class TaborVonMises:
                 model.scalar(self.yield_strength / model.traction_scale),
             ],
             outputs=[out],
-            device=model.device,
         )
 
     def describe(self) -> dict:

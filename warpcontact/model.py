@@ -10,6 +10,7 @@ import warp as wp
 
 from .device import dtype_name, numpy_dtype, resolve_device, resolve_dtype
 from .geometry import Grid, Sphere
+from .launch import LaunchCache
 from .materials import MaterialPair
 from .operator import ElasticOperator
 from .resources import check_index_limit
@@ -64,6 +65,8 @@ class ContactModel:
         self.traction_scale = pair.E_star
         self.n_cells = grid.n * grid.n
         self.reduction = ReductionLaunch.for_cells(self.n_cells, self.device)
+        #: launches recorded once and replayed when they repeat (see warpcontact.launch)
+        self.launches = LaunchCache(self.device)
         with wp.ScopedDevice(self.device):
             self.initial_gap = self.field(sphere.initial_gap(grid) / self.length_scale)
             self.operator = ElasticOperator(pair, grid, self.device, self.dtype, fft)
@@ -75,6 +78,16 @@ class ContactModel:
     @property
     def fft_name(self) -> str:
         return self.operator.fft.name
+
+    def launch(self, kernel, dim, inputs, outputs=()):
+        """``wp.launch`` on the model's device, recorded the first time and replayed after."""
+        self.launches.launch(kernel, dim, inputs, outputs)
+
+    def launch_reduce(self, kernel, inputs, outputs):
+        """A reducing kernel (kernels/reduce.py) over all cells: ``inputs``, then the launch shape's
+        arguments (n, outer, inner, per), then ``outputs``."""
+        r = self.reduction
+        self.launches.launch_tiled(kernel, r.num_blocks, r.block_dim, [*inputs, *r.args(self.n_cells)], outputs)
 
     def scalar(self, value: float):
         """``value`` as a Warp scalar of the model's float type (for kernel arguments)."""

@@ -12,6 +12,7 @@ import warp as wp
 from warpcontact.kernels import spectral
 
 from .fft import make_fft
+from .launch import LaunchCache
 from .influence import KERNELS, influence_coefficients
 
 
@@ -33,6 +34,7 @@ class ElasticOperator:
         self.device, self.dtype = device, dtype
         self.shape = grid.shape
         self.fft = make_fft(fft, grid.n, grid.n, device, dtype)
+        self.launches = LaunchCache(self.fft.device)
         self.coupled = pair.D != 0.0
         scale = pair.E_star / grid.dx  # scaled displacement per scaled traction
         coeffs = influence_coefficients(pair, grid.n, grid.n, grid.dx, grid.dy)
@@ -51,19 +53,14 @@ class ElasticOperator:
     def normal(self, pressure: wp.array2d, displacement: wp.array2d):
         """displacement <- K_zz pressure (no coupling)."""
         self.fft.forward(pressure, self._buf[0])
-        wp.launch(spectral.spectral_normal, dim=self.fft.spectral_shape, inputs=[self.influence, self._buf[0]], device=self.device)
+        self.launches.launch(spectral.spectral_normal, self.fft.spectral_shape, [self.influence, self._buf[0]])
         self.fft.inverse(self._buf[0], displacement)
 
     def tangential(self, shear_x, shear_y, disp_x, disp_y):
         """(disp_x, disp_y) <- K_tt (shear_x, shear_y) (no coupling)."""
         self.fft.forward(shear_x, self._buf[1])
         self.fft.forward(shear_y, self._buf[2])
-        wp.launch(
-            spectral.spectral_tangential,
-            dim=self.fft.spectral_shape,
-            inputs=[self.influence, self._buf[1], self._buf[2]],
-            device=self.device,
-        )
+        self.launches.launch(spectral.spectral_tangential, self.fft.spectral_shape, [self.influence, self._buf[1], self._buf[2]])
         self.fft.inverse(self._buf[1], disp_x)
         self.fft.inverse(self._buf[2], disp_y)
 
@@ -71,7 +68,7 @@ class ElasticOperator:
         """(disp_z, disp_x, disp_y) <- the full 3x3 operator applied to (pressure, shear_x, shear_y)."""
         for src, buf in zip((pressure, shear_x, shear_y), self._buf):
             self.fft.forward(src, buf)
-        wp.launch(spectral.spectral_coupled, dim=self.fft.spectral_shape, inputs=[self.influence, *self._buf], device=self.device)
+        self.launches.launch(spectral.spectral_coupled, self.fft.spectral_shape, [self.influence, *self._buf])
         for buf, dst in zip(self._buf, (disp_z, disp_x, disp_y)):
             self.fft.inverse(buf, dst)
 
@@ -79,6 +76,6 @@ class ElasticOperator:
         """Only the coupling terms: disp_z <- K_zt q, (disp_x, disp_y) <- K_tp p."""
         for src, buf in zip((pressure, shear_x, shear_y), self._buf):
             self.fft.forward(src, buf)
-        wp.launch(spectral.spectral_cross, dim=self.fft.spectral_shape, inputs=[self.influence, *self._buf], device=self.device)
+        self.launches.launch(spectral.spectral_cross, self.fft.spectral_shape, [self.influence, *self._buf])
         for buf, dst in zip(self._buf, (disp_z, disp_x, disp_y)):
             self.fft.inverse(buf, dst)

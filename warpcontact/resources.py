@@ -5,8 +5,9 @@ The estimate is counted from the allocations in the code, not fitted:
 - ``ContactModel``: ``initial_gap``, one (n, n) field; its ``ElasticOperator``: 6 influence
   spectra and 3 spectral buffers (``operator.py``), each of the FFT backend's ``spectral_shape``
   in complex entries of the model's float type (scipy and cupy: (2n, n + 1); warp: (L/2 + 1, L),
-  L the smallest power of two >= 2n), plus the warp backend's work buffers (``_rows_q`` one
-  spectrum, ``_half_r`` (n, L/2 + 1) complex, ``_row_scale`` L/2 + 1 reals).
+  L the smallest power of two >= 2n), plus the FFT backend's work buffers: warp's ``_rows_q`` (one
+  spectrum), ``_half_r`` ((n, L/2 + 1) complex) and ``_row_scale`` (L/2 + 1 reals); cupy's two
+  (2n, 2n) real padded buffers.
 - ``ContactState``: ``len(ContactState.FIELDS)`` fields and the int32 ``status``.
 - ``NormalSolver``: 3 fields (direction, response, no_displacement) and its scalars (sums,
   scalars, a residual history of max_iter + 1); ``ContactSolver``: 9 fields (known_z/x/y,
@@ -17,13 +18,9 @@ The estimate is counted from the allocations in the code, not fitted:
   2 + 3 x DEPTH scalars.
 - The FFT library's temporaries, an allowance (``FFT_TEMPORARY_SPECTRA``): scipy on the
   CPU allocates a (n, n + 1) row pass and a (2n, n + 1) column pass per transform, 1.5 spectra;
-  CuPy keeps what cuFFT's calls allocated (padded copies, outputs, plan work areas) in its memory
-  pool: 4.0 spectra measured (5.5 at n = 4096) on an H100 with CuPy 14.2, but at n = 8191
-  (float64, adhesion; bench/scale_check.py) the first coupled step ran out of memory with 11.0
-  spectra in the pool after the 56.25 GiB of Warp arrays this module counts: 12 allowed, which
-  overcounts n = 4096 by about 3 GiB (a refusal there errs on the safe side); Warp's
-  tile_fft needs none beyond its work buffers (one (n, n) field allowed for the zero round trip
-  that checks the kernels at set-up on CUDA).
+  the cupy backend's cuFFT plans share one work area, allocated once (``CupyFFT.work_bytes``),
+  allowed one spectrum; Warp's tile_fft needs none beyond its work buffers (one (n, n) field
+  allowed for the zero round trip that checks the kernels at set-up on CUDA).
 - On the CPU, the normal solver's first guess holds up to 3 float64 (n, n) host arrays.
 
 Building the influence spectra needs more host memory for a moment than all of this on the CPU
@@ -60,7 +57,7 @@ CONTACT_SOLVER_SCALARS = 6  # change
 #: float64 (n, n) host arrays of NormalSolver._initial_guess alive during its FFT
 INITIAL_GUESS_HOST_FIELDS = 3
 #: library temporaries during a transform, in spectra of the backend's shape (see module docstring)
-FFT_TEMPORARY_SPECTRA = {"scipy": 1.5, "cupy": 12.0, "warp": 0.0}
+FFT_TEMPORARY_SPECTRA = {"scipy": 1.5, "cupy": 1.0, "warp": 0.0}
 #: peak of influence.influence_coefficients, in float64 arrays of the (2n, 2n) grid (measured:
 #: 15.1 at n = 256: the two meshes, six cell integrals and the corner terms of one of them)
 INFLUENCE_PEAK_ARRAYS = 16
@@ -135,7 +132,7 @@ def breakdown(n: int, dtype="float64", device_kind="cpu", friction: bool = True,
               states: int = 1, max_iter: int = 2000, adhesion: bool = False) -> dict:
     """Bytes per part of a ContactModel + ``states`` ContactStates + a ContactSolver, on the device.
 
-    Keys: ``spectra`` (influence and buffers), ``fft_work`` (the warp backend's work buffers),
+    Keys: ``spectra`` (influence and buffers), ``fft_work`` (the FFT backend's work buffers),
     ``fields`` ((n, n) arrays of the model, states and solvers), ``scalars`` (reductions and
     residual histories), ``arrays`` (the sum of those four: what the objects hold), ``fft_temporaries``
     (allowance for the FFT library), ``host_temporaries`` (the first guess's host arrays, counted
@@ -160,6 +157,8 @@ def breakdown(n: int, dtype="float64", device_kind="cpu", friction: bool = True,
     if fft == "warp":
         half = _padded_length(n) // 2 + 1
         fft_work = spectrum + n * half * cplx + half * real
+    elif fft == "cupy":
+        fft_work = 2 * (2 * n) ** 2 * real
     n_fields = 1 + states * len(ContactState.FIELDS) + NORMAL_SOLVER_FIELDS + CONTACT_SOLVER_FIELDS
     n_scalars = nk.N_SUMS + nk.N_SCALARS + (max_iter + 1) + CONTACT_SOLVER_SCALARS
     if friction:

@@ -15,6 +15,8 @@ from __future__ import annotations
 import numpy as np
 import warp as wp
 
+from ..launch import LaunchCache
+
 
 class FFTBackend:
     """Zero-padded forward and truncated inverse 2-D transforms on one device, in one float type.
@@ -35,6 +37,7 @@ class FFTBackend:
         self.complex_dtype = wp.vec2d if dtype == wp.float64 else wp.vec2f
         self.np_real = np.float64 if dtype == wp.float64 else np.float32
         self.np_complex = np.complex128 if dtype == wp.float64 else np.complex64
+        self.launches = LaunchCache(self.device)
 
     @property
     def padded_shape(self) -> tuple[int, int]:
@@ -66,6 +69,13 @@ class FFTBackend:
         May overwrite ``spectrum``.
         """
         raise NotImplementedError
+
+    def library_transforms(self, field: wp.array2d, spectrum: wp.array2d):
+        """The FFT library's own forward and inverse transforms of the padded grid, without this
+        backend's padding and cropping passes: what benchmarks compare an iteration with (the
+        floor). Backends whose passes are the transforms themselves run ``forward`` and ``inverse``."""
+        self.forward(field, spectrum)
+        self.inverse(spectrum, field)
 
     def check_field(self, name: str, a: wp.array):
         """Raise ValueError naming ``name`` unless ``a`` is an (ny, nx) array of this dtype and device."""

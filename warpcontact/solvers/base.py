@@ -3,9 +3,12 @@
 from __future__ import annotations
 
 import math
+from collections import OrderedDict
 
 import numpy as np
 import warp as wp
+
+from warpcontact.kernels.reduce import N_SETTINGS, P_TOL
 
 from ..state import SolveInfo
 
@@ -19,17 +22,25 @@ def default_tolerance(dtype) -> float:
 class ProjectedCG:
     """Base of the normal and tangential solvers.
 
-    Subclasses implement ``_iteration()`` (one step, which records the residual of the iterate it
-    started from in ``self.history``) and ``_final_fields()`` (fields and relative residual of the
-    current iterate). Scalars stay on the device; the residual is read back every
-    ``check_every`` iterations (every iteration on the CPU, where a read is free).
+    Subclasses pass ``_run`` the device work of one iteration (which records the residual of the
+    iterate it started from in ``self.history``) and a function that computes the fields and
+    relative residual of the current iterate. Scalars stay on the device; the residual is read
+    back every ``check_every`` iterations (every iteration on the CPU, where a read is free).
+
+    On CUDA each iteration is replayed as a CUDA graph (``use_graphs``): captured the first time
+    a set of arrays is seen (:meth:`_device_step`), then launched with one call, so the host no
+    longer pays a launch per kernel and per FFT. The values of a solve that the kernels read
+    (tolerance, approach) live in the device array ``settings``, so one graph serves every solve.
     """
 
     #: iterations between restarts of the conjugacy (beta = 0); 0 for none. Restarts cure the
     #: stalls of conjugate directions built while the active set was changing.
     restart_every = 0
+    #: captured graphs kept per solver (one per set of arrays and iteration variant), oldest dropped
+    max_graphs = 8
 
-    def __init__(self, model, n_sums: int, n_scalars: int, tol=None, max_iter: int = 2000, check_every=None):
+    def __init__(self, model, n_sums: int, n_scalars: int, tol=None, max_iter: int = 2000, check_every=None,
+                 use_graphs: bool | None = None):
         self.model = model
         self.tol = default_tolerance(model.dtype) if tol is None else float(tol)
         self.max_iter = int(max_iter)
@@ -37,18 +48,43 @@ class ProjectedCG:
         self.sums = model.scalars(n_sums)
         self.scalars = model.scalars(n_scalars)
         self.history = model.scalars(self.max_iter + 1)
+        #: per-solve values read by the kernels (slots P_* of kernels/reduce.py)
+        self.settings = model.scalars(N_SETTINGS)
+        self._settings = np.zeros(N_SETTINGS)
+        #: replay iterations as captured CUDA graphs (default: on CUDA devices)
+        self.use_graphs = model.device.is_cuda if use_graphs is None else bool(use_graphs)
+        if self.use_graphs and not model.device.is_cuda:
+            raise ValueError("use_graphs: CUDA graphs need a CUDA device")
+        self._graphs: OrderedDict = OrderedDict()
+
+    def _set(self, slot: int, value: float):
+        """settings[slot] <- value (sent to the device by the next ``_run``)."""
+        self._settings[slot] = value
+
+    def _device_step(self, key, body):
+        """Run ``body()``, the device work of one iteration: eagerly, or on CUDA from a graph
+        captured the first time ``key`` (the arrays ``body`` touches and its variant) is seen.
+
+        The first time, ``body`` runs eagerly (loading its kernels and FFT plans) and is then
+        captured, which does not run it again.
+        """
+        if not self.use_graphs:
+            body()
+            return
+        graph = self._graphs.get(key)
+        if graph is not None:
+            self._graphs.move_to_end(key)
+            wp.capture_launch(graph)
+            return
+        body()
+        with wp.ScopedCapture(device=self.model.device, force_module_load=False) as capture:
+            body()
+        self._graphs[key] = capture.graph
+        while len(self._graphs) > self.max_graphs:
+            self._graphs.popitem(last=False)
 
     def _launch_reduce(self, kernel, inputs, outputs):
-        m = self.model
-        r = m.reduction
-        wp.launch_tiled(
-            kernel,
-            dim=[r.num_blocks],
-            inputs=inputs + r.args(m.n_cells),
-            outputs=outputs,
-            block_dim=r.block_dim,
-            device=m.device,
-        )
+        self.model.launch_reduce(kernel, inputs, outputs)
 
     def _relative_residual(self, viol_slot: int, rhs_slot: int) -> float:
         s = self.sums.numpy().astype(np.float64)
@@ -60,9 +96,11 @@ class ProjectedCG:
 
     def _run(self, iteration, final_fields, on_non_finite, tol=None) -> SolveInfo:
         """The loop: iterate until the residual of the current iterate is under ``tol``
-        (default ``self.tol``; the update kernels read ``self.active_tol``)."""
+        (default ``self.tol``; the update kernels read it from ``settings``)."""
         tol = self.tol if tol is None else tol
         self.active_tol = tol
+        self._set(P_TOL, tol)
+        self.settings.assign(self._settings.astype(self.model.np_dtype))
         self.scalars.zero_()
         self.history.fill_(-1.0)
         it = 0

@@ -41,14 +41,15 @@ class ContactSolver:
             (elastic-perfectly-plastic surface); inf for none.
         relax: mixing of the adhesive fixed point (``AndersonMixing``'s beta). Its residual is
             |law(h, s) - t| / |law(h, s)|.
+        use_graphs: replay the inner solvers' iterations as CUDA graphs (default: on CUDA).
     """
 
     def __init__(self, model, friction=None, tol=None, outer_tol=None, max_iter: int = 2000, max_outer: int = 200,
-                 pressure_cap: float = math.inf, adhesion=None, relax: float = 0.5):
+                 pressure_cap: float = math.inf, adhesion=None, relax: float = 0.5, use_graphs: bool | None = None):
         self.model = model
         self.friction = friction
         self.adhesion = adhesion
-        self.normal = NormalSolver(model, tol, max_iter, pressure_cap=pressure_cap)
+        self.normal = NormalSolver(model, tol, max_iter, pressure_cap=pressure_cap, use_graphs=use_graphs)
         self.tol = self.normal.tol
         self.outer_tol = 100 * self.tol if outer_tol is None else float(outer_tol)
         self.max_outer = int(max_outer)
@@ -61,7 +62,7 @@ class ContactSolver:
         if adhesion is not None:  # the adhesive fixed point over the pressure (and the shears with friction)
             self.mixing = AndersonMixing(model, 3 if friction is not None else 1, beta=self.relax)
         if friction is not None:
-            self.tangential = TangentialSolver(model, tol, max_iter)
+            self.tangential = TangentialSolver(model, tol, max_iter, use_graphs=use_graphs)
             self.target_x, self.target_y = f(), f()
             self.shear_limit = f()
             self.scratch_x, self.scratch_y = f(), f()
@@ -87,7 +88,7 @@ class ContactSolver:
         if self.adhesion is not None:
             pairs = ((self.adhesive_z, self.known_z), (self.adhesive_x, self.known_x), (self.adhesive_y, self.known_y))
             for src, dst in pairs if self.friction is not None else pairs[:1]:
-                wp.launch(ak.add_to, dim=m.n_cells, inputs=[src.flatten()], outputs=[dst.flatten()], device=m.device)
+                m.launch(ak.add_to, dim=m.n_cells, inputs=[src.flatten()], outputs=[dst.flatten()])
 
     def _update_slip(self, state, dx, dy, final: bool = False):
         """state.slip <- delta - u_t for the current tractions, u_t = K_tt q (state.disp_x/y)
@@ -97,14 +98,13 @@ class ContactSolver:
         L = m.length_scale
         known_x = self.known_x if self.iterative else self.tangential.no_displacement
         known_y = self.known_y if self.iterative else self.tangential.no_displacement
-        wp.launch(
+        m.launch(
             ck.accumulate_slip,
             dim=m.n_cells,
             inputs=[state.disp_x.flatten(), state.disp_y.flatten(), known_x.flatten(), known_y.flatten(),
                     m.scalar(dx / L), m.scalar(dy / L)],
             outputs=[state.slip_x.flatten(), state.slip_y.flatten(),
                      (state.disp_x if final else self.scratch_x).flatten(), (state.disp_y if final else self.scratch_y).flatten()],
-            device=m.device,
         )
 
     def step(self, state, approach) -> SolveInfo:
@@ -122,12 +122,11 @@ class ContactSolver:
             state.shear_x.zero_()
             state.shear_y.zero_()
         else:
-            wp.launch(
+            m.launch(
                 ck.stick_target,
                 dim=m.n_cells,
                 inputs=[state.slip_x.flatten(), state.slip_y.flatten(), m.scalar(dx / L), m.scalar(dy / L)],
                 outputs=[self.target_x.flatten(), self.target_y.flatten()],
-                device=m.device,
             )
         for prev, cur in zip(self.previous, (state.pressure, state.shear_x, state.shear_y)):
             wp.copy(prev, cur)
@@ -206,9 +205,7 @@ class ContactSolver:
         m = self.model
         self.change.zero_()
         for slot, (prev, cur) in zip((0, 2, 4), zip(self.previous, (state.pressure, state.shear_x, state.shear_y))):
-            r = m.reduction
-            wp.launch_tiled(ck.change_sums, dim=[r.num_blocks], inputs=[cur.flatten(), slot, *r.args(m.n_cells)],
-                            outputs=[prev.flatten(), self.change], block_dim=r.block_dim, device=m.device)
+            m.launch_reduce(ck.change_sums, [cur.flatten(), slot], [prev.flatten(), self.change])
         s = self.change.numpy().astype(np.float64)
         dp = math.sqrt(s[0] / s[1]) if s[1] > 0 else 0.0
         qn = s[3] + s[5]

@@ -63,16 +63,13 @@ class AndersonMixing:
         """x <- the next iterate, from ``self.residual`` = G(x) filled by the caller; returns the
         residual |G(x) - x| / |G(x)| before the step (0 when G(x) = 0)."""
         m = self.model
-        r = m.reduction
         column = self._next
         self.sums.zero_()
         for k, x in enumerate(iterates):
-            wp.launch_tiled(
-                fk.anderson_residual, dim=[r.num_blocks],
-                inputs=[x.flatten(), column, int(self._has_previous), self.depth, *r.args(m.n_cells)],
-                outputs=[self.residual[k], self.previous_residual[k], self.previous_iterate[k],
-                         self.residual_diff[k], self.iterate_diff[k], self.sums],
-                block_dim=r.block_dim, device=m.device,
+            m.launch_reduce(
+                fk.anderson_residual, [x.flatten(), column, int(self._has_previous), self.depth],
+                [self.residual[k], self.previous_residual[k], self.previous_iterate[k],
+                 self.residual_diff[k], self.iterate_diff[k], self.sums],
             )
         if self._has_previous:
             if column in self.columns:
@@ -81,11 +78,8 @@ class AndersonMixing:
             self._next = (column + 1) % self.depth
             for j in self.columns:
                 for k in range(len(iterates)):
-                    wp.launch_tiled(
-                        fk.anderson_dots, dim=[r.num_blocks],
-                        inputs=[self.residual[k], self.residual_diff[k], column, j, self.depth, *r.args(m.n_cells)],
-                        outputs=[self.sums], block_dim=r.block_dim, device=m.device,
-                    )
+                    m.launch_reduce(fk.anderson_dots, [self.residual[k], self.residual_diff[k], column, j, self.depth],
+                                    [self.sums])
         s = self.sums.numpy().astype(np.float64)
         gamma = np.zeros(self.depth)
         if self.columns:
@@ -95,10 +89,10 @@ class AndersonMixing:
             gamma = self._least_squares(rhs)
         self.gamma.assign(gamma.astype(m.np_dtype))
         for k, x in enumerate(iterates):
-            wp.launch(fk.anderson_update, dim=m.n_cells,
-                      inputs=[self.residual[k], self.residual_diff[k], self.iterate_diff[k], self.gamma, self.depth,
-                              m.scalar(self.beta)],
-                      outputs=[x.flatten()], device=m.device)
+            m.launch(fk.anderson_update, dim=m.n_cells,
+                     inputs=[self.residual[k], self.residual_diff[k], self.iterate_diff[k], self.gamma, self.depth,
+                             m.scalar(self.beta)],
+                     outputs=[x.flatten()])
         self._has_previous = True
         residual = math.sqrt(s[fk.S_RESIDUAL] / s[fk.S_IMAGE]) if s[fk.S_IMAGE] > 0 else 0.0
         return residual

@@ -33,11 +33,12 @@ class NormalSolver(ProjectedCG):
         check_every: iterations between reads of the residual on the host.
         pressure_cap: upper bound of the pressure [Pa] (hardness), inf for none.
         one_convolution: carry K p incrementally between projections (default: on the CPU).
+        use_graphs: replay iterations as CUDA graphs (default: on CUDA).
     """
 
     def __init__(self, model, tol=None, max_iter: int = 2000, check_every=None, pressure_cap: float = math.inf,
-                 one_convolution: bool | None = None):
-        super().__init__(model, nk.N_SUMS, nk.N_SCALARS, tol, max_iter, check_every)
+                 one_convolution: bool | None = None, use_graphs: bool | None = None):
+        super().__init__(model, nk.N_SUMS, nk.N_SCALARS, tol, max_iter, check_every, use_graphs)
         #: upper bound of the pressure [Pa] (the softer body's hardness: elastic-perfectly-plastic
         #: surface; MODEL.md section 5); inf for none
         self.pressure_cap = float(pressure_cap)
@@ -52,15 +53,16 @@ class NormalSolver(ProjectedCG):
         #: iterations between exact recomputations of K p in the one-convolution mode
         self.exact_every = 50
 
-    def _gap(self, state, approach, known, exact: bool = True):
+    def _gap(self, state, known, exact: bool = True):
         """state.disp_z <- K p (unless ``exact`` is False: then state.disp_z already holds it);
-        state.gap <- gap; sums <- residual sums of the current pressure."""
+        state.gap <- gap; sums <- residual sums of the current pressure (approach from
+        ``settings``)."""
         m = self.model
         if exact:
             m.operator.normal(state.pressure, state.disp_z)
         self._launch_reduce(
             nk.normal_gap,
-            [m.initial_gap.flatten(), state.disp_z.flatten(), known.flatten(), state.pressure.flatten(), approach, self._cap],
+            [m.initial_gap.flatten(), state.disp_z.flatten(), known.flatten(), state.pressure.flatten(), self.settings, self._cap],
             [state.gap.flatten(), self.sums],
         )
 
@@ -75,9 +77,10 @@ class NormalSolver(ProjectedCG):
         """
         m = self.model
         known = self.no_displacement if known_displacement is None else known_displacement
-        approach = m.scalar(approach_z / m.length_scale)
+        approach = float(m.np_dtype(approach_z / m.length_scale))  # as the kernels see it
+        self._set(nk.P_APPROACH, approach)
         if not np.any(state.pressure.numpy() > 0):
-            self._initial_guess(state, float(approach), known)
+            self._initial_guess(state, approach, known)
         p, g, t, r = (a.flatten() for a in (state.pressure, state.gap, self.direction, self.response))
         self.direction.zero_()  # no leftover from an earlier (possibly failed) solve
         # One convolution per iteration where the host can look cheaply (CPU): u = K p is carried
@@ -89,19 +92,23 @@ class NormalSolver(ProjectedCG):
         # exactly like the two-convolution iteration.
         mode = [self.one_convolution]
         exact = [True, 0]
+        arrays = (state.pressure.ptr, state.gap.ptr, state.disp_z.ptr, known.ptr)
 
-        def iteration():
+        def body(exact_gap: bool, carry: bool):
             self.sums.zero_()
-            self._gap(state, approach, known, exact=exact[0])
-            wp.launch(nk.normal_direction, dim=m.n_cells, inputs=[g, p, self._cap, self.sums, self.scalars], outputs=[t], device=m.device)
+            self._gap(state, known, exact=exact_gap)
+            m.launch(nk.normal_direction, dim=m.n_cells, inputs=[g, p, self._cap, self.sums, self.scalars], outputs=[t])
             m.operator.normal(self.direction, self.response)
             self._launch_reduce(nk.normal_step_sums, [g, t, r, p, self._cap], [self.sums])
-            tol_scalar = m.scalar(self.active_tol)
-            self._launch_reduce(nk.normal_update, [g, t, self._cap, tol_scalar], [p, self.sums])
-            if mode[0]:
-                wp.launch(nk.normal_displacement_step, dim=m.n_cells, inputs=[r, self.sums, tol_scalar],
-                          outputs=[state.disp_z.flatten()], device=m.device)
-            wp.launch(reduce.cg_advance, dim=1, inputs=[self.sums, self.scalars], outputs=[self.history], device=m.device)
+            self._launch_reduce(nk.normal_update, [g, t, self._cap, self.settings], [p, self.sums])
+            if carry:
+                m.launch(nk.normal_displacement_step, dim=m.n_cells, inputs=[r, self.sums, self.settings],
+                          outputs=[state.disp_z.flatten()])
+            m.launch(reduce.cg_advance, dim=1, inputs=[self.sums, self.scalars], outputs=[self.history])
+
+        def iteration():
+            variant = (bool(exact[0]), mode[0])
+            self._device_step(arrays + variant, lambda: body(*variant))
             if mode[0]:
                 exact[1] += 1
                 exact[0] = self.sums.numpy()[nk.S_CORRECTED] > 0 or exact[1] % self.exact_every == 0
@@ -112,7 +119,7 @@ class NormalSolver(ProjectedCG):
 
         def final_fields():
             self.sums.zero_()
-            self._gap(state, approach, known)
+            self._gap(state, known)
             residual = self._relative_residual(nk.S_VIOL, nk.S_RHS)
             checks[0] += 1
             if checks[0] > 1 and not residual < self.active_tol:

@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import warp as wp
 
 from warpcontact.kernels import reduce
 from warpcontact.kernels import tangential as tk
@@ -24,8 +23,8 @@ class TangentialSolver(ProjectedCG):
 
     restart_every = 100
 
-    def __init__(self, model, tol=None, max_iter: int = 2000, check_every=None):
-        super().__init__(model, tk.N_SUMS, tk.N_SCALARS, tol, max_iter, check_every)
+    def __init__(self, model, tol=None, max_iter: int = 2000, check_every=None, use_graphs: bool | None = None):
+        super().__init__(model, tk.N_SUMS, tk.N_SCALARS, tol, max_iter, check_every, use_graphs)
         f = model.field
         self.grad_x, self.grad_y = f(), f()
         self.dir_x, self.dir_y = f(), f()
@@ -55,7 +54,7 @@ class TangentialSolver(ProjectedCG):
         limit = shear_limit.flatten()
         self.dir_x.zero_()  # no leftover from an earlier (possibly failed) solve
         self.dir_y.zero_()
-        wp.launch(tk.tangential_classify, dim=m.n_cells, inputs=[limit], outputs=[qx, qy, st], device=m.device)
+        m.launch(tk.tangential_classify, dim=m.n_cells, inputs=[limit], outputs=[qx, qy, st])
 
         def gradient():
             m.operator.tangential(state.shear_x, state.shear_y, state.disp_x, state.disp_y)
@@ -65,14 +64,20 @@ class TangentialSolver(ProjectedCG):
                 [gx, gy, self.sums],
             )
 
-        def iteration():
+        def body():
             self.sums.zero_()
             gradient()
-            wp.launch(tk.tangential_direction, dim=m.n_cells, inputs=[gx, gy, qx, qy, limit, st, self.stiffness, self.sums, self.scalars], outputs=[tx, ty], device=m.device)
+            m.launch(tk.tangential_direction, dim=m.n_cells, inputs=[gx, gy, qx, qy, limit, st, self.stiffness, self.sums, self.scalars], outputs=[tx, ty])
             m.operator.tangential(self.dir_x, self.dir_y, self.resp_x, self.resp_y)
             self._launch_reduce(tk.tangential_step_sums, [gx, gy, tx, ty, rx, ry, qx, qy, limit, st], [self.sums])
-            self._launch_reduce(tk.tangential_update, [gx, gy, tx, ty, limit, self.slip_step, m.scalar(self.active_tol)], [qx, qy, st, self.sums])
-            wp.launch(reduce.cg_advance, dim=1, inputs=[self.sums, self.scalars], outputs=[self.history], device=m.device)
+            self._launch_reduce(tk.tangential_update, [gx, gy, tx, ty, limit, self.slip_step, self.settings], [qx, qy, st, self.sums])
+            m.launch(reduce.cg_advance, dim=1, inputs=[self.sums, self.scalars], outputs=[self.history])
+
+        arrays = tuple(a.ptr for a in (state.shear_x, state.shear_y, state.status, state.disp_x, state.disp_y, kx, ky,
+                                       target_x, target_y, limit))
+
+        def iteration():
+            self._device_step(arrays, body)
 
         def final_fields():
             self.sums.zero_()

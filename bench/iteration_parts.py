@@ -1,0 +1,104 @@
+"""Benchmark: where the time of one normal iteration goes, part by part, on one device.
+
+Each part of NormalSolver's iteration (and the FFT backend's passes) is captured 20 times in a
+CUDA graph and replayed; the table gives ms per call and the share of the sum. On the CPU the
+parts are launched one by one. Problem as bench_iteration.py (Hertz, paper pair, domain 4a).
+
+    python bench/iteration_parts.py --device cuda:0 --sizes 1024 2048 4096
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import time
+
+import warp as wp
+
+from warpcontact.geometry import Grid, Sphere
+from warpcontact.kernels import normal as nk
+from warpcontact.kernels import reduce, spectral
+from warpcontact.materials import PAPER_PAIR
+from warpcontact.model import ContactModel
+from warpcontact.solvers import NormalSolver
+from warpcontact.state import ContactState
+
+R, DZ = 10e-6, 1.0e-10
+A = math.sqrt(R * DZ)
+REPEATS = 20
+
+
+def timed_ms(device, fn) -> float:
+    """ms per call of fn(): replayed from a graph of REPEATS calls on CUDA, best of 3."""
+    fn()
+    if device.is_cuda:
+        with wp.ScopedCapture(device=device, force_module_load=False) as cap:
+            for _ in range(REPEATS):
+                fn()
+        run = lambda: wp.capture_launch(cap.graph)  # noqa: E731
+    else:
+        def run():
+            for _ in range(REPEATS):
+                fn()
+    best = math.inf
+    for _ in range(3):
+        wp.synchronize_device(device)
+        t0 = time.perf_counter()
+        run()
+        wp.synchronize_device(device)
+        best = min(best, time.perf_counter() - t0)
+    return 1e3 * best / REPEATS
+
+
+def parts(n, device, dtype):
+    m = ContactModel(PAPER_PAIR, Sphere(R, "paraboloid"), Grid(n, 4 * A), device=device, dtype=dtype)
+    s = NormalSolver(m)
+    st = ContactState(m)
+    s.solve(st, DZ)  # a solved state: the sets are those of the last iterations
+    fft, op = m.operator.fft, m.operator
+    spec = op._buf[0]
+    p, g, t, r = (a.flatten() for a in (st.pressure, st.gap, s.direction, s.response))
+    known = s.no_displacement.flatten()
+    out = {}
+    out["forward (pad + library)"] = timed_ms(m.device, lambda: fft.forward(st.pressure, spec))
+    out["spectral product"] = timed_ms(m.device, lambda: wp.launch(
+        spectral.spectral_normal, dim=fft.spectral_shape, inputs=[op.influence, spec], device=m.device))
+    out["inverse (library + crop)"] = timed_ms(m.device, lambda: fft.inverse(spec, st.disp_z))
+    out["library forward + inverse"] = timed_ms(m.device, lambda: fft.library_transforms(st.pressure, spec))
+    out["normal_gap (reduce)"] = timed_ms(m.device, lambda: s._launch_reduce(
+        nk.normal_gap, [m.initial_gap.flatten(), st.disp_z.flatten(), known, p, s.settings, s._cap], [g, s.sums]))
+    out["normal_direction"] = timed_ms(m.device, lambda: wp.launch(
+        nk.normal_direction, dim=m.n_cells, inputs=[g, p, s._cap, s.sums, s.scalars], outputs=[t], device=m.device))
+    out["normal_step_sums (reduce)"] = timed_ms(m.device, lambda: s._launch_reduce(
+        nk.normal_step_sums, [g, t, r, p, s._cap], [s.sums]))
+    s.sums.fill_(0.0)  # tau = 0: the update leaves p as it is
+    out["normal_update (reduce)"] = timed_ms(m.device, lambda: s._launch_reduce(
+        nk.normal_update, [g, t, s._cap, s.settings], [p, s.sums]))
+    out["cg_advance + zero sums"] = timed_ms(m.device, lambda: (s.sums.zero_(), wp.launch(
+        reduce.cg_advance, dim=1, inputs=[s.sums, s.scalars], outputs=[s.history], device=m.device)))
+    return out
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--device", default="cpu")
+    ap.add_argument("--sizes", type=int, nargs="*", default=[1024, 2048])
+    ap.add_argument("--dtype", default="float64")
+    args = ap.parse_args()
+    wp.config.quiet = True
+    wp.init()
+    device = wp.get_device(args.device)
+    print(f"# parts of a normal iteration; device {device} ({device.name}), {args.dtype}, {time.strftime('%Y-%m-%d')}")
+    for n in args.sizes:
+        out = parts(n, device, args.dtype)
+        # an iteration: 2 x (forward + product + inverse) + the five kernels (1-conv: one convolution less)
+        conv = out["forward (pad + library)"] + out["spectral product"] + out["inverse (library + crop)"]
+        rest = sum(v for k, v in out.items() if "reduce" in k or "direction" in k or "cg_advance" in k)
+        print(f"N = {n}: one convolution {conv:.3f} ms, the rest {rest:.3f} ms, sum of an iteration "
+              f"{2 * conv + rest:.3f} ms (library pair {out['library forward + inverse']:.3f} ms)")
+        for k, v in out.items():
+            print(f"  {k:<28} {v:8.3f} ms")
+
+
+if __name__ == "__main__":
+    main()
