@@ -119,6 +119,21 @@ def test_table2_writes_cells_and_resumes(tmp_path):
     assert r.returncode in (0, 3) and (out / "table2.json").read_text() == before
 
 
+def test_table2_workers_give_the_cells_of_one_process(tmp_path):
+    """--workers 2 computes the cells in two spawned processes: the same numbers as one process
+    (CPU runs are deterministic: compared exactly), every cell written, in the table's order."""
+    sel = ["--no-adhesion", "--n", "24", "--k-tau", "0.8", "--delta-z-um", "5e-5", "1e-5", "--quiet"]
+    r1 = run_cli("table2", *sel, "--out", tmp_path / "one")
+    r2 = run_cli("table2", *sel, "--workers", "2", "--out", tmp_path / "two")
+    assert r1.returncode in (0, 3) and r2.returncode == r1.returncode, r2.stderr
+    one, two = (json.loads((tmp_path / d / "table2.json").read_text())["cells"] for d in ("one", "two"))
+    assert [(c["k_tau"], c["delta_z_um"]) for c in two] == [(c["k_tau"], c["delta_z_um"]) for c in one]
+    for a, b in zip(one, two):
+        assert (a["delta_x_max_um"], a["mu"], a["states"]) == (b["delta_x_max_um"], b["mu"], b["states"])
+    r = run_cli("table2", *sel, "--workers", "0", "--out", tmp_path / "zero")
+    assert r.returncode == 2 and "--workers" in r.stderr and "Traceback" not in r.stderr
+
+
 def test_table2_unknown_cell_is_refused(tmp_path):
     r = run_cli("table2", "--no-adhesion", "--k-tau", "0.7", "--out", tmp_path / "t", "--quiet")
     assert r.returncode == 2 and "--k-tau" in r.stderr

@@ -176,6 +176,15 @@ def table2_cell(k_tau: float, delta_z_um: float, settings: Table2Settings, on_st
     return withhold_if_unconverged(record, TABLE2_RESULTS)
 
 
+def table2_cell_in_worker(k_tau: float, delta_z_um: float, settings: Table2Settings, adhesion: bool) -> dict:
+    """:func:`table2_cell` in a worker process of ``warpcontact table2 --workers`` (spawned, not
+    forked: a CUDA context does not survive a fork)."""
+    import warp as wp
+
+    wp.config.quiet = True
+    return table2_cell(k_tau, delta_z_um, settings, adhesion=adhesion)
+
+
 def cells():
     """The (k_tau, delta_z_um) cells of each column (with or without adhesion)."""
     return [(k, dz) for k in K_TAU for dz in DELTA_Z_UM]
