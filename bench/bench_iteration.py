@@ -90,7 +90,7 @@ def used_bytes(device) -> int:
     return int(device.total_memory - device.free_memory)
 
 
-def bench(n, device, dtype, fft, repeats, adhesion: bool):
+def bench(n, device, dtype, fft, repeats, adhesion: bool, compare_up_to: int = 2048):
     base = used_bytes(device)
     model = ContactModel(PAPER_PAIR, Sphere(R, "paraboloid"), Grid(n, 4 * A), device=device, dtype=dtype, fft=fft)
     row = {"n": n, "dtype": dtype, "fft": model.operator.fft.name if hasattr(model.operator.fft, "name") else fft}
@@ -104,7 +104,7 @@ def bench(n, device, dtype, fft, repeats, adhesion: bool):
         t = _timed(model.device, solve_normal, repeats)
         return info["normal"].iterations, 1e3 * t / info["normal"].iterations
 
-    if model.device.is_cuda:
+    if model.device.is_cuda and n <= compare_up_to:
         row["eager_iters"], row["eager_ms"] = normal_ms(NormalSolver(model, use_graphs=False))
         row["one_conv_iters"], row["one_conv_ms"] = normal_ms(NormalSolver(model, one_convolution=True))
     row["normal_iters"], row["normal_ms"] = normal_ms(NormalSolver(model))
@@ -142,6 +142,8 @@ def main():
     ap.add_argument("--dtype", nargs="*", default=["float64"])
     ap.add_argument("--repeats", type=int, default=2)
     ap.add_argument("--adhesion", action="store_true", help="the coupled step with the SMC law (2e7 Pa, 5e-12 m)")
+    ap.add_argument("--compare-up-to", type=int, default=2048,
+                    help="largest N with the eager and one-convolution columns (CUDA; they take longest)")
     ap.add_argument("--json")
     args = ap.parse_args()
     wp.config.quiet = True
@@ -156,7 +158,7 @@ def main():
     rows = []
     for n in sizes:
         for dtype in args.dtype:
-            r = bench(n, device, dtype, args.fft, args.repeats, args.adhesion)
+            r = bench(n, device, dtype, args.fft, args.repeats, args.adhesion, args.compare_up_to)
             rows.append({"device": str(device), **r})
             side = (f"{r['eager_ms']:>7.3f} {r['one_conv_ms']:>7.3f} {r['one_conv_ms'] / r['floor1_ms']:>6.2f}"
                     if "eager_ms" in r else f"{'-':>7} {'-':>7} {'-':>6}")

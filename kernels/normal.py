@@ -190,5 +190,72 @@ def normal_displacement_step(response: wp.array(dtype=Any), sums: wp.array(dtype
     displacement[i] = displacement[i] - cg_step_length(sums) * response[i]
 
 
-for _k in (normal_gap, normal_direction, normal_step_sums, normal_update, normal_displacement_step):
+# slots of the first guess's sums (NormalSolver.guess_sums)
+G_POSITIVE = wp.constant(0)  # cells with p > 0
+G_UB = wp.constant(1)  # sum of (K b) b over the interference b > 0
+G_UU = wp.constant(2)  # sum of (K b)^2 over it
+N_GUESS_SUMS = 3
+
+
+@wp.kernel
+def count_positive(pressure: wp.array(dtype=Any), n: int, outer: int, inner: int, per: int, guess_sums: wp.array(dtype=Any)):
+    """guess_sums[G_POSITIVE] += the number of cells with p > 0."""
+    block, lane = wp.tid()
+    thread = block * wp.block_dim() + lane
+    zero = pressure[0] - pressure[0]
+    count = zero
+    for k in range(per):
+        i = cell_index(thread, outer, inner, k)
+        if i < n and pressure[i] > zero:
+            count += type(zero)(1.0)
+    block_add(guess_sums, G_POSITIVE, count)
+
+
+@wp.func
+def interference(initial_gap: wp.array(dtype=Any), known_displacement: wp.array(dtype=Any), approach: Any, i: int):
+    """b = max(delta_z - h0 - u_known, 0): how far the rigid surfaces overlap at cell i."""
+    return wp.max(approach - initial_gap[i] - known_displacement[i], approach - approach)
+
+
+@wp.kernel
+def guess_interference(initial_gap: wp.array(dtype=Any), known_displacement: wp.array(dtype=Any),
+                       settings: wp.array(dtype=Any), pressure: wp.array(dtype=Any)):
+    """p <- b, the rigid interference (the shape of the first guess)."""
+    i = wp.tid()
+    pressure[i] = interference(initial_gap, known_displacement, settings[P_APPROACH], i)
+
+
+@wp.kernel
+def guess_fit_sums(initial_gap: wp.array(dtype=Any), known_displacement: wp.array(dtype=Any),
+                   settings: wp.array(dtype=Any), response: wp.array(dtype=Any),
+                   n: int, outer: int, inner: int, per: int, guess_sums: wp.array(dtype=Any)):
+    """Sums of (K b) b and (K b)^2 over b > 0, for the least-squares scale of the first guess."""
+    block, lane = wp.tid()
+    thread = block * wp.block_dim() + lane
+    approach = settings[P_APPROACH]
+    zero = approach - approach
+    s_ub = zero
+    s_uu = zero
+    for k in range(per):
+        i = cell_index(thread, outer, inner, k)
+        if i < n:
+            b = interference(initial_gap, known_displacement, approach, i)
+            if b > zero:
+                s_ub += response[i] * b
+                s_uu += response[i] * response[i]
+    block_add(guess_sums, G_UB, s_ub)
+    block_add(guess_sums, G_UU, s_uu)
+
+
+@wp.kernel
+def guess_scale(guess_sums: wp.array(dtype=Any), pressure_cap: Any, pressure: wp.array(dtype=Any)):
+    """p <- min(c b, cap), c = sum (K b) b / sum (K b)^2: K p fits the interference best."""
+    i = wp.tid()
+    zero = pressure_cap - pressure_cap
+    c = wp.where(guess_sums[G_UU] > zero, guess_sums[G_UB] / guess_sums[G_UU], zero)
+    pressure[i] = wp.min(c * pressure[i], pressure_cap)
+
+
+for _k in (normal_gap, normal_direction, normal_step_sums, normal_update, normal_displacement_step, count_positive,
+           guess_interference, guess_fit_sums, guess_scale):
     register_float_overloads(_k)

@@ -58,8 +58,9 @@ class ProjectedCG:
         self._graphs: OrderedDict = OrderedDict()
 
     def _set(self, slot: int, value: float):
-        """settings[slot] <- value (sent to the device by the next ``_run``)."""
+        """settings[slot] <- value, sent to the device at once (a few bytes, before the solve)."""
         self._settings[slot] = value
+        self.settings.assign(self._settings.astype(self.model.np_dtype))
 
     def _device_step(self, key, body):
         """Run ``body()``, the device work of one iteration: eagerly, or on CUDA from a graph
@@ -100,7 +101,6 @@ class ProjectedCG:
         tol = self.tol if tol is None else tol
         self.active_tol = tol
         self._set(P_TOL, tol)
-        self.settings.assign(self._settings.astype(self.model.np_dtype))
         self.scalars.zero_()
         self.history.fill_(-1.0)
         it = 0

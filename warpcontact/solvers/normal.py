@@ -46,6 +46,7 @@ class NormalSolver(ProjectedCG):
         self._cap = model.scalar(min(self.pressure_cap / model.traction_scale, big))
         self.direction = model.field()
         self.response = model.field()
+        self.guess_sums = model.scalars(nk.N_GUESS_SUMS)
         self.no_displacement = model.field()
         #: carry u = K p incrementally (one convolution per iteration); default: on the CPU only,
         #: where reading the projection count back each iteration costs nothing
@@ -79,8 +80,7 @@ class NormalSolver(ProjectedCG):
         known = self.no_displacement if known_displacement is None else known_displacement
         approach = float(m.np_dtype(approach_z / m.length_scale))  # as the kernels see it
         self._set(nk.P_APPROACH, approach)
-        if not np.any(state.pressure.numpy() > 0):
-            self._initial_guess(state, approach, known)
+        self._initial_guess(state, known)
         p, g, t, r = (a.flatten() for a in (state.pressure, state.gap, self.direction, self.response))
         self.direction.zero_()  # no leftover from an earlier (possibly failed) solve
         # One convolution per iteration where the host can look cheaply (CPU): u = K p is carried
@@ -131,17 +131,18 @@ class NormalSolver(ProjectedCG):
 
         return self._run(iteration, final_fields, on_non_finite, tol)
 
-    def _initial_guess(self, state, approach: float, known):
-        """p = c * max(delta_z - h0 - u_known, 0), with c the least-squares fit of K p to it."""
+    def _initial_guess(self, state, known):
+        """Unless the state holds a pressure already (warm start): p = c b, with b = max(delta_z -
+        h0 - u_known, 0) the rigid interference and c the least-squares fit of K p to it, capped
+        at the hardness. On the device; one scalar comes back (whether p > 0 anywhere)."""
         m = self.model
-        b = approach - m.initial_gap.numpy().astype(np.float64) - known.numpy().astype(np.float64)
-        p0 = np.where(b > 0, b, 0.0)
-        if not np.any(p0 > 0):
+        p = state.pressure.flatten()
+        self.guess_sums.zero_()
+        m.launch_reduce(nk.count_positive, [p], [self.guess_sums])
+        if self.guess_sums.numpy()[nk.G_POSITIVE] > 0:
             return
-        state.pressure.assign(p0.astype(m.np_dtype))
+        m.launch(nk.guess_interference, m.n_cells, [m.initial_gap.flatten(), known.flatten(), self.settings], [p])
         m.operator.normal(state.pressure, self.response)
-        u = self.response.numpy().astype(np.float64)
-        mask = p0 > 0
-        c = float(np.dot(u[mask], b[mask]) / np.dot(u[mask], u[mask]))
-        cap = self.pressure_cap / m.traction_scale
-        state.pressure.assign(np.minimum(p0 * c, cap).astype(m.np_dtype))
+        m.launch_reduce(nk.guess_fit_sums, [m.initial_gap.flatten(), known.flatten(), self.settings, self.response.flatten()],
+                        [self.guess_sums])
+        m.launch(nk.guess_scale, m.n_cells, [self.guess_sums, self._cap], [p])
