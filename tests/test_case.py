@@ -100,7 +100,7 @@ def test_paper_case_parses(tmp_path):
     assert case.pair.dundurs_beta == pytest.approx(0.0717, abs=1e-4)
     assert case.grid.n == 64 and case.grid.dx == pytest.approx(1e-7 / 64)
     assert case.load.path() == [(0.0, 0.0, 5e-11)]
-    assert case.solver == SolverSpec(device="cpu", dtype="float64", tol=1e-10, max_iter=2000, fft="auto")
+    assert case.solver == SolverSpec(device="cpu", dtype="float64", tol=1e-10, max_iter=2000, max_turns=1000, fft="auto")
     assert case.friction is None and case.adhesion is None
     assert case == case_from_dict(paper_dict())
 
@@ -316,6 +316,8 @@ BAD_CASES = [
     ("tol-too-large", _set("solver.tol", 0.1), "solver.tol"),
     ("tol-nan", _set("solver.tol", math.nan), "solver.tol"),
     ("max_iter-zero", _set("solver.max_iter", 0), "solver.max_iter"),
+    ("max_turns-zero", _set("solver.max_turns", 0), "solver.max_turns"),
+    ("max_turns-float", _set("solver.max_turns", 10.0), "solver.max_turns"),
     # friction
     ("friction-law-unknown", _set("friction", {"law": "amontons", "mu": 0.3}), "friction.law"),
     ("friction-law-missing", _set("friction", {"mu": 0.3}), "friction.law"),

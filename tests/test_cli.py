@@ -239,6 +239,18 @@ def test_pull_off_not_converged_exits_3(tmp_path):
     assert (tmp_path / "po" / "pull_off.png").exists()
 
 
+def test_pull_off_out_of_turns_says_to_raise_max_turns(tmp_path):
+    """An adhesive step needs several fixed-point turns: with max_turns = 1 every state stops
+    unconverged after its one turn, and the message names the setting to raise."""
+    text = (ROOT / "examples" / "pull_off_dmt.toml").read_text().replace("n = 64", "n = 32")
+    text += "\n[solver]\nmax_turns = 1\n"
+    r = run_cli("pull-off", small_case(tmp_path, text), "--out", tmp_path / "po", "--steps", "2", "--quiet")
+    line = one_line(r)
+    assert r.returncode == 3 and line.startswith("not converged: ") and "solver.max_turns = 1" in line, line
+    res = json.loads((tmp_path / "po" / "result.json").read_text())
+    assert res["case"]["solver"]["max_turns"] == 1 and not any(c["converged"] for c in res["curve"])
+
+
 # --- an adhesive law still pulling on the domain's edge: one warning naming grid.size ---
 
 EDGE_SMC = "\n[adhesion]\nlaw = \"smc\"\nsigma_max = 3.6788e7\ntau_max = 3.6788e7\ndelta_n = 5e-10\ndelta_t = 5e-10\n"

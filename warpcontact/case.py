@@ -47,7 +47,7 @@ SPHERE_KEYS = ("radius", "E", "nu", "yield_strength", "hardness", "profile")
 FLAT_KEYS = ("E", "nu", "yield_strength", "hardness")
 GRID_KEYS = ("n", "size")
 LOAD_KEYS = ("delta_z", "delta_x", "delta_y", "steps", "path")
-SOLVER_KEYS = ("device", "dtype", "tol", "max_iter", "fft")
+SOLVER_KEYS = ("device", "dtype", "tol", "max_iter", "max_turns", "fft")
 FRICTION_KEYS = {"coulomb": ("law", "mu"), "tabor": ("law", "k_tau", "k_vm", "hardness_cap")}
 ADHESION_KEYS = {"smc": ("law", "sigma_max", "tau_max", "delta_n", "delta_t"), "dugdale": ("law", "sigma_0", "h_0")}
 
@@ -61,6 +61,8 @@ DEFAULT_TOL = {"float64": 1e-10, "float32": 1e-5}
 #: Largest accepted tolerance.
 MAX_TOL = 1e-2
 DEFAULT_MAX_ITER = 2000
+#: coupling / adhesive fixed-point turns per load step (ContactSolver.max_outer)
+DEFAULT_MAX_TURNS = 1000
 #: von Mises ratio T_S / S_Y (MODEL.md section 5).
 DEFAULT_K_VM = 1.0 / math.sqrt(3.0)
 #: Most load steps per leg of the default path (a guard against typos such as 1e9 steps).
@@ -378,6 +380,8 @@ class SolverSpec:
         tol: relative tolerance of the conjugate-gradient solves, in (0, 1e-2]; None (or leaving
             it out of the file) gives the dtype's default (1e-10 for float64, 1e-5 for float32).
         max_iter: iteration limit of each conjugate-gradient solve.
+        max_turns: limit on the turns of a load step (normal and tangential solves in turns, the
+            adhesive fixed point); a step that reaches it is reported as not converged.
         fft: "auto", "scipy" (CPU only), "cupy" (CUDA only) or "warp".
         tol_default: True when ``tol`` came from the dtype's default; such a tol follows a dtype
             override (see :meth:`with_overrides`). Not compared, not written by ``to_dict``.
@@ -387,6 +391,7 @@ class SolverSpec:
     dtype: str = "float64"
     tol: float | None = None
     max_iter: int = DEFAULT_MAX_ITER
+    max_turns: int = DEFAULT_MAX_TURNS
     fft: str = "auto"
     tol_default: bool = field(default=False, compare=False, repr=False)
 
@@ -404,6 +409,7 @@ class SolverSpec:
             raise InputError("solver.tol", f"must lie in (0, {MAX_TOL:g}], got {tol!r}")
         _set(self, "tol", tol)
         _set(self, "max_iter", _integer("solver.max_iter", self.max_iter, 1))
+        _set(self, "max_turns", _integer("solver.max_turns", self.max_turns, 1))
         _choice("solver.fft", self.fft, FFT_BACKENDS)
         kind = FFT_DEVICE_KIND.get(self.fft)
         if kind is not None and not self.device.startswith(kind):
@@ -428,7 +434,8 @@ class SolverSpec:
 
     def to_dict(self) -> dict:
         """All settings, the tol in effect included (so a record pins the run down)."""
-        return {"device": self.device, "dtype": self.dtype, "tol": self.tol, "max_iter": self.max_iter, "fft": self.fft}
+        return {"device": self.device, "dtype": self.dtype, "tol": self.tol, "max_iter": self.max_iter,
+                "max_turns": self.max_turns, "fft": self.fft}
 
 
 @dataclass(frozen=True)

@@ -144,7 +144,8 @@ def cmd_solve(args) -> int:
         s = result.states[bad[0]]
         print(
             f"not converged: state {bad[0]} stopped at residual {s['residual']:.3e} after {s['iterations']} "
-            f"iterations (tolerance {case.solver.tol:g}); results written to {out} with converged = false",
+            f"iterations (tolerance {case.solver.tol:g}){_turns_hint(result.states, case)}; results written to {out} "
+            "with converged = false",
             file=sys.stderr,
         )
         return EXIT_NOT_CONVERGED
@@ -194,7 +195,8 @@ def cmd_gross_slip(args) -> int:
     result = withhold_if_unconverged({**r, **_run_info(model, case)}, GROSS_SLIP_RESULTS)
     atomic_write_json(out / "result.json", result)
     if not r["converged"]:
-        print(f"not converged: a state of the gross-slip path did not converge; see {out / 'result.json'}", file=sys.stderr)
+        print(f"not converged: a state of the gross-slip path did not converge{_turns_hint(r['states'], case)}; "
+              f"see {out / 'result.json'}", file=sys.stderr)
         return EXIT_NOT_CONVERGED
     if not args.quiet:
         mu = "undefined (F_z <= 0: adhesion holds the sphere in tension)" if r["mu"] is None else f"{r['mu']:.4f}"
@@ -246,7 +248,8 @@ def cmd_pull_off(args) -> int:
     atomic_write_json(out / "result.json", result)
     _plot_pull_off(r, out / "pull_off.png", result)
     if not r["converged"]:
-        print(f"not converged: a state of the approach-retract curve did not converge; see {out / 'result.json'}", file=sys.stderr)
+        print(f"not converged: a state of the approach-retract curve did not converge{_turns_hint(r['curve'], case)}; "
+              f"see {out / 'result.json'}", file=sys.stderr)
         return EXIT_NOT_CONVERGED
     if not args.quiet:
         print(f"pull-off force {r['pull_off_force']:.4e} N = {r['pull_off_force'] / (math.pi * R * w):.3f} pi R w "
@@ -395,6 +398,15 @@ def cmd_table2(args) -> int:
         print(f"interrupted: {len(records)} cell(s) written to {out}; rerun to finish", file=sys.stderr)
         return EXIT_INTERRUPTED
     return 0 if all(r["converged"] for r in records) else EXIT_NOT_CONVERGED
+
+
+def _turns_hint(states, case) -> str:
+    """What to say when an unconverged state used every turn its step was allowed."""
+    limit = case.solver.max_turns
+    if any(not st.get("converged", True) and st.get("outer_iterations", 0) >= limit for st in states):
+        return (f" (a load step used all solver.max_turns = {limit} turns without the tractions settling: raise it "
+                "in [solver]; the adhesive fixed point converges slowly at large Tabor parameters)")
+    return ""
 
 
 def _table2_in_workers(workers, pending, settings_for, label, finish, progress) -> bool:

@@ -44,8 +44,8 @@ def build(case):
     check_fits(case.grid.n, s.dtype, s.device, case.friction is not None, s.fft, adhesion=case.adhesion is not None)
     model = ContactModel(case.pair, case.sphere, case.grid, device=s.device, dtype=s.dtype, fft=s.fft)
     cap = case.pair.softer.hardness if case.friction is not None and case.friction.hardness_cap else math.inf
-    solver = ContactSolver(model, friction_law(case), tol=s.tol, max_iter=s.max_iter, pressure_cap=cap,
-                           adhesion=adhesion_law(case))
+    solver = ContactSolver(model, friction_law(case), tol=s.tol, max_iter=s.max_iter, max_outer=s.max_turns,
+                           pressure_cap=cap, adhesion=adhesion_law(case))
     return model, solver, ContactState(model)
 
 
