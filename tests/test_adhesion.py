@@ -107,8 +107,7 @@ def test_pull_off_moves_towards_jkr_at_larger_tabor_parameters():
     and 1.80) gives 1.585 and 1.541 pi R w, Johnson-Greenwood's lambda = 1.16 mu gives 1.515 and
     1.506. The allowed difference from the first is the spread between the two mappings. Measured:
     1.631 and 1.570 pi R w (+2.9 %, +1.9 %) at n = 128 (cells 1.8 and 2.2 nm across contact radii
-    a0 = 57 and 71 nm); n = 256 gives 1.631 again at 2.74. At 5.7 (w = 3 J/m^2) the fixed point
-    did not converge (README, known gaps)."""
+    a0 = 57 and 71 nm); n = 256 gives 1.631 again at 2.74. Tabor 5.7: the slow study below."""
     R, dn = 1e-6, 2e-10
     ratios = []
     for w in (1.0, 2.0):
@@ -127,6 +126,32 @@ def test_pull_off_moves_towards_jkr_at_larger_tabor_parameters():
         assert abs(ratio - peak) < abs(peak - jg), (ratio, peak, jg)
         ratios.append(ratio)
     assert ratios[1] < ratios[0]
+
+
+@pytest.mark.slow
+def test_pull_off_at_tabor_parameter_5_7_converges_towards_jkr():
+    """Tabor parameter 5.7 (w = 3 J/m^2, as the test above; about 5 minutes on 2 CPU cores). It
+    needs the mixing's restarts (RESTART_GROWTH) and the cold-start retry of a step: without them,
+    every state of this curve stopped unconverged at 200 turns, and with 1000 turns alone 20 of 33
+    still did. Measured: every state converged in 421-807 turns (the last, past pull-off, in 19
+    more from zero tractions after 1000 from the previous state's), and the pull-off is
+    1.548 pi R w. That is +1.4 % from Maugis-Dugdale at the same peak stress and work
+    (lambda = 2.36: 1.526), and below the 1.570 measured at 4.35. Checked: the pull-off lies
+    between JKR (1.5) and that value at 4.35, and within 3 % of the peak-stress Maugis-Dugdale
+    value, the largest difference measured at the lower parameters (+2.9 % at 2.74)."""
+    R, dn, w = 1e-6, 2e-10, 3.0
+    mu = tabor_parameter(PAPER_PAIR, R, w, dn)
+    assert 5.6 < mu < 5.8
+    a0 = (9 * math.pi * w * R**2 / (2 * PAPER_PAIR.E_star)) ** (1 / 3)
+    law = SMC(w / (math.e * dn), w / (math.e * dn), dn, dn)
+    model = ContactModel(PAPER_PAIR, Sphere(R), Grid(128, 4 * a0))
+    r = approach_retract(model, ContactSolver(model, None, adhesion=law), -dn, 2e-9, -1.5e-9, 16)
+    assert r["converged"], [c["outer_iterations"] for c in r["curve"]]
+    ratio = -r["pull_off_force"] / (math.pi * R * w)
+    lam = law.sigma_max * (9 * R / (2 * math.pi * w * PAPER_PAIR.E_star**2)) ** (1 / 3)
+    peak = -maugis_dugdale_pull_off(lam)
+    assert 1.5 < ratio < 1.570, ratio
+    assert abs(ratio / peak - 1) < 0.03, (ratio, peak)
 
 
 def test_maugis_dugdale_reference_limits():

@@ -117,8 +117,6 @@ class ContactSolver:
         m = self.model
         dx, dy, dz = (float(a) for a in approach)
         L = m.length_scale
-        iterations = 0
-        normal_info = tangential_info = None
         if self.friction is None:
             state.shear_x.zero_()
             state.shear_y.zero_()
@@ -129,6 +127,40 @@ class ContactSolver:
                 inputs=[state.slip_x.flatten(), state.slip_y.flatten(), m.scalar(dx / L), m.scalar(dy / L)],
                 outputs=[self.target_x.flatten(), self.target_y.flatten()],
             )
+        normal_info, tangential_info, outer, converged_turns, iterations = self._turns(state, dx, dy, dz)
+        if self.adhesion is not None and not converged_turns:
+            # The warm start can sit where a solution no longer exists (the jump out of contact
+            # after pull-off): the same step once more from zero tractions. At Tabor parameter 5.7
+            # (n = 128) the last state of the retraction, past pull-off, did not converge in 1000
+            # turns from the previous state's tractions; from a fresh state it converges in 11.
+            for a in (state.pressure, state.shear_x, state.shear_y, state.adhesive_pressure, state.adhesive_shear_x,
+                      state.adhesive_shear_y):
+                a.zero_()
+            normal_info, tangential_info, retry_outer, converged_turns, retry_iterations = self._turns(state, dx, dy, dz)
+            outer += retry_outer
+            iterations += retry_iterations
+        if self.iterative:  # gap and u_z with the final tractions held fixed
+            self._known_displacements(state)
+            final = self.normal.solve(state, dz, self.known_z)
+            iterations += final.iterations
+            normal_info = final
+            if self.friction is not None:
+                self._update_slip(state, dx, dy, final=True)
+        state.approach = (dx, dy, dz)
+        residual = max(normal_info.residual, tangential_info.residual if tangential_info else 0.0)
+        converged = normal_info.converged and (tangential_info is None or tangential_info.converged) and converged_turns
+        info = SolveInfo(converged=bool(converged), iterations=iterations, residual=residual, outer_iterations=outer,
+                         history=normal_info.history)
+        state.info = info
+        check_contact_fits(state)
+        return info
+
+    def _turns(self, state, dx: float, dy: float, dz: float):
+        """The turns of a step from the tractions in ``state``: (normal info, tangential info,
+        turns, whether the turns converged, inner iterations)."""
+        m = self.model
+        iterations = 0
+        normal_info = tangential_info = None
         for prev, cur in zip(self.previous, (state.pressure, state.shear_x, state.shear_y)):
             wp.copy(prev, cur)
         change = math.inf
@@ -162,21 +194,7 @@ class ContactSolver:
             if change < self.outer_tol and turn_tol == self.tol:
                 converged_turns = True
                 break
-        if self.iterative:  # gap and u_z with the final tractions held fixed
-            self._known_displacements(state)
-            final = self.normal.solve(state, dz, self.known_z)
-            iterations += final.iterations
-            normal_info = final
-            if self.friction is not None:
-                self._update_slip(state, dx, dy, final=True)
-        state.approach = (dx, dy, dz)
-        residual = max(normal_info.residual, tangential_info.residual if tangential_info else 0.0)
-        converged = normal_info.converged and (tangential_info is None or tangential_info.converged) and converged_turns
-        info = SolveInfo(converged=bool(converged), iterations=iterations, residual=residual, outer_iterations=outer,
-                         history=normal_info.history)
-        state.info = info
-        check_contact_fits(state)
-        return info
+        return normal_info, tangential_info, outer, converged_turns, iterations
 
     def _update_adhesion(self, state, first: bool) -> float:
         """One accelerated step of the adhesive fixed point t = law(h, s) (history reset on the
