@@ -12,6 +12,7 @@ import math
 import sys
 from pathlib import Path
 
+from . import interrupts
 from .errors import ConvergenceError, InputError, NonFiniteError
 from .progress import Progress, end_line, write_above
 
@@ -473,6 +474,7 @@ def main(argv=None) -> int:
     import warnings
 
     warnings.showwarning = _show_warning
+    interrupts.install()
     args = _parser().parse_args(argv)
     try:
         from .cli_figure import cmd_figure

@@ -10,6 +10,7 @@ import warp as wp
 
 from warpcontact.kernels.reduce import N_SETTINGS, P_TOL
 
+from .. import interrupts
 from ..state import SolveInfo
 
 
@@ -110,6 +111,7 @@ class ProjectedCG:
                 on_non_finite(it)
             if self.restart_every and it and it % self.restart_every == 0:
                 self.scalars[0:1].zero_()  # G_old = 0: the next direction is the (preconditioned) gradient
+            interrupts.check()
             iteration()
             it += 1
             if it % self.check_every == 0 or it == self.max_iter:

@@ -10,6 +10,7 @@ import warp as wp
 from warpcontact.kernels import adhesion as ak
 from warpcontact.kernels import coupling as ck
 
+from .. import interrupts
 from ..guards import check_contact_fits
 from ..state import SolveInfo
 from .fixed_point import AndersonMixing
@@ -167,6 +168,7 @@ class ContactSolver:
         outer = 0
         converged_turns = not self.iterative
         while outer < self.max_outer:
+            interrupts.check()
             outer += 1
             # inexact turns: early ones solve loosely, the last one at full tolerance
             turn_tol = max(self.tol, min(1e-3, 0.01 * change)) if self.iterative else self.tol
