@@ -2,7 +2,10 @@
 
 Real-to-complex transforms; the zero padding is never transformed: the forward pass does the
 row transforms on the ny data rows only (``n = 2 nx`` pads them), and the inverse keeps only the
-ny output rows before the last pass. Spectral layout: (2 ny, nx + 1).
+ny output rows before the last pass. Spectral layout: (2 ny, nx + 1). The column passes run in
+place on the spectrum (the forward pass writes its rows into the top half and zeros the bottom
+half first): letting scipy pad the columns allocated and copied a second spectrum, and made the
+forward pass 2-3x slower than the inverse (measured: 17 against 6-9 ms at n = 512, 2 cores).
 """
 
 from __future__ import annotations
@@ -37,8 +40,12 @@ class ScipyFFT(FFTBackend):
 
     def forward(self, field, spectrum):
         x = field.numpy()  # zero-copy on the CPU
-        rows = sfft.rfft(x, n=2 * self.nx, axis=1, workers=self.workers)
-        self._complex_view(spectrum)[...] = sfft.fft(rows, n=2 * self.ny, axis=0, workers=self.workers)
+        s = self._complex_view(spectrum)
+        s[: self.ny] = sfft.rfft(x, n=2 * self.nx, axis=1, workers=self.workers)
+        s[self.ny :] = 0
+        out = sfft.fft(s, axis=0, workers=self.workers, overwrite_x=True)
+        if not np.shares_memory(out, s):  # scipy may return a new array even when allowed to overwrite
+            s[...] = out
 
     def inverse(self, spectrum, field):
         s = self._complex_view(spectrum)
