@@ -65,14 +65,14 @@ def parts(n, device, dtype):
         spectral.spectral_normal, dim=fft.spectral_shape, inputs=[op.influence, spec], device=m.device))
     out["inverse (library + crop)"] = timed_ms(m.device, lambda: fft.inverse(spec, st.disp_z))
     out["library forward + inverse"] = timed_ms(m.device, lambda: fft.library_transforms(st.pressure, spec))
-    out["normal_gap (reduce)"] = timed_ms(m.device, lambda: s._launch_reduce(
+    out["normal_gap (reduce)"] = timed_ms(m.device, lambda: m.launch_reduce(
         nk.normal_gap, [m.initial_gap.flatten(), st.disp_z.flatten(), known, p, s.settings, s._cap], [g, s.sums]))
     out["normal_direction"] = timed_ms(m.device, lambda: wp.launch(
         nk.normal_direction, dim=m.n_cells, inputs=[g, p, s._cap, s.sums, s.scalars], outputs=[t], device=m.device))
-    out["normal_step_sums (reduce)"] = timed_ms(m.device, lambda: s._launch_reduce(
+    out["normal_step_sums (reduce)"] = timed_ms(m.device, lambda: m.launch_reduce(
         nk.normal_step_sums, [g, t, r, p, s._cap], [s.sums]))
     s.sums.fill_(0.0)  # tau = 0: the update leaves p as it is
-    out["normal_update (reduce)"] = timed_ms(m.device, lambda: s._launch_reduce(
+    out["normal_update (reduce)"] = timed_ms(m.device, lambda: m.launch_reduce(
         nk.normal_update, [g, t, s._cap, s.settings], [p, s.sums]))
     out["cg_advance + zero sums"] = timed_ms(m.device, lambda: (s.sums.zero_(), wp.launch(
         reduce.cg_advance, dim=1, inputs=[s.sums, s.scalars], outputs=[s.history], device=m.device)))

@@ -24,7 +24,7 @@ def _hook(unraisable):
     if unraisable.exc_type is not None and issubclass(unraisable.exc_type, KeyboardInterrupt):
         _pending = True
         return
-    _previous_hook(unraisable)
+    (_previous_hook or sys.__unraisablehook__)(unraisable)
 
 
 def install():

@@ -85,9 +85,6 @@ class ProjectedCG:
         while len(self._graphs) > self.max_graphs:
             self._graphs.popitem(last=False)
 
-    def _launch_reduce(self, kernel, inputs, outputs):
-        self.model.launch_reduce(kernel, inputs, outputs)
-
     def _relative_residual(self, viol_slot: int, rhs_slot: int) -> float:
         s = self.sums.numpy().astype(np.float64)
         if not (math.isfinite(s[viol_slot]) and math.isfinite(s[rhs_slot])):

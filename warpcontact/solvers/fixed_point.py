@@ -61,7 +61,6 @@ class AndersonMixing:
         """Forget the history (a new load step)."""
         self._forget()
         self.best = math.inf  # smallest residual of this load step
-        self.restarts = 0  # restarts by RESTART_GROWTH in this load step
 
     def _forget(self):
         self.columns: list[int] = []  # used history columns, oldest first
@@ -108,7 +107,6 @@ class AndersonMixing:
         self.best = min(self.best, residual)
         if residual > RESTART_GROWTH * self.best:  # the mixing has gone astray: start it again from here
             self._forget()
-            self.restarts += 1
             self.best = residual
         return residual
 

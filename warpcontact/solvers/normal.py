@@ -61,7 +61,7 @@ class NormalSolver(ProjectedCG):
         m = self.model
         if exact:
             m.operator.normal(state.pressure, state.disp_z)
-        self._launch_reduce(
+        m.launch_reduce(
             nk.normal_gap,
             [m.initial_gap.flatten(), state.disp_z.flatten(), known.flatten(), state.pressure.flatten(), self.settings, self._cap],
             [state.gap.flatten(), self.sums],
@@ -99,11 +99,11 @@ class NormalSolver(ProjectedCG):
             self._gap(state, known, exact=exact_gap)
             m.launch(nk.normal_direction, dim=m.n_cells, inputs=[g, p, self._cap, self.sums, self.scalars], outputs=[t])
             m.operator.normal(self.direction, self.response)
-            self._launch_reduce(nk.normal_step_sums, [g, t, r, p, self._cap], [self.sums])
-            self._launch_reduce(nk.normal_update, [g, t, self._cap, self.settings], [p, self.sums])
+            m.launch_reduce(nk.normal_step_sums, [g, t, r, p, self._cap], [self.sums])
+            m.launch_reduce(nk.normal_update, [g, t, self._cap, self.settings], [p, self.sums])
             if carry:
                 m.launch(nk.normal_displacement_step, dim=m.n_cells, inputs=[r, self.sums, self.settings],
-                          outputs=[state.disp_z.flatten()])
+                         outputs=[state.disp_z.flatten()])
             m.launch(reduce.cg_advance, dim=1, inputs=[self.sums, self.scalars], outputs=[self.history])
 
         def iteration():

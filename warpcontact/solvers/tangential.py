@@ -58,7 +58,7 @@ class TangentialSolver(ProjectedCG):
 
         def gradient():
             m.operator.tangential(state.shear_x, state.shear_y, state.disp_x, state.disp_y)
-            self._launch_reduce(
+            m.launch_reduce(
                 tk.tangential_gradient,
                 [state.disp_x.flatten(), state.disp_y.flatten(), kx, ky, target_x.flatten(), target_y.flatten(), qx, qy, limit, st, self.stiffness],
                 [gx, gy, self.sums],
@@ -69,8 +69,8 @@ class TangentialSolver(ProjectedCG):
             gradient()
             m.launch(tk.tangential_direction, dim=m.n_cells, inputs=[gx, gy, qx, qy, limit, st, self.stiffness, self.sums, self.scalars], outputs=[tx, ty])
             m.operator.tangential(self.dir_x, self.dir_y, self.resp_x, self.resp_y)
-            self._launch_reduce(tk.tangential_step_sums, [gx, gy, tx, ty, rx, ry, qx, qy, limit, st], [self.sums])
-            self._launch_reduce(tk.tangential_update, [gx, gy, tx, ty, limit, self.slip_step, self.settings], [qx, qy, st, self.sums])
+            m.launch_reduce(tk.tangential_step_sums, [gx, gy, tx, ty, rx, ry, qx, qy, limit, st], [self.sums])
+            m.launch_reduce(tk.tangential_update, [gx, gy, tx, ty, limit, self.slip_step, self.settings], [qx, qy, st, self.sums])
             m.launch(reduce.cg_advance, dim=1, inputs=[self.sums, self.scalars], outputs=[self.history])
 
         arrays = tuple(a.ptr for a in (state.shear_x, state.shear_y, state.status, state.disp_x, state.disp_y, kx, ky,
