@@ -18,7 +18,7 @@ import warp as wp
 
 from .overloads import register_float_overloads
 from .reduce import (  # noqa: F401  (shared slots)
-    C_DELTA, C_G_OLD, N_SCALARS, N_SETTINGS, P_APPROACH, P_TOL, S_G, S_GT, S_RHS, S_RT, S_VIOL, block_add, cell_index,
+    C_DELTA, C_G_OLD, C_ITER, N_SCALARS, N_SETTINGS, P_APPROACH, P_TOL, S_G, S_GT, S_RHS, S_RT, S_VIOL, block_add, cell_index,
     cg_converged, cg_step_length,
 )
 from .reduce import S_RESTART as S_IOL  # cells that re-enter contact (or leave the cap)
@@ -190,6 +190,19 @@ def normal_displacement_step(response: wp.array(dtype=Any), sums: wp.array(dtype
     displacement[i] = displacement[i] - cg_step_length(sums) * response[i]
 
 
+@wp.kernel
+def normal_recompute_flag(sums: wp.array(dtype=Any), scalars: wp.array(dtype=Any), exact_every: int,
+                          recompute: wp.array(dtype=wp.int32)):
+    """One thread, end of an iteration that carried u = K p: recompute K p at the start of the
+    next iteration (``recompute[0] = 1``) if the projection changed a cell (then the carried u
+    misses that change) or every ``exact_every`` iterations (rounding)."""
+    zero = sums[S_CORRECTED] - sums[S_CORRECTED]
+    if sums[S_CORRECTED] > zero or int(scalars[C_ITER]) % exact_every == 0:
+        recompute[0] = 1
+    else:
+        recompute[0] = 0
+
+
 # slots of the first guess's sums (NormalSolver.guess_sums)
 G_POSITIVE = wp.constant(0)  # cells with p > 0
 G_UB = wp.constant(1)  # sum of (K b) b over the interference b > 0
@@ -256,6 +269,7 @@ def guess_scale(guess_sums: wp.array(dtype=Any), pressure_cap: Any, pressure: wp
     pressure[i] = wp.min(c * pressure[i], pressure_cap)
 
 
-for _k in (normal_gap, normal_direction, normal_step_sums, normal_update, normal_displacement_step, count_positive,
+for _k in (normal_gap, normal_direction, normal_step_sums, normal_update, normal_displacement_step, normal_recompute_flag,
+           count_positive,
            guess_interference, guess_fit_sums, guess_scale):
     register_float_overloads(_k)

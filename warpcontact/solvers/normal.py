@@ -14,6 +14,13 @@ from ..state import SolveInfo
 from .base import ProjectedCG, default_tolerance, raise_non_finite  # noqa: F401  (re-export)
 
 
+def one_convolution_supported(device, use_graphs: bool) -> bool:
+    """Whether the one-convolution iteration can run on ``device``: its captured graphs need
+    conditional nodes (CUDA toolkit and driver 12.4+); without graphs (CPU, or CUDA eager, where
+    the host reads the decision each iteration) it always can."""
+    return not use_graphs or wp.is_conditional_graph_supported()
+
+
 class NormalSolver(ProjectedCG):
     """Projected conjugate gradients for the contact pressure at a given rigid approach.
 
@@ -32,7 +39,8 @@ class NormalSolver(ProjectedCG):
         max_iter: iteration limit; a solve that reaches it returns ``converged = False``.
         check_every: iterations between reads of the residual on the host.
         pressure_cap: upper bound of the pressure [Pa] (hardness), inf for none.
-        one_convolution: carry K p incrementally between projections (default: on the CPU).
+        one_convolution: carry K p incrementally between projections: one convolution per
+            iteration instead of two (default: on, where the device supports it).
         use_graphs: replay iterations as CUDA graphs (default: on CUDA).
     """
 
@@ -48,9 +56,15 @@ class NormalSolver(ProjectedCG):
         self.response = model.field()
         self.guess_sums = model.scalars(nk.N_GUESS_SUMS)
         self.no_displacement = model.field()
-        #: carry u = K p incrementally (one convolution per iteration); default: on the CPU only,
-        #: where reading the projection count back each iteration costs nothing
-        self.one_convolution = model.device.is_cpu if one_convolution is None else bool(one_convolution)
+        #: carry u = K p incrementally (one convolution per iteration, two after a projection);
+        #: default: wherever the device can decide (CPU; CUDA with conditional graph nodes, 12.4+)
+        supported = one_convolution_supported(model.device, self.use_graphs)
+        self.one_convolution = supported if one_convolution is None else bool(one_convolution)
+        if self.one_convolution and not supported:
+            raise ValueError("one_convolution: needs CUDA graph conditional nodes (CUDA toolkit and driver 12.4+) "
+                             "on this device")
+        #: 1: recompute K p at the start of the next iteration (set by the device)
+        self.recompute = wp.zeros(1, dtype=wp.int32, device=model.device)
         #: iterations between exact recomputations of K p in the one-convolution mode
         self.exact_every = 50
 
@@ -83,20 +97,26 @@ class NormalSolver(ProjectedCG):
         self._initial_guess(state, known)
         p, g, t, r = (a.flatten() for a in (state.pressure, state.gap, self.direction, self.response))
         self.direction.zero_()  # no leftover from an earlier (possibly failed) solve
-        # One convolution per iteration where the host can look cheaply (CPU): u = K p is carried
-        # as u - tau K t while no cell is projected, and recomputed after a projection and every
-        # ``exact_every`` iterations (rounding). On CUDA, u is recomputed every iteration.
+        # One convolution per iteration: u = K p is carried as u - tau K t while no cell is
+        # projected, and recomputed (a second convolution) at the start of the iteration after a
+        # projection and every ``exact_every`` iterations (rounding). The device decides
+        # (``self.recompute``, read by a conditional node of the captured graph), so the host
+        # never waits for it.
         # mode[0]: carry K p incrementally; switched off for the rest of the solve as soon as an
         # exact check contradicts the carried displacement (the carried u said "converged", the
         # recomputed one does not: rounding or an undetected projection), which then behaves
         # exactly like the two-convolution iteration.
         mode = [self.one_convolution]
-        exact = [True, 0]
         arrays = (state.pressure.ptr, state.gap.ptr, state.disp_z.ptr, known.ptr)
 
-        def body(exact_gap: bool, carry: bool):
+        def recompute_displacement():
+            m.operator.normal(state.pressure, state.disp_z)
+
+        def body(carry: bool):
             self.sums.zero_()
-            self._gap(state, known, exact=exact_gap)
+            if carry:  # K p only when the last iteration's flag asks (a conditional node in a graph)
+                wp.capture_if(self.recompute, on_true=recompute_displacement)
+            self._gap(state, known, exact=not carry)
             m.launch(nk.normal_direction, dim=m.n_cells, inputs=[g, p, self._cap, self.sums, self.scalars], outputs=[t])
             m.operator.normal(self.direction, self.response)
             m.launch_reduce(nk.normal_step_sums, [g, t, r, p, self._cap], [self.sums])
@@ -105,21 +125,19 @@ class NormalSolver(ProjectedCG):
                 m.launch(nk.normal_displacement_step, dim=m.n_cells, inputs=[r, self.sums, self.settings],
                          outputs=[state.disp_z.flatten()])
             m.launch(reduce.cg_advance, dim=1, inputs=[self.sums, self.scalars], outputs=[self.history])
+            if carry:
+                m.launch(nk.normal_recompute_flag, dim=1, inputs=[self.sums, self.scalars, self.exact_every],
+                         outputs=[self.recompute])
 
         def iteration():
-            variant = (bool(exact[0]), mode[0])
-            self._device_step(arrays + variant, lambda: body(*variant))
-            if mode[0]:
-                exact[1] += 1
-                exact[0] = self.sums.numpy()[nk.S_CORRECTED] > 0 or exact[1] % self.exact_every == 0
-            else:
-                exact[0] = True
+            self._device_step(arrays + (mode[0],), lambda: body(mode[0]))
 
         checks = [0]
 
         def final_fields():
             self.sums.zero_()
             self._gap(state, known)
+            self.recompute.zero_()  # state.disp_z is K p now
             residual = self._relative_residual(nk.S_VIOL, nk.S_RHS)
             checks[0] += 1
             if checks[0] > 1 and not residual < self.active_tol:
