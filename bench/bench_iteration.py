@@ -3,14 +3,17 @@
 For each grid size N, on the problem of bench_normal.py (paper pair, R = 10 um, delta_z = 1e-4 um,
 domain 4a):
 
-- normal: the Hertz normal solve (Polonsky-Keer) as the solver runs it by default; ms per
-  iteration; on CUDA side by side with the same solve replayed without CUDA graphs ("eager": a
-  Python launch per kernel and per transform) and with one convolution per iteration
-  ("1-conv": K p carried between projections, a host read of the projection count per iteration);
+- normal: the Hertz normal solve (Polonsky-Keer) as the solver runs it by default (CUDA: graphs,
+  one convolution per iteration, pruned cuFFT transforms); ms per iteration; on CUDA side by side
+  with the same solve in three alternatives, each differing from the default in one thing:
+  "eager" (no CUDA graphs: a Python launch per kernel and per transform), "2-conv" (K p
+  recomputed every iteration: two convolutions per iteration) and "2-D fft" (cuFFT's 2-D plans of
+  the whole padded grid instead of the pruned row and column plans);
 - floor1: one forward + one inverse transform of the padded 2N x 2N field by the FFT library
-  alone (``FFTBackend.library_transforms``: cuFFT's D2Z + Z2D with the cupy backend, without the
-  padding and cropping passes) plus one elementwise pass (a device copy of an N x N field): what
-  one normal iteration cannot go below (the issue's floor); ratio = normal / floor1;
+  alone (on CUDA cuFFT's 2-D D2Z + Z2D plans of the padded grid, as a user of the library would
+  call them; on the CPU the scipy backend's transforms, which skip the padding already), without
+  the padding and cropping passes, plus one elementwise pass (a device copy of an N x N field):
+  the issue's floor; ratio = normal / floor1;
 - coupled: one load step of the coupled problem (Tabor + von Mises, k_tau = 0.8, delta_x = half
   of Mindlin's delta_x_max) from the solved normal state: its inner iterations (normal and
   tangential CG) and ms per inner iteration; with --adhesion also the SMC law;
@@ -63,9 +66,19 @@ def _timed(device, fn, repeats):
     return best
 
 
-def floor_ms(model, pairs: int, repeats: int) -> float:
-    """``pairs`` forward + inverse transforms of the backend plus one N x N device copy [ms]."""
+def unpruned_fft(model):
+    """The model's FFT backend, or on CUDA's cupy backend a twin with 2-D plans of the whole padded
+    grid (same spectral layout, so it can stand in for the pruned one)."""
     fft = model.operator.fft
+    if fft.name != "cupy":
+        return fft
+    from warpcontact.fft.cupy_backend import CupyFFT
+
+    return CupyFFT(fft.ny, fft.nx, fft.device, fft.dtype, pruned=False)
+
+
+def floor_ms(model, pairs: int, repeats: int, fft) -> float:
+    """``pairs`` forward + inverse transforms of ``fft`` plus one N x N device copy [ms]."""
     field, out = model.field(), model.field()
     spec = fft.alloc_spectra(1)[0]
 
@@ -104,9 +117,6 @@ def bench(n, device, dtype, fft, repeats, adhesion: bool, compare_up_to: int = 2
         t = _timed(model.device, solve_normal, repeats)
         return info["normal"].iterations, 1e3 * t / info["normal"].iterations
 
-    if model.device.is_cuda and n <= compare_up_to:
-        row["eager_iters"], row["eager_ms"] = normal_ms(NormalSolver(model, use_graphs=False))
-        row["one_conv_iters"], row["one_conv_ms"] = normal_ms(NormalSolver(model, one_convolution=True))
     row["normal_iters"], row["normal_ms"] = normal_ms(NormalSolver(model))
     law = TaborVonMises(0.8, PAPER_PAIR.softer.yield_strength)
     adh = SMC(2e7, 2e7, 5e-12, 5e-12) if adhesion else None
@@ -124,11 +134,19 @@ def bench(n, device, dtype, fft, repeats, adhesion: bool, compare_up_to: int = 2
     c = info["coupled"]
     row.update(coupled_iters=c.iterations, coupled_turns=c.outer_iterations, coupled_s=t,
                coupled_ms=1e3 * t / max(c.iterations, 1), coupled_converged=bool(c.converged))
-    row["floor1_ms"] = floor_ms(model, 1, repeats)
-    row["floor3_ms"] = floor_ms(model, 3, repeats)
+    row["memory_MiB"] = (used_bytes(device) - (0 if device.is_cpu else base)) / 2**20
+    floor_fft = unpruned_fft(model)
+    if model.device.is_cuda and n <= compare_up_to:
+        row["eager_iters"], row["eager_ms"] = normal_ms(NormalSolver(model, use_graphs=False))
+        row["two_conv_iters"], row["two_conv_ms"] = normal_ms(NormalSolver(model, one_convolution=False))
+        if floor_fft is not model.operator.fft:
+            pruned, model.operator.fft = model.operator.fft, floor_fft
+            row["fft2d_iters"], row["fft2d_ms"] = normal_ms(NormalSolver(model))
+            model.operator.fft = pruned
+    row["floor1_ms"] = floor_ms(model, 1, repeats, floor_fft)
+    row["floor3_ms"] = floor_ms(model, 3, repeats, floor_fft)
     row["normal_ratio"] = row["normal_ms"] / row["floor1_ms"]
     row["coupled_ratio"] = row["coupled_ms"] / row["floor3_ms"]
-    row["memory_MiB"] = (used_bytes(device) - (0 if device.is_cpu else base)) / 2**20
     kind = "cpu" if device.is_cpu else "cuda"
     row["estimate_MiB"] = resources.estimate_bytes(n, dtype, kind, True, fft, states=2, adhesion=adhesion) / 2**20
     return row
@@ -143,7 +161,7 @@ def main():
     ap.add_argument("--repeats", type=int, default=2)
     ap.add_argument("--adhesion", action="store_true", help="the coupled step with the SMC law (2e7 Pa, 5e-12 m)")
     ap.add_argument("--compare-up-to", type=int, default=2048,
-                    help="largest N with the eager and one-convolution columns (CUDA; they take longest)")
+                    help="largest N with the eager, 2-conv and 2-D fft columns (CUDA)")
     ap.add_argument("--json")
     args = ap.parse_args()
     wp.config.quiet = True
@@ -153,15 +171,14 @@ def main():
     name = device.name if not device.is_cpu else (platform.processor() or platform.machine())
     print(f"# iteration vs FFT floor; device {device} ({name}), warp {wp.__version__}, fft {args.fft}, "
           f"{time.strftime('%Y-%m-%d')}; coupled step {'with' if args.adhesion else 'without'} adhesion")
-    print(f"{'N':>6} {'dtype':>8} {'it':>5} {'ms/it':>8} {'floor1':>7} {'ratio':>6} | {'eager':>7} {'1-conv':>7} {'ratio':>6} | "
+    print(f"{'N':>6} {'dtype':>8} {'it':>5} {'ms/it':>8} {'floor1':>7} {'ratio':>6} | {'eager':>7} {'2-conv':>7} {'2-D fft':>7} | "
           f"{'it':>6} {'turns':>5} {'ms/it':>8} {'floor3':>7} {'ratio':>6} {'step s':>8} | {'mem MiB':>8} {'est MiB':>8}")
     rows = []
     for n in sizes:
         for dtype in args.dtype:
             r = bench(n, device, dtype, args.fft, args.repeats, args.adhesion, args.compare_up_to)
             rows.append({"device": str(device), **r})
-            side = (f"{r['eager_ms']:>7.3f} {r['one_conv_ms']:>7.3f} {r['one_conv_ms'] / r['floor1_ms']:>6.2f}"
-                    if "eager_ms" in r else f"{'-':>7} {'-':>7} {'-':>6}")
+            side = " ".join(f"{r[k]:>7.3f}" if k in r else f"{'-':>7}" for k in ("eager_ms", "two_conv_ms", "fft2d_ms"))
             print(f"{n:>6} {dtype:>8} {r['normal_iters']:>5} {r['normal_ms']:>8.3f} {r['floor1_ms']:>7.3f} "
                   f"{r['normal_ratio']:>6.2f} | {side} | {r['coupled_iters']:>6} {r['coupled_turns']:>5} {r['coupled_ms']:>8.3f} "
                   f"{r['floor3_ms']:>7.3f} {r['coupled_ratio']:>6.2f} {r['coupled_s']:>8.3f} | {r['memory_MiB']:>8.0f} "

@@ -7,6 +7,8 @@
 #   TABLE2=1  warpcontact table2 (both columns) at 256 x 256 on cuda:0, timed (TABLE2_ARGS); into
 #             TABLE2_DIR (default $OUT/table2_gpu; a folder outside $OUT, kept while the machine is
 #             warm, lets the next call resume the table), copied to $OUT/table2_gpu
+#   PARTS=1   bench/iteration_parts.py on cuda:0 (PARTS_ARGS, default --sizes 1024 2048 4096)
+#   SCALE=1   bench/scale_check.py on cuda:0 (SCALE_ARGS, e.g. --sizes 8191 --dtype float64)
 #   FIGS=1    warpcontact figure for every examples/figure*.toml on cuda:0 (the paper's Figures 1 and 2)
 #   ADH=W     bench/adhesion_sensitivity.py on W CPU workers, in the background while the rest runs
 #             (its cells.jsonl is kept in $OUT/adh; a copy in bench_results/adh/ is resumed)
@@ -37,6 +39,14 @@ if [ "${ITER:-0}" = 1 ]; then
      | tee "$OUT/iter_gpu.log")
   (cd /tmp && timeout "${ITER_ADH_TIMEOUT:-200}" python3 "$ROOT/bench/bench_iteration.py" --device cuda:0 --adhesion ${ITER_ARGS:-} \
      --json "$OUT/iter_gpu_adh.json" 2>&1 | tee "$OUT/iter_gpu_adh.log")
+fi
+if [ "${PARTS:-0}" = 1 ]; then
+  (cd /tmp && timeout "${PARTS_TIMEOUT:-200}" python3 "$ROOT/bench/iteration_parts.py" --device cuda:0 \
+     ${PARTS_ARGS:---sizes 1024 2048 4096} 2>&1 | tee "$OUT/parts_gpu.log")
+fi
+if [ "${SCALE:-0}" = 1 ]; then
+  (cd /tmp && timeout "${SCALE_TIMEOUT:-300}" python3 "$ROOT/bench/scale_check.py" --device cuda:0 ${SCALE_ARGS:-} \
+     --json "$OUT/scale_gpu.json" 2>&1 | tee "$OUT/scale_gpu.log")
 fi
 if [ "${TABLE2:-0}" = 1 ]; then
   T2=${TABLE2_DIR:-$OUT/table2_gpu}

@@ -65,6 +65,14 @@ def parts(n, device, dtype):
         spectral.spectral_normal, dim=fft.spectral_shape, inputs=[op.influence, spec], device=m.device))
     out["inverse (library + crop)"] = timed_ms(m.device, lambda: fft.inverse(spec, st.disp_z))
     out["library forward + inverse"] = timed_ms(m.device, lambda: fft.library_transforms(st.pressure, spec))
+    if fft.name == "cupy":  # the two layouts of cuFFT side by side
+        from warpcontact.fft.cupy_backend import CupyFFT
+
+        other = CupyFFT(n, n, m.device, m.dtype, pruned=not fft.pruned)
+        label = "pruned" if other.pruned else "2-D"
+        out[f"library pair, {label} plans"] = timed_ms(m.device, lambda: other.library_transforms(st.pressure, spec))
+        out[f"forward + inverse, {label}"] = timed_ms(m.device, lambda: (other.forward(st.pressure, spec),
+                                                                         other.inverse(spec, st.disp_z)))
     out["normal_gap (reduce)"] = timed_ms(m.device, lambda: m.launch_reduce(
         nk.normal_gap, [m.initial_gap.flatten(), st.disp_z.flatten(), known, p, s.settings, s._cap], [g, s.sums]))
     out["normal_direction"] = timed_ms(m.device, lambda: wp.launch(
@@ -74,6 +82,11 @@ def parts(n, device, dtype):
     s.sums.fill_(0.0)  # tau = 0: the update leaves p as it is
     out["normal_update (reduce)"] = timed_ms(m.device, lambda: m.launch_reduce(
         nk.normal_update, [g, t, s._cap, s.settings], [p, s.sums]))
+    out["normal_displacement_step (carry)"] = timed_ms(m.device, lambda: wp.launch(
+        nk.normal_displacement_step, dim=m.n_cells, inputs=[r, s.sums, s.settings], outputs=[st.disp_z.flatten()],
+        device=m.device))
+    out["normal_recompute_flag"] = timed_ms(m.device, lambda: wp.launch(
+        nk.normal_recompute_flag, dim=1, inputs=[s.sums, s.scalars, s.exact_every], outputs=[s.recompute], device=m.device))
     out["cg_advance + zero sums"] = timed_ms(m.device, lambda: (s.sums.zero_(), wp.launch(
         reduce.cg_advance, dim=1, inputs=[s.sums, s.scalars], outputs=[s.history], device=m.device)))
     return out
@@ -91,13 +104,14 @@ def main():
     print(f"# parts of a normal iteration; device {device} ({device.name}), {args.dtype}, {time.strftime('%Y-%m-%d')}")
     for n in args.sizes:
         out = parts(n, device, args.dtype)
-        # an iteration: 2 x (forward + product + inverse) + the five kernels (1-conv: one convolution less)
+        # an iteration: 1 or 2 x (forward + product + inverse) + the kernels
         conv = out["forward (pad + library)"] + out["spectral product"] + out["inverse (library + crop)"]
-        rest = sum(v for k, v in out.items() if "reduce" in k or "direction" in k or "cg_advance" in k)
+        rest = sum(v for k, v in out.items() if k.startswith(("normal_", "cg_advance")))
         print(f"N = {n}: one convolution {conv:.3f} ms, the rest {rest:.3f} ms, sum of an iteration "
-              f"{2 * conv + rest:.3f} ms (library pair {out['library forward + inverse']:.3f} ms)")
+              f"{conv + rest:.3f} ms with one convolution, {2 * conv + rest:.3f} ms with two "
+              f"(library pair {out['library forward + inverse']:.3f} ms)")
         for k, v in out.items():
-            print(f"  {k:<28} {v:8.3f} ms")
+            print(f"  {k:<34} {v:8.3f} ms")
 
 
 if __name__ == "__main__":

@@ -7,7 +7,8 @@ The estimate is counted from the allocations in the code, not fitted:
   in complex entries of the model's float type (scipy and cupy: (2n, n + 1); warp: (L/2 + 1, L),
   L the smallest power of two >= 2n), plus the FFT backend's work buffers: warp's ``_rows_q`` (one
   spectrum), ``_half_r`` ((n, L/2 + 1) complex) and ``_row_scale`` (L/2 + 1 reals); cupy's two
-  (2n, 2n) real padded buffers.
+  (n, 2n) real row buffers (pruned layout) or two (2n, 2n) real padded buffers (2-D plans;
+  ``cupy_backend.prune_by_default`` says which).
 - ``ContactState``: ``len(ContactState.FIELDS)`` fields and the int32 ``status``.
 - ``NormalSolver``: 3 fields (direction, response, no_displacement) and its scalars (sums,
   scalars, a residual history of max_iter + 1); ``ContactSolver``: 9 fields (known_z/x/y,
@@ -158,7 +159,9 @@ def breakdown(n: int, dtype="float64", device_kind="cpu", friction: bool = True,
         half = _padded_length(n) // 2 + 1
         fft_work = spectrum + n * half * cplx + half * real
     elif fft == "cupy":
-        fft_work = 2 * (2 * n) ** 2 * real
+        from .fft.cupy_backend import prune_by_default
+
+        fft_work = 2 * (1 if prune_by_default(n, n, wdt) else 2) * n * (2 * n) * real
     n_fields = 1 + states * len(ContactState.FIELDS) + NORMAL_SOLVER_FIELDS + CONTACT_SOLVER_FIELDS
     n_scalars = nk.N_SUMS + nk.N_SCALARS + (max_iter + 1) + CONTACT_SOLVER_SCALARS
     if friction:

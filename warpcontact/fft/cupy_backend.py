@@ -1,13 +1,29 @@
 """cuFFT on CUDA devices, through the library that CuPy ships: the default backend there.
 
-The transforms are cuFFT 2-D plans (real-to-complex forward, complex-to-real inverse) of the
-(2 ny, 2 nx) padded grid, made once per grid and called through ``ctypes`` on Warp's stream, into
+The transforms are cuFFT plans of the (2 ny, 2 nx) padded grid (real-to-complex forward,
+complex-to-real inverse), made once per grid and called through ``ctypes`` on Warp's stream, into
 buffers allocated once as Warp arrays. Nothing is allocated and no stream is synchronised per
 transform, so the solvers' iterations, transforms included, can be captured in CUDA graphs.
 CuPy is used only to load its cuFFT (``available()`` and ``_cufft_library``); CuPy's own FFT
 functions allocate their outputs and padded copies on every call and cannot be captured.
 
-Per transform:
+Two layouts of the same transforms (``pruned``):
+
+Pruned: the zero padding is not transformed. Forward: ``pad_rows_clear_spectrum`` copies the
+(ny, nx) field into the left half of an (ny, 2 nx) row buffer whose right half stays zero, and
+zeros the bottom half of the spectrum; the row D2Z (R2C) transforms only those ny rows, into the
+top half of the spectrum; the column Z2Z (C2C) transforms its nx + 1 columns in place. Inverse:
+the column transform in place, the row Z2D (C2R) only on the top ny rows, into a second
+(ny, 2 nx) row buffer, and ``crop_field`` keeps its left half, scaled. The row stages do half the
+rows of a 2-D plan; the column stages are the same. (Columns out of place from a buffer with a
+zero bottom half instead of the zeroing pass were slower: 1.80 against 1.39 ms at n = 4096.)
+
+Which is faster depends on the size (H100, cuFFT's forward + inverse alone, ms; rerun with
+``bench/iteration_parts.py``, which times both layouts): float64 pruned / 2-D 0.113 / 0.131 at
+n = 1024, 0.505 / 0.576 at 2048, 2.69 / 2.98 at 4096; float32 0.057 / 0.062, 0.258 / 0.295,
+1.24 / 1.14. The default (:func:`prune_by_default`) is pruned except float32 from n = 4096.
+
+Unpruned (``pruned=False``, one 2-D plan each way):
 
 - forward: ``pad_field`` copies the (ny, nx) field into the corner of a (2 ny, 2 nx) buffer whose
   other entries stay zero (nothing else writes there), then D2Z (R2C in float32) into the
@@ -15,8 +31,8 @@ Per transform:
 - inverse: Z2D (C2R) of the spectrum (overwritten, as cuFFT's complex-to-real transforms do) into
   a second (2 ny, 2 nx) buffer, then ``crop_field`` keeps its (ny, nx) corner times 1 / (4 nx ny).
 
-Memory: the two padded buffers (four spectra's worth of reals, about two spectra) and one work
-area shared by both plans.
+Memory: pruned, two (ny, 2 nx) real row buffers (one spectrum's worth); 2-D, two (2 ny, 2 nx)
+real padded buffers (two spectra's worth); and one work area shared by the plans.
 """
 
 from __future__ import annotations
@@ -27,11 +43,12 @@ import ctypes.util
 import numpy as np
 import warp as wp
 
-from ..kernels.fft import crop_field, pad_field
+from ..kernels.fft import crop_field, pad_field, pad_rows_clear_spectrum
 from .base import FFTBackend
 
-# cufftType
-_R2C, _C2R, _D2Z, _Z2D = 0x2A, 0x2C, 0x6A, 0x6C
+# cufftType, and the directions of the complex-to-complex transforms
+_R2C, _C2R, _C2C, _D2Z, _Z2D, _Z2Z = 0x2A, 0x2C, 0x29, 0x6A, 0x6C, 0x69
+_FORWARD, _INVERSE = -1, 1
 _LIB = None
 
 
@@ -71,13 +88,24 @@ def _cufft_library():
     lib.cufftCreate.argtypes = [handle_p]
     lib.cufftSetAutoAllocation.argtypes = [ctypes.c_int, ctypes.c_int]
     lib.cufftMakePlan2d.argtypes = [ctypes.c_int, ctypes.c_int, ctypes.c_int, ctypes.c_int, size_p]
+    int_p = ctypes.POINTER(ctypes.c_int)
+    lib.cufftMakePlanMany.argtypes = [ctypes.c_int, ctypes.c_int, int_p, int_p, ctypes.c_int, ctypes.c_int, int_p,
+                                      ctypes.c_int, ctypes.c_int, ctypes.c_int, ctypes.c_int, size_p]
     lib.cufftSetWorkArea.argtypes = [ctypes.c_int, ctypes.c_void_p]
     lib.cufftSetStream.argtypes = [ctypes.c_int, ctypes.c_void_p]
     lib.cufftDestroy.argtypes = [ctypes.c_int]
     for name in ("cufftExecD2Z", "cufftExecZ2D", "cufftExecR2C", "cufftExecC2R"):
         getattr(lib, name).argtypes = [ctypes.c_int, ctypes.c_void_p, ctypes.c_void_p]
+    for name in ("cufftExecZ2Z", "cufftExecC2C"):
+        getattr(lib, name).argtypes = [ctypes.c_int, ctypes.c_void_p, ctypes.c_void_p, ctypes.c_int]
     _LIB = lib
     return lib
+
+
+def prune_by_default(ny: int, nx: int, dtype) -> bool:
+    """The faster layout as measured on the H100 (module docstring): pruned, except float32 from
+    n = 4096 (where cuFFT's 2-D plans win by 9 %)."""
+    return dtype == wp.float64 or max(ny, nx) < 4096
 
 
 def _check(result: int, what: str):
@@ -86,38 +114,75 @@ def _check(result: int, what: str):
 
 
 class CupyFFT(FFTBackend):
+    """cuFFT plans on one CUDA device (see the module docstring).
+
+    Args:
+        pruned: skip the transforms of the zero padding (row stages on ny rows, not 2 ny);
+            False: one 2-D plan each way; None: :func:`prune_by_default`.
+    """
+
     name = "cupy"
 
-    def __init__(self, ny, nx, device, dtype):
+    def __init__(self, ny, nx, device, dtype, pruned: bool | None = None):
         super().__init__(ny, nx, device, dtype)
         if not self.device.is_cuda:
             raise ValueError(f"fft: the cupy backend runs on CUDA devices only, not on {self.device}")
         self._lib = lib = _cufft_library()
+        self.pruned = prune_by_default(ny, nx, dtype) if pruned is None else bool(pruned)
         double = dtype == wp.float64
-        self._exec_forward = lib.cufftExecD2Z if double else lib.cufftExecR2C
-        self._exec_inverse = lib.cufftExecZ2D if double else lib.cufftExecC2R
+        self._real_to_complex = lib.cufftExecD2Z if double else lib.cufftExecR2C
+        self._complex_to_real = lib.cufftExecZ2D if double else lib.cufftExecC2R
+        self._complex_to_complex = lib.cufftExecZ2Z if double else lib.cufftExecC2C
+        r2c, c2r, c2c = (_D2Z, _Z2D, _Z2Z) if double else (_R2C, _C2R, _C2C)
         self._scale = dtype(1.0 / (4.0 * self.nx * self.ny))  # typed: a kernel argument
+        ny2, nx2, nxh = 2 * self.ny, 2 * self.nx, self.nx + 1
+        self._plans = []
+        sizes = []
         with wp.ScopedDevice(self.device):
-            self._padded_in = wp.zeros(self.padded_shape, dtype=dtype)  # zero outside the field's corner, always
-            self._padded_out = wp.zeros(self.padded_shape, dtype=dtype)
-            self._plans = []
-            sizes = []
-            for kind in ((_D2Z, _Z2D) if double else (_R2C, _C2R)):
-                plan, size = ctypes.c_int(0), ctypes.c_size_t(0)
-                _check(lib.cufftCreate(ctypes.byref(plan)), "cufftCreate")
-                self._plans.append(plan.value)
-                _check(lib.cufftSetAutoAllocation(plan.value, 0), "cufftSetAutoAllocation")
-                _check(lib.cufftMakePlan2d(plan.value, 2 * self.ny, 2 * self.nx, kind, ctypes.byref(size)), "cufftMakePlan2d")
-                sizes.append(size.value)
+            if self.pruned:
+                self._rows_in = wp.zeros((self.ny, nx2), dtype=dtype)  # right half zero, always
+                self._rows_out = wp.zeros((self.ny, nx2), dtype=dtype)
+                # rows: length 2 nx, ny of them, contiguous; columns: length 2 ny, nx + 1 of them,
+                # stride nx + 1 between entries and 1 between columns
+                self._row_forward = self._plan_many(sizes, nx2, 1, nx2, 1, nxh, r2c, self.ny)
+                self._column_plan = self._plan_many(sizes, ny2, nxh, 1, nxh, 1, c2c, nxh)
+                self._row_inverse = self._plan_many(sizes, nx2, 1, nxh, 1, nx2, c2r, self.ny)
+            else:
+                self._padded_in = wp.zeros(self.padded_shape, dtype=dtype)  # zero outside the field's corner, always
+                self._padded_out = wp.zeros(self.padded_shape, dtype=dtype)
+                self._forward_plan = self._plan_2d(sizes, r2c)
+                self._inverse_plan = self._plan_2d(sizes, c2r)
             # 16-byte entries: the work area of a large grid has more bytes than an int32 shape holds
             self._work = wp.empty(max(1, -(-max(sizes) // 16)), dtype=wp.vec4f)
-            #: bytes of cuFFT's work area (shared by both plans)
+            #: bytes of cuFFT's work area (shared by the plans)
             self.work_bytes = max(sizes)
             stream = wp.get_stream(self.device).cuda_stream
             for plan in self._plans:
                 _check(lib.cufftSetWorkArea(plan, ctypes.c_void_p(self._work.ptr)), "cufftSetWorkArea")
                 _check(lib.cufftSetStream(plan, ctypes.c_void_p(stream)), "cufftSetStream")
-        self._forward_plan, self._inverse_plan = self._plans
+
+    def _new_plan(self) -> int:
+        plan = ctypes.c_int(0)
+        _check(self._lib.cufftCreate(ctypes.byref(plan)), "cufftCreate")
+        self._plans.append(plan.value)
+        _check(self._lib.cufftSetAutoAllocation(plan.value, 0), "cufftSetAutoAllocation")
+        return plan.value
+
+    def _plan_2d(self, sizes: list, kind: int) -> int:
+        plan, size = self._new_plan(), ctypes.c_size_t(0)
+        _check(self._lib.cufftMakePlan2d(plan, 2 * self.ny, 2 * self.nx, kind, ctypes.byref(size)), "cufftMakePlan2d")
+        sizes.append(size.value)
+        return plan
+
+    def _plan_many(self, sizes: list, length, in_stride, in_dist, out_stride, out_dist, kind, batch) -> int:
+        """A batch of 1-D transforms of ``length`` points (cufftMakePlanMany, advanced layout)."""
+        plan, size = self._new_plan(), ctypes.c_size_t(0)
+        n = (ctypes.c_int * 1)(length)
+        embed = (ctypes.c_int * 1)(length)  # ignored for 1-D transforms, but must be non-null
+        _check(self._lib.cufftMakePlanMany(plan, 1, n, embed, in_stride, in_dist, embed, out_stride, out_dist,
+                                           kind, batch, ctypes.byref(size)), "cufftMakePlanMany")
+        sizes.append(size.value)
+        return plan
 
     def __del__(self):
         lib = getattr(self, "_lib", None)
@@ -134,18 +199,39 @@ class CupyFFT(FFTBackend):
     def spectrum_of_padded(self, padded):
         return np.fft.rfft2(np.asarray(padded, dtype=np.float64))
 
-    def library_transforms(self, field, spectrum):
-        """cuFFT's D2Z and Z2D (R2C and C2R) of the padded buffers alone (``field`` unused)."""
+    def _transforms_forward(self, spectrum):
         with wp.ScopedDevice(self.device):
-            _check(self._exec_forward(self._forward_plan, self._padded_in.ptr, spectrum.ptr), "forward transform")
-            _check(self._exec_inverse(self._inverse_plan, spectrum.ptr, self._padded_out.ptr), "inverse transform")
+            if self.pruned:  # the bottom half of the spectrum is zero (see forward)
+                _check(self._real_to_complex(self._row_forward, self._rows_in.ptr, spectrum.ptr), "row transform")
+                _check(self._complex_to_complex(self._column_plan, spectrum.ptr, spectrum.ptr, _FORWARD),
+                       "column transform")
+            else:
+                _check(self._real_to_complex(self._forward_plan, self._padded_in.ptr, spectrum.ptr), "forward transform")
+
+    def _transforms_inverse(self, spectrum):
+        with wp.ScopedDevice(self.device):
+            if self.pruned:
+                _check(self._complex_to_complex(self._column_plan, spectrum.ptr, spectrum.ptr, _INVERSE),
+                       "inverse column transform")
+                _check(self._complex_to_real(self._row_inverse, spectrum.ptr, self._rows_out.ptr), "inverse row transform")
+            else:
+                _check(self._complex_to_real(self._inverse_plan, spectrum.ptr, self._padded_out.ptr), "inverse transform")
+
+    def library_transforms(self, field, spectrum):
+        """cuFFT's forward and inverse transforms alone, without the padding and cropping passes
+        (``field`` unused; pruned: the bottom half of ``spectrum`` must be zero, as ``forward``
+        leaves it, for the result to be the padded field's)."""
+        self._transforms_forward(spectrum)
+        self._transforms_inverse(spectrum)
 
     def forward(self, field, spectrum):
-        self.launches.launch(pad_field, (self.ny, self.nx), [field], [self._padded_in])
-        with wp.ScopedDevice(self.device):
-            _check(self._exec_forward(self._forward_plan, self._padded_in.ptr, spectrum.ptr), "forward transform")
+        if self.pruned:
+            self.launches.launch(pad_rows_clear_spectrum, (self.ny, self.nx + 1), [field], [self._rows_in, spectrum])
+        else:
+            self.launches.launch(pad_field, (self.ny, self.nx), [field], [self._padded_in])
+        self._transforms_forward(spectrum)
 
     def inverse(self, spectrum, field):
-        with wp.ScopedDevice(self.device):
-            _check(self._exec_inverse(self._inverse_plan, spectrum.ptr, self._padded_out.ptr), "inverse transform")
-        self.launches.launch(crop_field, (self.ny, self.nx), [self._padded_out, self._scale], [field])
+        self._transforms_inverse(spectrum)
+        padded = self._rows_out if self.pruned else self._padded_out
+        self.launches.launch(crop_field, (self.ny, self.nx), [padded, self._scale], [field])

@@ -1,0 +1,50 @@
+"""The cupy backend (cuFFT plans) against numpy's DC-FFT, in both of its layouts: the pruned row
+and column plans (the default, which skip the transforms of the zero padding) and the 2-D plans of
+the whole padded grid. CUDA only: one skip where there is no CUDA device with CuPy."""
+
+import numpy as np
+import pytest
+import warp as wp
+
+from warpcontact.fft import cupy_backend
+
+wp.config.quiet = True
+
+if wp.get_cuda_device_count() == 0 or not cupy_backend.available():
+    pytest.skip("no CUDA device with CuPy here", allow_module_level=True)
+
+pytestmark = pytest.mark.gpu
+
+from test_fft_warp_backend import _backend_convolution, _inputs, _numpy_dc_fft, _rel_err, _tol  # noqa: E402
+
+SHAPES = [(8, 8), (9, 9), (25, 25), (64, 64), (12, 20), (33, 16)]
+
+
+@pytest.mark.parametrize("shape", SHAPES, ids=lambda s: f"{s[0]}x{s[1]}")
+@pytest.mark.parametrize("dtype", [wp.float64, wp.float32], ids=["f64", "f32"])
+@pytest.mark.parametrize("pruned", [True, False], ids=["pruned", "2d"])
+def test_convolution_matches_numpy(pruned, dtype, shape):
+    ny, nx = shape
+    field, kernel = _inputs(ny, nx, seed=ny + nx)
+    fft = cupy_backend.CupyFFT(ny, nx, "cuda:0", dtype, pruned=pruned)
+    got = _backend_convolution(fft, field, kernel)
+    want = _numpy_dc_fft(field.astype(fft.np_real).astype(np.float64), kernel)
+    err = _rel_err(got, want)
+    assert err < _tol(dtype), f"cupy {'pruned' if pruned else '2-D'} {shape} {dtype.__name__}: relative error {err:.2e}"
+
+
+def test_forward_spectra_of_both_layouts_agree():
+    """The two layouts give the same spectrum of the padded field, (2 ny, nx + 1), numpy's rfft2
+    layout, to float64 rounding: the operator's influence spectra serve either."""
+    ny, nx = 24, 40
+    field, _ = _inputs(ny, nx, seed=3)
+    x = wp.array(field, dtype=wp.float64, device="cuda:0")
+    spectra = []
+    for pruned in (True, False):
+        fft = cupy_backend.CupyFFT(ny, nx, "cuda:0", wp.float64, pruned=pruned)
+        s = fft.alloc_spectra(1)[0]
+        fft.forward(x, s)
+        spectra.append(s.numpy().view(np.complex128).reshape(s.shape))
+    want = np.fft.rfft2(field, s=(2 * ny, 2 * nx))
+    for s in spectra:
+        assert np.abs(s - want).max() < 1e-12 * np.abs(want).max()
