@@ -7,8 +7,10 @@ domain 4a):
   one convolution per iteration, pruned cuFFT transforms); ms per iteration; on CUDA side by side
   with the same solve in three alternatives, each differing from the default in one thing:
   "eager" (no CUDA graphs: a Python launch per kernel and per transform), "2-conv" (K p
-  recomputed every iteration: two convolutions per iteration) and "2-D fft" (cuFFT's 2-D plans of
-  the whole padded grid instead of the pruned row and column plans);
+  recomputed every iteration: two convolutions per iteration), "strict" (K p recomputed after
+  every projection: ``NormalSolver.deferral = 0``) and "2-D fft" (cuFFT's 2-D plans of the whole
+  padded grid instead of the pruned row and column plans); the iteration counts of each are in
+  the JSON;
 - floor1: one forward + one inverse transform of the padded 2N x 2N field by the FFT library
   alone (on CUDA cuFFT's 2-D D2Z + Z2D plans of the padded grid, as a user of the library would
   call them; on the CPU the scipy backend's transforms, which skip the padding already), without
@@ -139,6 +141,9 @@ def bench(n, device, dtype, fft, repeats, adhesion: bool, compare_up_to: int = 2
     if model.device.is_cuda and n <= compare_up_to:
         row["eager_iters"], row["eager_ms"] = normal_ms(NormalSolver(model, use_graphs=False))
         row["two_conv_iters"], row["two_conv_ms"] = normal_ms(NormalSolver(model, one_convolution=False))
+        strict = NormalSolver(model)
+        strict.deferral = 0.0
+        row["strict_iters"], row["strict_ms"] = normal_ms(strict)
         if floor_fft is not model.operator.fft:
             pruned, model.operator.fft = model.operator.fft, floor_fft
             row["fft2d_iters"], row["fft2d_ms"] = normal_ms(NormalSolver(model))
@@ -171,14 +176,14 @@ def main():
     name = device.name if not device.is_cpu else (platform.processor() or platform.machine())
     print(f"# iteration vs FFT floor; device {device} ({name}), warp {wp.__version__}, fft {args.fft}, "
           f"{time.strftime('%Y-%m-%d')}; coupled step {'with' if args.adhesion else 'without'} adhesion")
-    print(f"{'N':>6} {'dtype':>8} {'it':>5} {'ms/it':>8} {'floor1':>7} {'ratio':>6} | {'eager':>7} {'2-conv':>7} {'2-D fft':>7} | "
+    print(f"{'N':>6} {'dtype':>8} {'it':>5} {'ms/it':>8} {'floor1':>7} {'ratio':>6} | {'eager':>7} {'2-conv':>7} {'strict':>7} {'2-D fft':>7} | "
           f"{'it':>6} {'turns':>5} {'ms/it':>8} {'floor3':>7} {'ratio':>6} {'step s':>8} | {'mem MiB':>8} {'est MiB':>8}")
     rows = []
     for n in sizes:
         for dtype in args.dtype:
             r = bench(n, device, dtype, args.fft, args.repeats, args.adhesion, args.compare_up_to)
             rows.append({"device": str(device), **r})
-            side = " ".join(f"{r[k]:>7.3f}" if k in r else f"{'-':>7}" for k in ("eager_ms", "two_conv_ms", "fft2d_ms"))
+            side = " ".join(f"{r[k]:>7.3f}" if k in r else f"{'-':>7}" for k in ("eager_ms", "two_conv_ms", "strict_ms", "fft2d_ms"))
             print(f"{n:>6} {dtype:>8} {r['normal_iters']:>5} {r['normal_ms']:>8.3f} {r['floor1_ms']:>7.3f} "
                   f"{r['normal_ratio']:>6.2f} | {side} | {r['coupled_iters']:>6} {r['coupled_turns']:>5} {r['coupled_ms']:>8.3f} "
                   f"{r['floor3_ms']:>7.3f} {r['coupled_ratio']:>6.2f} {r['coupled_s']:>8.3f} | {r['memory_MiB']:>8.0f} "

@@ -86,7 +86,9 @@ def parts(n, device, dtype):
         nk.normal_displacement_step, dim=m.n_cells, inputs=[r, s.sums, s.settings], outputs=[st.disp_z.flatten()],
         device=m.device))
     out["normal_recompute_flag"] = timed_ms(m.device, lambda: wp.launch(
-        nk.normal_recompute_flag, dim=1, inputs=[s.sums, s.scalars, s.exact_every], outputs=[s.recompute], device=m.device))
+        nk.normal_recompute_flag, dim=1, inputs=[s.sums, s.scalars, s.settings, s.exact_every, s._column_norm,
+                                                 m.scalar(s.deferral), s.deferred],
+        outputs=[s.recompute], device=m.device))
     out["cg_advance + zero sums"] = timed_ms(m.device, lambda: (s.sums.zero_(), wp.launch(
         reduce.cg_advance, dim=1, inputs=[s.sums, s.scalars], outputs=[s.history], device=m.device)))
     return out

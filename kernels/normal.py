@@ -25,7 +25,7 @@ from .reduce import S_RESTART as S_IOL  # cells that re-enter contact (or leave 
 
 # slots of ``sums`` (0-2 and 5 shared with kernels/reduce.py: g^2 on the free set, violation,
 # right-hand side, re-entries)
-S_CORRECTED = wp.constant(6)  # cells the projection changed (the step's K t no longer gives K p)
+S_CORRECTION = wp.constant(6)  # sum |p - (p_old - tau t)|: what the projection changed, which K t misses
 N_SUMS = 7
 
 
@@ -171,11 +171,10 @@ def normal_update(
             elif gap[i] < zero:
                 p = wp.min(-tau * gap[i], pressure_cap)
                 count += type(zero)(1.0)
-            if p != unprojected:
-                corrected += type(zero)(1.0)
+            corrected += wp.abs(p - unprojected)
             pressure[i] = p
     block_add(sums, S_IOL, count)
-    block_add(sums, S_CORRECTED, corrected)
+    block_add(sums, S_CORRECTION, corrected)
 
 
 
@@ -191,16 +190,32 @@ def normal_displacement_step(response: wp.array(dtype=Any), sums: wp.array(dtype
 
 
 @wp.kernel
-def normal_recompute_flag(sums: wp.array(dtype=Any), scalars: wp.array(dtype=Any), exact_every: int,
+def normal_recompute_flag(sums: wp.array(dtype=Any), scalars: wp.array(dtype=Any), settings: wp.array(dtype=Any),
+                          exact_every: int, column_norm: Any, deferral: Any, deferred: wp.array(dtype=Any),
                           recompute: wp.array(dtype=wp.int32)):
-    """One thread, end of an iteration that carried u = K p: recompute K p at the start of the
-    next iteration (``recompute[0] = 1``) if the projection changed a cell (then the carried u
-    misses that change) or every ``exact_every`` iterations (rounding)."""
-    zero = sums[S_CORRECTED] - sums[S_CORRECTED]
-    if sums[S_CORRECTED] > zero or int(scalars[C_ITER]) % exact_every == 0:
+    """One thread, end of an iteration that carried u = K p (as u - tau K t): whether to recompute
+    K p at the start of the next iteration (``recompute[0] = 1``).
+
+    The carried u misses K c, c the changes the projections made since the last recompute; their
+    L1 norms add up in ``deferred[0]``, and ||K c||_2 <= ``column_norm`` * that (the 2-norm of
+    one column of K bounds each cell's share). Recompute when that bound exceeds ``deferral``
+    times the violation the iteration started from (the carried gap's error stays a fraction of
+    what the iteration corrects), when a change comes near convergence (relative residual under
+    4 tol: a converged iterate must be judged on the exact gap), and every ``exact_every``
+    iterations (rounding).
+    """
+    zero = sums[S_VIOL] - sums[S_VIOL]
+    missed = deferred[0] + sums[S_CORRECTION]
+    bound = column_norm * missed
+    tol = settings[P_TOL]
+    near = sums[S_VIOL] <= type(zero)(16.0) * tol * tol * sums[S_RHS]
+    if (bound * bound > deferral * deferral * sums[S_VIOL] or (near and missed > zero)
+            or int(scalars[C_ITER]) % exact_every == 0):
         recompute[0] = 1
+        deferred[0] = zero
     else:
         recompute[0] = 0
+        deferred[0] = missed
 
 
 # slots of the first guess's sums (NormalSolver.guess_sums)

@@ -43,12 +43,19 @@ class ElasticOperator:
         host = host.reshape(len(KERNELS), *self.fft.spectral_shape, 2)
         self.influence = wp.array(host, dtype=self.fft.complex_dtype, device=device)
         self._self_coefficients = {k: float(coeffs[k][0, 0] * scale) for k in KERNELS}
+        # (np.linalg.norm: a dot product of the flattened view, no temporary array of the grid)
+        self._column_norms = {k: float(np.linalg.norm(coeffs[k]) * abs(scale)) for k in KERNELS}
         self._spectra = self.fft.alloc_spectra(3)
         self._buf = [self._spectra[i] for i in range(3)]
 
     def self_coefficient(self, kernel: str) -> float:
         """Displacement of a cell under its own unit traction, scaled units (kernel in KERNELS)."""
         return self._self_coefficients[kernel]
+
+    def column_norm(self, kernel: str) -> float:
+        """2-norm of the displacements one cell's unit traction causes over the padded grid, scaled
+        units: ||K e_j||_2 <= this for every cell j, so ||K c||_2 <= this * ||c||_1."""
+        return self._column_norms[kernel]
 
     def normal(self, pressure: wp.array2d, displacement: wp.array2d):
         """displacement <- K_zz pressure (no coupling)."""

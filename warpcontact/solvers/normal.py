@@ -67,6 +67,11 @@ class NormalSolver(ProjectedCG):
         self.recompute = wp.zeros(1, dtype=wp.int32, device=model.device)
         #: iterations between exact recomputations of K p in the one-convolution mode
         self.exact_every = 50
+        #: recompute K p once the bound on what the carried u misses exceeds this fraction of the
+        #: violation (``kernels/normal.py``, ``normal_recompute_flag``); 0: after every projection
+        self.deferral = 0.1
+        self._column_norm = model.scalar(model.operator.column_norm("zz"))
+        self.deferred = model.scalars(1)
 
     def _gap(self, state, known, exact: bool = True):
         """state.disp_z <- K p (unless ``exact`` is False: then state.disp_z already holds it);
@@ -97,15 +102,15 @@ class NormalSolver(ProjectedCG):
         self._initial_guess(state, known)
         p, g, t, r = (a.flatten() for a in (state.pressure, state.gap, self.direction, self.response))
         self.direction.zero_()  # no leftover from an earlier (possibly failed) solve
-        # One convolution per iteration: u = K p is carried as u - tau K t while no cell is
-        # projected, and recomputed (a second convolution) at the start of the iteration after a
-        # projection and every ``exact_every`` iterations (rounding). The device decides
+        # One convolution per iteration: u = K p is carried as u - tau K t, and recomputed (a
+        # second convolution, at the start of the next iteration) once what the projections
+        # changed since the last recompute may matter (``deferral``), near convergence after a
+        # projection, and every ``exact_every`` iterations (rounding). The device decides
         # (``self.recompute``, read by a conditional node of the captured graph), so the host
         # never waits for it.
         # mode[0]: carry K p incrementally; switched off for the rest of the solve as soon as an
         # exact check contradicts the carried displacement (the carried u said "converged", the
-        # recomputed one does not: rounding or an undetected projection), which then behaves
-        # exactly like the two-convolution iteration.
+        # recomputed one does not), which then behaves exactly like the two-convolution iteration.
         mode = [self.one_convolution]
         arrays = (state.pressure.ptr, state.gap.ptr, state.disp_z.ptr, known.ptr)
 
@@ -126,7 +131,9 @@ class NormalSolver(ProjectedCG):
                          outputs=[state.disp_z.flatten()])
             m.launch(reduce.cg_advance, dim=1, inputs=[self.sums, self.scalars], outputs=[self.history])
             if carry:
-                m.launch(nk.normal_recompute_flag, dim=1, inputs=[self.sums, self.scalars, self.exact_every],
+                m.launch(nk.normal_recompute_flag, dim=1,
+                         inputs=[self.sums, self.scalars, self.settings, self.exact_every, self._column_norm,
+                                 m.scalar(self.deferral), self.deferred],
                          outputs=[self.recompute])
 
         def iteration():
@@ -138,6 +145,7 @@ class NormalSolver(ProjectedCG):
             self.sums.zero_()
             self._gap(state, known)
             self.recompute.zero_()  # state.disp_z is K p now
+            self.deferred.zero_()
             residual = self._relative_residual(nk.S_VIOL, nk.S_RHS)
             checks[0] += 1
             if checks[0] > 1 and not residual < self.active_tol:
