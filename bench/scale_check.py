@@ -8,7 +8,7 @@ step, and prints the device memory in use (CUDA: total - free, less the baseline
 model) against the estimate, with the iterations and times. A grid the estimate says will not
 fit is refused by ``resources.check_fits`` before anything is allocated: the message is printed.
 
-    python bench/scale_check.py --device cuda:0 --sizes 8192 --dtype float64 --json scale.json
+    python bench/scale_check.py --device cuda:0 --sizes 8191 --dtype float64 --max-turns 3 --json scale.json
     python bench/scale_check.py --device cpu --sizes 64 128                    # a dry run here
 """
 
@@ -42,7 +42,7 @@ def used_bytes(device) -> int:
     return int(device.total_memory - device.free_memory) if device.is_cuda else 0
 
 
-def run(n, device, dtype, fft) -> dict:
+def run(n, device, dtype, fft, max_turns: int, max_iter: int) -> dict:
     row = {"n": n, "dtype": dtype}
     try:
         row["estimate_GiB"] = resources.check_fits(n, dtype, device, True, fft, adhesion=True) / 2**30
@@ -53,7 +53,8 @@ def run(n, device, dtype, fft) -> dict:
     t0 = time.perf_counter()
     model = ContactModel(PAPER_PAIR, Sphere(R, "paraboloid"), Grid(n, 4 * A), device=device, dtype=dtype, fft=fft)
     law = TaborVonMises(0.8, PAPER_PAIR.softer.yield_strength)
-    solver = ContactSolver(model, law, adhesion=SMC(SIGMA_MAX, TAU_MAX, DELTA_N, DELTA_T))
+    solver = ContactSolver(model, law, adhesion=SMC(SIGMA_MAX, TAU_MAX, DELTA_N, DELTA_T), max_outer=max_turns,
+                           max_iter=max_iter)
     state = ContactState(model)
     row["setup_s"] = time.perf_counter() - t0
     print(f"  n {n} {dtype}: set-up {row['setup_s']:.1f} s, {(used_bytes(device) - base) / 2**30:.2f} GiB in use",
@@ -65,9 +66,10 @@ def run(n, device, dtype, fft) -> dict:
         wp.synchronize_device(device)
         row[f"{name}_s"] = time.perf_counter() - t0
         row[f"{name}_iterations"] = info.iterations
+        row[f"{name}_turns"] = info.outer_iterations
         row[f"{name}_converged"] = bool(info.converged)
         print(f"  n {n} {dtype}: {name} step {row[f'{name}_s']:.1f} s, {info.iterations} iterations, "
-              f"converged {info.converged}", flush=True)
+              f"{info.outer_iterations} turns, converged {info.converged}", flush=True)
     if device.is_cuda:
         row["memory_GiB"] = (used_bytes(device) - base) / 2**30
     row["fft"] = model.fft_name
@@ -80,6 +82,9 @@ def main():
     ap.add_argument("--sizes", type=int, nargs="+", required=True)
     ap.add_argument("--dtype", nargs="+", default=["float64"])
     ap.add_argument("--fft", default="auto")
+    ap.add_argument("--max-turns", type=int, default=1000,
+                    help="turns of the adhesive fixed point per step (a few: a memory check that ends in time)")
+    ap.add_argument("--max-iter", type=int, default=2000, help="iterations per inner solve")
     ap.add_argument("--json")
     a = ap.parse_args()
     wp.init()
@@ -94,7 +99,7 @@ def main():
         print(f"largest grid by the estimate, {dtype}: n = {n_max}", flush=True)
         rows.append({"dtype": dtype, "largest_grid": n_max})
         for n in a.sizes:
-            r = run(n, device, dtype, a.fft)
+            r = run(n, device, dtype, a.fft, a.max_turns, a.max_iter)
             rows.append(r)
             if "refused" in r:
                 print(f"  n {n} {dtype}: refused before allocating: {r['refused']}", flush=True)

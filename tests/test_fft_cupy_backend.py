@@ -48,3 +48,18 @@ def test_forward_spectra_of_both_layouts_agree():
     want = np.fft.rfft2(field, s=(2 * ny, 2 * nx))
     for s in spectra:
         assert np.abs(s - want).max() < 1e-12 * np.abs(want).max()
+
+
+@pytest.mark.parametrize("n", [127, 131, 1000, 2039, 3001, 4097])
+def test_work_area_within_the_memory_estimate(n):
+    """cuFFT's work area (the plans' shared buffer) stays within ``resources.cufft_work_spectra``,
+    the allowance the memory estimate counts: sizes with and without large prime factors, where
+    cuFFT uses Bluestein's algorithm or not (measured 0 to 6.46 spectra)."""
+    from warpcontact.resources import cufft_work_spectra
+
+    for dtype in (wp.float64, wp.float32):
+        for pruned in (True, False):
+            fft = cupy_backend.CupyFFT(n, n, "cuda:0", dtype, pruned=pruned)
+            spectrum = 2 * n * (n + 1) * 2 * np.dtype(fft.np_real).itemsize
+            assert fft.work_bytes <= cufft_work_spectra(n) * spectrum, (dtype, pruned, fft.work_bytes / spectrum)
+            del fft

@@ -20,7 +20,8 @@ The estimate is counted from the allocations in the code, not fitted:
 - The FFT library's temporaries, an allowance (``FFT_TEMPORARY_SPECTRA``): scipy on the
   CPU allocates a (n, n + 1) row pass and a (2n, n + 1) column pass per transform, 1.5 spectra;
   the cupy backend's cuFFT plans share one work area, allocated once (``CupyFFT.work_bytes``),
-  allowed one spectrum; Warp's tile_fft needs none beyond its work buffers (one (n, n) field
+  allowed ``cufft_work_spectra(n)`` spectra (one, or up to about nine where cuFFT falls back to
+  Bluestein's algorithm); Warp's tile_fft needs none beyond its work buffers (one (n, n) field
   allowed for the zero round trip that checks the kernels at set-up on CUDA).
 - On the CPU, the normal solver's first guess holds up to 3 float64 (n, n) host arrays.
 
@@ -59,6 +60,32 @@ CONTACT_SOLVER_SCALARS = 6  # change
 INITIAL_GUESS_HOST_FIELDS = 3
 #: library temporaries during a transform, in spectra of the backend's shape (see module docstring)
 FFT_TEMPORARY_SPECTRA = {"scipy": 1.5, "cupy": 1.0, "warp": 0.0}
+
+
+def _largest_prime_factor(m: int) -> int:
+    largest, p = 1, 2
+    while p * p <= m:
+        while m % p == 0:
+            largest, m = p, m // p
+        p += 1
+    return max(largest, m)
+
+
+def cufft_work_spectra(n: int) -> float:
+    """Allowance for cuFFT's work area on an n x n grid, in spectra: 1, or, where the transform
+    length L = 2n has a prime factor above 127 (then cuFFT may use Bluestein's algorithm, with
+    two buffers of the next power of two >= 2L - 1 per transform), 2 * that power / L + 1.
+
+    An upper bound of ``CupyFFT.work_bytes`` measured on the H100 (cuFFT 12, 20 sizes from 64 to
+    8191, both layouts, float64 and float32): at most 1 spectrum without a large prime factor;
+    4.0-6.46 spectra at n = 2039 (float64), 3001, 4001, 4097, 8191 (the bound: 5.1-9.0);
+    0.5-1 at n = 131 ... 1021 (bound 5-9: cuFFT needs Bluestein only for longer transforms).
+    """
+    length = 2 * int(n)
+    if _largest_prime_factor(length) <= 127:
+        return 1.0
+    power = 1 << (2 * length - 2).bit_length()
+    return 2.0 * power / length + 1.0
 #: peak of influence.influence_coefficients, in float64 arrays of the (2n, 2n) grid (measured:
 #: 15.1 at n = 256: the two meshes, six cell integrals and the corner terms of one of them)
 INFLUENCE_PEAK_ARRAYS = 16
@@ -173,7 +200,8 @@ def breakdown(n: int, dtype="float64", device_kind="cpu", friction: bool = True,
     fields = n_fields * cells * real + states * cells * 4  # + int32 status per state
     scalars = n_scalars * real
     arrays = spectra + fft_work + fields + scalars
-    fft_temporaries = int(math.ceil(FFT_TEMPORARY_SPECTRA[fft] * spectrum))
+    allowance = cufft_work_spectra(n) if fft == "cupy" else FFT_TEMPORARY_SPECTRA[fft]
+    fft_temporaries = int(math.ceil(allowance * spectrum))
     if fft == "warp" and kind == "cuda":
         fft_temporaries = cells * real
     host_temporaries = INITIAL_GUESS_HOST_FIELDS * cells * 8 if kind == "cpu" else 0

@@ -39,6 +39,7 @@ from __future__ import annotations
 
 import ctypes
 import ctypes.util
+import os
 
 import numpy as np
 import warp as wp
@@ -197,7 +198,11 @@ class CupyFFT(FFTBackend):
         return (2 * self.ny, self.nx + 1)
 
     def spectrum_of_padded(self, padded):
-        return np.fft.rfft2(np.asarray(padded, dtype=np.float64))
+        import scipy.fft
+
+        # on the host, once per kernel and grid; scipy's threads (numpy's FFT has none) shorten
+        # the set-up of large grids
+        return scipy.fft.rfft2(np.asarray(padded, dtype=np.float64), workers=os.cpu_count() or 1)
 
     def _transforms_forward(self, spectrum):
         with wp.ScopedDevice(self.device):
