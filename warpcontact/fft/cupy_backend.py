@@ -18,10 +18,11 @@ the column transform in place, the row Z2D (C2R) only on the top ny rows, into a
 rows of a 2-D plan; the column stages are the same. (Columns out of place from a buffer with a
 zero bottom half instead of the zeroing pass were slower: 1.80 against 1.39 ms at n = 4096.)
 
-Which is faster depends on the size (H100, cuFFT's forward + inverse alone, ms; rerun with
-``bench/iteration_parts.py``, which times both layouts): float64 pruned / 2-D 0.113 / 0.131 at
-n = 1024, 0.505 / 0.576 at 2048, 2.69 / 2.98 at 4096; float32 0.057 / 0.062, 0.258 / 0.295,
-1.24 / 1.14. The default (:func:`prune_by_default`) is pruned except float32 from n = 4096.
+Which is faster depends on the size. H100, cuFFT's forward + inverse alone, pruned / 2-D, ms:
+float64 0.104 / 0.124 at n = 1024, 0.483 / 0.575 at 2048, 2.59 / 2.98 at 4096
+(``bench/iteration_parts.py``, which times both layouts); float32 0.057 / 0.062, 0.258 / 0.295,
+1.24 / 1.14 (``bench_results/onecond_gpu/layouts.log``). The default (:func:`prune_by_default`)
+is pruned except float32 from n = 4096.
 
 Unpruned (``pruned=False``, one 2-D plan each way):
 
@@ -32,7 +33,9 @@ Unpruned (``pruned=False``, one 2-D plan each way):
   a second (2 ny, 2 nx) buffer, then ``crop_field`` keeps its (ny, nx) corner times 1 / (4 nx ny).
 
 Memory: pruned, two (ny, 2 nx) real row buffers (one spectrum's worth); 2-D, two (2 ny, 2 nx)
-real padded buffers (two spectra's worth); and one work area shared by the plans.
+real padded buffers (two spectra's worth); and one work area shared by the plans: at most one
+spectrum, or 4-6.5 where cuFFT uses Bluestein's algorithm (transform lengths with a large prime
+factor; ``resources.cufft_work_spectra``).
 """
 
 from __future__ import annotations
