@@ -89,17 +89,24 @@ def influence_coefficients(pair: MaterialPair, ny: int, nx: int, dx: float, dy: 
     (k - 2 ny) for k > ny; the unused middle row/column (offset +-ny, +-nx) is zero. Without
     ``padded``, arrays of shape (2 ny - 1, 2 nx - 1) with offsets -(n-1) ... n-1 in order.
     """
-    if padded:
-        ky = np.arange(2 * ny)
-        oy = np.where(ky < ny, ky, ky - 2 * ny).astype(np.float64)
-        kx = np.arange(2 * nx)
-        ox = np.where(kx < nx, kx, kx - 2 * nx).astype(np.float64)
-    else:
-        oy = np.arange(-(ny - 1), ny, dtype=np.float64)
-        ox = np.arange(-(nx - 1), nx, dtype=np.float64)
-    X, Y = np.meshgrid(ox * dx, oy * dy, indexing="xy")
-    a, b = 0.5 * dx, 0.5 * dy
-    elementary = {name: cell_integral(name, X, Y, a, b) for name in ANTIDERIVATIVES}
+    # Offsets in natural order, -n ... n-1 (padded) or -(n-1) ... n-1, and the cell corners
+    # between them: each antiderivative is evaluated once per corner of the lattice, and a cell's
+    # integral is the difference of its four corners (a quarter of the evaluations of doing each
+    # cell apart: the set-up of large grids is these evaluations).
+    first_y, first_x = (ny, nx) if padded else (ny - 1, nx - 1)
+    count_y, count_x = (2 * ny, 2 * nx) if padded else (2 * ny - 1, 2 * nx - 1)
+    corner_y = (np.arange(count_y + 1, dtype=np.float64) - first_y - 0.5) * dy
+    corner_x = (np.arange(count_x + 1, dtype=np.float64) - first_x - 0.5) * dx
+    CX, CY = np.meshgrid(corner_x, corner_y, indexing="xy")
+    elementary = {}
+    for name, F in ANTIDERIVATIVES.items():
+        corners = F(CX, CY)
+        cells = corners[1:, 1:] - corners[:-1, 1:] - corners[1:, :-1] + corners[:-1, :-1]
+        del corners
+        if padded:  # natural order -> wrap-around order: offset k at index k mod 2n
+            cells = np.roll(cells, (-first_y, -first_x), axis=(0, 1))
+        elementary[name] = cells
+    del CX, CY
     out = {}
     for kname, terms in point_kernels(pair).items():
         arr = sum(c * elementary[e] for c, e in terms)
