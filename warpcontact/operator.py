@@ -57,17 +57,24 @@ class ElasticOperator:
         units: ||K e_j||_2 <= this for every cell j, so ||K c||_2 <= this * ||c||_1."""
         return self._column_norms[kernel]
 
+    def spectral_product(self, kernel, spectra):
+        """Launch the product ``kernel`` (kernels/spectral.py) on ``spectra``, in place: one entry
+        per thread on CUDA, one row per thread on the CPU."""
+        rows, columns = self.fft.spectral_shape
+        chunks, per = (1, columns) if self.fft.device.is_cpu else (columns, 1)
+        self.launches.launch(kernel, (rows, chunks), [self.influence, *spectra, per])
+
     def normal(self, pressure: wp.array2d, displacement: wp.array2d):
         """displacement <- K_zz pressure (no coupling)."""
         self.fft.forward(pressure, self._buf[0])
-        self.launches.launch(spectral.spectral_normal, self.fft.spectral_shape, [self.influence, self._buf[0]])
+        self.spectral_product(spectral.spectral_normal, self._buf[:1])
         self.fft.inverse(self._buf[0], displacement)
 
     def tangential(self, shear_x, shear_y, disp_x, disp_y):
         """(disp_x, disp_y) <- K_tt (shear_x, shear_y) (no coupling)."""
         self.fft.forward(shear_x, self._buf[1])
         self.fft.forward(shear_y, self._buf[2])
-        self.launches.launch(spectral.spectral_tangential, self.fft.spectral_shape, [self.influence, self._buf[1], self._buf[2]])
+        self.spectral_product(spectral.spectral_tangential, self._buf[1:])
         self.fft.inverse(self._buf[1], disp_x)
         self.fft.inverse(self._buf[2], disp_y)
 
@@ -75,7 +82,7 @@ class ElasticOperator:
         """(disp_z, disp_x, disp_y) <- the full 3x3 operator applied to (pressure, shear_x, shear_y)."""
         for src, buf in zip((pressure, shear_x, shear_y), self._buf):
             self.fft.forward(src, buf)
-        self.launches.launch(spectral.spectral_coupled, self.fft.spectral_shape, [self.influence, *self._buf])
+        self.spectral_product(spectral.spectral_coupled, self._buf)
         for buf, dst in zip(self._buf, (disp_z, disp_x, disp_y)):
             self.fft.inverse(buf, dst)
 
@@ -83,6 +90,6 @@ class ElasticOperator:
         """Only the coupling terms: disp_z <- K_zt q, (disp_x, disp_y) <- K_tp p."""
         for src, buf in zip((pressure, shear_x, shear_y), self._buf):
             self.fft.forward(src, buf)
-        self.launches.launch(spectral.spectral_cross, self.fft.spectral_shape, [self.influence, *self._buf])
+        self.spectral_product(spectral.spectral_cross, self._buf)
         for buf, dst in zip(self._buf, (disp_z, disp_x, disp_y)):
             self.fft.inverse(buf, dst)
