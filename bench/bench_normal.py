@@ -80,10 +80,12 @@ def time_tamaas(n):
 def time_slippy(n, python):
     """slippy 0.5.2 on the same problem, in its own interpreter (bench/slippy_hertz.py)."""
     import subprocess
+    import tempfile
     from pathlib import Path
 
-    script = Path(__file__).with_name("slippy_hertz.py")
-    r = subprocess.run([python, str(script), str(n)], capture_output=True, text=True, timeout=3600)
+    script = Path(__file__).resolve().with_name("slippy_hertz.py")
+    with tempfile.TemporaryDirectory() as scratch:  # slippy writes its logs and databases into the working folder
+        r = subprocess.run([python, str(script), str(n)], capture_output=True, text=True, timeout=3600, cwd=scratch)
     if r.returncode != 0:
         raise RuntimeError(f"slippy run failed: {r.stderr.strip().splitlines()[-1] if r.stderr.strip() else r.returncode}")
     return json.loads(r.stdout.strip().splitlines()[-1])
