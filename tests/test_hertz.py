@@ -4,6 +4,7 @@ import math
 
 import numpy as np
 import pytest
+import warp as wp
 
 from warpcontact.geometry import Grid, Sphere
 from warpcontact.materials import PAPER_PAIR
@@ -120,3 +121,55 @@ def test_one_convolution_mode_matches_two(device):
     p2, c2, it2 = results[False]
     assert np.abs(p1 - p2).max() < 1e-8 * p2.max()  # both within 1e-10 relative residual of the solution
     assert c1 < 0.8 * c2, f"convolutions: {c1} (one-conv) vs {c2}"
+
+
+def test_column_norm_bounds_one_cells_displacement():
+    """||K e_j||_2 over the grid stays under ``operator.column_norm("zz")`` (the norm over every
+    offset of the padded grid) for a cell at the centre and at a corner, and the centre's, which
+    sees the most offsets, comes within 10 % of it: the bound the deferred recompute relies on."""
+    model = ContactModel(PAPER_PAIR, Sphere(R, "paraboloid"), Grid(64, 4 * A))
+    bound = model.operator.column_norm("zz")
+    norms = {}
+    for name, cell in (("centre", (32, 32)), ("corner", (0, 0))):
+        unit = np.zeros((64, 64))
+        unit[cell] = 1.0
+        u = model.field()
+        model.operator.normal(model.field(unit), u)
+        norms[name] = np.linalg.norm(u.numpy())
+        assert norms[name] <= bound * (1 + 1e-12), (name, norms[name], bound)
+    assert norms["centre"] > 0.9 * bound, (norms, bound)
+
+
+def _recompute_flag(correction, deferred, violation, it, rhs=1.0, tol=1e-10, column_norm=2.0, deferral=0.1,
+                    exact_every=50):
+    """One launch of kernels/normal.py's normal_recompute_flag on the CPU: (flag, deferred after)."""
+    from warpcontact.kernels import normal as nk
+
+    sums = np.zeros(nk.N_SUMS)
+    sums[nk.S_CORRECTION], sums[nk.S_VIOL], sums[nk.S_RHS] = correction, violation, rhs
+    scalars = np.zeros(nk.N_SCALARS)
+    scalars[nk.C_ITER] = it
+    settings = np.zeros(nk.N_SETTINGS)
+    settings[nk.P_TOL] = tol
+    held = wp.array([deferred], dtype=wp.float64, device="cpu")
+    flag = wp.zeros(1, dtype=wp.int32, device="cpu")
+    wp.launch(nk.normal_recompute_flag, dim=1, device="cpu",
+              inputs=[wp.array(sums, dtype=wp.float64), wp.array(scalars, dtype=wp.float64),
+                      wp.array(settings, dtype=wp.float64), exact_every, wp.float64(column_norm),
+                      wp.float64(deferral), held],
+              outputs=[flag])
+    return int(flag.numpy()[0]), float(held.numpy()[0])
+
+
+def test_recompute_flag_follows_the_bound():
+    """The device's decision to recompute K p: not while nothing changed; a change whose bound
+    (column norm x accumulated L1 change) stays under 0.1 of the violation's norm is carried and
+    remembered; once the accumulated bound passes it, recompute and forget; near convergence
+    (violation under (4 tol)^2 of the right-hand side) any change recomputes; every 50 iterations
+    regardless."""
+    assert _recompute_flag(0.0, 0.0, 1.0, it=3) == (0, 0.0)
+    assert _recompute_flag(0.04, 0.0, 1.0, it=3) == (0, 0.04)  # bound 0.08 < 0.1
+    assert _recompute_flag(0.02, 0.04, 1.0, it=3) == (1, 0.0)  # bound 2 x 0.06 = 0.12 > 0.1
+    assert _recompute_flag(1e-30, 0.0, 1e-21, it=3) == (1, 0.0)  # bound 2e-30 is tiny, but near convergence
+    assert _recompute_flag(0.0, 0.0, 1e-21, it=3) == (0, 0.0)  # near convergence, nothing changed
+    assert _recompute_flag(0.0, 0.0, 1.0, it=50) == (1, 0.0)
