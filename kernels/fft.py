@@ -18,6 +18,10 @@ the dtype chosen at run time, which needs the annotations evaluated when the ker
 import warp as wp
 
 
+# no adjoints: nothing differentiates these kernels, and compiling them doubles the build
+wp.set_module_options({"enable_backward": False})
+
+
 @wp.func
 def complex_from_real_f64(x: wp.float64) -> wp.vec2d:
     return wp.vec2d(x, wp.float64(0.0))

@@ -14,6 +14,9 @@ import warp as wp
 from .overloads import register_float_overloads
 from .reduce import block_add, cell_index
 
+# no adjoints: nothing differentiates these kernels, and compiling them doubles the build
+wp.set_module_options({"enable_backward": False})
+
 # slots of the sums: then GRAM_SLOTS + j: dF_new . dF_j, then GRAM_SLOTS + depth + j: dF_j . f
 S_RESIDUAL = wp.constant(0)  # |f|^2
 S_IMAGE = wp.constant(1)  # |G(x)|^2

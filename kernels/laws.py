@@ -10,6 +10,9 @@ import warp as wp
 
 from .overloads import register_float_overloads
 
+# no adjoints: nothing differentiates these kernels, and compiling them doubles the build
+wp.set_module_options({"enable_backward": False})
+
 
 @wp.func
 def coulomb_shear_limit(p: Any, mu: Any):

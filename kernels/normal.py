@@ -23,6 +23,9 @@ from .reduce import (  # noqa: F401  (shared slots)
 )
 from .reduce import S_RESTART as S_IOL  # cells that re-enter contact (or leave the cap)
 
+# no adjoints: nothing differentiates these kernels, and compiling them doubles the build
+wp.set_module_options({"enable_backward": False})
+
 # slots of ``sums`` (0-2 and 5 shared with kernels/reduce.py: g^2 on the free set, violation,
 # right-hand side, re-entries)
 S_CORRECTION = wp.constant(6)  # sum |p - (p_old - tau t)|: what the projection changed, which K t misses

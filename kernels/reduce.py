@@ -13,6 +13,9 @@ import warp as wp
 
 from .overloads import register_float_overloads
 
+# no adjoints: nothing differentiates these kernels, and compiling them doubles the build
+wp.set_module_options({"enable_backward": False})
+
 # slots shared by the conjugate-gradient solvers (kernels/normal.py, kernels/tangential.py)
 S_G = wp.constant(0)  # the (preconditioned) squared gradient over the free set
 S_VIOL = wp.constant(1)  # squared violation of the optimality conditions

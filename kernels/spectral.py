@@ -15,6 +15,9 @@ from typing import Any
 
 import warp as wp
 
+# no adjoints: nothing differentiates these kernels, and compiling them doubles the build
+wp.set_module_options({"enable_backward": False})
+
 ZZ = wp.constant(0)
 XX = wp.constant(1)
 YY = wp.constant(2)

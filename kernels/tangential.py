@@ -32,6 +32,9 @@ from .reduce import (  # noqa: F401  (shared slots)
 )
 from .reduce import S_RESTART as S_RELEASED  # slip cells released into stick by the last step
 
+# no adjoints: nothing differentiates these kernels, and compiling them doubles the build
+wp.set_module_options({"enable_backward": False})
+
 # slots of ``sums`` (0-2 and 5 shared with kernels/reduce.py; S_G holds g.z, z = M^-1 P g)
 S_STICK = wp.constant(6)  # count of stick cells
 N_SUMS = 7
