@@ -1,4 +1,4 @@
-"""Scratch run of 2026-11-23 (kept as the record of layouts.log): cuFFT layouts of the padded DC-FFT pair, run against the out-of-place pruned layout of commit 6c11832, since replaced by the in-place one it measured here. bench/iteration_parts.py times the layouts of the current code."""
+"""Scratch run of 2026-11-23 (kept as the record of layouts.log): cuFFT layouts of the padded DC-FFT pair. It ran against a working tree whose pruned forward transformed the columns out of place (never committed); the in-place variant it times became the layout of commit 6c11832. bench/iteration_parts.py times the layouts of the current code."""
 import ctypes, math, sys, time
 import warp as wp
 from warpcontact.fft import cupy_backend as cb
