@@ -68,7 +68,8 @@ class NormalSolver(ProjectedCG):
         #: iterations between exact recomputations of K p in the one-convolution mode
         self.exact_every = 50
         #: recompute K p once the bound on what the carried u misses exceeds this fraction of the
-        #: violation (``kernels/normal.py``, ``normal_recompute_flag``); 0: after every projection
+        #: violation (``kernels/normal.py``, ``normal_recompute_flag``); 0: after every projection.
+        #: A captured graph keeps the value it was captured with: set it before the first solve.
         self.deferral = 0.1
         self._column_norm = model.scalar(model.operator.column_norm("zz"))
         self.deferred = model.scalars(1)
