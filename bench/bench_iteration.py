@@ -72,7 +72,7 @@ def unpruned_fft(model):
     """The model's FFT backend, or on CUDA's cupy backend a twin with 2-D plans of the whole padded
     grid (same spectral layout, so it can stand in for the pruned one)."""
     fft = model.operator.fft
-    if fft.name != "cupy":
+    if fft.name != "cupy" or not fft.pruned:
         return fft
     from warpcontact.fft.cupy_backend import CupyFFT
 

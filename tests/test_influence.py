@@ -41,6 +41,28 @@ def test_singular_cell_of_love():
     assert cell_integral("x_r2", 0.0, 0.0, 0.5, 0.5) == 0.0  # odd kernel: no self term
 
 
+@pytest.mark.parametrize("padded", [False, True])
+def test_coefficients_are_the_cell_integrals(padded):
+    """influence_coefficients evaluates each antiderivative once per cell corner and differences
+    the corners; the result is cell_integral (checked against quadrature above) at every offset,
+    in natural order or in the padded wrap-around layout (zero middle row and column), to 1e-12
+    of the largest value (rounding of the corner differences at far offsets)."""
+    ny, nx, dx, dy = 7, 10, 1.3e-9, 0.7e-9
+    got = influence_coefficients(PAPER_PAIR, ny, nx, dx, dy, padded=padded)
+    oy = np.arange(2 * ny) if padded else np.arange(-(ny - 1), ny)
+    ox = np.arange(2 * nx) if padded else np.arange(-(nx - 1), nx)
+    if padded:
+        oy, ox = np.where(oy < ny, oy, oy - 2 * ny), np.where(ox < nx, ox, ox - 2 * nx)
+    X, Y = np.meshgrid(ox * dx, oy * dy, indexing="xy")
+    for name, terms in point_kernels(PAPER_PAIR).items():
+        want = sum(c * cell_integral(e, X, Y, 0.5 * dx, 0.5 * dy) for c, e in terms)
+        if padded:
+            want[ny, :] = 0.0
+            want[:, nx] = 0.0
+        err = np.abs(got[name] - want).max() / np.abs(want).max()
+        assert err < 1e-12, (name, err)
+
+
 def _dense(op, n):
     """The assembled 3x3 operator as a dense (3 n^2, 3 n^2) matrix, columns from unit tractions."""
     import warp as wp

@@ -59,7 +59,7 @@ CONTACT_SOLVER_SCALARS = 6  # change
 #: float64 (n, n) host arrays of NormalSolver._initial_guess alive during its FFT
 INITIAL_GUESS_HOST_FIELDS = 3
 #: library temporaries during a transform, in spectra of the backend's shape (see module docstring)
-FFT_TEMPORARY_SPECTRA = {"scipy": 1.5, "cupy": 1.0, "warp": 0.0}
+FFT_TEMPORARY_SPECTRA = {"scipy": 1.5, "warp": 0.0}  # cupy: cufft_work_spectra(n)
 
 
 def _largest_prime_factor(m: int) -> int:
