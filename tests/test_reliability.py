@@ -194,6 +194,52 @@ def test_one_convolution_graphs_match_two_convolutions(cuda):
     assert abs(eager["iterations"] - graphs["iterations"]) <= 2, (eager["iterations"], graphs["iterations"])
 
 
+def test_reads_after_iterations_1_2_4_end_warm_started_solves_early():
+    """With reads every 8 iterations (the CUDA default), a warm-started solve still stops at the
+    first of the early reads (after iterations 1, 2, 4) past the iteration where a solve read
+    every iteration stops; its pressure is that solve's, bit for bit (the iterations past
+    convergence leave the iterate as it is)."""
+    model = ContactModel(PAPER_PAIR, Sphere(R, "paraboloid"), Grid(32, 4 * math.sqrt(R * HERTZ_DZ)), device="cpu",
+                         dtype="float64")
+    start = ContactState(model)
+    NormalSolver(model).solve(start, HERTZ_DZ)
+    counts, pressures = [], []
+    for check_every, early in ((1, ()), (8, (1, 2, 4)), (8, ())):
+        solver = NormalSolver(model, check_every=check_every)
+        solver.early_checks = early
+        state = ContactState(model)
+        state.copy_from(start)
+        # 0.1 % deeper, to 1e-4 (a coupled step's early turns solve to 1e-3 ... 1e-8): a few
+        # iterations from the last solution
+        info = solver.solve(state, 1.001 * HERTZ_DZ, tol=1e-4)
+        assert info.converged
+        counts.append(info.iterations)
+        pressures.append(state.pressure.numpy())
+    every, early, late = counts
+    assert 1 <= every <= 4, f"the warm start should need 1-4 iterations here, took {every}"
+    assert early == min(k for k in (1, 2, 4) if k >= every), counts
+    assert late == 8, counts
+    np.testing.assert_array_equal(pressures[1], pressures[0])
+    np.testing.assert_array_equal(pressures[2], pressures[0])
+
+
+def test_cufft_layout_rule_follows_the_measurements():
+    """prune_by_default picks the layout that took less time in bench_results/fft_layouts/ (H100,
+    pruned / 2-D): float64 pruned only at powers of two; float32 pruned below 1000 and at powers
+    of two below 4096."""
+    from warpcontact.fft.cupy_backend import prune_by_default
+
+    for n in (256, 512, 1024, 2048, 4096):
+        assert prune_by_default(n, n, wp.float64), n
+    for n in (300, 315, 360, 588, 600, 700, 768, 1000, 1500, 2000, 3000, 4000, 8191):
+        assert not prune_by_default(n, n, wp.float64), n
+    for n in (256, 300, 315, 360, 512, 588, 600, 1024, 2048):
+        assert prune_by_default(n, n, wp.float32), n
+    for n in (1000, 3000, 4096, 11584):
+        assert not prune_by_default(n, n, wp.float32), n
+    assert not prune_by_default(256, 300, wp.float64)  # both lengths must be powers of two
+
+
 # ---------------------------------------------------------------------------------------------
 # d. properties (hypothesis): the operator on a 12 x 12 grid, the shear laws, the disk bound
 

@@ -21,8 +21,11 @@ zero bottom half instead of the zeroing pass were slower: 1.80 against 1.39 ms a
 Which is faster depends on the size. H100, cuFFT's forward + inverse alone, pruned / 2-D, ms:
 float64 0.104 / 0.124 at n = 1024, 0.483 / 0.575 at 2048, 2.59 / 2.98 at 4096
 (``bench/iteration_parts.py``, which times both layouts); float32 0.057 / 0.062, 0.258 / 0.295,
-1.24 / 1.14 (``bench_results/onecond_gpu/layouts.log``). The default (:func:`prune_by_default`)
-is pruned except float32 from n = 4096.
+1.24 / 1.14 (``bench_results/onecond_gpu/layouts.log``). Where 2 n is not a power of two the
+column transforms take more passes, and pruned loses in float64 at every size measured, 300 to
+4000 (``bench/fft_small_sizes.py``, padding and cropping included: 0.056 / 0.042 ms at n = 315,
+0.116 / 0.077 at 588, 0.272 / 0.195 at 1000, 4.85 / 3.09 at 4000; the adhesive Table 2 cells'
+grids are 300-588). The default is :func:`prune_by_default`.
 
 Unpruned (``pruned=False``, one 2-D plan each way):
 
@@ -106,10 +109,25 @@ def _cufft_library():
     return lib
 
 
+def _power_of_two(k: int) -> bool:
+    return k > 0 and k & (k - 1) == 0
+
+
 def prune_by_default(ny: int, nx: int, dtype) -> bool:
-    """The faster layout as measured on the H100 (module docstring): pruned, except float32 from
-    n = 4096 (where cuFFT's 2-D plans win by 9 %)."""
-    return dtype == wp.float64 or max(ny, nx) < 4096
+    """The layout that took less time on the H100 (``bench_results/fft_layouts/``: forward +
+    inverse, padding and cropping included, pruned against 2-D plans):
+
+    - float64: pruned where 2 ny and 2 nx are powers of two (n = 256-4096: 5-16 % less time),
+      2-D plans elsewhere (all 15 other sizes measured, 300-4000: 1-39 % less time);
+    - float32: pruned below n = 1000 (256-600: 4-13 % less) and where 2 n is a power of two
+      below 4096 (512-2048: 4-11 % less); 2-D plans elsewhere (1000: 44 %, 3000: 59 %, 4096:
+      8 % less). One size measured goes against the rule: 1500, where pruned takes 20 % less.
+    """
+    n = max(ny, nx)
+    powers = _power_of_two(2 * ny) and _power_of_two(2 * nx)
+    if dtype == wp.float64:
+        return powers
+    return n < 4096 and (powers or n < 1000)
 
 
 def _check(result: int, what: str):

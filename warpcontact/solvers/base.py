@@ -28,6 +28,12 @@ class ProjectedCG:
     relative residual of the current iterate. Scalars stay on the device; the residual is read
     back every ``check_every`` iterations (every iteration on the CPU, where a read is free).
 
+    Besides every ``check_every`` iterations, the residual is read after iterations 1, 2 and 4
+    (``early_checks``): the solves of a coupled or adhesive step's turns start near their
+    solution and often need 1-4 iterations, and the ones that run on past convergence until the
+    next read do full iterations (an adhesive Table 2 cell at n = 256 on an H100: 8640 inner
+    iterations with reads every 8 only; see README "Performance").
+
     On CUDA each iteration is replayed as a CUDA graph (``use_graphs``): captured the first time
     a set of arrays is seen (:meth:`_device_step`), then launched with one call, so the host no
     longer pays a launch per kernel and per FFT. The values of a solve that the kernels read
@@ -39,6 +45,8 @@ class ProjectedCG:
     restart_every = 0
     #: captured graphs kept per solver (one per set of arrays and iteration variant), oldest dropped
     max_graphs = 8
+    #: iterations after which the residual is also read (warm-started solves end early)
+    early_checks = (1, 2, 4)
 
     def __init__(self, model, n_sums: int, n_scalars: int, tol=None, max_iter: int = 2000, check_every=None,
                  use_graphs: bool | None = None):
@@ -111,7 +119,7 @@ class ProjectedCG:
             interrupts.check()
             iteration()
             it += 1
-            if it % self.check_every == 0 or it == self.max_iter:
+            if it % self.check_every == 0 or it in self.early_checks or it == self.max_iter:
                 recorded = float(self.history.numpy()[it - 1])
                 if not math.isfinite(recorded):
                     on_non_finite(it)
