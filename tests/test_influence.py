@@ -63,6 +63,48 @@ def test_coefficients_are_the_cell_integrals(padded):
         assert err < 1e-12, (name, err)
 
 
+def test_antiderivatives_on_the_axes_and_at_the_origin():
+    """The antiderivatives are finite on the axes and at the origin, where their terms' factors
+    vanish (x asinh(y/|x|) at x = 0, y ln r at y = 0): the conventions the corner lattice and
+    the singular cell rely on; off the axes they are the closed forms of the module docstring."""
+    from warpcontact.influence import _corner_terms
+
+    v = np.array([-2.0, 0.0, 0.5]) * 1.3e-9
+    X, Y = np.meshgrid(v, v, indexing="xy")
+    with np.errstate(all="raise"):
+        terms = _corner_terms(X, Y)
+    for name, t in terms.items():
+        assert np.all(np.isfinite(t)), name
+        assert t[1, 1] == 0.0, name  # the origin
+    x, y = -2.0e-9, 0.65e-9
+    r = np.hypot(x, y)
+    t = _corner_terms(np.float64(x), np.float64(y))
+    assert t["inv_r"] == pytest.approx(x * np.arcsinh(y / abs(x)) + y * np.arcsinh(x / abs(y)), rel=1e-14)
+    assert t["xy_r3"] == pytest.approx(-r, rel=1e-14)
+    assert t["x_r2"] == pytest.approx(x * np.arctan(y / x) + y * np.log(r), rel=1e-14)
+    assert t["y_r2"] == pytest.approx(y * np.arctan(x / y) + x * np.log(r), rel=1e-14)
+
+
+@pytest.mark.parametrize("padded", [False, True])
+def test_coefficients_by_blocks_on_threads_are_the_single_thread_ones(padded):
+    """A grid of several row blocks (BLOCK_ROWS) gives the same coefficients, bit for bit, on one
+    thread and on three, and the cell integrals at a few offsets across the blocks' seams."""
+    from warpcontact.influence import BLOCK_ROWS
+
+    ny, nx, dx, dy = 2 * BLOCK_ROWS + 5, 37, 1.1e-9, 0.9e-9
+    one = influence_coefficients(PAPER_PAIR, ny, nx, dx, dy, padded=padded, workers=1)
+    three = influence_coefficients(PAPER_PAIR, ny, nx, dx, dy, padded=padded, workers=3)
+    for k in KERNELS:
+        np.testing.assert_array_equal(one[k], three[k], err_msg=k)
+    half = (0.5 * dx, 0.5 * dy)
+    for oy, ox in ((BLOCK_ROWS - ny, 3), (-1, -nx + 1), (0, 0), (BLOCK_ROWS - 1, 5), (ny - 1, nx - 1)):
+        row = oy % (2 * ny) if padded else oy + ny - 1
+        col = ox % (2 * nx) if padded else ox + nx - 1
+        for name, terms in point_kernels(PAPER_PAIR).items():
+            want = sum(c * cell_integral(e, ox * dx, oy * dy, *half) for c, e in terms)
+            assert one[name][row, col] == pytest.approx(want, rel=1e-12, abs=1e-12 * abs(one[name]).max()), (name, oy, ox)
+
+
 def _dense(op, n):
     """The assembled 3x3 operator as a dense (3 n^2, 3 n^2) matrix, columns from unit tractions."""
     import warp as wp

@@ -27,6 +27,9 @@ Cell integrals use antiderivatives F with d^2F/dx dy = kernel, evaluated at the 
 
 from __future__ import annotations
 
+import os
+from concurrent.futures import ThreadPoolExecutor
+
 import numpy as np
 
 from .materials import MaterialPair
@@ -43,28 +46,33 @@ def _xasinh(x, y):
     return np.where(ax == 0.0, 0.0, v)
 
 
-def _xatan_ylnr(x, y):
-    """x atan(y/x) + y ln r, continuous, 0 at the origin."""
+def _corner_terms(x, y) -> dict:
+    """The antiderivative of each elementary kernel (module docstring; x/r^2: x atan(y/x) + y ln r,
+    0 on the axes where a term's factor is 0) at the points (x, y) (arrays that broadcast), as a
+    dict by name. Their shared parts are computed once: x asinh(y/|x|) and y asinh(x/|y|) (1/r is
+    their sum, x^2/r^3 and y^2/r^3 one each), r, and ln r^2 (x/r^2 and y/r^2 both)."""
+    xa, ya = _xasinh(x, y), _xasinh(y, x)
     r2 = x * x + y * y
     with np.errstate(divide="ignore", invalid="ignore"):
-        t1 = x * np.arctan(y / x)
-        t2 = 0.5 * y * np.log(r2)
-    return np.where(x == 0.0, 0.0, t1) + np.where(y == 0.0, 0.0, t2)
-
-
-ANTIDERIVATIVES = {
-    "inv_r": lambda x, y: _xasinh(x, y) + _xasinh(y, x),
-    "xx_r3": lambda x, y: _xasinh(y, x),
-    "yy_r3": lambda x, y: _xasinh(x, y),
-    "xy_r3": lambda x, y: -np.sqrt(x * x + y * y),
-    "x_r2": _xatan_ylnr,
-    "y_r2": lambda x, y: _xatan_ylnr(y, x),
-}
+        log_r2 = np.log(r2)
+        x_atan, y_atan = x * np.arctan(y / x), y * np.arctan(x / y)
+        y_log, x_log = 0.5 * y * log_r2, 0.5 * x * log_r2
+    x0, y0 = x == 0.0, y == 0.0
+    return {
+        "inv_r": xa + ya,
+        "xx_r3": ya,
+        "yy_r3": xa,
+        "xy_r3": -np.sqrt(r2),
+        "x_r2": np.where(x0, 0.0, x_atan) + np.where(y0, 0.0, y_log),
+        "y_r2": np.where(y0, 0.0, y_atan) + np.where(x0, 0.0, x_log),
+    }
 
 
 def cell_integral(name: str, X, Y, a: float, b: float) -> np.ndarray:
     """Integral of the elementary kernel ``name`` over the cell [X-a, X+a] x [Y-b, Y+b] [m]."""
-    F = ANTIDERIVATIVES[name]
+    def F(x, y):
+        return _corner_terms(x, y)[name]
+
     return F(X + a, Y + b) - F(X + a, Y - b) - F(X - a, Y + b) + F(X - a, Y - b)
 
 
@@ -81,37 +89,56 @@ def point_kernels(pair: MaterialPair) -> dict:
     }
 
 
-def influence_coefficients(pair: MaterialPair, ny: int, nx: int, dx: float, dy: float, padded: bool = True) -> dict:
+#: cell rows per block of ``influence_coefficients`` (each block's temporaries: about 15 arrays of
+#: (rows + 1) x (2 nx + 1) float64, ``resources.INFLUENCE_BLOCK_ARRAYS``)
+BLOCK_ROWS = 64
+
+
+def influence_coefficients(pair: MaterialPair, ny: int, nx: int, dx: float, dy: float, padded: bool = True,
+                           workers: int | None = None) -> dict:
     """Displacement [m] at a cell centre per unit traction [Pa] on a cell at each offset.
 
     Returns a dict KERNELS -> float64 arrays. With ``padded`` (the DC-FFT layout) each array has
     shape (2 ny, 2 nx) in wrap-around order: entry [k, l] is the offset (k, l) for k < ny and
     (k - 2 ny) for k > ny; the unused middle row/column (offset +-ny, +-nx) is zero. Without
     ``padded``, arrays of shape (2 ny - 1, 2 nx - 1) with offsets -(n-1) ... n-1 in order.
+
+    The antiderivatives are evaluated once per cell corner (a cell's integral is the difference of
+    its four corners), in blocks of ``BLOCK_ROWS`` cell rows on ``workers`` threads (default: one
+    per CPU; numpy's element-wise functions release the GIL). The set-up of a large grid is these
+    evaluations. n = 2048 on this project's 2-core machine: 5.0 s one antiderivative at a time on
+    one thread (before), 3.15 s with the shared parts on one thread, 1.35 s on two.
     """
     # Offsets in natural order, -n ... n-1 (padded) or -(n-1) ... n-1, and the cell corners
-    # between them: each antiderivative is evaluated once per corner of the lattice, and a cell's
-    # integral is the difference of its four corners (a quarter of the evaluations of doing each
-    # cell apart: the set-up of large grids is these evaluations).
+    # between them.
     first_y, first_x = (ny, nx) if padded else (ny - 1, nx - 1)
     count_y, count_x = (2 * ny, 2 * nx) if padded else (2 * ny - 1, 2 * nx - 1)
     corner_y = (np.arange(count_y + 1, dtype=np.float64) - first_y - 0.5) * dy
     corner_x = (np.arange(count_x + 1, dtype=np.float64) - first_x - 0.5) * dx
-    CX, CY = np.meshgrid(corner_x, corner_y, indexing="xy")
-    elementary = {}
-    for name, F in ANTIDERIVATIVES.items():
-        corners = F(CX, CY)
-        cells = corners[1:, 1:] - corners[:-1, 1:] - corners[1:, :-1] + corners[:-1, :-1]
-        del corners
-        if padded:  # natural order -> wrap-around order: offset k at index k mod 2n
-            cells = np.roll(cells, (-first_y, -first_x), axis=(0, 1))
-        elementary[name] = cells
-    del CX, CY
-    out = {}
-    for kname, terms in point_kernels(pair).items():
-        arr = sum(c * elementary[e] for c, e in terms)
-        if padded:
+    kernels = point_kernels(pair)
+    out = {k: np.empty((count_y, count_x)) for k in kernels}
+
+    def block(row0: int):
+        """Cell rows row0 ... row0 + BLOCK_ROWS - 1 (natural order) of every kernel."""
+        row1 = min(row0 + BLOCK_ROWS, count_y)
+        corners = _corner_terms(corner_x[None, :], corner_y[row0:row1 + 1, None])
+        cells = {name: c[1:, 1:] - c[:-1, 1:] - c[1:, :-1] + c[:-1, :-1] for name, c in corners.items()}
+        # natural order -> wrap-around order: offset k at index k mod 2n
+        rows = (np.arange(row0, row1) - first_y) % count_y if padded else slice(row0, row1)
+        for kname, terms in kernels.items():
+            arr = sum(c * cells[e] for c, e in terms)
+            out[kname][rows] = np.roll(arr, -first_x, axis=1) if padded else arr
+
+    starts = range(0, count_y, BLOCK_ROWS)
+    workers = workers or os.cpu_count() or 1
+    if workers > 1 and len(starts) > 1:
+        with ThreadPoolExecutor(max_workers=min(workers, len(starts))) as pool:
+            list(pool.map(block, starts))  # list(): re-raises a block's exception here
+    else:
+        for row0 in starts:
+            block(row0)
+    if padded:
+        for arr in out.values():
             arr[ny, :] = 0.0
             arr[:, nx] = 0.0
-        out[kname] = arr
     return out

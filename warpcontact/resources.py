@@ -27,7 +27,7 @@ The estimate is counted from the allocations in the code, not fitted:
 
 Building the influence spectra needs more host memory for a moment than all of this on the CPU
 (``setup_host_bytes``): float64 coefficient arrays on the (2n, 2n) grid and three copies of the
-six spectra. ``check_fits`` checks both against the memory there is.
+six spectra (or, at small n on many CPUs, the coefficients' blocks on their threads). ``check_fits`` checks both against the memory there is.
 
 Not counted: a path's saved fields (``runner.run_path`` keeps about 13 float64 (n, n) arrays per
 state of the path on the host, and ``results.state_summary`` makes that many temporarily), and
@@ -86,9 +86,10 @@ def cufft_work_spectra(n: int) -> float:
         return 1.0
     power = 1 << (2 * length - 2).bit_length()
     return 2.0 * power / length + 1.0
-#: peak of influence.influence_coefficients, in float64 arrays of the (2n, 2n) grid (measured:
-#: 15.1 at n = 256: the two meshes, six cell integrals and the corner terms of one of them)
-INFLUENCE_PEAK_ARRAYS = 16
+#: temporaries of one block of influence.influence_coefficients, in float64 arrays of its
+#: (BLOCK_ROWS + 1, 2n + 1) corners (measured with tracemalloc: 14.4-14.9 per worker thread at
+#: n = 256, 512, 1024 with 1 and 2 threads); its peak is six (2n, 2n) results plus this per thread
+INFLUENCE_BLOCK_ARRAYS = 16
 
 
 def _kind(device_kind) -> str:
@@ -245,25 +246,28 @@ def estimate_bytes(n: int, dtype: str, device_kind: str, friction: bool, fft: st
 def setup_host_bytes(n: int, dtype="float64", fft: str = "scipy", device_kind="cpu") -> int:
     """Peak host memory while ContactModel builds the influence spectra [bytes].
 
-    ``influence_coefficients`` returns six float64 (2n, 2n) arrays (its own peak is about 16 of
-    them); ElasticOperator then holds them with the list of six complex128 spectra and their
-    ``np.stack`` (stack phase), then with the stack, its cast to the model's complex type and, on
-    the CPU, Warp's copy of that: the device array itself, made by Warp's allocator (cast phase).
-    Measured with tracemalloc (numpy's part only) at n = 256, scipy: 578 n^2 bytes in float64 and
-    in float32, against 576 n^2 here; Warp's copy adds 192 n^2 (float64) on the CPU.
+    ``influence_coefficients`` returns six float64 (2n, 2n) arrays (its own peak: those and
+    ``INFLUENCE_BLOCK_ARRAYS`` block temporaries per worker thread, one thread per CPU);
+    ElasticOperator then holds them with the list of six complex128 spectra and their
+    ``np.stack`` (stack phase), then with the stack and its cast to the model's complex type
+    (cast phase), which on the CPU becomes the Warp array itself (no copy). Measured with
+    tracemalloc at n = 256, scipy: 578 n^2 bytes in float64 and in float32, against 576 n^2 here.
     """
     n = int(n)
     kind = _kind(device_kind)
     fft = _resolve_fft(fft, kind)
     real = np.dtype(_np_name(resolve_dtype(dtype))).itemsize
+    from .influence import BLOCK_ROWS
+
     padded = (2 * n) ** 2 * 8
     coefficients = N_INFLUENCE_SPECTRA * padded
+    threads = min(os.cpu_count() or 1, -(-2 * n // BLOCK_ROWS))  # one per CPU, at most one per block
+    blocks = threads * INFLUENCE_BLOCK_ARRAYS * (BLOCK_ROWS + 1) * (2 * n + 1) * 8
     e = spectral_entries(n, fft)
-    warp_copy = N_INFLUENCE_SPECTRA * e * 2 * real if kind == "cpu" else 0
     stack_phase = coefficients + 2 * N_INFLUENCE_SPECTRA * e * 16
-    cast_phase = coefficients + N_INFLUENCE_SPECTRA * e * (16 + 2 * real) + warp_copy
+    cast_phase = coefficients + N_INFLUENCE_SPECTRA * e * (16 + 2 * real)
     initial_gap = n * n * real if kind == "cpu" else 0  # the model's first field, already made
-    return max(INFLUENCE_PEAK_ARRAYS * padded, stack_phase, cast_phase) + initial_gap
+    return max(coefficients + blocks, stack_phase, cast_phase) + initial_gap
 
 
 def host_memory_bytes() -> int:
