@@ -10,6 +10,9 @@
 #   PARTS=1   bench/iteration_parts.py on cuda:0 (PARTS_ARGS, default --sizes 1024 2048 4096)
 #   SCALE=1   bench/scale_check.py on cuda:0 (SCALE_ARGS, e.g. --sizes 8191 --dtype float64)
 #   FIGS=1    warpcontact figure for every examples/figure*.toml on cuda:0 (the paper's Figures 1 and 2)
+#   PROFILE=1 bench/profile_table2_cell.py on cuda:0 (PROFILE_ARGS, default --n 256): one Table 2 cell by phase
+#   LAYOUTS=1 bench/fft_small_sizes.py on cuda:0 (LAYOUTS_ARGS): cuFFT pair, pruned against 2-D plans, by size
+#   SETUP=1   bench/setup_time.py on cuda:0 (SETUP_ARGS, default --sizes 2048 4096 8191): model set-up times
 #   ADH=W     bench/adhesion_sensitivity.py on W CPU workers, in the background while the rest runs
 #             (its cells.jsonl is kept in $OUT/adh; a copy in bench_results/adh/ is resumed)
 set -u
@@ -53,6 +56,19 @@ if [ "${TABLE2:-0}" = 1 ]; then
   (cd /tmp && /usr/bin/time -v timeout "${TABLE2_TIMEOUT:-400}" python3 -m warpcontact.cli table2 --n 256 --device cuda:0 \
      ${TABLE2_ARGS:-} --out "$T2" > "$OUT/table2_gpu.log" 2>&1; tail -40 "$OUT/table2_gpu.log")
   [ "$T2" != "$OUT/table2_gpu" ] && cp -r "$T2" "$OUT/table2_gpu"
+fi
+if [ "${PROFILE:-0}" = 1 ]; then
+  # the whole output goes to the log first (a pipe into head would cut the log short)
+  (cd /tmp && timeout "${PROFILE_TIMEOUT:-240}" python3 "$ROOT/bench/profile_table2_cell.py" --device cuda:0 \
+     ${PROFILE_ARGS:---n 256} > "$OUT/profile_cell.log" 2>&1; head -30 "$OUT/profile_cell.log")
+fi
+if [ "${LAYOUTS:-0}" = 1 ]; then
+  (cd /tmp && timeout "${LAYOUTS_TIMEOUT:-200}" python3 "$ROOT/bench/fft_small_sizes.py" --device cuda:0 ${LAYOUTS_ARGS:-} \
+     > "$OUT/fft_layouts.log" 2>&1; cat "$OUT/fft_layouts.log")
+fi
+if [ "${SETUP:-0}" = 1 ]; then
+  (cd /tmp && timeout "${SETUP_TIMEOUT:-200}" python3 "$ROOT/bench/setup_time.py" --device cuda:0 \
+     ${SETUP_ARGS:---sizes 2048 4096 8191} > "$OUT/setup.log" 2>&1; cat "$OUT/setup.log")
 fi
 if [ "${FIGS:-0}" = 1 ]; then
   mkdir -p "$OUT/figs"
