@@ -72,8 +72,8 @@ def build(n, dtype="float64", fft="scipy", friction=True, adhesion=False):
 )
 def test_estimate_matches_what_is_allocated(n, dtype, fft, friction, adhesion):
     """estimate_bytes within 30 % of the Warp memory the objects hold (the brief's bound: the
-    estimate adds the FFT library's and the first guess's temporaries, which the objects do not
-    hold); the counted arrays alone within 2 % (a count that no longer matches the code: a buffer
+    estimate adds the FFT library's temporaries and the solves' Python-side residual histories,
+    which the objects do not hold); the counted arrays alone within 2 % (a count that no longer matches the code: a buffer
     was added to or removed from a class without updating resources.py)."""
     objs = build(n, dtype, fft, friction, adhesion)
     measured = allocated_bytes(*objs)
@@ -102,7 +102,7 @@ def test_estimate_grows_as_n_squared():
 
 def test_solve_temporaries_within_the_allowance():
     """What numpy and scipy.fft allocate during a coupled step (tracemalloc traces numpy's data)
-    stays under the estimate's allowance (FFT temporaries + first-guess host arrays), and the
+    stays under the estimate's allowance (FFT temporaries + the residual histories), and the
     allowance is not more than twice what is used (it is meant to be tight). n = 256: at smaller n
     the solver's Python-side records (residual histories as lists, ~0.1 MB) are not negligible."""
     n = 256

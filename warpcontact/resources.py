@@ -6,7 +6,8 @@ The estimate is counted from the allocations in the code, not fitted:
   spectra and 3 spectral buffers (``operator.py``), each of the FFT backend's ``spectral_shape``
   in complex entries of the model's float type (scipy and cupy: (2n, n + 1); warp: (L/2 + 1, L),
   L the smallest power of two >= 2n), plus the FFT backend's work buffers: warp's ``_rows_q`` (one
-  spectrum), ``_half_r`` ((n, L/2 + 1) complex) and ``_row_scale`` (L/2 + 1 reals); cupy's two
+  spectrum), ``_half_r`` ((n, L/2 + 1) complex) and ``_row_scale`` (L/2 + 1 reals); scipy's
+  padded (n, 2n) real row buffer (``_rows``); cupy's two
   (n, 2n) real row buffers (pruned layout) or two (2n, 2n) real padded buffers (2-D plans;
   ``cupy_backend.prune_by_default`` says which).
 - ``ContactState``: ``len(ContactState.FIELDS)`` fields and the int32 ``status``.
@@ -18,12 +19,14 @@ The estimate is counted from the allocations in the code, not fitted:
   fields per component of the adhesive vector (1 component without friction, 3 with) and
   2 + 3 x DEPTH scalars.
 - The FFT library's temporaries, an allowance (``FFT_TEMPORARY_SPECTRA``): scipy on the
-  CPU allocates a (n, n + 1) row pass and a (2n, n + 1) column pass per transform, 1.5 spectra;
+  CPU allocates the row pass's (n, n + 1) output of the forward transform and the (n, 2n) output
+  of the inverse's last pass, one spectrum;
   the cupy backend's cuFFT plans share one work area, allocated once (``CupyFFT.work_bytes``),
   allowed ``cufft_work_spectra(n)`` spectra (one, or up to about nine where cuFFT falls back to
   Bluestein's algorithm); Warp's tile_fft needs none beyond its work buffers (one (n, n) field
   allowed for the zero round trip that checks the kernels at set-up on CUDA).
-- On the CPU, the normal solver's first guess holds up to 3 float64 (n, n) host arrays.
+- On the CPU, the solves' residual histories as Python lists (``SolveInfo.history``), up to
+  ``max_iter + 1`` floats each for the three solves of a step (``HISTORY_RECORDS``).
 
 Building the influence spectra needs more host memory for a moment than all of this on the CPU
 (``setup_host_bytes``): float64 coefficient arrays on the (2n, 2n) grid and three copies of the
@@ -56,10 +59,11 @@ CONTACT_SOLVER_FIELDS = 9
 TANGENTIAL_SOLVER_FIELDS = 7
 FRICTION_FIELDS = 5  # ContactSolver.target_x, target_y, shear_limit, scratch_x, scratch_y
 CONTACT_SOLVER_SCALARS = 6  # change
-#: float64 (n, n) host arrays of NormalSolver._initial_guess alive during its FFT
-INITIAL_GUESS_HOST_FIELDS = 3
+#: residual histories of a step kept as Python lists (normal, tangential and final solves), each
+#: up to max_iter + 1 floats of about 32 bytes (a pointer and a float object)
+HISTORY_RECORDS = 3
 #: library temporaries during a transform, in spectra of the backend's shape (see module docstring)
-FFT_TEMPORARY_SPECTRA = {"scipy": 1.5, "warp": 0.0}  # cupy: cufft_work_spectra(n)
+FFT_TEMPORARY_SPECTRA = {"scipy": 1.0, "warp": 0.0}  # cupy: cufft_work_spectra(n)
 
 
 def _largest_prime_factor(m: int) -> int:
@@ -164,8 +168,8 @@ def breakdown(n: int, dtype="float64", device_kind="cpu", friction: bool = True,
     Keys: ``spectra`` (influence and buffers), ``fft_work`` (the FFT backend's work buffers),
     ``fields`` ((n, n) arrays of the model, states and solvers), ``scalars`` (reductions and
     residual histories), ``arrays`` (the sum of those four: what the objects hold), ``fft_temporaries``
-    (allowance for the FFT library), ``host_temporaries`` (the first guess's host arrays, counted
-    on the CPU only), ``total``.
+    (allowance for the FFT library), ``host_temporaries`` (the solves' Python-side residual
+    histories, counted on the CPU only), ``total``.
     """
     from warpcontact.kernels import normal as nk
     from warpcontact.kernels import tangential as tk
@@ -182,7 +186,7 @@ def breakdown(n: int, dtype="float64", device_kind="cpu", friction: bool = True,
     cells = n * n
     spectrum = spectral_entries(n, fft) * cplx
     spectra = (N_INFLUENCE_SPECTRA + N_SPECTRAL_BUFFERS) * spectrum
-    fft_work = 0
+    fft_work = n * (2 * n) * real  # scipy: the forward pass's padded rows
     if fft == "warp":
         half = _padded_length(n) // 2 + 1
         fft_work = spectrum + n * half * cplx + half * real
@@ -205,7 +209,7 @@ def breakdown(n: int, dtype="float64", device_kind="cpu", friction: bool = True,
     fft_temporaries = int(math.ceil(allowance * spectrum))
     if fft == "warp" and kind == "cuda":
         fft_temporaries = cells * real
-    host_temporaries = INITIAL_GUESS_HOST_FIELDS * cells * 8 if kind == "cpu" else 0
+    host_temporaries = HISTORY_RECORDS * (max_iter + 1) * 32 if kind == "cpu" else 0
     return {
         "spectra": spectra,
         "fft_work": fft_work,

@@ -27,6 +27,11 @@ class ScipyFFT(FFTBackend):
         if not self.device.is_cpu:
             raise ValueError(f"fft: the scipy backend runs on the CPU only, not on {self.device}")
         self.workers = workers or os.cpu_count() or 1
+        # the forward pass's rows, padded: the field goes into the left half, the right half stays
+        # zero. Letting scipy pad (``rfft(x, n=2 nx)``) allocated and zeroed a fresh (ny, 2 nx)
+        # array per transform: 5.7-6.5 against 3.0-3.6 ms per forward pass at n = 512, 2 cores.
+        self._rows_buffer = wp.zeros((ny, 2 * nx), dtype=dtype, device=self.device)
+        self._rows = self._rows_buffer.numpy()  # zero-copy view
 
     @property
     def spectral_shape(self):
@@ -39,9 +44,9 @@ class ScipyFFT(FFTBackend):
         return spectrum.numpy().view(self.np_complex).reshape(spectrum.shape)
 
     def forward(self, field, spectrum):
-        x = field.numpy()  # zero-copy on the CPU
         s = self._complex_view(spectrum)
-        s[: self.ny] = sfft.rfft(x, n=2 * self.nx, axis=1, workers=self.workers)
+        self._rows[:, : self.nx] = field.numpy()  # (numpy(): zero-copy on the CPU)
+        s[: self.ny] = sfft.rfft(self._rows, axis=1, workers=self.workers)
         s[self.ny :] = 0
         out = sfft.fft(s, axis=0, workers=self.workers, overwrite_x=True)
         if not np.shares_memory(out, s):  # scipy may return a new array even when allowed to overwrite
