@@ -11,7 +11,6 @@ pruned and 2-D layouts, and (with PyTorch's profiler) the kernels per pair.
 from __future__ import annotations
 
 import argparse
-import math
 import time
 
 import numpy as np
@@ -19,26 +18,16 @@ import warp as wp
 
 from warpcontact.fft.cupy_backend import CupyFFT
 
-REPEATS = 20
+from iteration_parts import timed_ms  # bench/, beside this script
 
 
 def pair_ms(fft, field, spectrum, device):
+    """ms per forward + inverse (replayed from a graph, best of 5), and the pair as a function."""
     def pair():
         fft.forward(field, spectrum)
         fft.inverse(spectrum, field)
 
-    pair()
-    with wp.ScopedCapture(device=device, force_module_load=False) as cap:
-        for _ in range(REPEATS):
-            pair()
-    best = math.inf
-    for _ in range(5):
-        wp.synchronize_device(device)
-        t0 = time.perf_counter()
-        wp.capture_launch(cap.graph)
-        wp.synchronize_device(device)
-        best = min(best, time.perf_counter() - t0)
-    return 1e3 * best / REPEATS, pair
+    return timed_ms(device, pair, best_of=5), pair
 
 
 def kernels_per_pair(pair, device):

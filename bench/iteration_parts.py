@@ -28,8 +28,8 @@ A = math.sqrt(R * DZ)
 REPEATS = 20
 
 
-def timed_ms(device, fn) -> float:
-    """ms per call of fn(): replayed from a graph of REPEATS calls on CUDA, best of 3."""
+def timed_ms(device, fn, best_of: int = 3) -> float:
+    """ms per call of fn(): replayed from a graph of REPEATS calls on CUDA, best of ``best_of``."""
     fn()
     if device.is_cuda:
         with wp.ScopedCapture(device=device, force_module_load=False) as cap:
@@ -41,7 +41,7 @@ def timed_ms(device, fn) -> float:
             for _ in range(REPEATS):
                 fn()
     best = math.inf
-    for _ in range(3):
+    for _ in range(best_of):
         wp.synchronize_device(device)
         t0 = time.perf_counter()
         run()
