@@ -1,7 +1,11 @@
 """Benchmark: the set-up of a ContactModel (influence coefficients, their spectra, the device copy).
 
 For each n: seconds for ``influence_coefficients`` alone and for the whole ContactModel (paper
-pair, Hertz sphere), after one small model has loaded the kernels.
+pair, Hertz sphere), after one small model has loaded the kernels. Where the FFT backend makes
+the six influence spectra its own way (cupy: cuFFT on the device), that step is timed side by side
+with the host path it replaced (scipy in float64, cast, copied to the device), on the same
+coefficients in the same run, with the largest difference between the two (ZZ and XZ spectra,
+relative to the largest entry).
 
     python bench/setup_time.py --device cuda:0 --sizes 2048 4096 8191
 """
@@ -12,10 +16,12 @@ import argparse
 import os
 import time
 
+import numpy as np
 import warp as wp
 
+from warpcontact.fft.base import FFTBackend
 from warpcontact.geometry import Grid, Sphere
-from warpcontact.influence import influence_coefficients
+from warpcontact.influence import KERNELS, influence_coefficients
 from warpcontact.materials import PAPER_PAIR
 from warpcontact.model import ContactModel
 
@@ -41,9 +47,30 @@ def main():
         model = ContactModel(PAPER_PAIR, sphere, Grid(n, 1e-7), device=args.device, dtype=args.dtype)
         wp.synchronize_device(model.device)
         t_model = time.perf_counter() - t0
+        line = f"n {n:>6}: influence_coefficients {t_influence:7.2f} s, whole model {t_model:7.2f} s"
+        fft = model.operator.fft
+        if type(fft).influence_spectra is not FFTBackend.influence_spectra:
+            line += spectra_side_by_side(model, n)
         del model
-        print(f"n {n:>6}: influence_coefficients {t_influence:7.2f} s, whole model {t_model:7.2f} s", flush=True)
+        print(line, flush=True)
 
+
+def spectra_side_by_side(model, n) -> str:
+    """The backend's influence_spectra against the host path (FFTBackend's), same coefficients."""
+    fft, out = model.operator.fft, model.operator.influence
+    coefficients = influence_coefficients(PAPER_PAIR, n, n, 1e-8, 1e-8)
+    arrays = [coefficients[k] for k in KERNELS]
+    times, kept = {}, {}
+    for label, method in (("backend", type(fft).influence_spectra), ("host", FFTBackend.influence_spectra)):
+        wp.synchronize_device(model.device)
+        t0 = time.perf_counter()
+        method(fft, iter(arrays), out)
+        wp.synchronize_device(model.device)
+        times[label] = time.perf_counter() - t0
+        kept[label] = [out[i].numpy().view(fft.np_complex).reshape(out.shape[1:]) for i in (0, 4)]
+    diff = max(np.abs(a - b).max() / np.abs(b).max() for a, b in zip(kept["backend"], kept["host"]))
+    return (f"; six spectra: {fft.name} {times['backend']:6.2f} s, host float64 + copy {times['host']:6.2f} s "
+            f"({times['host'] / times['backend']:.1f}x), largest difference {diff:.1e} of the largest entry")
 
 if __name__ == "__main__":
     main()

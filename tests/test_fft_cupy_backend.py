@@ -63,3 +63,28 @@ def test_work_area_within_the_memory_estimate(n):
             spectrum = 2 * n * (n + 1) * 2 * np.dtype(fft.np_real).itemsize
             assert fft.work_bytes <= cufft_work_spectra(n) * spectrum, (dtype, pruned, fft.work_bytes / spectrum)
             del fft
+
+
+@pytest.mark.parametrize("shape", [(8, 8), (25, 25), (64, 64), (12, 20)], ids=lambda s: f"{s[0]}x{s[1]}")
+@pytest.mark.parametrize("dtype", [wp.float64, wp.float32], ids=["f64", "f32"])
+@pytest.mark.parametrize("pruned", [True, False], ids=["pruned", "2d"])
+def test_influence_spectra_on_the_device(pruned, dtype, shape):
+    """``influence_spectra`` (the operator's set-up: cuFFT on the device, in the backend's float
+    type) gives the host's float64 spectra (numpy's rfft2 of the padded arrays) to the rounding of
+    that type, for three arrays in a row; the forward pass's zero padding is intact afterwards (a
+    convolution right after it is still numpy's)."""
+    ny, nx = shape
+    rng = np.random.default_rng(ny * nx)
+    arrays = [rng.standard_normal((2 * ny, 2 * nx)) for _ in range(3)]
+    fft = cupy_backend.CupyFFT(ny, nx, "cuda:0", dtype, pruned=pruned)
+    out = fft.alloc_spectra(3)
+    fft.influence_spectra(iter(arrays), out)
+    got = out.numpy().view(fft.np_complex).reshape(out.shape)
+    for k, a in enumerate(arrays):
+        want = np.fft.rfft2(a.astype(fft.np_real).astype(np.float64))
+        err = np.abs(got[k] - want).max() / np.abs(want).max()
+        assert err < _tol(dtype), (k, err)
+    field, kernel = _inputs(ny, nx, seed=ny + nx)
+    err = _rel_err(_backend_convolution(fft, field, kernel),
+                   _numpy_dc_fft(field.astype(fft.np_real).astype(np.float64), kernel))
+    assert err < _tol(dtype), err

@@ -3,6 +3,7 @@
 import gc
 import tracemalloc
 
+import numpy as np
 import pytest
 import warp as wp
 
@@ -127,9 +128,8 @@ def test_solve_temporaries_within_the_allowance():
 
 def test_setup_peak_on_the_host(monkeypatch):
     """The host peak while the influence spectra are built: numpy's part, which tracemalloc sees,
-    within 10 % of setup_host_bytes in its CUDA form (numpy's arrays alone; on the CPU the Warp
-    array of the spectra is numpy's cast, taken without a copy); the CPU form, which adds the
-    model's first field (made by Warp's allocator, unseen by tracemalloc), lies above it. Two
+    within 10 % of setup_host_bytes without the Warp arrays; with them (the model's first field
+    and the six spectra, made by Warp's allocator, unseen by tracemalloc) it lies above it. Two
     worker threads for the coefficients on every machine (``os.cpu_count``, which both the build
     and the formula read), so the phase that peaks is the same here and on a 16-core host.
     Imports and kernel loads are done beforehand, so that only the build is measured."""
@@ -147,13 +147,42 @@ def test_setup_peak_on_the_host(monkeypatch):
             peak = tracemalloc.get_traced_memory()[1] - base
         finally:
             tracemalloc.stop()
-        numpy_part = resources.setup_host_bytes(n, dtype, "scipy", device_kind="cuda")
+        numpy_part = resources.setup_host_bytes(n, dtype, "scipy", device_kind="cpu", warp_arrays=False)
         on_cpu = resources.setup_host_bytes(n, dtype, "scipy", device_kind="cpu")
         print(f"\nn {n} {dtype}: set-up host peak (numpy) {peak / n**2:.1f} n^2 bytes, "
               f"formula {numpy_part / n**2:.1f} n^2"
-              f" (with the first field on the CPU {on_cpu / n**2:.1f} n^2)")
+              f" (with the Warp arrays on the CPU {on_cpu / n**2:.1f} n^2)")
         assert abs(peak / numpy_part - 1) < 0.10, (peak, numpy_part)
         assert on_cpu >= peak
+
+
+@pytest.mark.parametrize("backend", ["scipy", "warp"])
+def test_host_transform_temporaries(backend):
+    """What one host transform of FFTBackend.influence_spectra holds beyond its input
+    (tracemalloc): at most ``HOST_FFT_SPECTRA`` complex128 spectra, and not less than 3/4 of it
+    (an allowance far above the need would refuse grids that fit)."""
+    from warpcontact.fft import make_fft
+
+    n = 128
+    for dtype in (wp.float64, wp.float32):
+        fft = make_fft(backend, n, n, "cpu", dtype)
+        out = fft.alloc_spectra(2)
+        arrays = [np.random.default_rng(k).random((2 * n, 2 * n)) for k in range(2)]
+        fft.influence_spectra(iter(arrays), out)  # kernels and plans loaded
+        gc.collect()
+        tracemalloc.start()
+        try:
+            base = tracemalloc.get_traced_memory()[0]
+            fft.influence_spectra(iter(arrays), out)
+            peak = tracemalloc.get_traced_memory()[1] - base
+        finally:
+            tracemalloc.stop()
+        allowance = resources.HOST_FFT_SPECTRA[backend] * resources.spectral_entries(n, backend) * 16
+        print(f"\n{backend} {dtype.__name__}: {peak / allowance:.2f} of the allowance")
+        assert 0.75 * allowance <= peak <= allowance, (peak, allowance)
+        want = np.stack([fft.spectrum_of_padded(a) for a in arrays]).astype(fft.np_complex)
+        got = out.numpy().view(fft.np_complex).reshape(want.shape)
+        assert np.array_equal(got, want)
 
 
 def test_check_fits_refuses_a_grid_too_large(monkeypatch):

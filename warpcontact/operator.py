@@ -25,8 +25,9 @@ class ElasticOperator:
         device, dtype: where and in which float type the fields live.
         fft: FFT backend name ("auto", "scipy", "cupy", "warp").
 
-    The spectra of the six influence kernels are computed once (float64 on the host, then cast)
-    and kept on the device; three spectral buffers are allocated once.
+    The spectra of the six influence kernels are computed once and kept on the device (by the
+    FFT backend: float64 on the host, then cast; cuFFT on the device with the cupy backend);
+    three spectral buffers are allocated once.
     """
 
     def __init__(self, pair, grid, device, dtype, fft: str = "auto"):
@@ -38,16 +39,18 @@ class ElasticOperator:
         self.coupled = pair.D != 0.0
         scale = pair.E_star / grid.dx  # scaled displacement per scaled traction
         coeffs = influence_coefficients(pair, grid.n, grid.n, grid.dx, grid.dy)
-        spectra = np.stack([self.fft.spectrum_of_padded(coeffs[k] * scale) for k in KERNELS])
-        host = np.ascontiguousarray(spectra.astype(self.fft.np_complex)).view(self.fft.np_real)
-        host = host.reshape(len(KERNELS), *self.fft.spectral_shape, 2)
-        # on the CPU the Warp array takes the host array as it is (no second copy of the six
-        # spectra: 1.5 s at n = 2048 here, most of it the first touch of fresh pages)
-        on_cpu = wp.get_device(device).is_cpu
-        self.influence = wp.array(host, dtype=self.fft.complex_dtype, device=device, copy=not on_cpu)
         self._self_coefficients = {k: float(coeffs[k][0, 0] * scale) for k in KERNELS}
         # (np.linalg.norm: a dot product of the flattened view, no temporary array of the grid)
         self._column_norms = {k: float(np.linalg.norm(coeffs[k]) * abs(scale)) for k in KERNELS}
+
+        def scaled():  # each coefficient array scaled in place and let go once transformed
+            for k in KERNELS:
+                a = coeffs.pop(k)
+                a *= scale
+                yield a
+
+        self.influence = self.fft.alloc_spectra(len(KERNELS))
+        self.fft.influence_spectra(scaled(), self.influence)
         self._spectra = self.fft.alloc_spectra(3)
         self._buf = [self._spectra[i] for i in range(3)]
 

@@ -29,8 +29,8 @@ The estimate is counted from the allocations in the code, not fitted:
   ``max_iter + 1`` floats each for the three solves of a step (``HISTORY_RECORDS``).
 
 Building the influence spectra needs more host memory for a moment than all of this on the CPU
-(``setup_host_bytes``): float64 coefficient arrays on the (2n, 2n) grid and three copies of the
-six spectra (or, at small n on many CPUs, the coefficients' blocks on their threads). ``check_fits`` checks both against the memory there is.
+(``setup_host_bytes``): six float64 coefficient arrays on the (2n, 2n) grid and the blocks of
+their evaluation on its threads, or those arrays and the temporaries of one host transform. ``check_fits`` checks both against the memory there is.
 
 Not counted: a path's saved fields (``runner.run_path`` keeps about 13 float64 (n, n) arrays per
 state of the path on the host, and ``results.state_summary`` makes that many temporarily), and
@@ -94,6 +94,12 @@ def cufft_work_spectra(n: int) -> float:
 #: (BLOCK_ROWS + 1, 2n + 1) corners (measured with tracemalloc: 14.4-14.9 per worker thread at
 #: n = 256, 512, 1024 with 1 and 2 threads); its peak is six (2n, 2n) results plus this per thread
 INFLUENCE_BLOCK_ARRAYS = 16
+#: host temporaries while FFTBackend.influence_spectra transforms one coefficient array on the
+#: host, in complex128 spectra of the backend's shape (tracemalloc at n = 256 and 128: scipy's
+#: rfft2 2.01 in float64 and float32; the warp backend's embedding, numpy's rfft2 and the transposed
+#: copy 4.25 and 3.50). The cupy backend transforms on the device: only the float32 cast of one
+#: array on the host.
+HOST_FFT_SPECTRA = {"scipy": 2.1, "warp": 4.5}
 
 
 def _kind(device_kind) -> str:
@@ -247,15 +253,18 @@ def estimate_bytes(n: int, dtype: str, device_kind: str, friction: bool, fft: st
     return breakdown(n, dtype, device_kind, friction, fft, states=states, max_iter=max_iter, adhesion=adhesion)["total"]
 
 
-def setup_host_bytes(n: int, dtype="float64", fft: str = "scipy", device_kind="cpu") -> int:
+def setup_host_bytes(n: int, dtype="float64", fft: str = "scipy", device_kind="cpu", warp_arrays: bool = True) -> int:
     """Peak host memory while ContactModel builds the influence spectra [bytes].
 
     ``influence_coefficients`` returns six float64 (2n, 2n) arrays (its own peak: those and
-    ``INFLUENCE_BLOCK_ARRAYS`` block temporaries per worker thread, one thread per CPU);
-    ElasticOperator then holds them with the list of six complex128 spectra and their
-    ``np.stack`` (stack phase), then with the stack and its cast to the model's complex type
-    (cast phase), which on the CPU becomes the Warp array itself (no copy). Measured with
-    tracemalloc at n = 256, scipy: 578 n^2 bytes in float64 and in float32, against 576 n^2 here.
+    ``INFLUENCE_BLOCK_ARRAYS`` block temporaries per worker thread, one thread per CPU). The FFT
+    backend then transforms them one at a time (``FFTBackend.influence_spectra``), each array let
+    go once transformed: at the first, the six arrays and the transform's temporaries
+    (``HOST_FFT_SPECTRA``; cupy: a float32 copy of one array, the transform is on the device).
+    On the CPU the Warp arrays on the host add the model's first field and the six spectra, in
+    the model's float type (``warp_arrays=False``: numpy's arrays alone, what tracemalloc sees).
+    Measured with tracemalloc at n = 256, scipy, two coefficient threads: 310 n^2 bytes in float64
+    and float32 (the coefficients' phase), against 322 n^2 here.
     """
     n = int(n)
     kind = _kind(device_kind)
@@ -268,10 +277,14 @@ def setup_host_bytes(n: int, dtype="float64", fft: str = "scipy", device_kind="c
     threads = min(os.cpu_count() or 1, -(-2 * n // BLOCK_ROWS))  # one per CPU, at most one per block
     blocks = threads * INFLUENCE_BLOCK_ARRAYS * (BLOCK_ROWS + 1) * (2 * n + 1) * 8
     e = spectral_entries(n, fft)
-    stack_phase = coefficients + 2 * N_INFLUENCE_SPECTRA * e * 16
-    cast_phase = coefficients + N_INFLUENCE_SPECTRA * e * (16 + 2 * real)
-    initial_gap = n * n * real if kind == "cpu" else 0  # the model's first field, already made
-    return max(coefficients + blocks, stack_phase, cast_phase) + initial_gap
+    if fft == "cupy":
+        transform = (2 * n) ** 2 * real if real != 8 else 0
+    else:
+        transform = HOST_FFT_SPECTRA[fft] * e * 16
+    on_host = kind == "cpu" and warp_arrays
+    initial_gap = n * n * real if on_host else 0  # the model's first field, already made
+    influence = N_INFLUENCE_SPECTRA * e * 2 * real if on_host else 0
+    return int(max(coefficients + blocks, coefficients + transform + influence) + initial_gap)
 
 
 def host_memory_bytes() -> int:

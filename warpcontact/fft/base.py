@@ -59,6 +59,20 @@ class FFTBackend:
         """
         raise NotImplementedError
 
+    def influence_spectra(self, padded_arrays, out: wp.array):
+        """``out[k]`` <- the spectrum of ``padded_arrays[k]``, in this backend's layout and float type.
+
+        ``padded_arrays``: an iterable of real (2 ny, 2 nx) float64 host arrays (the influence
+        coefficients in wrap-around order), consumed one at a time; ``out``: from
+        :meth:`alloc_spectra`. Once per grid. Here: each spectrum on the host in float64
+        (:meth:`spectrum_of_padded`), cast, and copied into ``out``; a backend with a faster
+        device path overrides this.
+        """
+        for k, padded in enumerate(padded_arrays):
+            spectrum = self.spectrum_of_padded(padded).astype(self.np_complex, copy=False)
+            del padded
+            out[k].assign(spectrum.view(self.np_real).reshape(*self.spectral_shape, 2))
+
     def forward(self, field: wp.array2d, spectrum: wp.array2d):
         """``spectrum`` <- transform of the real (ny, nx) ``field`` zero-padded to (2 ny, 2 nx)."""
         raise NotImplementedError
