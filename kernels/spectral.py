@@ -1,9 +1,12 @@
 """Products of traction spectra with the influence spectra of the coupled elastic operator.
 
-The spectra of the six distinct influence kernels are stored in one array ``influence`` of shape
-(6, sy, sx), complex numbers as 2-vectors, in the order
-``ZZ, XX, YY, XY, XZ, YZ`` (``XZ``: u_x from p). By reciprocity the "normal from shear" kernels
-are the negatives of ``XZ`` and ``YZ`` (MODEL.md section 2).
+The spectra of the six distinct influence kernels are stored in one real array ``influence`` of
+shape (6, sy, sx), in the order ``ZZ, XX, YY, XY, XZ, YZ`` (``XZ``: u_x from p). Each kernel is
+even or odd in x and in y (MODEL.md section 2; ``influence.SPECTRUM_PARTS``), so each spectrum is
+real or imaginary: ZZ, XX, YY (even, even) and XY (odd, odd) are real, XZ (odd in x) and YZ (odd
+in y) imaginary, and only that part is kept (what is dropped is rounding, about 1e-16 of the
+largest entry). The traction spectra are complex numbers as 2-vectors. By reciprocity the "normal
+from shear" kernels are the negatives of ``XZ`` and ``YZ``.
 
 Each kernel is launched over (rows, chunks) and thread (i, c) does the entries j of row i from
 ``c * per`` to ``(c + 1) * per``: on CUDA one entry per thread (chunks = columns, per = 1); on the
@@ -27,9 +30,9 @@ YZ = wp.constant(5)
 
 
 @wp.func
-def cmul(a: Any, b: Any):
-    """Complex product of two complex numbers held as 2-vectors (re, im)."""
-    return type(a)(a[0] * b[0] - a[1] * b[1], a[0] * b[1] + a[1] * b[0])
+def times_i(a: Any):
+    """i a, for a complex number held as a 2-vector (re, im)."""
+    return type(a)(-a[1], a[0])
 
 
 @wp.kernel
@@ -37,7 +40,7 @@ def spectral_normal(influence: wp.array3d(dtype=Any), spectrum: wp.array2d(dtype
     """u_z = K_zz p in Fourier space, in place on ``spectrum``."""
     i, c = wp.tid()
     for j in range(c * per, wp.min((c + 1) * per, spectrum.shape[1])):
-        spectrum[i, j] = cmul(influence[ZZ, i, j], spectrum[i, j])
+        spectrum[i, j] = influence[ZZ, i, j] * spectrum[i, j]
 
 
 @wp.kernel
@@ -50,8 +53,8 @@ def spectral_tangential(
         qx = spectrum_x[i, j]
         qy = spectrum_y[i, j]
         kxy = influence[XY, i, j]
-        spectrum_x[i, j] = cmul(influence[XX, i, j], qx) + cmul(kxy, qy)
-        spectrum_y[i, j] = cmul(kxy, qx) + cmul(influence[YY, i, j], qy)
+        spectrum_x[i, j] = influence[XX, i, j] * qx + kxy * qy
+        spectrum_y[i, j] = kxy * qx + influence[YY, i, j] * qy
 
 
 @wp.kernel
@@ -62,7 +65,8 @@ def spectral_coupled(
     spectrum_y: wp.array2d(dtype=Any),
     per: int,
 ):
-    """(u_z, u_x, u_y) = K (p, q_x, q_y) with the full symmetric 3x3 operator, in place."""
+    """(u_z, u_x, u_y) = K (p, q_x, q_y) with the full symmetric 3x3 operator, in place
+    (K_xz = i influence[XZ], K_yz = i influence[YZ])."""
     i, c = wp.tid()
     for j in range(c * per, wp.min((c + 1) * per, spectrum_z.shape[1])):
         p = spectrum_z[i, j]
@@ -71,9 +75,10 @@ def spectral_coupled(
         kxy = influence[XY, i, j]
         kxz = influence[XZ, i, j]
         kyz = influence[YZ, i, j]
-        spectrum_z[i, j] = cmul(influence[ZZ, i, j], p) - cmul(kxz, qx) - cmul(kyz, qy)
-        spectrum_x[i, j] = cmul(kxz, p) + cmul(influence[XX, i, j], qx) + cmul(kxy, qy)
-        spectrum_y[i, j] = cmul(kyz, p) + cmul(kxy, qx) + cmul(influence[YY, i, j], qy)
+        spectrum_z[i, j] = influence[ZZ, i, j] * p - times_i(kxz * qx + kyz * qy)
+        ip = times_i(p)
+        spectrum_x[i, j] = kxz * ip + influence[XX, i, j] * qx + kxy * qy
+        spectrum_y[i, j] = kyz * ip + kxy * qx + influence[YY, i, j] * qy
 
 
 @wp.kernel
@@ -87,26 +92,34 @@ def spectral_cross(
     """Only the normal-tangential coupling: u_z = K_zt q, (u_x, u_y) = K_tp p, in place."""
     i, c = wp.tid()
     for j in range(c * per, wp.min((c + 1) * per, spectrum_z.shape[1])):
-        p = spectrum_z[i, j]
+        ip = times_i(spectrum_z[i, j])
         kxz = influence[XZ, i, j]
         kyz = influence[YZ, i, j]
-        spectrum_z[i, j] = -cmul(kxz, spectrum_x[i, j]) - cmul(kyz, spectrum_y[i, j])
-        spectrum_x[i, j] = cmul(kxz, p)
-        spectrum_y[i, j] = cmul(kyz, p)
+        spectrum_z[i, j] = -times_i(kxz * spectrum_x[i, j] + kyz * spectrum_y[i, j])
+        spectrum_x[i, j] = kxz * ip
+        spectrum_y[i, j] = kyz * ip
 
 
-for _v in (wp.vec2f, wp.vec2d):
-    wp.overload(spectral_normal, {"influence": wp.array3d(dtype=_v), "spectrum": wp.array2d(dtype=_v), "per": int})
+@wp.kernel
+def spectrum_part(spectrum: wp.array2d(dtype=Any), component: int, part: wp.array2d(dtype=Any)):
+    """part <- the real (``component`` 0) or imaginary (1) part of ``spectrum`` (set-up)."""
+    i, j = wp.tid()
+    part[i, j] = spectrum[i, j][component]
+
+
+for _r, _v in ((wp.float32, wp.vec2f), (wp.float64, wp.vec2d)):
+    wp.overload(spectrum_part, {"spectrum": wp.array2d(dtype=_v), "component": int, "part": wp.array2d(dtype=_r)})
+    wp.overload(spectral_normal, {"influence": wp.array3d(dtype=_r), "spectrum": wp.array2d(dtype=_v), "per": int})
     wp.overload(
         spectral_tangential,
-        {"influence": wp.array3d(dtype=_v), "spectrum_x": wp.array2d(dtype=_v), "spectrum_y": wp.array2d(dtype=_v),
+        {"influence": wp.array3d(dtype=_r), "spectrum_x": wp.array2d(dtype=_v), "spectrum_y": wp.array2d(dtype=_v),
          "per": int},
     )
     for _k in (spectral_coupled, spectral_cross):
         wp.overload(
             _k,
             {
-                "influence": wp.array3d(dtype=_v),
+                "influence": wp.array3d(dtype=_r),
                 "spectrum_z": wp.array2d(dtype=_v),
                 "spectrum_x": wp.array2d(dtype=_v),
                 "spectrum_y": wp.array2d(dtype=_v),

@@ -166,23 +166,24 @@ def test_host_transform_temporaries(backend):
     n = 128
     for dtype in (wp.float64, wp.float32):
         fft = make_fft(backend, n, n, "cpu", dtype)
-        out = fft.alloc_spectra(2)
+        out, scratch = fft.alloc_influence(2), fft.alloc_spectra(1)[0]
         arrays = [np.random.default_rng(k).random((2 * n, 2 * n)) for k in range(2)]
-        fft.influence_spectra(iter(arrays), out)  # kernels and plans loaded
+        parts = ["real", "imag"]
+        fft.influence_spectra(iter(arrays), parts, out, scratch)  # kernels and plans loaded
         gc.collect()
         tracemalloc.start()
         try:
             base = tracemalloc.get_traced_memory()[0]
-            fft.influence_spectra(iter(arrays), out)
+            fft.influence_spectra(iter(arrays), parts, out, scratch)
             peak = tracemalloc.get_traced_memory()[1] - base
         finally:
             tracemalloc.stop()
         allowance = resources.HOST_FFT_SPECTRA[backend] * resources.spectral_entries(n, backend) * 16
         print(f"\n{backend} {dtype.__name__}: {peak / allowance:.2f} of the allowance")
         assert 0.75 * allowance <= peak <= allowance, (peak, allowance)
-        want = np.stack([fft.spectrum_of_padded(a) for a in arrays]).astype(fft.np_complex)
-        got = out.numpy().view(fft.np_complex).reshape(want.shape)
-        assert np.array_equal(got, want)
+        spectra = [fft.spectrum_of_padded(a) for a in arrays]
+        want = np.stack([spectra[0].real, spectra[1].imag]).astype(fft.np_real)
+        assert np.array_equal(out.numpy(), want)
 
 
 def test_check_fits_refuses_a_grid_too_large(monkeypatch):
@@ -216,18 +217,19 @@ def test_largest_grid_is_the_boundary():
 
 def test_grids_warp_cannot_index_are_refused_before_allocating():
     """Warp's array strides are 32-bit: a stacked spectra array whose first stride (one spectrum,
-    2n (n + 1) complex entries) passes 2^31 - 1 bytes wraps and the kernels read outside it (a
-    CUDA illegal address at n = 8192 in float64 on an H100). 8191 is the last n in float64
-    (16 bytes per entry: 2,147,221,504 bytes), 11584 in float32 (8 bytes)."""
-    assert resources.index_limit("float64", "scipy") == 8191 == resources.index_limit("float64", "cupy")
-    assert resources.index_limit("float32", "cupy") == 11584
-    assert 2 * 8192 * 8193 * 16 > resources.WARP_MAX_STRIDE_BYTES >= 2 * 8191 * 8192 * 16
+    2n (n + 1) entries) passes 2^31 - 1 bytes wraps and the kernels read outside it (a CUDA illegal
+    address at n = 8192 in float64 on an H100, with complex influence spectra). The influence
+    spectra are real now (one part of each): 11584 is the last n in float64 (8 bytes per entry:
+    2,147,210,240 bytes), 16383 in float32 (4 bytes)."""
+    assert resources.index_limit("float64", "scipy") == 11584 == resources.index_limit("float64", "cupy")
+    assert resources.index_limit("float32", "cupy") == 16383
+    assert 2 * 11585 * 11586 * 8 > resources.WARP_MAX_STRIDE_BYTES >= 2 * 11584 * 11585 * 8
     with pytest.raises(InputError) as e:
-        resources.check_fits(8192, "float64", "cuda:0", True, "cupy", adhesion=True)
-    assert e.value.key == "grid.n" and "n = 8191" in str(e.value) and "11584" in str(e.value)
+        resources.check_fits(11585, "float64", "cuda:0", True, "cupy", adhesion=True)
+    assert e.value.key == "grid.n" and "n = 11584" in str(e.value) and "16383" in str(e.value)
     with pytest.raises(InputError) as e:  # the model refuses it too, before the influence spectra
-        ContactModel(PAPER_PAIR, Sphere(R), Grid(11585, SIZE), dtype="float32")
-    assert "n = 11584" in str(e.value)
+        ContactModel(PAPER_PAIR, Sphere(R), Grid(16384, SIZE), dtype="float32")
+    assert "n = 16383" in str(e.value) and "use float32" not in str(e.value)
     huge = 10 * 2**40  # memory would allow far more: the index limit caps the answer
-    assert resources.largest_grid("float64", huge, True, device_kind="cuda", fft="cupy", adhesion=True) == 8191
-    assert resources.largest_grid("float32", huge, True, device_kind="cuda", fft="cupy") == 11584
+    assert resources.largest_grid("float64", huge, True, device_kind="cuda", fft="cupy", adhesion=True) == 11584
+    assert resources.largest_grid("float32", huge, True, device_kind="cuda", fft="cupy") == 16383

@@ -36,6 +36,11 @@ from .materials import MaterialPair
 
 #: Order of the six distinct kernels (matches kernels/spectral.py).
 KERNELS = ("zz", "xx", "yy", "xy", "xz", "yz")
+#: the part of each kernel's spectrum that is not zero: a kernel even in x and in y (zz, xx, yy)
+#: or odd in both (xy) has a real spectrum; one odd in x or in y only (xz, yz) an imaginary one.
+#: The coefficients keep these symmetries on the padded grid (the middle row and column, offset
+#: +-n, are zero), so the other part is rounding (tests/test_influence.py).
+SPECTRUM_PARTS = {"zz": "real", "xx": "real", "yy": "real", "xy": "real", "xz": "imag", "yz": "imag"}
 
 
 def _xasinh(x, y):

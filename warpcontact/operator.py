@@ -13,7 +13,7 @@ from warpcontact.kernels import spectral
 
 from .fft import make_fft
 from .launch import LaunchCache
-from .influence import KERNELS, influence_coefficients
+from .influence import KERNELS, SPECTRUM_PARTS, influence_coefficients
 
 
 class ElasticOperator:
@@ -25,9 +25,9 @@ class ElasticOperator:
         device, dtype: where and in which float type the fields live.
         fft: FFT backend name ("auto", "scipy", "cupy", "warp").
 
-    The spectra of the six influence kernels are computed once and kept on the device (by the
-    FFT backend: float64 on the host, then cast; cuFFT on the device with the cupy backend);
-    three spectral buffers are allocated once.
+    The spectra of the six influence kernels are computed once and kept on the device, each as
+    its one non-zero part, real or imaginary (by the FFT backend: float64 on the host, then cast;
+    cuFFT on the device with the cupy backend); three spectral buffers are allocated once.
     """
 
     def __init__(self, pair, grid, device, dtype, fft: str = "auto"):
@@ -49,10 +49,13 @@ class ElasticOperator:
                 a *= scale
                 yield a
 
-        self.influence = self.fft.alloc_spectra(len(KERNELS))
-        self.fft.influence_spectra(scaled(), self.influence)
-        self._spectra = self.fft.alloc_spectra(3)
-        self._buf = [self._spectra[i] for i in range(3)]
+        # three buffers, one array each: a stacked (3, ...) array's first stride (one spectrum)
+        # would pass Warp's 32-bit strides at n = 8192 in float64 (resources.index_limit)
+        self._buf = [wp.zeros(self.fft.spectral_shape, dtype=self.fft.complex_dtype, device=self.fft.device)
+                     for _ in range(3)]
+        #: the six influence spectra, each real or imaginary: only that part (SPECTRUM_PARTS)
+        self.influence = self.fft.alloc_influence(len(KERNELS))
+        self.fft.influence_spectra(scaled(), [SPECTRUM_PARTS[k] for k in KERNELS], self.influence, self._buf[0])
 
     def self_coefficient(self, kernel: str) -> float:
         """Displacement of a cell under its own unit traction, scaled units (kernel in KERNELS)."""

@@ -3,8 +3,9 @@
 The estimate is counted from the allocations in the code, not fitted:
 
 - ``ContactModel``: ``initial_gap``, one (n, n) field; its ``ElasticOperator``: 6 influence
-  spectra and 3 spectral buffers (``operator.py``), each of the FFT backend's ``spectral_shape``
-  in complex entries of the model's float type (scipy and cupy: (2n, n + 1); warp: (L/2 + 1, L),
+  spectra in real entries (each spectrum is real or imaginary: only that part is kept) and 3
+  spectral buffers in complex entries (``operator.py``), each of the FFT backend's ``spectral_shape``
+  in the model's float type (scipy and cupy: (2n, n + 1); warp: (L/2 + 1, L),
   L the smallest power of two >= 2n), plus the FFT backend's work buffers: warp's ``_rows_q`` (one
   spectrum), ``_half_r`` ((n, L/2 + 1) complex) and ``_row_scale`` (L/2 + 1 reals); scipy's
   padded (n, 2n) real row buffer (``_rows``); cupy's two
@@ -131,16 +132,19 @@ def _padded_length(n: int) -> int:
 
 #: Warp keeps array strides as 32-bit ints (warp/native/array.h: ``int strides[]``), so a stride
 #: over 2^31 - 1 bytes wraps and the kernels read outside the array (measured: CUDA illegal
-#: address at n = 8192, float64, on an H100). The operator stacks its spectra in (k, rows, cols)
-#: arrays whose first stride is one whole spectrum: that spectrum must stay under 2 GiB.
+#: address at n = 8192, float64, on an H100, when the spectra were complex). The operator stacks its
+#: influence spectra in a (6, rows, cols) real array whose first stride is one whole spectrum:
+#: that spectrum must stay under 2 GiB.
 WARP_MAX_STRIDE_BYTES = 2**31 - 1
 
 
 def index_limit(dtype, fft: str) -> int:
-    """Largest n whose spectrum (stride of the stacked spectra) Warp can address: 8191 in float64
-    and 11584 in float32 with scipy or cupy (2n (n + 1) complex entries)."""
+    """Largest n whose influence spectra Warp can address: the first stride of their stacked
+    array, one spectrum of 2n (n + 1) real entries (scipy, cupy), must stay under 2 GiB: 11584 in
+    float64 and 16383 in float32. (Complex spectra, kept until 2026-11-23, stopped it at 8191 and
+    11584; the three spectral buffers are separate arrays.)"""
     fft = _resolve_fft(fft, "cpu")  # "auto": scipy and cupy share the (2n, n + 1) spectrum
-    entry = 2 * np.dtype(_np_name(resolve_dtype(dtype))).itemsize
+    entry = np.dtype(_np_name(resolve_dtype(dtype))).itemsize
     lo, hi = MIN_CELLS, 1 << 20
     while hi - lo > 1:
         mid = (lo + hi) // 2
@@ -154,9 +158,9 @@ def check_index_limit(n: int, dtype, fft: str):
     if n > limit:
         dname = dtype if isinstance(dtype, str) else _np_name(dtype)
         raise InputError("grid.n", f"n = {n} is over the largest grid Warp can index in {dname}, n = {limit}: "
-                                   "its array strides are 32-bit, and one spectrum of the padded grid must stay "
-                                   "under 2 GiB (use float32 for up to n = "
-                                   f"{index_limit('float32', fft)})")
+                                   "its array strides are 32-bit, and one influence spectrum of the padded grid "
+                                   "must stay under 2 GiB" + (f" (use float32 for up to n = {index_limit('float32', fft)})"
+                                                              if dname == "float64" else ""))
 
 
 def spectral_entries(n: int, fft: str) -> int:
@@ -191,7 +195,7 @@ def breakdown(n: int, dtype="float64", device_kind="cpu", friction: bool = True,
     cplx = 2 * real
     cells = n * n
     spectrum = spectral_entries(n, fft) * cplx
-    spectra = (N_INFLUENCE_SPECTRA + N_SPECTRAL_BUFFERS) * spectrum
+    spectra = N_INFLUENCE_SPECTRA * spectral_entries(n, fft) * real + N_SPECTRAL_BUFFERS * spectrum
     fft_work = n * (2 * n) * real  # scipy: the forward pass's padded rows
     if fft == "warp":
         half = _padded_length(n) // 2 + 1
@@ -283,7 +287,7 @@ def setup_host_bytes(n: int, dtype="float64", fft: str = "scipy", device_kind="c
         transform = HOST_FFT_SPECTRA[fft] * e * 16
     on_host = kind == "cpu" and warp_arrays
     initial_gap = n * n * real if on_host else 0  # the model's first field, already made
-    influence = N_INFLUENCE_SPECTRA * e * 2 * real if on_host else 0
+    influence = N_INFLUENCE_SPECTRA * e * real if on_host else 0
     return int(max(coefficients + blocks, coefficients + transform + influence) + initial_gap)
 
 

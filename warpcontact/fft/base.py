@@ -59,19 +59,27 @@ class FFTBackend:
         """
         raise NotImplementedError
 
-    def influence_spectra(self, padded_arrays, out: wp.array):
-        """``out[k]`` <- the spectrum of ``padded_arrays[k]``, in this backend's layout and float type.
+    def alloc_influence(self, count: int) -> wp.array:
+        """``count`` influence spectra, each real or imaginary (only that part is kept), in one
+        real array of shape (count, *spectral_shape), zero-filled."""
+        return wp.zeros((count, *self.spectral_shape), dtype=self.dtype, device=self.device)
+
+    def influence_spectra(self, padded_arrays, parts, out: wp.array, scratch: wp.array):
+        """``out[k]`` <- the real or imaginary part (``parts[k]``: "real" or "imag") of the
+        spectrum of ``padded_arrays[k]``, in this backend's layout and float type.
 
         ``padded_arrays``: an iterable of real (2 ny, 2 nx) float64 host arrays (the influence
         coefficients in wrap-around order), consumed one at a time; ``out``: from
-        :meth:`alloc_spectra`. Once per grid. Here: each spectrum on the host in float64
-        (:meth:`spectrum_of_padded`), cast, and copied into ``out``; a backend with a faster
-        device path overrides this.
+        :meth:`alloc_influence`; ``scratch``: one spectrum (:meth:`alloc_spectra`) the backend
+        may overwrite. Once per grid. Here: each spectrum on the host in float64
+        (:meth:`spectrum_of_padded`), its part cast and copied into ``out``; a backend with a
+        faster device path overrides this.
         """
-        for k, padded in enumerate(padded_arrays):
-            spectrum = self.spectrum_of_padded(padded).astype(self.np_complex, copy=False)
+        for k, (padded, part) in enumerate(zip(padded_arrays, parts)):
+            spectrum = self.spectrum_of_padded(padded)
             del padded
-            out[k].assign(spectrum.view(self.np_real).reshape(*self.spectral_shape, 2))
+            values = spectrum.real if part == "real" else spectrum.imag
+            out[k].assign(np.ascontiguousarray(values, dtype=self.np_real))
 
     def forward(self, field: wp.array2d, spectrum: wp.array2d):
         """``spectrum`` <- transform of the real (ny, nx) ``field`` zero-padded to (2 ny, 2 nx)."""

@@ -51,6 +51,7 @@ import numpy as np
 import warp as wp
 
 from ..kernels.fft import crop_field, pad_field, pad_rows_clear_spectrum
+from ..kernels.spectral import spectrum_part
 from .base import FFTBackend
 
 # cufftType, and the directions of the complex-to-complex transforms
@@ -225,36 +226,37 @@ class CupyFFT(FFTBackend):
         # ``influence_spectra``); scipy's threads (numpy's FFT has none)
         return scipy.fft.rfft2(np.asarray(padded, dtype=np.float64), workers=os.cpu_count() or 1)
 
-    def influence_spectra(self, padded_arrays, out):
-        """``out[k]`` <- the spectrum of ``padded_arrays[k]`` (real (2 ny, 2 nx) host arrays),
-        transformed on the device by this backend's own plans, in its float type: each array is
-        copied (cast) into the forward pass's input buffer, a half at a time in the pruned layout
-        (the row plan takes ny rows; its output goes to the top or bottom half of the spectrum),
-        and the column plan finishes in place. No memory beyond the backend's buffers.
+    def influence_spectra(self, padded_arrays, parts, out, scratch):
+        """``out[k]`` <- the real or imaginary part (``parts[k]``) of the spectrum of
+        ``padded_arrays[k]`` (real (2 ny, 2 nx) host arrays), transformed on the device by this
+        backend's own plans into ``scratch``, in its float type: each array is copied (cast) into
+        the forward pass's input buffer, a half at a time in the pruned layout (the row plan takes
+        ny rows; its output goes to the top or bottom half of the spectrum), and the column plan
+        finishes in place. No memory beyond the backend's buffers and ``scratch``.
 
         In float64 the spectra equal the host's (scipy) to rounding; in float32 the transform is
-        in float32 (the host made them in float64 and cast), a relative error of about 1e-7 of
-        the largest entry. Set-up of a model on the H100 at n = 8191: see README "Scale".
+        in float32 (the host made them in float64 and cast), an error of about 1e-7 of the
+        largest entry. Set-up times: README "Scale".
         """
         ny, nxh = self.ny, self.nx + 1
         bottom = ny * nxh * 2 * np.dtype(self.np_real).itemsize  # bytes to the spectrum's second half
         with wp.ScopedDevice(self.device):
-            for k, padded in enumerate(padded_arrays):
+            for k, (padded, part) in enumerate(zip(padded_arrays, parts)):
                 host = np.ascontiguousarray(padded, dtype=self.np_real)
                 del padded
-                spectrum = out[k]
                 if self.pruned:
                     for half in range(2):
                         self._rows_in.assign(host[half * ny:(half + 1) * ny])
-                        _check(self._real_to_complex(self._row_forward, self._rows_in.ptr, spectrum.ptr + half * bottom),
+                        _check(self._real_to_complex(self._row_forward, self._rows_in.ptr, scratch.ptr + half * bottom),
                                "row transform")
-                    _check(self._complex_to_complex(self._column_plan, spectrum.ptr, spectrum.ptr, _FORWARD),
+                    _check(self._complex_to_complex(self._column_plan, scratch.ptr, scratch.ptr, _FORWARD),
                            "column transform")
                 else:
                     self._padded_in.assign(host)
-                    _check(self._real_to_complex(self._forward_plan, self._padded_in.ptr, spectrum.ptr),
+                    _check(self._real_to_complex(self._forward_plan, self._padded_in.ptr, scratch.ptr),
                            "forward transform")
                 del host
+                self.launches.launch(spectrum_part, scratch.shape, [scratch, 0 if part == "real" else 1], [out[k]])
             # the forward pass's invariant: zero outside the field's corner (its pad kernels
             # write only there)
             (self._rows_in if self.pruned else self._padded_in).zero_()
