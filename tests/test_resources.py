@@ -215,6 +215,30 @@ def test_largest_grid_is_the_boundary():
     assert resources.largest_grid("float64", 1000, True) == 0
 
 
+def test_largest_grid_where_cufft_work_area_varies(monkeypatch):
+    """With cuFFT the need is not monotonic in n (a larger work area where 2n has a large prime
+    factor): largest_grid still returns the largest n that fits, checked against every n up to
+    well past it, and a grid below it that is refused names the nearest grids that fit."""
+    kw = dict(device_kind="cuda", fft="cupy", adhesion=True)
+    mem = resources.estimate_bytes(1100, "float64", "cuda", True, "cupy", adhesion=True)
+    fits = [m for m in range(resources.MIN_CELLS, 1400)
+            if resources.estimate_bytes(m, "float64", "cuda", True, "cupy", adhesion=True) <= mem]
+    best = resources.largest_grid("float64", mem, True, **kw)
+    assert best == max(fits)
+    refused = [m for m in range(900, best) if m not in fits]
+    assert refused, "no grid below the largest is refused here: the test needs one"
+    n = refused[-1]
+    monkeypatch.setattr(resources, "memory_limit", lambda device: (mem, "free memory of cuda:0"))
+    with pytest.raises(InputError) as e:
+        resources.check_fits(n, "float64", "cuda:0", True, "cupy", adhesion=True)
+    print("\n" + str(e.value))
+    below = max(m for m in fits if m < n)
+    above = min(m for m in fits if m > n)
+    msg = str(e.value)
+    assert f"nearest grids that fit are n = {below} and n = {above}, the largest n = {best}" in msg, msg
+    assert f"2n = {2 * n}" in msg, msg
+
+
 def test_grids_warp_cannot_index_are_refused_before_allocating():
     """Warp's array strides are 32-bit: a stacked spectra array whose first stride (one spectrum,
     2n (n + 1) entries) passes 2^31 - 1 bytes wraps and the kernels read outside it (a CUDA illegal

@@ -354,6 +354,35 @@ def _required(n, dtype, kind, friction, fft, states, adhesion=False) -> int:
     return est
 
 
+def _bluestein_extra(n: int, dtype, fft: str) -> int:
+    """Bytes of the cuFFT work allowance beyond one spectrum (``cufft_work_spectra``): 0 unless
+    the cupy backend's transform length 2n has a prime factor above 127. Without it the need
+    grows with n."""
+    if fft != "cupy":
+        return 0
+    spectrum = spectral_entries(n, fft) * 2 * np.dtype(_np_name(resolve_dtype(dtype))).itemsize
+    return int(math.ceil(cufft_work_spectra(n) * spectrum)) - int(math.ceil(spectrum))
+
+
+def _fit_tests(dtype, memory_bytes: int, friction: bool, kind: str, fft: str, states: int, adhesion: bool):
+    """(fits, may_fit): whether the n x n problem fits in ``memory_bytes``, and whether it would
+    with the least cuFFT work area (a test monotonic in n, true wherever ``fits`` is)."""
+    cap = index_limit(dtype, fft)
+    if fft == "warp":
+        from .fft.warp_backend import MAX_LENGTH
+
+        cap = min(cap, MAX_LENGTH[(kind, resolve_dtype(dtype))] // 2)
+
+    def may_fit(n):
+        need = _required(n, dtype, kind, friction, fft, states, adhesion)
+        return n <= cap and need - _bluestein_extra(n, dtype, fft) <= memory_bytes
+
+    def fits(n):
+        return n <= cap and _required(n, dtype, kind, friction, fft, states, adhesion) <= memory_bytes
+
+    return fits, may_fit
+
+
 def largest_grid(dtype, memory_bytes: int, friction: bool, *, device_kind="cpu", fft: str = "auto",
                  states: int = 1, adhesion: bool = False) -> int:
     """Largest n whose peak memory fits in ``memory_bytes`` (0 if not even the smallest grid).
@@ -361,35 +390,36 @@ def largest_grid(dtype, memory_bytes: int, friction: bool, *, device_kind="cpu",
     On the CPU the peak is the larger of ``estimate_bytes`` and ``setup_host_bytes``; on CUDA it
     is ``estimate_bytes`` (the set-up peak is on the host). With the warp FFT backend the answer is
     also capped at the largest grid that backend transforms (``fft.warp_backend.MAX_LENGTH``).
+
+    The need grows with n except for cuFFT's work area, which is larger where 2n has a large
+    prime factor (``cufft_work_spectra``): some grids below the largest do not fit. The search
+    bisects on the need with the least work area (monotonic), then walks down to the first n
+    that fits.
     """
     kind = _kind(device_kind)
     fft = _resolve_fft(fft, kind)
-    cap = None
-    if fft == "warp":
-        from .fft.warp_backend import MAX_LENGTH
-
-        cap = MAX_LENGTH[(kind, resolve_dtype(dtype))] // 2
-
-    limit = index_limit(dtype, fft)
-    cap = limit if cap is None else min(cap, limit)
-
-    def fits(n):
-        if n > cap:
-            return False
-        return _required(n, dtype, kind, friction, fft, states, adhesion) <= memory_bytes
-
-    if not fits(MIN_CELLS):
+    fits, may_fit = _fit_tests(dtype, memory_bytes, friction, kind, fft, states, adhesion)
+    if not may_fit(MIN_CELLS):
         return 0
     lo, hi = MIN_CELLS, 2 * MIN_CELLS
-    while fits(hi):
+    while may_fit(hi):
         lo, hi = hi, 2 * hi
-    while hi - lo > 1:  # fits(lo), not fits(hi); the need grows with n
+    while hi - lo > 1:  # may_fit(lo), not may_fit(hi)
         mid = (lo + hi) // 2
-        if fits(mid):
+        if may_fit(mid):
             lo = mid
         else:
             hi = mid
-    return lo
+    while lo >= MIN_CELLS and not fits(lo):
+        lo -= 1
+    return lo if lo >= MIN_CELLS else 0
+
+
+def _nearest_fitting(n: int, fits, largest: int) -> tuple[int, int]:
+    """The grids nearest n, below and above it (0 for none), that fit."""
+    below = next((m for m in range(n - 1, MIN_CELLS - 1, -1) if fits(m)), 0)
+    above = next((m for m in range(n + 1, largest + 1) if fits(m)), 0)
+    return below, above
 
 
 def check_fits(n: int, dtype, device, friction: bool, fft: str = "auto", *, states: int = 1,
@@ -407,11 +437,18 @@ def check_fits(n: int, dtype, device, friction: bool, fft: str = "auto", *, stat
     dname = dtype if isinstance(dtype, str) else _np_name(dtype)
     if limit and need > limit:
         best = largest_grid(dtype, limit, friction, device_kind=kind, fft=fft_name, states=states, adhesion=adhesion)
+        advice = f"the largest grid that fits is n = {best}"
+        if n < best:  # refused for cuFFT's work area at this length: name the nearest grids that fit
+            fits, _ = _fit_tests(dtype, limit, friction, kind, fft_name, states, adhesion)
+            below, above = _nearest_fitting(n, fits, best)
+            near = " and ".join(f"n = {m}" for m in (below, above) if m)
+            advice = (f"at 2n = {2 * n} (prime factor {_largest_prime_factor(2 * n)}) cuFFT needs a larger work "
+                      f"area; the nearest grids that fit are {near}, the largest n = {best}")
         raise InputError(
             "grid.n",
             f"n = {n} needs about {need / GIB:,.2f} GiB ({dname}, {fft_name} FFT, "
             f"{'with' if friction else 'without'} friction{', with adhesion' if adhesion else ''}) but the {what} is {limit / GIB:,.2f} GiB; "
-            f"the largest grid that fits is n = {best}",
+            + advice,
         )
     if kind == "cuda":
         host = host_memory_bytes()
