@@ -29,9 +29,11 @@ The estimate is counted from the allocations in the code, not fitted:
 - On the CPU, the solves' residual histories as Python lists (``SolveInfo.history``), up to
   ``max_iter + 1`` floats each for the three solves of a step (``HISTORY_RECORDS``).
 
-Building the influence spectra needs more host memory for a moment than all of this on the CPU
-(``setup_host_bytes``): six float64 coefficient arrays on the (2n, 2n) grid and the blocks of
-their evaluation on its threads, or those arrays and the temporaries of one host transform. ``check_fits`` checks both against the memory there is.
+Building the influence spectra takes host memory for a moment (``setup_host_bytes``): six
+float64 coefficient arrays on the (2n, 2n) grid and the blocks of their evaluation on its
+threads, or those arrays and the temporaries of one host transform; on the CPU 40-75 % of the
+estimate above (friction and adhesion, n = 256-4096), on CUDA all of it on the host.
+``check_fits`` checks both against the memory there is.
 
 Not counted: a path's saved fields (``runner.run_path`` keeps about 13 float64 (n, n) arrays per
 state of the path on the host, and ``results.state_summary`` makes that many temporarily), and
