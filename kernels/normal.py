@@ -18,8 +18,8 @@ import warp as wp
 
 from .overloads import register_float_overloads
 from .reduce import (  # noqa: F401  (shared slots)
-    C_DELTA, C_G_OLD, C_ITER, N_SCALARS, N_SETTINGS, P_APPROACH, P_TOL, S_G, S_GT, S_RHS, S_RT, S_VIOL, block_add, cell_index,
-    cg_converged, cg_step_length,
+    C_DELTA, C_G_OLD, C_ITER, N_SCALARS, N_SETTINGS, P_APPROACH, P_TOL, S_G, S_GT, S_RHS, S_RT, S_VIOL, block_add, block_max,
+    cell_index, cg_converged, cg_step_length,
 )
 from .reduce import S_RESTART as S_IOL  # cells that re-enter contact (or leave the cap)
 
@@ -225,9 +225,10 @@ def normal_recompute_flag(sums: wp.array(dtype=Any), scalars: wp.array(dtype=Any
 
 # slots of the first guess's sums (NormalSolver.guess_sums)
 G_POSITIVE = wp.constant(0)  # cells with p > 0
-G_UB = wp.constant(1)  # sum of (K b) b over the interference b > 0
-G_UU = wp.constant(2)  # sum of (K b)^2 over it
-N_GUESS_SUMS = 3
+G_UB = wp.constant(1)  # sum of (K s) b over the guess's support s > 0
+G_UU = wp.constant(2)  # sum of (K s)^2 over it
+G_BMAX = wp.constant(3)  # the largest interference b
+N_GUESS_SUMS = 4
 
 
 @wp.kernel
@@ -251,18 +252,40 @@ def interference(initial_gap: wp.array(dtype=Any), known_displacement: wp.array(
 
 
 @wp.kernel
-def guess_interference(initial_gap: wp.array(dtype=Any), known_displacement: wp.array(dtype=Any),
-                       settings: wp.array(dtype=Any), pressure: wp.array(dtype=Any)):
-    """p <- b, the rigid interference (the shape of the first guess)."""
+def guess_max_interference(initial_gap: wp.array(dtype=Any), known_displacement: wp.array(dtype=Any),
+                           settings: wp.array(dtype=Any), n: int, outer: int, inner: int, per: int,
+                           guess_sums: wp.array(dtype=Any)):
+    """guess_sums[G_BMAX] <- max(guess_sums[G_BMAX], the largest interference b) (zeroed before:
+    b >= 0)."""
+    block, lane = wp.tid()
+    thread = block * wp.block_dim() + lane
+    approach = settings[P_APPROACH]
+    largest = approach - approach
+    for k in range(per):
+        i = cell_index(thread, outer, inner, k)
+        if i < n:
+            largest = wp.max(largest, interference(initial_gap, known_displacement, approach, i))
+    block_max(guess_sums, G_BMAX, largest, lane)
+
+
+@wp.kernel
+def guess_shape(initial_gap: wp.array(dtype=Any), known_displacement: wp.array(dtype=Any),
+                settings: wp.array(dtype=Any), guess_sums: wp.array(dtype=Any), pressure: wp.array(dtype=Any)):
+    """p <- s = sqrt(max(b - b_max / 2, 0)), the shape of the first guess: for a paraboloid on a
+    flat, b - b_max / 2 = (a^2 - r^2) / 2R on the Hertz contact radius a^2 = R delta_z (the
+    elastic contact closes half the rigid interference), so s is the Hertz pressure's shape."""
     i = wp.tid()
-    pressure[i] = interference(initial_gap, known_displacement, settings[P_APPROACH], i)
+    b = interference(initial_gap, known_displacement, settings[P_APPROACH], i)
+    half = type(b)(0.5) * guess_sums[G_BMAX]
+    pressure[i] = wp.sqrt(wp.max(b - half, b - b))
 
 
 @wp.kernel
 def guess_fit_sums(initial_gap: wp.array(dtype=Any), known_displacement: wp.array(dtype=Any),
-                   settings: wp.array(dtype=Any), response: wp.array(dtype=Any),
+                   settings: wp.array(dtype=Any), shape: wp.array(dtype=Any), response: wp.array(dtype=Any),
                    n: int, outer: int, inner: int, per: int, guess_sums: wp.array(dtype=Any)):
-    """Sums of (K b) b and (K b)^2 over b > 0, for the least-squares scale of the first guess."""
+    """Sums of (K s) b and (K s)^2 over the support s > 0, for the least-squares scale of the
+    first guess (``response`` = K s)."""
     block, lane = wp.tid()
     thread = block * wp.block_dim() + lane
     approach = settings[P_APPROACH]
@@ -271,18 +294,18 @@ def guess_fit_sums(initial_gap: wp.array(dtype=Any), known_displacement: wp.arra
     s_uu = zero
     for k in range(per):
         i = cell_index(thread, outer, inner, k)
-        if i < n:
+        if i < n and shape[i] > zero:
             b = interference(initial_gap, known_displacement, approach, i)
-            if b > zero:
-                s_ub += response[i] * b
-                s_uu += response[i] * response[i]
+            s_ub += response[i] * b
+            s_uu += response[i] * response[i]
     block_add(guess_sums, G_UB, s_ub)
     block_add(guess_sums, G_UU, s_uu)
 
 
 @wp.kernel
 def guess_scale(guess_sums: wp.array(dtype=Any), pressure_cap: Any, pressure: wp.array(dtype=Any)):
-    """p <- min(c b, cap), c = sum (K b) b / sum (K b)^2: K p fits the interference best."""
+    """p <- min(c s, cap), c = sum (K s) b / sum (K s)^2: K p fits the interference best on the
+    support."""
     i = wp.tid()
     zero = pressure_cap - pressure_cap
     c = wp.where(guess_sums[G_UU] > zero, guess_sums[G_UB] / guess_sums[G_UU], zero)
@@ -290,6 +313,5 @@ def guess_scale(guess_sums: wp.array(dtype=Any), pressure_cap: Any, pressure: wp
 
 
 for _k in (normal_gap, normal_direction, normal_step_sums, normal_update, normal_displacement_step, normal_recompute_flag,
-           count_positive,
-           guess_interference, guess_fit_sums, guess_scale):
+           count_positive, guess_max_interference, guess_shape, guess_fit_sums, guess_scale):
     register_float_overloads(_k)

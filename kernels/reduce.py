@@ -45,6 +45,15 @@ def block_add(sums: wp.array(dtype=Any), slot: int, value: Any):
     wp.tile_atomic_add(sums, total, offset=slot)
 
 
+@wp.func
+def block_max(out: wp.array(dtype=Any), slot: int, value: Any, lane: int):
+    """out[slot] = max(out[slot], the largest ``value`` of this block's threads): one atomic per
+    block, by its lane 0."""
+    largest = wp.tile_extract(wp.tile_max(wp.tile(value)), 0)
+    if lane == 0:
+        wp.atomic_max(out, slot, largest)
+
+
 S_GT = wp.constant(3)  # g . t over the free set
 S_RT = wp.constant(4)  # t . (K t) (+ curvature) over the free set
 

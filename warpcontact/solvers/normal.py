@@ -159,17 +159,22 @@ class NormalSolver(ProjectedCG):
         return self._run(iteration, final_fields, on_non_finite, tol)
 
     def _initial_guess(self, state, known):
-        """Unless the state holds a pressure already (warm start): p = c b, with b = max(delta_z -
-        h0 - u_known, 0) the rigid interference and c the least-squares fit of K p to it, capped
-        at the hardness. On the device; one scalar comes back (whether p > 0 anywhere)."""
+        """Unless the state holds a pressure already (warm start): p = c s, with s = sqrt(max(b -
+        b_max / 2, 0)), b = max(delta_z - h0 - u_known, 0) the rigid interference, and c the
+        least-squares fit of K p to b on the support of s, capped at the hardness. For a
+        paraboloid s is the Hertz pressure's shape on the Hertz contact area (an elastic contact
+        closes half the rigid interference), so a Hertz solve starts near its answer: 125 -> 52
+        iterations at n = 256, 127 -> 76 at 512, 153 -> 84 at 1024 (CPU, against the old guess
+        c b). On the device; one scalar comes back (whether p > 0 anywhere)."""
         m = self.model
         p = state.pressure.flatten()
         self.guess_sums.zero_()
         m.launch_reduce(nk.count_positive, [p], [self.guess_sums])
         if self.guess_sums.numpy()[nk.G_POSITIVE] > 0:
             return
-        m.launch(nk.guess_interference, m.n_cells, [m.initial_gap.flatten(), known.flatten(), self.settings], [p])
+        h0, u_known = m.initial_gap.flatten(), known.flatten()
+        m.launch_reduce(nk.guess_max_interference, [h0, u_known, self.settings], [self.guess_sums])
+        m.launch(nk.guess_shape, m.n_cells, [h0, u_known, self.settings, self.guess_sums], [p])
         m.operator.normal(state.pressure, self.response)
-        m.launch_reduce(nk.guess_fit_sums, [m.initial_gap.flatten(), known.flatten(), self.settings, self.response.flatten()],
-                        [self.guess_sums])
+        m.launch_reduce(nk.guess_fit_sums, [h0, u_known, self.settings, p, self.response.flatten()], [self.guess_sums])
         m.launch(nk.guess_scale, m.n_cells, [self.guess_sums, self._cap], [p])
