@@ -164,8 +164,9 @@ class NormalSolver(ProjectedCG):
         least-squares fit of K p to b on the support of s, capped at the hardness. For a
         paraboloid s is the Hertz pressure's shape on the Hertz contact area (an elastic contact
         closes half the rigid interference), so a Hertz solve starts near its answer: 125 -> 52
-        iterations at n = 256, 127 -> 76 at 512, 153 -> 84 at 1024 (CPU, against the old guess
-        c b). On the device; one scalar comes back (whether p > 0 anywhere)."""
+        iterations at n = 256, 127 -> 74 at 512, 153 -> 87 at 1024 (CPU, against the old guess
+        c b, whose support was twice the contact area). On the device; one scalar comes back
+        (whether p > 0 anywhere)."""
         m = self.model
         p = state.pressure.flatten()
         self.guess_sums.zero_()
