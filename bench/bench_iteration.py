@@ -55,7 +55,7 @@ R, DZ = 10e-6, 1.0e-10
 A = math.sqrt(R * DZ)
 
 
-def _timed(device, fn, repeats):
+def best_wall_time(device, fn, repeats):
     """Best wall time of fn() over ``repeats`` runs after one untimed warm-up [s]."""
     fn()
     best = math.inf
@@ -95,7 +95,7 @@ def floor_ms(model, pairs: int, repeats: int, fft) -> float:
         for _ in range(loops):
             run()
 
-    return 1e3 * _timed(model.device, many, repeats) / loops
+    return 1e3 * best_wall_time(model.device, many, repeats) / loops
 
 
 def used_bytes(device) -> int:
@@ -116,7 +116,7 @@ def bench(n, device, dtype, fft, repeats, adhesion: bool, compare_up_to: int = 2
             st = ContactState(model)
             info["normal"] = solver.solve(st, DZ)
 
-        t = _timed(model.device, solve_normal, repeats)
+        t = best_wall_time(model.device, solve_normal, repeats)
         return info["normal"].iterations, 1e3 * t / info["normal"].iterations
 
     row["normal_iters"], row["normal_ms"] = normal_ms(NormalSolver(model))
@@ -132,7 +132,7 @@ def bench(n, device, dtype, fft, repeats, adhesion: bool, compare_up_to: int = 2
         trial.copy_from(start)
         info["coupled"] = solver.step(trial, (dx, 0.0, DZ))
 
-    t = _timed(model.device, solve_coupled, repeats)
+    t = best_wall_time(model.device, solve_coupled, repeats)
     c = info["coupled"]
     row.update(coupled_iters=c.iterations, coupled_turns=c.outer_iterations, coupled_s=t,
                coupled_ms=1e3 * t / max(c.iterations, 1), coupled_converged=bool(c.converged))

@@ -13,6 +13,11 @@
 #   PROFILE=1 bench/profile_table2_cell.py on cuda:0 (PROFILE_ARGS, default --n 256): one Table 2 cell by phase
 #   LAYOUTS=1 bench/fft_small_sizes.py on cuda:0 (LAYOUTS_ARGS): cuFFT pair, pruned against 2-D plans, by size
 #   SETUP=1   bench/setup_time.py on cuda:0 (SETUP_ARGS, default --sizes 2048 4096 8191): model set-up times
+#   SIDE=DIR  the same benchmarks from another tree (DIR: e.g. the last commit, `git archive HEAD warpcontact
+#             kernels bench pyproject.toml README.md | tar -x -C .gpu/old`, carried), alternating with this
+#             tree's in one run: bench_iteration.py (SIDE_ARGS, default --sizes 1024 2048 4096
+#             --compare-up-to 0) ROUNDS times (default 2), each tree's log in $OUT/side_{old,new}_K.log
+#   SOLVE=1   bench/profile_normal_solve.py on cuda:0 (SOLVE_ARGS, default --sizes 1024 2048 4096)
 #   ADH=W     bench/adhesion_sensitivity.py on W CPU workers, in the background while the rest runs
 #             (its cells.jsonl is kept in $OUT/adh; a copy in bench_results/adh/ is resumed)
 set -u
@@ -42,6 +47,24 @@ if [ "${ITER:-0}" = 1 ]; then
      | tee "$OUT/iter_gpu.log")
   (cd /tmp && timeout "${ITER_ADH_TIMEOUT:-200}" python3 "$ROOT/bench/bench_iteration.py" --device cuda:0 --adhesion ${ITER_ARGS:-} \
      --json "$OUT/iter_gpu_adh.json" 2>&1 | tee "$OUT/iter_gpu_adh.log")
+fi
+if [ -n "${SIDE:-}" ]; then
+  python3 -m pip install -q --no-deps --no-build-isolation --no-index --upgrade --target /opt/wstage/old "$SIDE" \
+    > "$OUT/install_old.log" 2>&1 || { cat "$OUT/install_old.log"; exit 1; }
+  SIDE_DIR=$(cd "$SIDE" && pwd)
+  for k in $(seq 1 "${ROUNDS:-2}"); do
+    for tree in old new; do
+      if [ "$tree" = old ]; then path=/opt/wstage/old; script="$SIDE_DIR/bench/bench_iteration.py"
+      else path=/opt/wstage/proj; script="$ROOT/bench/bench_iteration.py"; fi
+      (cd /tmp && PYTHONPATH=$path:${PYTHONPATH#/opt/wstage/proj:} timeout "${SIDE_TIMEOUT:-200}" python3 "$script" \
+         --device cuda:0 ${SIDE_ARGS:---sizes 1024 2048 4096 --compare-up-to 0} > "$OUT/side_${tree}_$k.log" 2>&1)
+      echo "== $tree, round $k"; tail -n +2 "$OUT/side_${tree}_$k.log"
+    done
+  done
+fi
+if [ "${SOLVE:-0}" = 1 ]; then
+  (cd /tmp && timeout "${SOLVE_TIMEOUT:-200}" python3 "$ROOT/bench/profile_normal_solve.py" --device cuda:0 \
+     ${SOLVE_ARGS:---sizes 1024 2048 4096} > "$OUT/solve_costs.log" 2>&1; grep -v "^ \|^-\|Self " "$OUT/solve_costs.log" | head -20)
 fi
 if [ "${PARTS:-0}" = 1 ]; then
   (cd /tmp && timeout "${PARTS_TIMEOUT:-200}" python3 "$ROOT/bench/iteration_parts.py" --device cuda:0 \

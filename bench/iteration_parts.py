@@ -17,7 +17,7 @@ import warp as wp
 
 from warpcontact.geometry import Grid, Sphere
 from warpcontact.kernels import normal as nk
-from warpcontact.kernels import reduce, spectral
+from warpcontact.kernels import spectral
 from warpcontact.materials import PAPER_PAIR
 from warpcontact.model import ContactModel
 from warpcontact.solvers import NormalSolver
@@ -57,12 +57,13 @@ def parts(n, device, dtype):
     s.solve(st, DZ)  # a solved state: the sets are those of the last iterations
     fft, op = m.operator.fft, m.operator
     spec = op._buf[0]
-    p, g, t, r = (a.flatten() for a in (st.pressure, st.gap, s.direction, s.response))
-    known = s.no_displacement.flatten()
+    p, g, t, b = (a.flatten() for a in (st.pressure, st.gap, s.direction, s.interference))
+    output = [fft.padded_output, fft.output_scale, n]
     out = {}
-    out["forward (pad + library)"] = timed_ms(m.device, lambda: fft.forward(st.pressure, spec))
+    # the convolution as the iteration runs it: from the padded input, into the padded output
+    out["transforms in (library)"] = timed_ms(m.device, lambda: fft.transform_input(spec))
     out["spectral product"] = timed_ms(m.device, lambda: op.spectral_product(spectral.spectral_normal, [spec]))
-    out["inverse (library + crop)"] = timed_ms(m.device, lambda: fft.inverse(spec, st.disp_z))
+    out["transforms out (library)"] = timed_ms(m.device, lambda: fft.transform_to_output(spec))
     out["library forward + inverse"] = timed_ms(m.device, lambda: fft.library_transforms(st.pressure, spec))
     if fft.name == "cupy":  # the two layouts of cuFFT side by side
         from warpcontact.fft.cupy_backend import CupyFFT
@@ -70,26 +71,22 @@ def parts(n, device, dtype):
         other = CupyFFT(n, n, m.device, m.dtype, pruned=not fft.pruned)
         label = "pruned" if other.pruned else "2-D"
         out[f"library pair, {label} plans"] = timed_ms(m.device, lambda: other.library_transforms(st.pressure, spec))
-        out[f"forward + inverse, {label}"] = timed_ms(m.device, lambda: (other.forward(st.pressure, spec),
-                                                                         other.inverse(spec, st.disp_z)))
-    out["normal_gap (reduce)"] = timed_ms(m.device, lambda: m.launch_reduce(
-        nk.normal_gap, [m.initial_gap.flatten(), st.disp_z.flatten(), known, p, s.settings, s._cap], [g, s.sums]))
-    out["normal_direction"] = timed_ms(m.device, lambda: wp.launch(
-        nk.normal_direction, dim=m.n_cells, inputs=[g, p, s._cap, s.sums, s.scalars], outputs=[t], device=m.device))
-    out["normal_step_sums (reduce)"] = timed_ms(m.device, lambda: m.launch_reduce(
-        nk.normal_step_sums, [g, t, r, p, s._cap], [s.sums]))
-    s.sums.fill_(0.0)  # tau = 0: the update leaves p as it is
-    out["normal_update (reduce)"] = timed_ms(m.device, lambda: m.launch_reduce(
-        nk.normal_update, [g, t, s._cap, s.settings], [p, s.sums]))
-    out["normal_displacement_step (carry)"] = timed_ms(m.device, lambda: wp.launch(
-        nk.normal_displacement_step, dim=m.n_cells, inputs=[r, s.sums, s.settings], outputs=[st.disp_z.flatten()],
-        device=m.device))
-    out["normal_recompute_flag"] = timed_ms(m.device, lambda: wp.launch(
-        nk.normal_recompute_flag, dim=1, inputs=[s.sums, s.scalars, s.settings, s.exact_every, s._column_norm,
-                                                 m.scalar(s.deferral), s.deferred],
-        outputs=[s.recompute], device=m.device))
-    out["cg_advance + zero sums"] = timed_ms(m.device, lambda: (s.sums.zero_(), wp.launch(
-        reduce.cg_advance, dim=1, inputs=[s.sums, s.scalars], outputs=[s.history], device=m.device)))
+    # the solver's passes
+    out["normal_direction (+ pad)"] = timed_ms(m.device, lambda: m.launches.launch_rows(
+        nk.normal_direction, m.grid.shape, [st.gap, st.pressure, s._cap, s.sums, s.scalars], [s.direction, fft.padded_input]))
+    out["normal_step_sums (reads output)"] = timed_ms(m.device, lambda: m.launch_reduce(
+        nk.normal_step_sums, [g, t, *output], [s.sums]))
+    s.sums.fill_(0.0)  # tau = 0: the update leaves p as it is (and the carried gap)
+    out["normal_update (carries g)"] = timed_ms(m.device, lambda: m.launch_reduce(
+        nk.normal_update, [t, *output, b, s._cap, s.settings], [p, g, s.sums]))
+    out["normal_advance"] = timed_ms(m.device, lambda: m.launch(
+        nk.normal_advance, 1, [s.sums, s.settings, s.exact_every, s._column_norm, m.scalar(s.deferral)],
+        [s.scalars, s.history, s.deferred, s.recompute, s.loop]))
+    # what an iteration adds when the gap is made exact (a convolution of p and normal_gap)
+    out["exact gap: normal_gap (reduce)"] = timed_ms(m.device, lambda: m.launch_reduce(
+        nk.normal_gap, [st.disp_z.flatten(), b, p, s._cap], [g, s.sums]))
+    out["exact gap: forward (pad + library)"] = timed_ms(m.device, lambda: fft.forward(st.pressure, spec))
+    out["exact gap: inverse (library + crop)"] = timed_ms(m.device, lambda: fft.inverse(spec, st.disp_z))
     return out
 
 
@@ -105,14 +102,17 @@ def main():
     print(f"# parts of a normal iteration; device {device} ({device.name}), {args.dtype}, {time.strftime('%Y-%m-%d')}")
     for n in args.sizes:
         out = parts(n, device, args.dtype)
-        # an iteration: 1 or 2 x (forward + product + inverse) + the kernels
-        conv = out["forward (pad + library)"] + out["spectral product"] + out["inverse (library + crop)"]
-        rest = sum(v for k, v in out.items() if k.startswith(("normal_", "cg_advance")))
-        print(f"N = {n}: one convolution {conv:.3f} ms, the rest {rest:.3f} ms, sum of an iteration "
-              f"{conv + rest:.3f} ms with one convolution, {2 * conv + rest:.3f} ms with two "
+        # an iteration: transforms in + product + transforms out + the four solver passes; an
+        # exact gap adds a padded forward, the product, a cropped inverse and normal_gap
+        conv = out["transforms in (library)"] + out["spectral product"] + out["transforms out (library)"]
+        passes = sum(v for k, v in out.items() if k.startswith("normal_"))
+        exact = (out["exact gap: forward (pad + library)"] + out["spectral product"]
+                 + out["exact gap: inverse (library + crop)"] + out["exact gap: normal_gap (reduce)"])
+        print(f"N = {n}: one convolution {conv:.3f} ms, the solver's passes {passes:.3f} ms, sum of an iteration "
+              f"{conv + passes:.3f} ms; an exact gap adds {exact:.3f} ms "
               f"(library pair {out['library forward + inverse']:.3f} ms)")
         for k, v in out.items():
-            print(f"  {k:<34} {v:8.3f} ms")
+            print(f"  {k:<36} {v:8.3f} ms")
 
 
 if __name__ == "__main__":

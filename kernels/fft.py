@@ -118,7 +118,7 @@ def row_fft_kernels(length: int, dtype) -> dict:
     return kernels
 
 
-# --- zero padding and truncation for library transforms (the cupy backend's cuFFT plans) ---
+# --- zero padding and truncation around library transforms (FFTBackend.forward / inverse) ---
 
 from typing import Any  # noqa: E402
 
@@ -127,7 +127,7 @@ from .overloads import register_float_overloads  # noqa: E402
 
 @wp.kernel
 def pad_field(field: wp.array2d(dtype=Any), padded: wp.array2d(dtype=Any)):
-    """padded[i, j] <- field[i, j] on the (ny, nx) corner of the (2 ny, 2 nx) ``padded``, whose
+    """padded[i, j] <- field[i, j] on the (ny, nx) corner of a backend's ``padded_input``, whose
     other entries are zero and never written."""
     i, j = wp.tid()
     padded[i, j] = field[i, j]
@@ -141,19 +141,5 @@ def crop_field(padded: wp.array2d(dtype=Any), scale: Any, field: wp.array2d(dtyp
     field[i, j] = padded[i, j] * scale
 
 
-@wp.kernel
-def pad_rows_clear_spectrum(field: wp.array2d(dtype=Any), rows: wp.array2d(dtype=Any), spectrum: wp.array2d(dtype=Any)):
-    """Launched over (ny, nx + 1): rows[i, j] <- field[i, j] on the left half of the (ny, 2 nx)
-    row buffer (its right half is zero and never written), and the bottom half of the
-    (2 ny, nx + 1) ``spectrum`` set to zero: the rows the row transforms skip, which the column
-    transforms then read in place (the pruned cuFFT forward transform)."""
-    i, j = wp.tid()
-    if j < field.shape[1]:
-        rows[i, j] = field[i, j]
-    spectrum[field.shape[0] + i, j] = type(spectrum[0, 0])()
-
-
 for _k in (pad_field, crop_field):
     register_float_overloads(_k)
-for _real, _complex in ((wp.float32, wp.vec2f), (wp.float64, wp.vec2d)):
-    wp.overload(pad_rows_clear_spectrum, [wp.array2d(dtype=_real), wp.array2d(dtype=_real), wp.array2d(dtype=_complex)])

@@ -2,14 +2,26 @@
 
 Displacement-driven form (no force constraint, MODEL.md section 4): minimise the complementary
 energy over p >= 0 with the rigid approach delta_z given. Quantities are in the model's scaled
-units (tractions / E*, lengths / cell size). Fields are flattened (n_cells,) arrays.
+units (tractions / E*, lengths / cell size). Fields are (ny, nx) arrays, flattened to (n_cells,)
+for the reductions.
 
 Polonsky, I. A. & Keer, L. M. (1999), "A numerical method for solving rough contact problems
 based on the multi-level multi-summation and conjugate gradient techniques", Wear 231, 206-219.
 
-Per iteration: ``normal_gap`` -> ``normal_direction`` -> (r = K t) -> ``normal_step_sums`` ->
-``normal_update`` -> ``reduce.cg_advance``. Scalars live in two device arrays: ``sums`` (zeroed at
-the start of each iteration) and ``scalars`` (carried: G_old, delta, iteration count).
+One iteration, four passes over the grid around one convolution (``solvers/normal.py``):
+
+1. ``normal_direction``: the conjugate direction t, written also into the FFT backend's padded
+   input (the zero padding of the DC-FFT stays zero);
+2. the transforms and the spectral product: K t in the backend's padded output;
+3. ``normal_step_sums``: g . t and (K t) . t over the free set, read from the padded output;
+4. ``normal_update``: the projected step on p, the carried gap g <- g - tau K t, and the residual
+   sums of the new iterate; ``normal_advance`` (one thread) then carries the scalars, decides
+   whether the next iteration starts from an exact gap (``normal_gap`` after a convolution of p),
+   and sets the device loop's flag.
+
+Scalars live in device arrays: ``sums`` (the reductions of one iteration; slots below),
+``scalars`` (carried: G_old, delta, iteration count, last residual) and ``settings`` (the values
+of one solve).
 """
 
 from typing import Any
@@ -18,8 +30,9 @@ import warp as wp
 
 from .overloads import register_float_overloads
 from .reduce import (  # noqa: F401  (shared slots)
-    C_DELTA, C_G_OLD, C_ITER, N_SCALARS, N_SETTINGS, P_APPROACH, P_TOL, S_G, S_GT, S_RHS, S_RT, S_VIOL, block_add, block_max,
-    cell_index, cg_converged, cg_step_length,
+    C_DELTA, C_G_OLD, C_ITER, N_SCALARS, N_SETTINGS, P_APPROACH, P_CHUNK, P_EXACT, P_MAX_ITER, P_TOL, S_G, S_GT, S_RHS,
+    S_RT, S_VIOL, advance,
+    block_add, block_max, cell_index, cg_converged, cg_step_length,
 )
 from .reduce import S_RESTART as S_IOL  # cells that re-enter contact (or leave the cap)
 
@@ -27,18 +40,62 @@ from .reduce import S_RESTART as S_IOL  # cells that re-enter contact (or leave 
 wp.set_module_options({"enable_backward": False})
 
 # slots of ``sums`` (0-2 and 5 shared with kernels/reduce.py: g^2 on the free set, violation,
-# right-hand side, re-entries)
+# right-hand side, re-entries; 0-2 describe the iterate the iteration starts from)
 S_CORRECTION = wp.constant(6)  # sum |p - (p_old - tau t)|: what the projection changed, which K t misses
-N_SUMS = 7
+S_NEXT_G = wp.constant(7)  # slots 0-2 of the updated iterate, with the carried gap (normal_update)
+S_NEXT_VIOL = wp.constant(8)
+S_NEXT_RHS = wp.constant(9)
+N_SUMS = wp.constant(10)
+
+
+@wp.func
+def residual_terms(pressure: Any, gap: Any, interference: Any, pressure_cap: Any):
+    """One cell's shares of the residual sums (S_G, S_VIOL, S_RHS): free cells (0 < p < cap)
+    must close (g = 0), cells at p = 0 must not penetrate (g >= 0), cells at the cap (the
+    hardness: a perfectly plastic surface) must not open (g <= 0); the right-hand side is the
+    interference b = delta_z - h0 - u_known on the active cells (p > 0). ``interference`` is
+    read only there. The violation is NaN once p or g is not finite, which stops the solve."""
+    zero = type(pressure)(0.0)
+    s_g = zero
+    # 0 while g and p are finite, NaN once either is not (cheaper than two isfinite branches:
+    # 2.5 -> 1.5 ms at n = 512 on the CPU)
+    s_viol = (gap - gap) + (pressure - pressure)
+    s_rhs = zero
+    if pressure >= pressure_cap:
+        s_rhs = interference * interference
+        if gap > zero:
+            s_viol += gap * gap
+    elif pressure > zero:
+        s_g = gap * gap
+        s_viol += gap * gap
+        s_rhs = interference * interference
+    elif gap < zero:
+        s_viol += gap * gap
+    return s_g, s_viol, s_rhs
+
+
+@wp.func
+def padded_entry(padded: wp.array2d(dtype=Any), cell: int, width: int):
+    """Entry of cell ``cell`` (row-major in a field ``width`` wide) in a padded 2-D buffer whose
+    top-left corner holds the field."""
+    row = cell // width
+    return padded[row, cell - row * width]
+
+
+@wp.kernel
+def normal_interference(initial_gap: wp.array(dtype=Any), known_displacement: wp.array(dtype=Any),
+                        settings: wp.array(dtype=Any), interference: wp.array(dtype=Any)):
+    """b = delta_z - h0 - u_known: how far the rigid surfaces overlap (negative where they do
+    not), once per solve; the gap is g = K p - b."""
+    i = wp.tid()
+    interference[i] = settings[P_APPROACH] - initial_gap[i] - known_displacement[i]
 
 
 @wp.kernel
 def normal_gap(
-    initial_gap: wp.array(dtype=Any),
     displacement: wp.array(dtype=Any),
-    known_displacement: wp.array(dtype=Any),
+    interference: wp.array(dtype=Any),
     pressure: wp.array(dtype=Any),
-    settings: wp.array(dtype=Any),
     pressure_cap: Any,
     n: int,
     outer: int,
@@ -47,40 +104,24 @@ def normal_gap(
     gap: wp.array(dtype=Any),
     sums: wp.array(dtype=Any),
 ):
-    """gap = h0 - delta_z + u_z + u_known, and the residual sums of the current pressure.
-
-    Free cells (0 < p < cap) must close (g = 0); cells at p = 0 must not penetrate (g >= 0);
-    cells at the cap (the hardness: a perfectly plastic surface) must not open (g <= 0). The
-    approach delta_z is ``settings[P_APPROACH]``.
-    """
+    """The exact gap g = u_z - b of the current pressure (``displacement`` = K p) and its residual
+    sums into slots S_G, S_VIOL, S_RHS."""
     block, lane = wp.tid()
     thread = block * wp.block_dim() + lane
-    approach = settings[P_APPROACH]
-    zero = approach - approach
+    zero = pressure_cap - pressure_cap
     s_g = zero
     s_viol = zero
     s_rhs = zero
     for k in range(per):
         i = cell_index(thread, outer, inner, k)
         if i < n:
-            rhs = approach - initial_gap[i] - known_displacement[i]
-            g = displacement[i] - rhs
+            b = interference[i]
+            g = displacement[i] - b
             gap[i] = g
-            p = pressure[i]
-            # 0 while g and p are finite, NaN once either is not: the residual turns non-finite,
-            # which stops the solve (cheaper than two isfinite branches: 2.5 -> 1.5 ms at n = 512 on
-            # the CPU)
-            s_viol += (g - g) + (p - p)
-            if p >= pressure_cap:
-                s_rhs += rhs * rhs
-                if g > zero:
-                    s_viol += g * g
-            elif p > zero:
-                s_g += g * g
-                s_viol += g * g
-                s_rhs += rhs * rhs
-            elif g < zero:
-                s_viol += g * g
+            dg, dv, dr = residual_terms(pressure[i], g, b, pressure_cap)
+            s_g += dg
+            s_viol += dv
+            s_rhs += dr
     block_add(sums, S_G, s_g)
     block_add(sums, S_VIOL, s_viol)
     block_add(sums, S_RHS, s_rhs)
@@ -88,59 +129,73 @@ def normal_gap(
 
 @wp.kernel
 def normal_direction(
-    gap: wp.array(dtype=Any),
-    pressure: wp.array(dtype=Any),
+    gap: wp.array2d(dtype=Any),
+    pressure: wp.array2d(dtype=Any),
     pressure_cap: Any,
     sums: wp.array(dtype=Any),
     scalars: wp.array(dtype=Any),
-    direction: wp.array(dtype=Any),
+    per: int,
+    direction: wp.array2d(dtype=Any),
+    padded_input: wp.array2d(dtype=Any),
 ):
-    """Conjugate direction t = g + delta (G / G_old) t on the free set 0 < p < cap, 0 elsewhere."""
-    i = wp.tid()
-    zero = sums[S_G] - sums[S_G]
+    """Conjugate direction t = g + delta (G / G_old) t on the free set 0 < p < cap, 0 elsewhere,
+    written to ``direction`` and to the FFT backend's ``padded_input`` (the field's corner of the
+    padded grid). Launched over (rows, chunks) (``LaunchCache.launch_rows``).
+
+    t of the last iteration is read only on cells free now; when beta != 0 those were free then
+    too (a cell that re-entered sets delta = 0), so t there is that iteration's direction."""
+    i, c = wp.tid()
+    zero = pressure_cap - pressure_cap
     beta = zero
     if scalars[C_G_OLD] > zero:
         beta = scalars[C_DELTA] * sums[S_G] / scalars[C_G_OLD]
-    if pressure[i] > zero and pressure[i] < pressure_cap:
-        direction[i] = gap[i] + beta * direction[i]
-    else:
-        direction[i] = zero
+    for j in range(c * per, wp.min((c + 1) * per, gap.shape[1])):
+        p = pressure[i, j]
+        t = zero
+        if p > zero and p < pressure_cap:
+            t = gap[i, j] + beta * direction[i, j]
+        direction[i, j] = t
+        padded_input[i, j] = t
 
 
 @wp.kernel
 def normal_step_sums(
     gap: wp.array(dtype=Any),
     direction: wp.array(dtype=Any),
-    response: wp.array(dtype=Any),
-    pressure: wp.array(dtype=Any),
-    pressure_cap: Any,
+    padded_output: wp.array2d(dtype=Any),
+    output_scale: Any,
+    width: int,
     n: int,
     outer: int,
     inner: int,
     per: int,
     sums: wp.array(dtype=Any),
 ):
-    """Sums of g t and (K t) t over the contact set, for the step length."""
+    """Sums of g t and (K t) t over the free set (where t can be non-zero), K t read from the FFT
+    backend's padded output (times ``output_scale``)."""
     block, lane = wp.tid()
     thread = block * wp.block_dim() + lane
-    zero = gap[0] - gap[0]
+    zero = output_scale - output_scale
     s_gt = zero
     s_rt = zero
     for k in range(per):
         i = cell_index(thread, outer, inner, k)
         if i < n:
-            if pressure[i] > zero and pressure[i] < pressure_cap:
-                t = direction[i]
+            t = direction[i]
+            if t != zero:
                 s_gt += gap[i] * t
-                s_rt += response[i] * t
+                s_rt += output_scale * padded_entry(padded_output, i, width) * t
     block_add(sums, S_GT, s_gt)
     block_add(sums, S_RT, s_rt)
 
 
 @wp.kernel
 def normal_update(
-    gap: wp.array(dtype=Any),
     direction: wp.array(dtype=Any),
+    padded_output: wp.array2d(dtype=Any),
+    output_scale: Any,
+    width: int,
+    interference: wp.array(dtype=Any),
     pressure_cap: Any,
     settings: wp.array(dtype=Any),
     n: int,
@@ -148,79 +203,101 @@ def normal_update(
     inner: int,
     per: int,
     pressure: wp.array(dtype=Any),
+    gap: wp.array(dtype=Any),
     sums: wp.array(dtype=Any),
 ):
     """p <- clip(p - tau t, 0, cap); penetrating cells with p = 0 re-enter with p = -tau g, and
-    opening cells at the cap leave it with p = cap - tau g (Polonsky-Keer's re-entry rule).
+    opening cells at the cap leave it with p = cap - tau g (Polonsky-Keer's re-entry rule). The
+    gap is carried, g <- g - tau K t (K t from the padded output): exact where no cell was
+    projected; what the projections changed (their L1 norm, slot S_CORRECTION) it misses until
+    the next exact gap. The residual sums of the new iterate with that gap go to the S_NEXT_*
+    slots.
 
     An iterate whose relative residual is already under ``settings[P_TOL]`` is left as it is.
     """
     block, lane = wp.tid()
     thread = block * wp.block_dim() + lane
-    zero = gap[0] - gap[0]
+    zero = pressure_cap - pressure_cap
     tau = cg_step_length(sums)
     count = zero
     corrected = zero
+    s_g = zero
+    s_viol = zero
+    s_rhs = zero
     done = cg_converged(sums, settings[P_TOL])
     for k in range(per):
         i = cell_index(thread, outer, inner, k)
-        if i < n and not done:
+        if i < n:
             p = pressure[i]
-            unprojected = p - tau * direction[i]  # what K t accounts for (t = 0 off the free set)
-            if p >= pressure_cap:
-                if gap[i] > zero:
-                    p = wp.max(pressure_cap - tau * gap[i], zero)
+            g = gap[i]
+            if not done:
+                t = direction[i]
+                unprojected = p - tau * t  # what K t accounts for (t = 0 off the free set)
+                old = p
+                if p >= pressure_cap:
+                    if g > zero:
+                        p = wp.max(pressure_cap - tau * g, zero)
+                        count += type(zero)(1.0)
+                elif p > zero:
+                    p = wp.min(wp.max(unprojected, zero), pressure_cap)
+                elif g < zero:
+                    p = wp.min(-tau * g, pressure_cap)
                     count += type(zero)(1.0)
-            elif p > zero:
-                p = wp.min(wp.max(p - tau * direction[i], zero), pressure_cap)
-            elif gap[i] < zero:
-                p = wp.min(-tau * gap[i], pressure_cap)
-                count += type(zero)(1.0)
-            corrected += wp.abs(p - unprojected)
-            pressure[i] = p
+                corrected += wp.abs(p - unprojected)
+                if p != old:
+                    pressure[i] = p
+                g = g - tau * output_scale * padded_entry(padded_output, i, width)
+                gap[i] = g
+            b = zero
+            if p > zero:
+                b = interference[i]
+            dg, dv, dr = residual_terms(p, g, b, pressure_cap)
+            s_g += dg
+            s_viol += dv
+            s_rhs += dr
     block_add(sums, S_IOL, count)
     block_add(sums, S_CORRECTION, corrected)
-
-
-
-@wp.kernel
-def normal_displacement_step(response: wp.array(dtype=Any), sums: wp.array(dtype=Any), settings: wp.array(dtype=Any),
-                             displacement: wp.array(dtype=Any)):
-    """u <- u - tau K t: the displacement of the updated pressure when no cell was projected
-    (the same tau, and the same converged-iterate rule, as ``normal_update``)."""
-    i = wp.tid()
-    if cg_converged(sums, settings[P_TOL]):
-        return
-    displacement[i] = displacement[i] - cg_step_length(sums) * response[i]
+    block_add(sums, S_NEXT_G, s_g)
+    block_add(sums, S_NEXT_VIOL, s_viol)
+    block_add(sums, S_NEXT_RHS, s_rhs)
 
 
 @wp.kernel
-def normal_recompute_flag(sums: wp.array(dtype=Any), scalars: wp.array(dtype=Any), settings: wp.array(dtype=Any),
-                          exact_every: int, column_norm: Any, deferral: Any, deferred: wp.array(dtype=Any),
-                          recompute: wp.array(dtype=wp.int32)):
-    """One thread, end of an iteration that carried u = K p (as u - tau K t): whether to recompute
-    K p at the start of the next iteration (``recompute[0] = 1``).
+def normal_advance(sums: wp.array(dtype=Any), settings: wp.array(dtype=Any), exact_every: int, column_norm: Any,
+                   deferral: Any, scalars: wp.array(dtype=Any), residual_history: wp.array(dtype=Any),
+                   deferred: wp.array(dtype=Any), recompute: wp.array(dtype=wp.int32), loop: wp.array(dtype=wp.int32)):
+    """One thread, end of an iteration: the shared :func:`~warpcontact.kernels.reduce.advance`
+    (residual history, G_old, delta, the loop flag), then whether the next iteration starts
+    from an exact gap (``recompute[0] = 1``: a convolution of p and ``normal_gap``), then the
+    sums of the new iterate moved into slots 0-2 and the other slots zeroed for the next
+    iteration.
 
-    The carried u misses K c, c the changes the projections made since the last recompute; their
-    L1 norms add up in ``deferred[0]``, and ||K c||_2 <= ``column_norm`` * that (the 2-norm of
-    one column of K bounds each cell's share). Recompute when that bound exceeds ``deferral``
-    times the violation the iteration started from (the carried gap's error stays a fraction of
-    what the iteration corrects), when a change comes near convergence (relative residual under
-    4 tol: a converged iterate must be judged on the exact gap), and every ``exact_every``
-    iterations (rounding).
+    The carried gap misses K c, c the changes the projections made since the last exact gap;
+    their L1 norms add up in ``deferred[0]``, and ||K c||_2 <= ``column_norm`` * that (the
+    2-norm of one column of K bounds each cell's share). Recompute when that bound exceeds
+    ``deferral`` times the violation the iteration started from (the carried gap's error stays
+    a fraction of what the iteration corrects), when a change comes near convergence (relative
+    residual under 4 tol: a converged iterate must be judged on the exact gap), every
+    ``exact_every`` iterations (rounding), and always when ``settings[P_EXACT]`` is 1.
     """
-    zero = sums[S_VIOL] - sums[S_VIOL]
+    advance(sums, settings, 0, scalars, residual_history, loop)
+    zero = type(sums[0])(0.0)
     missed = deferred[0] + sums[S_CORRECTION]
     bound = column_norm * missed
     tol = settings[P_TOL]
     near = sums[S_VIOL] <= type(zero)(16.0) * tol * tol * sums[S_RHS]
-    if (bound * bound > deferral * deferral * sums[S_VIOL] or (near and missed > zero)
+    if (settings[P_EXACT] > zero or bound * bound > deferral * deferral * sums[S_VIOL] or (near and missed > zero)
             or int(scalars[C_ITER]) % exact_every == 0):
         recompute[0] = 1
         deferred[0] = zero
     else:
         recompute[0] = 0
         deferred[0] = missed
+    sums[S_G] = sums[S_NEXT_G]
+    sums[S_VIOL] = sums[S_NEXT_VIOL]
+    sums[S_RHS] = sums[S_NEXT_RHS]
+    for slot in range(S_GT, N_SUMS):
+        sums[slot] = zero
 
 
 # slots of the first guess's sums (NormalSolver.guess_sums)
@@ -236,7 +313,7 @@ def count_positive(pressure: wp.array(dtype=Any), n: int, outer: int, inner: int
     """guess_sums[G_POSITIVE] += the number of cells with p > 0."""
     block, lane = wp.tid()
     thread = block * wp.block_dim() + lane
-    zero = pressure[0] - pressure[0]
+    zero = type(guess_sums[0])(0.0)
     count = zero
     for k in range(per):
         i = cell_index(thread, outer, inner, k)
@@ -246,57 +323,53 @@ def count_positive(pressure: wp.array(dtype=Any), n: int, outer: int, inner: int
 
 
 @wp.func
-def interference(initial_gap: wp.array(dtype=Any), known_displacement: wp.array(dtype=Any), approach: Any, i: int):
-    """b = max(delta_z - h0 - u_known, 0): how far the rigid surfaces overlap at cell i."""
-    return wp.max(approach - initial_gap[i] - known_displacement[i], approach - approach)
+def overlap(interference: Any):
+    """max(b, 0): how far the rigid surfaces overlap; 0 where b is not finite (``wp.max`` returns
+    its second argument when the first is NaN), so that a NaN stays in its own cell, where the
+    residual names it, instead of spreading through the guess."""
+    return wp.max(interference, type(interference)(0.0))
 
 
 @wp.kernel
-def guess_max_interference(initial_gap: wp.array(dtype=Any), known_displacement: wp.array(dtype=Any),
-                           settings: wp.array(dtype=Any), n: int, outer: int, inner: int, per: int,
+def guess_max_interference(interference: wp.array(dtype=Any), n: int, outer: int, inner: int, per: int,
                            guess_sums: wp.array(dtype=Any)):
-    """guess_sums[G_BMAX] <- max(guess_sums[G_BMAX], the largest interference b) (zeroed before:
-    b >= 0)."""
+    """guess_sums[G_BMAX] <- max(guess_sums[G_BMAX], the largest overlap max(b, 0)) (zeroed
+    before)."""
     block, lane = wp.tid()
     thread = block * wp.block_dim() + lane
-    approach = settings[P_APPROACH]
-    largest = approach - approach
+    largest = type(guess_sums[0])(0.0)
     for k in range(per):
         i = cell_index(thread, outer, inner, k)
         if i < n:
-            largest = wp.max(largest, interference(initial_gap, known_displacement, approach, i))
+            largest = wp.max(largest, overlap(interference[i]))
     block_max(guess_sums, G_BMAX, largest, lane)
 
 
 @wp.kernel
-def guess_shape(initial_gap: wp.array(dtype=Any), known_displacement: wp.array(dtype=Any),
-                settings: wp.array(dtype=Any), guess_sums: wp.array(dtype=Any), pressure: wp.array(dtype=Any)):
+def guess_shape(interference: wp.array(dtype=Any), guess_sums: wp.array(dtype=Any), pressure: wp.array(dtype=Any)):
     """p <- s = sqrt(max(b - b_max / 2, 0)), the shape of the first guess: for a paraboloid on a
     flat, b - b_max / 2 = (a^2 - r^2) / 2R on the Hertz contact radius a^2 = R delta_z (the
     elastic contact closes half the rigid interference), so s is the Hertz pressure's shape."""
     i = wp.tid()
-    b = interference(initial_gap, known_displacement, settings[P_APPROACH], i)
+    b = overlap(interference[i])
     half = type(b)(0.5) * guess_sums[G_BMAX]
-    pressure[i] = wp.sqrt(wp.max(b - half, b - b))
+    pressure[i] = wp.sqrt(wp.max(b - half, type(b)(0.0)))
 
 
 @wp.kernel
-def guess_fit_sums(initial_gap: wp.array(dtype=Any), known_displacement: wp.array(dtype=Any),
-                   settings: wp.array(dtype=Any), shape: wp.array(dtype=Any), response: wp.array(dtype=Any),
+def guess_fit_sums(interference: wp.array(dtype=Any), shape: wp.array(dtype=Any), response: wp.array(dtype=Any),
                    n: int, outer: int, inner: int, per: int, guess_sums: wp.array(dtype=Any)):
     """Sums of (K s) b and (K s)^2 over the support s > 0, for the least-squares scale of the
-    first guess (``response`` = K s)."""
+    first guess (``response`` = K s; b > 0 there)."""
     block, lane = wp.tid()
     thread = block * wp.block_dim() + lane
-    approach = settings[P_APPROACH]
-    zero = approach - approach
+    zero = type(guess_sums[0])(0.0)
     s_ub = zero
     s_uu = zero
     for k in range(per):
         i = cell_index(thread, outer, inner, k)
         if i < n and shape[i] > zero:
-            b = interference(initial_gap, known_displacement, approach, i)
-            s_ub += response[i] * b
+            s_ub += response[i] * interference[i]
             s_uu += response[i] * response[i]
     block_add(guess_sums, G_UB, s_ub)
     block_add(guess_sums, G_UU, s_uu)
@@ -312,6 +385,6 @@ def guess_scale(guess_sums: wp.array(dtype=Any), pressure_cap: Any, pressure: wp
     pressure[i] = wp.min(c * pressure[i], pressure_cap)
 
 
-for _k in (normal_gap, normal_direction, normal_step_sums, normal_update, normal_displacement_step, normal_recompute_flag,
+for _k in (normal_interference, normal_gap, normal_direction, normal_step_sums, normal_update, normal_advance,
            count_positive, guess_max_interference, guess_shape, guess_fit_sums, guess_scale):
     register_float_overloads(_k)

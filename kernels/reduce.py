@@ -21,15 +21,20 @@ S_G = wp.constant(0)  # the (preconditioned) squared gradient over the free set
 S_VIOL = wp.constant(1)  # squared violation of the optimality conditions
 S_RHS = wp.constant(2)  # squared right-hand side over the active cells
 S_RESTART = wp.constant(5)  # cells that re-entered the free set: restart the conjugacy
-C_G_OLD = wp.constant(0)
-C_DELTA = wp.constant(1)
-C_ITER = wp.constant(2)
-N_SCALARS = 3
+# slots of a solver's ``scalars`` array, carried from one iteration to the next
+C_G_OLD = wp.constant(0)  # S_G of the last iteration
+C_DELTA = wp.constant(1)  # 0: restart the conjugacy in the next iteration
+C_ITER = wp.constant(2)  # iterations done in this solve
+C_RESIDUAL = wp.constant(3)  # relative residual of the iterate the last iteration started from
+N_SCALARS = 4
 # slots of a solver's ``settings`` array: the values of one solve that its iteration reads on the
 # device (so that a captured CUDA graph of the iteration serves every solve)
 P_TOL = wp.constant(0)  # relative residual to reach
 P_APPROACH = wp.constant(1)  # rigid approach delta_z, scaled (normal solver)
-N_SETTINGS = 2
+P_MAX_ITER = wp.constant(2)  # iteration limit of the solve
+P_CHUNK = wp.constant(3)  # iterations per launch of the device loop: it stops at multiples of this
+P_EXACT = wp.constant(4)  # normal solver: 1 to recompute K p at every iteration (two convolutions)
+N_SETTINGS = 5
 
 
 @wp.func
@@ -72,23 +77,46 @@ def cg_converged(sums: wp.array(dtype=Any), tol: Any):
     return sums[S_VIOL] <= tol * tol * sums[S_RHS]
 
 
-@wp.kernel
-def cg_advance(sums: wp.array(dtype=Any), scalars: wp.array(dtype=Any), residual_history: wp.array(dtype=Any)):
-    """One thread, end of an iteration: G_old <- G, delta <- (no cell re-entered the free set),
-    and the relative residual sqrt(S_VIOL / S_RHS) of the iterate the iteration started from."""
-    zero = sums[S_G] - sums[S_G]
+@wp.func
+def advance(sums: wp.array(dtype=Any), settings: wp.array(dtype=Any), restart_every: int, scalars: wp.array(dtype=Any),
+            residual_history: wp.array(dtype=Any), loop: wp.array(dtype=wp.int32)):
+    """End of an iteration (one thread): record the relative residual sqrt(S_VIOL / S_RHS) of the
+    iterate the iteration started from, carry G_old <- S_G and delta <- (no cell re-entered the
+    free set), count the iteration, and set ``loop[0]`` for the device loop: 0 (stop) once that
+    residual is under ``settings[P_TOL]`` or not finite, at ``settings[P_MAX_ITER]`` iterations,
+    and at every multiple of ``settings[P_CHUNK]`` (the host's turn: interrupts, progress); 1
+    otherwise. Every ``restart_every`` iterations (0: never) the next direction is the gradient."""
+    zero = type(sums[0])(0.0)
     one = type(zero)(1.0)
-    it = int(scalars[C_ITER])
+    viol = sums[S_VIOL]
+    rhs = sums[S_RHS]
     res = zero
-    if sums[S_RHS] > zero:
-        res = wp.sqrt(sums[S_VIOL] / sums[S_RHS])
-    elif sums[S_VIOL] > zero:
+    if rhs > zero:
+        res = wp.sqrt(viol / rhs)
+    elif viol > zero:
         res = one
+    finite = wp.isfinite(viol) and wp.isfinite(rhs)
+    if not finite:
+        res = viol + rhs  # not finite: the host names the cell
+    it = int(scalars[C_ITER])
     if it < residual_history.shape[0]:
         residual_history[it] = res
+    done = it + 1
     scalars[C_G_OLD] = sums[S_G]
+    if restart_every > 0 and done % restart_every == 0:
+        scalars[C_G_OLD] = zero
     scalars[C_DELTA] = wp.where(sums[S_RESTART] > zero, zero, one)
-    scalars[C_ITER] = scalars[C_ITER] + one
+    scalars[C_ITER] = type(zero)(done)
+    scalars[C_RESIDUAL] = res
+    stop = (not finite) or res < settings[P_TOL] or done >= int(settings[P_MAX_ITER]) or done % int(settings[P_CHUNK]) == 0
+    loop[0] = wp.where(stop, 0, 1)
+
+
+@wp.kernel
+def cg_advance(sums: wp.array(dtype=Any), settings: wp.array(dtype=Any), restart_every: int, scalars: wp.array(dtype=Any),
+               residual_history: wp.array(dtype=Any), loop: wp.array(dtype=wp.int32)):
+    """One thread, end of an iteration: :func:`advance`."""
+    advance(sums, settings, restart_every, scalars, residual_history, loop)
 
 
 register_float_overloads(cg_advance)

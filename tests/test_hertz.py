@@ -148,6 +148,13 @@ def test_one_convolution_mode_matches_two(device):
             return apply(*args, **kw)
 
         model.operator.normal = counted
+        padded = model.operator.normal_padded  # K t of the iteration's direction
+
+        def counted_padded():
+            calls[0] += 1
+            return padded()
+
+        model.operator.normal_padded = counted_padded
         state = ContactState(model)
         # eager launches: the count is of Python calls, which a CUDA graph's replay does not make
         info = NormalSolver(model, one_convolution=one_conv, use_graphs=False).solve(state, DELTA_Z)
@@ -176,25 +183,33 @@ def test_column_norm_bounds_one_cells_displacement():
     assert norms["centre"] > 0.9 * bound, (norms, bound)
 
 
-def _recompute_flag(correction, deferred, violation, it, rhs=1.0, tol=1e-10, column_norm=2.0, deferral=0.1,
-                    exact_every=50):
-    """One launch of kernels/normal.py's normal_recompute_flag on the CPU: (flag, deferred after)."""
+def _advance(correction, deferred, violation, it, rhs=1.0, tol=1e-10, column_norm=2.0, deferral=0.1, exact_every=50,
+             exact=0.0, max_iter=2000, chunk=64, extra=None):
+    """One launch of kernels/normal.py's normal_advance on the CPU, at the end of iteration
+    ``it`` (1-based): (recompute flag, deferred after, loop flag, sums after)."""
     from warpcontact.kernels import normal as nk
 
     sums = np.zeros(nk.N_SUMS)
     sums[nk.S_CORRECTION], sums[nk.S_VIOL], sums[nk.S_RHS] = correction, violation, rhs
+    for slot, value in (extra or {}).items():
+        sums[slot] = value
     scalars = np.zeros(nk.N_SCALARS)
-    scalars[nk.C_ITER] = it
+    scalars[nk.C_ITER] = it - 1
     settings = np.zeros(nk.N_SETTINGS)
-    settings[nk.P_TOL] = tol
+    settings[[nk.P_TOL, nk.P_MAX_ITER, nk.P_CHUNK, nk.P_EXACT]] = tol, max_iter, chunk, exact
     held = wp.array([deferred], dtype=wp.float64, device="cpu")
-    flag = wp.zeros(1, dtype=wp.int32, device="cpu")
-    wp.launch(nk.normal_recompute_flag, dim=1, device="cpu",
-              inputs=[wp.array(sums, dtype=wp.float64), wp.array(scalars, dtype=wp.float64),
-                      wp.array(settings, dtype=wp.float64), exact_every, wp.float64(column_norm),
-                      wp.float64(deferral), held],
-              outputs=[flag])
-    return int(flag.numpy()[0]), float(held.numpy()[0])
+    flag, loop = wp.zeros(1, dtype=wp.int32, device="cpu"), wp.zeros(1, dtype=wp.int32, device="cpu")
+    sums_wp = wp.array(sums, dtype=wp.float64)
+    wp.launch(nk.normal_advance, dim=1, device="cpu",
+              inputs=[sums_wp, wp.array(settings, dtype=wp.float64), exact_every, wp.float64(column_norm),
+                      wp.float64(deferral)],
+              outputs=[wp.array(scalars, dtype=wp.float64), wp.zeros(max_iter + 1, dtype=wp.float64), held, flag, loop])
+    return int(flag.numpy()[0]), float(held.numpy()[0]), int(loop.numpy()[0]), sums_wp.numpy()
+
+
+def _recompute_flag(correction, deferred, violation, it, **kw):
+    """(flag, deferred after) of :func:`_advance`."""
+    return _advance(correction, deferred, violation, it, **kw)[:2]
 
 
 def test_recompute_flag_follows_the_bound():
@@ -202,10 +217,30 @@ def test_recompute_flag_follows_the_bound():
     (column norm x accumulated L1 change) stays under 0.1 of the violation's norm is carried and
     remembered; once the accumulated bound passes it, recompute and forget; near convergence
     (violation under (4 tol)^2 of the right-hand side) any change recomputes; every 50 iterations
-    regardless."""
+    regardless; at every iteration in the two-convolution mode (settings P_EXACT = 1)."""
     assert _recompute_flag(0.0, 0.0, 1.0, it=3) == (0, 0.0)
     assert _recompute_flag(0.04, 0.0, 1.0, it=3) == (0, 0.04)  # bound 0.08 < 0.1
     assert _recompute_flag(0.02, 0.04, 1.0, it=3) == (1, 0.0)  # bound 2 x 0.06 = 0.12 > 0.1
     assert _recompute_flag(1e-30, 0.0, 1e-21, it=3) == (1, 0.0)  # bound 2e-30 is tiny, but near convergence
     assert _recompute_flag(0.0, 0.0, 1e-21, it=3) == (0, 0.0)  # near convergence, nothing changed
     assert _recompute_flag(0.0, 0.0, 1.0, it=50) == (1, 0.0)
+    assert _recompute_flag(0.0, 0.0, 1.0, it=3, exact=1.0) == (1, 0.0)
+
+
+def test_advance_moves_the_new_iterates_sums_and_sets_the_loop_flag():
+    """normal_advance leaves the sums of the updated iterate (S_NEXT_*, with the carried gap) in
+    slots S_G, S_VIOL, S_RHS for the next iteration and zeroes the rest; the loop goes on (flag 1)
+    unless the residual the iteration started from is under the tolerance or not finite, or the
+    iteration count reaches the limit or a multiple of the launch length."""
+    from warpcontact.kernels import normal as nk
+
+    nxt = {nk.S_NEXT_G: 3.0, nk.S_NEXT_VIOL: 4.0, nk.S_NEXT_RHS: 5.0, nk.S_GT: 7.0, nk.S_RT: 8.0, nk.S_IOL: 2.0}
+    *_, sums = _advance(0.1, 0.0, 1.0, it=3, extra=nxt)
+    np.testing.assert_array_equal(sums[[nk.S_G, nk.S_VIOL, nk.S_RHS]], [3.0, 4.0, 5.0])
+    assert not np.any(sums[nk.S_GT:]), sums
+    assert _advance(0.0, 0.0, 1.0, it=3)[2] == 1  # residual 1
+    assert _advance(0.0, 0.0, 1e-22, it=3)[2] == 0  # residual 1e-11 < tol 1e-10
+    assert _advance(0.0, 0.0, math.nan, it=3)[2] == 0
+    assert _advance(0.0, 0.0, 1.0, it=10, max_iter=10)[2] == 0
+    assert _advance(0.0, 0.0, 1.0, it=9, max_iter=10, chunk=3)[2] == 0
+    assert _advance(0.0, 0.0, 1.0, it=8, max_iter=10, chunk=3)[2] == 1

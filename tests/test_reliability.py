@@ -194,33 +194,50 @@ def test_one_convolution_graphs_match_two_convolutions(cuda):
     assert abs(eager["iterations"] - graphs["iterations"]) <= 2, (eager["iterations"], graphs["iterations"])
 
 
-def test_reads_after_iterations_1_2_4_end_warm_started_solves_early():
-    """With reads every 8 iterations (the CUDA default), a warm-started solve still stops at the
-    first of the early reads (after iterations 1, 2, 4) past the iteration where a solve read
-    every iteration stops; its pressure is that solve's, bit for bit (the iterations past
-    convergence leave the iterate as it is)."""
+def test_device_loop_stops_at_the_converged_iteration_whatever_the_launch_length():
+    """The iterations run in a device loop that stops itself once the iterate an iteration starts
+    from meets the tolerance; the host reads only between launches (``iterations_per_launch``).
+    A warm-started solve (a coupled step's turn: 1-4 iterations) and a solve from rest take the
+    same iterations and give the same pressure, bit for bit, whether the host reads after every
+    iteration (1), at launch ends that do not divide the count (3), or once (64)."""
     model = ContactModel(PAPER_PAIR, Sphere(R, "paraboloid"), Grid(32, 4 * math.sqrt(R * HERTZ_DZ)), device="cpu",
                          dtype="float64")
     start = ContactState(model)
     NormalSolver(model).solve(start, HERTZ_DZ)
-    counts, pressures = [], []
-    for check_every, early in ((1, ()), (8, (1, 2, 4)), (8, ())):
-        solver = NormalSolver(model, check_every=check_every)
-        solver.early_checks = early
-        state = ContactState(model)
-        state.copy_from(start)
-        # 0.1 % deeper, to 1e-4 (a coupled step's early turns solve to 1e-3 ... 1e-8): a few
-        # iterations from the last solution
-        info = solver.solve(state, 1.001 * HERTZ_DZ, tol=1e-4)
-        assert info.converged
-        counts.append(info.iterations)
-        pressures.append(state.pressure.numpy())
-    every, early, late = counts
-    assert 1 <= every <= 4, f"the warm start should need 1-4 iterations here, took {every}"
-    assert early == min(k for k in (1, 2, 4) if k >= every), counts
-    assert late == 8, counts
-    np.testing.assert_array_equal(pressures[1], pressures[0])
-    np.testing.assert_array_equal(pressures[2], pressures[0])
+    for warm in (True, False):
+        counts, pressures = [], []
+        for per_launch in (1, 3, 64):
+            solver = NormalSolver(model)
+            solver.iterations_per_launch = per_launch
+            state = ContactState(model)
+            if warm:  # 0.1 % deeper, to 1e-4 (a coupled step's early turns solve to 1e-3 ... 1e-8)
+                state.copy_from(start)
+                info = solver.solve(state, 1.001 * HERTZ_DZ, tol=1e-4)
+            else:
+                info = solver.solve(state, HERTZ_DZ)
+            assert info.converged
+            assert len(info.history) == info.iterations and info.history[-1] < solver.active_tol, info.history[-3:]
+            assert all(h >= solver.active_tol for h in info.history[:-1]), "the loop ran past the converged iterate"
+            counts.append(info.iterations)
+            pressures.append(state.pressure.numpy())
+        if warm:
+            assert 1 <= counts[0] <= 4, f"the warm start should need 1-4 iterations here, took {counts[0]}"
+        else:
+            assert counts[0] > 3, counts  # from rest: several launches of 3
+        assert counts[1] == counts[0] and counts[2] == counts[0], (warm, counts)
+        np.testing.assert_array_equal(pressures[1], pressures[0])
+        np.testing.assert_array_equal(pressures[2], pressures[0])
+
+
+def test_iteration_limit_stops_the_device_loop():
+    """A solve capped at max_iter iterations stops there, unconverged, for any launch length."""
+    model = ContactModel(PAPER_PAIR, Sphere(R, "paraboloid"), Grid(32, 4 * math.sqrt(R * HERTZ_DZ)), device="cpu",
+                         dtype="float64")
+    for per_launch in (1, 4, 64):
+        solver = NormalSolver(model, max_iter=6)
+        solver.iterations_per_launch = per_launch
+        info = solver.solve(ContactState(model), HERTZ_DZ)
+        assert not info.converged and info.iterations == 6 and len(info.history) == 6, (per_launch, info)
 
 
 def test_cufft_layout_rule_follows_the_measurements():

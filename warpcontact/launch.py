@@ -57,6 +57,17 @@ class LaunchCache:
             self._launches.move_to_end(key)
         cmd.launch()
 
+    def launch_rows(self, kernel, shape, inputs, outputs=()):
+        """An elementwise kernel over a (rows, columns) ``shape``, launched over (rows, chunks):
+        thread (i, c) does the entries j of row i from ``c * per`` to ``(c + 1) * per``, ``per``
+        passed after ``inputs``. On CUDA one entry per thread (chunks = columns, per = 1); on the
+        CPU, where Warp runs the threads one after another, a whole row per thread (chunks = 1,
+        per = columns), which halves the per-entry overhead (n = 512: 2.57 -> 1.24 ms for the
+        normal spectral product)."""
+        rows, columns = shape
+        chunks, per = (1, columns) if self.device.is_cpu else (columns, 1)
+        self.launch(kernel, (rows, chunks), [*inputs, per], outputs)
+
     def launch_tiled(self, kernel, blocks: int, block_dim: int, inputs, outputs=()):
         """``wp.launch_tiled(kernel, dim=[blocks], ..., block_dim=block_dim)``: one tile per block.
         On the CPU the block is one thread (Warp runs CPU blocks of 1 unless configured otherwise)."""

@@ -68,16 +68,22 @@ class ElasticOperator:
 
     def spectral_product(self, kernel, spectra):
         """Launch the product ``kernel`` (kernels/spectral.py) on ``spectra``, in place: one entry
-        per thread on CUDA, one row per thread on the CPU."""
-        rows, columns = self.fft.spectral_shape
-        chunks, per = (1, columns) if self.fft.device.is_cpu else (columns, 1)
-        self.launches.launch(kernel, (rows, chunks), [self.influence, *spectra, per])
+        per thread on CUDA, one row per thread on the CPU (``LaunchCache.launch_rows``)."""
+        self.launches.launch_rows(kernel, self.fft.spectral_shape, [self.influence, *spectra])
 
     def normal(self, pressure: wp.array2d, displacement: wp.array2d):
         """displacement <- K_zz pressure (no coupling)."""
         self.fft.forward(pressure, self._buf[0])
         self.spectral_product(spectral.spectral_normal, self._buf[:1])
         self.fft.inverse(self._buf[0], displacement)
+
+    def normal_padded(self):
+        """K_zz applied to the field a kernel wrote into the corner of ``fft.padded_input``; the
+        result, times ``fft.output_scale``, in the corner of ``fft.padded_output`` (for solver
+        kernels that pad and crop as part of their own passes)."""
+        self.fft.transform_input(self._buf[0])
+        self.spectral_product(spectral.spectral_normal, self._buf[:1])
+        self.fft.transform_to_output(self._buf[0])
 
     def tangential(self, shear_x, shear_y, disp_x, disp_y):
         """(disp_x, disp_y) <- K_tt (shear_x, shear_y) (no coupling)."""

@@ -7,12 +7,13 @@ The estimate is counted from the allocations in the code, not fitted:
   spectral buffers in complex entries (``operator.py``), each of the FFT backend's ``spectral_shape``
   in the model's float type (scipy and cupy: (2n, n + 1); warp: (L/2 + 1, L),
   L the smallest power of two >= 2n), plus the FFT backend's work buffers: warp's ``_rows_q`` (one
-  spectrum), ``_half_r`` ((n, L/2 + 1) complex) and ``_row_scale`` (L/2 + 1 reals); scipy's
-  padded (n, 2n) real row buffer (``_rows``); cupy's two
-  (n, 2n) real row buffers (pruned layout) or two (2n, 2n) real padded buffers (2-D plans;
+  spectrum), ``_half_r`` ((n, L/2 + 1) complex), ``_row_scale`` (L/2 + 1 reals) and its
+  (n, n) ``padded_input`` and ``padded_output``; scipy's padded (n, 2n) real row buffer
+  (``_rows``, its ``padded_input``) and (n, n) ``padded_output``; cupy's two (n, 2n) real row
+  buffers (pruned layout) or two (2n, 2n) real padded buffers (2-D plans;
   ``cupy_backend.prune_by_default`` says which).
 - ``ContactState``: ``len(ContactState.FIELDS)`` fields and the int32 ``status``.
-- ``NormalSolver``: 3 fields (direction, response, no_displacement) and its scalars (sums,
+- ``NormalSolver``: 4 fields (direction, response, interference, no_displacement) and its scalars (sums,
   scalars, a residual history of max_iter + 1); ``ContactSolver``: 9 fields (known_z/x/y,
   adhesive_z/x/y, previous x 3) and 8 scalars; with friction also ``TangentialSolver``'s 7 fields
   (grad, dir, resp x/y, no_displacement) with its scalars, and the solver's target_x/y,
@@ -57,7 +58,7 @@ GIB = 1024**3
 N_INFLUENCE_SPECTRA = 6
 N_SPECTRAL_BUFFERS = 3
 #: (n, n) fields of the solvers (counted in solvers/normal.py, contact.py, tangential.py)
-NORMAL_SOLVER_FIELDS = 3
+NORMAL_SOLVER_FIELDS = 4
 CONTACT_SOLVER_FIELDS = 9
 TANGENTIAL_SOLVER_FIELDS = 7
 FRICTION_FIELDS = 5  # ContactSolver.target_x, target_y, shear_limit, scratch_x, scratch_y
@@ -198,10 +199,10 @@ def breakdown(n: int, dtype="float64", device_kind="cpu", friction: bool = True,
     cells = n * n
     spectrum = spectral_entries(n, fft) * cplx
     spectra = N_INFLUENCE_SPECTRA * spectral_entries(n, fft) * real + N_SPECTRAL_BUFFERS * spectrum
-    fft_work = n * (2 * n) * real  # scipy: the forward pass's padded rows
+    fft_work = n * (2 * n) * real + cells * real  # scipy: the forward pass's padded rows, the kept output
     if fft == "warp":
         half = _padded_length(n) // 2 + 1
-        fft_work = spectrum + n * half * cplx + half * real
+        fft_work = spectrum + n * half * cplx + half * real + 2 * cells * real
     elif fft == "cupy":
         from .fft.cupy_backend import prune_by_default
 

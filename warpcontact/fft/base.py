@@ -15,6 +15,7 @@ from __future__ import annotations
 import numpy as np
 import warp as wp
 
+from ..kernels.fft import crop_field, pad_field
 from ..launch import LaunchCache
 
 
@@ -81,23 +82,46 @@ class FFTBackend:
             values = spectrum.real if part == "real" else spectrum.imag
             out[k].assign(np.ascontiguousarray(values, dtype=self.np_real))
 
+    # The padded buffers. Each backend transforms from a real buffer whose top-left (ny, nx)
+    # corner holds the field (the rest is the zero padding, which stays zero: nothing writes
+    # there) and leaves the inverse in a real buffer whose corner holds the result, unnormalised.
+    # Solver kernels may write the corner of ``padded_input`` and read that of ``padded_output``
+    # themselves (``ElasticOperator.normal_padded``), saving the padding and cropping passes.
+    #: the real buffer the forward transforms read; the field goes into its (ny, nx) corner
+    padded_input: wp.array2d
+    #: the real buffer the inverse transforms write; the result is its (ny, nx) corner times ``output_scale``
+    padded_output: wp.array2d
+    #: the normalisation of ``padded_output`` (a scalar of the backend's float type)
+    output_scale = None
+
+    def transform_input(self, spectrum: wp.array2d):
+        """``spectrum`` <- transform of ``padded_input``."""
+        raise NotImplementedError
+
+    def transform_to_output(self, spectrum: wp.array2d):
+        """``padded_output`` <- unnormalised inverse transform of ``spectrum`` (which it may
+        overwrite)."""
+        raise NotImplementedError
+
     def forward(self, field: wp.array2d, spectrum: wp.array2d):
         """``spectrum`` <- transform of the real (ny, nx) ``field`` zero-padded to (2 ny, 2 nx)."""
-        raise NotImplementedError
+        self.launches.launch(pad_field, (self.ny, self.nx), [field], [self.padded_input])
+        self.transform_input(spectrum)
 
     def inverse(self, spectrum: wp.array2d, field: wp.array2d):
         """``field`` <- the first (ny, nx) values of the normalised inverse transform of ``spectrum``.
 
         May overwrite ``spectrum``.
         """
-        raise NotImplementedError
+        self.transform_to_output(spectrum)
+        self.launches.launch(crop_field, (self.ny, self.nx), [self.padded_output, self.output_scale], [field])
 
     def library_transforms(self, field: wp.array2d, spectrum: wp.array2d):
         """The FFT library's own forward and inverse transforms of the padded grid, without this
-        backend's padding and cropping passes: what benchmarks compare an iteration with (the
-        floor). Backends whose passes are the transforms themselves run ``forward`` and ``inverse``."""
-        self.forward(field, spectrum)
-        self.inverse(spectrum, field)
+        backend's padding and cropping passes (``field`` unused): what benchmarks compare an
+        iteration with (the floor)."""
+        self.transform_input(spectrum)
+        self.transform_to_output(spectrum)
 
     def check_field(self, name: str, a: wp.array):
         """Raise ValueError naming ``name`` unless ``a`` is an (ny, nx) array of this dtype and device."""

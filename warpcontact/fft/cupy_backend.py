@@ -9,14 +9,19 @@ functions allocate their outputs and padded copies on every call and cannot be c
 
 Two layouts of the same transforms (``pruned``):
 
-Pruned: the zero padding is not transformed. Forward: ``pad_rows_clear_spectrum`` copies the
-(ny, nx) field into the left half of an (ny, 2 nx) row buffer whose right half stays zero, and
-zeros the bottom half of the spectrum; the row D2Z (R2C) transforms only those ny rows, into the
-top half of the spectrum; the column Z2Z (C2C) transforms its nx + 1 columns in place. Inverse:
-the column transform in place, the row Z2D (C2R) only on the top ny rows, into a second
-(ny, 2 nx) row buffer, and ``crop_field`` keeps its left half, scaled. The row stages do half the
-rows of a 2-D plan; the column stages are the same. (Columns out of place from a buffer with a
-zero bottom half instead of the zeroing pass were slower: 1.80 against 1.39 ms at n = 4096.)
+Both layouts read the field from the corner of a real padded buffer (``padded_input``; the base
+class's ``pad_field`` copies it there, or a solver kernel writes it) and leave the unnormalised
+inverse in the corner of another (``padded_output``; ``crop_field`` scales it into a field, or a
+solver kernel reads it).
+
+Pruned: the zero padding is not transformed. Forward: the (ny, 2 nx) row buffer holds the field
+in its left half, its right half zero; the bottom half of the spectrum is zeroed (a memset); the
+row D2Z (R2C) transforms only the ny rows, into the top half of the spectrum; the column Z2Z
+(C2C) transforms its nx + 1 columns in place. Inverse: the column transform in place, the row
+Z2D (C2R) only on the top ny rows, into a second (ny, 2 nx) row buffer, whose left half is the
+result. The row stages do half the rows of a 2-D plan; the column stages are the same. (Columns
+out of place from a buffer with a zero bottom half instead of the zeroing pass were slower: 1.80
+against 1.39 ms at n = 4096.)
 
 Which is faster depends on the size. H100, cuFFT's forward + inverse alone, pruned / 2-D, ms:
 float64 0.104 / 0.124 at n = 1024, 0.483 / 0.575 at 2048, 2.59 / 2.98 at 4096
@@ -27,13 +32,10 @@ column transforms take more passes, and pruned loses in float64 at every size me
 0.116 / 0.077 at 588, 0.272 / 0.195 at 1000, 4.85 / 3.09 at 4000; the adhesive Table 2 cells'
 grids are 300-588). The default is :func:`prune_by_default`.
 
-Unpruned (``pruned=False``, one 2-D plan each way):
-
-- forward: ``pad_field`` copies the (ny, nx) field into the corner of a (2 ny, 2 nx) buffer whose
-  other entries stay zero (nothing else writes there), then D2Z (R2C in float32) into the
-  spectrum, shape (2 ny, nx + 1), the layout of ``numpy.fft.rfft2`` of the padded field.
-- inverse: Z2D (C2R) of the spectrum (overwritten, as cuFFT's complex-to-real transforms do) into
-  a second (2 ny, 2 nx) buffer, then ``crop_field`` keeps its (ny, nx) corner times 1 / (4 nx ny).
+Unpruned (``pruned=False``, one 2-D plan each way): forward D2Z (R2C in float32) of the
+(2 ny, 2 nx) padded buffer into the spectrum, shape (2 ny, nx + 1), the layout of
+``numpy.fft.rfft2`` of the padded field; inverse Z2D (C2R) of the spectrum (overwritten, as
+cuFFT's complex-to-real transforms do) into a second (2 ny, 2 nx) buffer.
 
 Memory: pruned, two (ny, 2 nx) real row buffers (one spectrum's worth); 2-D, two (2 ny, 2 nx)
 real padded buffers (two spectra's worth); and one work area shared by the plans: at most one
@@ -50,7 +52,6 @@ import os
 import numpy as np
 import warp as wp
 
-from ..kernels.fft import crop_field, pad_field, pad_rows_clear_spectrum
 from ..kernels.spectral import spectrum_part
 from .base import FFTBackend
 
@@ -157,7 +158,7 @@ class CupyFFT(FFTBackend):
         self._complex_to_real = lib.cufftExecZ2D if double else lib.cufftExecC2R
         self._complex_to_complex = lib.cufftExecZ2Z if double else lib.cufftExecC2C
         r2c, c2r, c2c = (_D2Z, _Z2D, _Z2Z) if double else (_R2C, _C2R, _C2C)
-        self._scale = dtype(1.0 / (4.0 * self.nx * self.ny))  # typed: a kernel argument
+        self.output_scale = dtype(1.0 / (4.0 * self.nx * self.ny))  # typed: a kernel argument
         ny2, nx2, nxh = 2 * self.ny, 2 * self.nx, self.nx + 1
         self._plans = []
         sizes = []
@@ -175,6 +176,8 @@ class CupyFFT(FFTBackend):
                 self._padded_out = wp.zeros(self.padded_shape, dtype=dtype)
                 self._forward_plan = self._plan_2d(sizes, r2c)
                 self._inverse_plan = self._plan_2d(sizes, c2r)
+            self.padded_input = self._rows_in if self.pruned else self._padded_in
+            self.padded_output = self._rows_out if self.pruned else self._padded_out
             # 16-byte entries: the work area of a large grid has more bytes than an int32 shape holds
             self._work = wp.empty(max(1, -(-max(sizes) // 16)), dtype=wp.vec4f)
             #: bytes of cuFFT's work area (shared by the plans)
@@ -262,16 +265,19 @@ class CupyFFT(FFTBackend):
             # write only there)
             (self._rows_in if self.pruned else self._padded_in).zero_()
 
-    def _transforms_forward(self, spectrum):
+    def transform_input(self, spectrum):
         with wp.ScopedDevice(self.device):
-            if self.pruned:  # the bottom half of the spectrum is zero (see forward)
+            if self.pruned:
+                # the row plan fills the top half; the columns are transformed in place, so the
+                # rows it skips (the zero padding) must be zero: a memset of the bottom half
+                spectrum[self.ny:].zero_()
                 _check(self._real_to_complex(self._row_forward, self._rows_in.ptr, spectrum.ptr), "row transform")
                 _check(self._complex_to_complex(self._column_plan, spectrum.ptr, spectrum.ptr, _FORWARD),
                        "column transform")
             else:
                 _check(self._real_to_complex(self._forward_plan, self._padded_in.ptr, spectrum.ptr), "forward transform")
 
-    def _transforms_inverse(self, spectrum):
+    def transform_to_output(self, spectrum):
         with wp.ScopedDevice(self.device):
             if self.pruned:
                 _check(self._complex_to_complex(self._column_plan, spectrum.ptr, spectrum.ptr, _INVERSE),
@@ -279,22 +285,3 @@ class CupyFFT(FFTBackend):
                 _check(self._complex_to_real(self._row_inverse, spectrum.ptr, self._rows_out.ptr), "inverse row transform")
             else:
                 _check(self._complex_to_real(self._inverse_plan, spectrum.ptr, self._padded_out.ptr), "inverse transform")
-
-    def library_transforms(self, field, spectrum):
-        """cuFFT's forward and inverse transforms alone, without the padding and cropping passes
-        (``field`` unused; pruned: the bottom half of ``spectrum`` must be zero, as ``forward``
-        leaves it, for the result to be the padded field's)."""
-        self._transforms_forward(spectrum)
-        self._transforms_inverse(spectrum)
-
-    def forward(self, field, spectrum):
-        if self.pruned:
-            self.launches.launch(pad_rows_clear_spectrum, (self.ny, self.nx + 1), [field], [self._rows_in, spectrum])
-        else:
-            self.launches.launch(pad_field, (self.ny, self.nx), [field], [self._padded_in])
-        self._transforms_forward(spectrum)
-
-    def inverse(self, spectrum, field):
-        self._transforms_inverse(spectrum)
-        padded = self._rows_out if self.pruned else self._padded_out
-        self.launches.launch(crop_field, (self.ny, self.nx), [padded, self._scale], [field])

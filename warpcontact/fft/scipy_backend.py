@@ -1,8 +1,9 @@
 """scipy.fft on the CPU, with worker threads: the default backend on CPU.
 
 Real-to-complex transforms; the zero padding is never transformed: the forward pass does the
-row transforms on the ny data rows only (``n = 2 nx`` pads them), and the inverse keeps only the
-ny output rows before the last pass. Spectral layout: (2 ny, nx + 1). The column passes run in
+row transforms on the ny data rows only (of a kept (ny, 2 nx) buffer whose right half stays zero:
+``padded_input``), and the inverse keeps only the ny output rows before the last pass (into the
+field, or into the kept (ny, nx) ``padded_output``). Spectral layout: (2 ny, nx + 1). The column passes run in
 place on the spectrum (the forward pass writes its rows into the top half and zeros the bottom
 half first): letting scipy pad the columns allocated and copied a second spectrum, and made the
 forward pass 2-3x slower than the inverse (measured: 17 against 6-9 ms at n = 512, 2 cores).
@@ -32,6 +33,11 @@ class ScipyFFT(FFTBackend):
         # array per transform: 5.7-6.5 against 3.0-3.6 ms per forward pass at n = 512, 2 cores.
         self._rows_buffer = wp.zeros((ny, 2 * nx), dtype=dtype, device=self.device)
         self._rows = self._rows_buffer.numpy()  # zero-copy view
+        self.padded_input = self._rows_buffer
+        #: the kept (ny, nx) result of the inverse (scipy normalises it): what solver kernels read
+        self.padded_output = wp.zeros((ny, nx), dtype=dtype, device=self.device)
+        self._output = self.padded_output.numpy()
+        self.output_scale = dtype(1.0)
 
     @property
     def spectral_shape(self):
@@ -43,16 +49,26 @@ class ScipyFFT(FFTBackend):
     def _complex_view(self, spectrum: wp.array2d) -> np.ndarray:
         return spectrum.numpy().view(self.np_complex).reshape(spectrum.shape)
 
-    def forward(self, field, spectrum):
+    def transform_input(self, spectrum):
         s = self._complex_view(spectrum)
-        self._rows[:, : self.nx] = field.numpy()  # (numpy(): zero-copy on the CPU)
         s[: self.ny] = sfft.rfft(self._rows, axis=1, workers=self.workers)
         s[self.ny :] = 0
         out = sfft.fft(s, axis=0, workers=self.workers, overwrite_x=True)
         if not np.shares_memory(out, s):  # scipy may return a new array even when allowed to overwrite
             s[...] = out
 
-    def inverse(self, spectrum, field):
+    def _inverse_rows(self, spectrum) -> np.ndarray:
+        """The (ny, 2 nx) rows of the normalised inverse transform (a new array from scipy)."""
         s = self._complex_view(spectrum)
         cols = sfft.ifft(s, axis=0, workers=self.workers, overwrite_x=True)[: self.ny]
-        field.numpy()[...] = sfft.irfft(cols, n=2 * self.nx, axis=1, workers=self.workers)[:, : self.nx]
+        return sfft.irfft(cols, n=2 * self.nx, axis=1, workers=self.workers)
+
+    def transform_to_output(self, spectrum):
+        self._output[...] = self._inverse_rows(spectrum)[:, : self.nx]
+
+    def forward(self, field, spectrum):
+        self._rows[:, : self.nx] = field.numpy()  # a numpy copy (numpy(): zero-copy on the CPU)
+        self.transform_input(spectrum)
+
+    def inverse(self, spectrum, field):
+        field.numpy()[...] = self._inverse_rows(spectrum)[:, : self.nx]

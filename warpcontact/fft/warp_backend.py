@@ -126,6 +126,11 @@ class WarpTileFFT(FFTBackend):
             weights[0] = weights[-1] = 1.0
             #: w_kx / (Lx Ly): Hermitian weight and normalisation of the inverse, per kx.
             self._row_scale = wp.array(weights / (self.lx * self.ly), dtype=self.dtype, device=self.device)
+            # the padded buffers of solver kernels (``FFTBackend``): the row transforms pad and
+            # truncate by themselves, so both are (ny, nx); the inverse is normalised
+            self.padded_input = wp.zeros((self.ny, self.nx), dtype=self.dtype, device=self.device)
+            self.padded_output = wp.zeros((self.ny, self.nx), dtype=self.dtype, device=self.device)
+            self.output_scale = self.dtype(1.0)
             self._load_kernels()
 
     def _block_dim(self, length: int) -> int:
@@ -178,12 +183,18 @@ class WarpTileFFT(FFTBackend):
                 f"got {a.shape} {a.dtype.__name__} on {a.device}"
             )
 
-    def forward(self, field, spectrum):
+    def transform_input(self, spectrum):
+        self._launch_forward(self.padded_input, spectrum)
+
+    def transform_to_output(self, spectrum):
+        self._launch_inverse(spectrum, self.padded_output)
+
+    def forward(self, field, spectrum):  # straight from the field: the row loads pad it
         self.check_field("field", field)
         self.check_spectrum("spectrum", spectrum)
         self._launch_forward(field, spectrum)
 
-    def inverse(self, spectrum, field):
+    def inverse(self, spectrum, field):  # straight into the field: the row stores truncate
         self.check_spectrum("spectrum", spectrum)
         self.check_field("field", field)
         self._launch_inverse(spectrum, field)

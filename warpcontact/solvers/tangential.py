@@ -23,8 +23,8 @@ class TangentialSolver(ProjectedCG):
 
     restart_every = 100
 
-    def __init__(self, model, tol=None, max_iter: int = 2000, check_every=None, use_graphs: bool | None = None):
-        super().__init__(model, tk.N_SUMS, tk.N_SCALARS, tol, max_iter, check_every, use_graphs)
+    def __init__(self, model, tol=None, max_iter: int = 2000, use_graphs: bool | None = None):
+        super().__init__(model, tk.N_SUMS, tk.N_SCALARS, tol, max_iter, use_graphs)
         f = model.field
         self.grad_x, self.grad_y = f(), f()
         self.dir_x, self.dir_y = f(), f()
@@ -52,6 +52,7 @@ class TangentialSolver(ProjectedCG):
         qx, qy, st = state.shear_x.flatten(), state.shear_y.flatten(), state.status.flatten()
         gx, gy, tx, ty, rx, ry = (a.flatten() for a in (self.grad_x, self.grad_y, self.dir_x, self.dir_y, self.resp_x, self.resp_y))
         limit = shear_limit.flatten()
+        self._begin(tol)
         self.dir_x.zero_()  # no leftover from an earlier (possibly failed) solve
         self.dir_y.zero_()
         m.launch(tk.tangential_classify, dim=m.n_cells, inputs=[limit], outputs=[qx, qy, st])
@@ -71,13 +72,11 @@ class TangentialSolver(ProjectedCG):
             m.operator.tangential(self.dir_x, self.dir_y, self.resp_x, self.resp_y)
             m.launch_reduce(tk.tangential_step_sums, [gx, gy, tx, ty, rx, ry, qx, qy, limit, st], [self.sums])
             m.launch_reduce(tk.tangential_update, [gx, gy, tx, ty, limit, self.slip_step, self.settings], [qx, qy, st, self.sums])
-            m.launch(reduce.cg_advance, dim=1, inputs=[self.sums, self.scalars], outputs=[self.history])
+            m.launch(reduce.cg_advance, dim=1, inputs=[self.sums, self.settings, self.restart_every],
+                     outputs=[self.scalars, self.history, self.loop])
 
-        arrays = tuple(a.ptr for a in (state.shear_x, state.shear_y, state.status, state.disp_x, state.disp_y, kx, ky,
-                                       target_x, target_y, limit))
-
-        def iteration():
-            self._device_step(arrays, body)
+        key = tuple(a.ptr for a in (state.shear_x, state.shear_y, state.status, state.disp_x, state.disp_y, kx, ky,
+                                    target_x, target_y, limit))
 
         def final_fields():
             self.sums.zero_()
@@ -87,4 +86,4 @@ class TangentialSolver(ProjectedCG):
         def on_non_finite(it):
             raise_non_finite("tangential solve", state, ("shear_x", "shear_y", "disp_x", "disp_y"), it)
 
-        return self._run(iteration, final_fields, on_non_finite, tol)
+        return self._run(key, body, final_fields, on_non_finite)

@@ -1,0 +1,100 @@
+"""Probe: where the time of a Hertz normal solve goes, beyond its iterations.
+
+For each grid size N (problem of bench_iteration.py: paper pair, R = 10 um, delta_z = 1e-4 um,
+domain 4a), on one device:
+
+1. the converged solve (as bench_iteration.py times it): iterations, wall time, ms per iteration;
+2. the marginal cost of an iteration and the fixed cost of a solve: two solves capped at
+   ``--short`` and ``--long`` iterations with tolerance 0 (they never converge, so both run every
+   iteration, with the same host reads); marginal = (T_long - T_short) / (long - short), fixed =
+   T_short - short * marginal (first guess, first and final residual, host reads, set-up);
+3. on CUDA with PyTorch, one converged solve under ``torch.profiler``: the GPU kernels' busy time
+   against the wall time, and the kernels by total time.
+
+    python bench/profile_normal_solve.py --device cuda:0 --sizes 1024 2048
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import time
+
+import warp as wp
+
+from bench_iteration import best_wall_time  # bench/, beside this script
+from warpcontact.geometry import Grid, Sphere
+from warpcontact.materials import PAPER_PAIR
+from warpcontact.model import ContactModel
+from warpcontact.solvers import NormalSolver
+from warpcontact.state import ContactState
+
+R, DZ = 10e-6, 1.0e-10
+A = math.sqrt(R * DZ)
+
+
+def probe(n, device, dtype, short, long, repeats, top):
+    model = ContactModel(PAPER_PAIR, Sphere(R, "paraboloid"), Grid(n, 4 * A), device=device, dtype=dtype)
+    solver = NormalSolver(model)
+    info = {}
+
+    def solve(max_iter=None, tol=None):
+        def run():
+            state = ContactState(model)
+            solver.max_iter = max_iter or 2000
+            info["last"] = solver.solve(state, DZ, tol=tol)
+        return run
+
+    t_conv = best_wall_time(model.device, solve(), repeats)
+    iters = info["last"].iterations
+    t_short = best_wall_time(model.device, solve(short, 0.0), repeats)
+    t_long = best_wall_time(model.device, solve(long, 0.0), repeats)
+    marginal = (t_long - t_short) / (long - short)
+    fixed = t_short - short * marginal
+    print(f"N = {n} {dtype}: converged solve {iters} iterations, {1e3 * t_conv:.2f} ms, {1e3 * t_conv / iters:.4f} ms/it; "
+          f"marginal iteration {1e3 * marginal:.4f} ms, fixed cost per solve {1e3 * fixed:.2f} ms "
+          f"({short} / {long} capped iterations: {1e3 * t_short:.2f} / {1e3 * t_long:.2f} ms)", flush=True)
+    if not model.device.is_cuda:
+        return
+    try:
+        import torch
+        from torch.profiler import ProfilerActivity, profile
+    except Exception as e:  # noqa: BLE001  (a probe: say why and go on)
+        print(f"  torch.profiler: not available ({type(e).__name__}: {e})")
+        return
+    torch.cuda.init()
+    run = solve()
+    with profile(activities=[ProfilerActivity.CUDA]) as prof:
+        wp.synchronize_device(model.device)
+        t0 = time.perf_counter()
+        run()
+        wp.synchronize_device(model.device)
+        wall = time.perf_counter() - t0
+    events = prof.key_averages()
+    busy = sum(e.device_time_total for e in events) / 1e6
+    print(f"  under torch.profiler: {1e3 * wall:.2f} ms wall, GPU kernels busy {1e3 * busy:.2f} ms "
+          f"({100 * busy / wall:.0f} %), {sum(e.count for e in events)} kernels")
+    print(events.table(sort_by="device_time_total", row_limit=top))
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--device", default="cpu")
+    ap.add_argument("--sizes", type=int, nargs="*", default=[1024, 2048])
+    ap.add_argument("--dtype", default="float64")
+    ap.add_argument("--short", type=int, default=40)
+    ap.add_argument("--long", type=int, default=200)
+    ap.add_argument("--repeats", type=int, default=3)
+    ap.add_argument("--top", type=int, default=25)
+    args = ap.parse_args()
+    wp.config.quiet = True
+    wp.init()
+    device = wp.get_device(args.device)
+    print(f"# normal solve: fixed and marginal costs; device {device} ({device.name}), warp {wp.__version__}, "
+          f"{time.strftime('%Y-%m-%d')}")
+    for n in args.sizes:
+        probe(n, device, args.dtype, args.short, args.long, args.repeats, args.top)
+
+
+if __name__ == "__main__":
+    main()
