@@ -34,7 +34,7 @@ R, DZ = 10e-6, 1.0e-10
 A = math.sqrt(R * DZ)
 
 
-def time_warpcontact(n, device, dtype, fft, repeats, one_convolution=None):
+def time_warpcontact(n, device, dtype, fft, repeats, one_convolution=True):
     model = ContactModel(PAPER_PAIR, Sphere(R, "paraboloid"), Grid(n, 4 * A), device=device, dtype=dtype, fft=fft)
     solver = NormalSolver(model, one_convolution=one_convolution)
     best = math.inf
@@ -126,7 +126,7 @@ def main():
         slip = time_slippy(n, args.slippy_python) if args.slippy_python else None
         for dtype in args.dtype:
             for fft, mode in [(f, md) for f in backends for md in args.modes]:
-                one_conv = {"default": None, "one-conv": True, "two-conv": False}[mode]
+                one_conv = {"default": True, "one-conv": True, "two-conv": False}[mode]  # the default: one
                 try:
                     r = time_warpcontact(n, args.device, dtype, fft, args.repeats, one_conv)
                 except (ValueError, RuntimeError) as e:  # e.g. a size the tile-FFT backend cannot do

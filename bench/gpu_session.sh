@@ -38,7 +38,7 @@ fi
 if [ "${TESTS:-0}" = 1 ]; then
   rm -rf /tmp/wc_tests && cp -r tests /tmp/wc_tests && cp -r examples /tmp/examples && cp -r docs /tmp/docs
   (cd /tmp && timeout "${TESTS_TIMEOUT:-420}" python3 -m pytest -q -rs -p no:cacheprovider /tmp/wc_tests ${PYTEST_ARGS:-} 2>&1 \
-     | tee "$OUT/pytest.log" | tail -25)
+     | tee "$OUT/pytest.log" | tail -25; echo "pytest exit status: ${PIPESTATUS[0]}" | tee -a "$OUT/pytest.log")
 fi
 [ "${BENCH:-0}" = 1 ] && (cd /tmp && timeout 300 python3 "$ROOT/bench/bench_normal.py" --device cuda:0 ${BENCH_ARGS:-} \
    --json "$OUT/bench_gpu.json" 2>&1 | tee "$OUT/bench_gpu.log")

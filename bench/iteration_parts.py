@@ -76,7 +76,9 @@ def parts(n, device, dtype):
         nk.normal_direction, m.grid.shape, [st.gap, st.pressure, s._cap, s.sums, s.scalars], [s.direction, fft.padded_input]))
     out["normal_step_sums (reads output)"] = timed_ms(m.device, lambda: m.launch_reduce(
         nk.normal_step_sums, [g, t, *output], [s.sums]))
-    s.sums.fill_(0.0)  # tau = 0: the update leaves p as it is (and the carried gap)
+    # tau = 0 (g.t = 0, t.Kt = 1) on an iterate not converged (residual 1): the update runs its
+    # whole path and leaves p and the gap as they are
+    s.sums.assign([0.0, 1.0, 1.0, 0.0, 1.0] + [0.0] * (nk.N_SUMS - 5))
     out["normal_update (carries g)"] = timed_ms(m.device, lambda: m.launch_reduce(
         nk.normal_update, [t, *output, b, s._cap, s.settings], [p, g, s.sums]))
     out["normal_advance"] = timed_ms(m.device, lambda: m.launch(

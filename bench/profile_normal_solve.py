@@ -9,7 +9,8 @@ domain 4a), on one device:
    iteration, with the same host reads); marginal = (T_long - T_short) / (long - short), fixed =
    T_short - short * marginal (first guess, first and final residual, host reads, set-up);
 3. on CUDA with PyTorch, one converged solve under ``torch.profiler``: the GPU kernels' busy time
-   against the wall time, and the kernels by total time.
+   against the wall time, and the kernels by total time;
+4. with ``--cprofile``, one converged solve under cProfile: the host functions by own time.
 
     python bench/profile_normal_solve.py --device cuda:0 --sizes 1024 2048
 """
@@ -33,7 +34,7 @@ R, DZ = 10e-6, 1.0e-10
 A = math.sqrt(R * DZ)
 
 
-def probe(n, device, dtype, short, long, repeats, top):
+def probe(n, device, dtype, short, long, repeats, top, host_profile=False):
     model = ContactModel(PAPER_PAIR, Sphere(R, "paraboloid"), Grid(n, 4 * A), device=device, dtype=dtype)
     solver = NormalSolver(model)
     info = {}
@@ -54,6 +55,20 @@ def probe(n, device, dtype, short, long, repeats, top):
     print(f"N = {n} {dtype}: converged solve {iters} iterations, {1e3 * t_conv:.2f} ms, {1e3 * t_conv / iters:.4f} ms/it; "
           f"marginal iteration {1e3 * marginal:.4f} ms, fixed cost per solve {1e3 * fixed:.2f} ms "
           f"({short} / {long} capped iterations: {1e3 * t_short:.2f} / {1e3 * t_long:.2f} ms)", flush=True)
+    if host_profile:
+        import cProfile
+        import io
+        import pstats
+
+        run = solve()
+        profiler = cProfile.Profile()
+        profiler.enable()
+        run()
+        wp.synchronize_device(model.device)
+        profiler.disable()
+        text = io.StringIO()
+        pstats.Stats(profiler, stream=text).sort_stats("tottime").print_stats(top)
+        print(text.getvalue())
     if not model.device.is_cuda:
         return
     try:
@@ -86,6 +101,7 @@ def main():
     ap.add_argument("--long", type=int, default=200)
     ap.add_argument("--repeats", type=int, default=3)
     ap.add_argument("--top", type=int, default=25)
+    ap.add_argument("--cprofile", action="store_true", help="one converged solve under cProfile")
     args = ap.parse_args()
     wp.config.quiet = True
     wp.init()
@@ -93,7 +109,7 @@ def main():
     print(f"# normal solve: fixed and marginal costs; device {device} ({device.name}), warp {wp.__version__}, "
           f"{time.strftime('%Y-%m-%d')}")
     for n in args.sizes:
-        probe(n, device, args.dtype, args.short, args.long, args.repeats, args.top)
+        probe(n, device, args.dtype, args.short, args.long, args.repeats, args.top, args.cprofile)
 
 
 if __name__ == "__main__":

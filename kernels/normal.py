@@ -31,7 +31,7 @@ import warp as wp
 from .overloads import register_float_overloads
 from .reduce import (  # noqa: F401  (shared slots)
     C_DELTA, C_G_OLD, C_ITER, N_SCALARS, N_SETTINGS, P_APPROACH, P_CHUNK, P_EXACT, P_MAX_ITER, P_TOL, S_G, S_GT, S_RHS,
-    S_RT, S_VIOL, advance,
+    S_RT, S_VIOL, advance, relative_residual, stop_loop,
     block_add, block_max, cell_index, cg_converged, cg_step_length,
 )
 from .reduce import S_RESTART as S_IOL  # cells that re-enter contact (or leave the cap)
@@ -228,10 +228,13 @@ def normal_update(
     for k in range(per):
         i = cell_index(thread, outer, inner, k)
         if i < n:
+            # every load before any store: the compiler may not move a load above a store to
+            # another array (they might alias), which would serialise the memory round trips
             p = pressure[i]
             g = gap[i]
+            t = direction[i]
+            r = output_scale * padded_entry(padded_output, i, width)
             if not done:
-                t = direction[i]
                 unprojected = p - tau * t  # what K t accounts for (t = 0 off the free set)
                 old = p
                 if p >= pressure_cap:
@@ -246,7 +249,7 @@ def normal_update(
                 corrected += wp.abs(p - unprojected)
                 if p != old:
                     pressure[i] = p
-                g = g - tau * output_scale * padded_entry(padded_output, i, width)
+                g = g - tau * r
                 gap[i] = g
             b = zero
             if p > zero:
@@ -265,7 +268,8 @@ def normal_update(
 @wp.kernel
 def normal_advance(sums: wp.array(dtype=Any), settings: wp.array(dtype=Any), exact_every: int, column_norm: Any,
                    deferral: Any, scalars: wp.array(dtype=Any), residual_history: wp.array(dtype=Any),
-                   deferred: wp.array(dtype=Any), recompute: wp.array(dtype=wp.int32), loop: wp.array(dtype=wp.int32)):
+                   deferred: wp.array(dtype=Any), recompute: wp.array(dtype=wp.int32), loop: wp.array(dtype=wp.int32),
+                   refresh: wp.array(dtype=wp.int32)):
     """One thread, end of an iteration: the shared :func:`~warpcontact.kernels.reduce.advance`
     (residual history, G_old, delta, the loop flag), then whether the next iteration starts
     from an exact gap (``recompute[0] = 1``: a convolution of p and ``normal_gap``), then the
@@ -279,8 +283,11 @@ def normal_advance(sums: wp.array(dtype=Any), settings: wp.array(dtype=Any), exa
     a fraction of what the iteration corrects), when a change comes near convergence (relative
     residual under 4 tol: a converged iterate must be judged on the exact gap), every
     ``exact_every`` iterations (rounding), and always when ``settings[P_EXACT]`` is 1.
+
+    The loop also stops (settled) when the new iterate's residual, from the update's sums, is
+    under the tolerance and no cell was projected since the last exact gap.
     """
-    advance(sums, settings, 0, scalars, residual_history, loop)
+    advance(sums, settings, 0, scalars, residual_history, loop, refresh)
     zero = type(sums[0])(0.0)
     missed = deferred[0] + sums[S_CORRECTION]
     bound = column_norm * missed
@@ -298,6 +305,11 @@ def normal_advance(sums: wp.array(dtype=Any), settings: wp.array(dtype=Any), exa
     sums[S_RHS] = sums[S_NEXT_RHS]
     for slot in range(S_GT, N_SUMS):
         sums[slot] = zero
+    # the new iterate converged, and no projection changed since the last exact gap, so its carried
+    # gap is exact but for rounding: stop here rather than in an iteration that only observes it
+    res, finite = relative_residual(sums)
+    if not finite or (missed == zero and res < tol):
+        stop_loop(scalars, loop, refresh, True)
 
 
 # slots of the first guess's sums (NormalSolver.guess_sums)
@@ -320,6 +332,13 @@ def count_positive(pressure: wp.array(dtype=Any), n: int, outer: int, inner: int
         if i < n and pressure[i] > zero:
             count += type(zero)(1.0)
     block_add(guess_sums, G_POSITIVE, count)
+
+
+@wp.kernel
+def guess_needed(guess_sums: wp.array(dtype=Any), flag: wp.array(dtype=wp.int32)):
+    """One thread: ``flag[0]`` = 1 when no cell has p > 0 (a solve from rest: make the first
+    guess), 0 for a warm start."""
+    flag[0] = wp.where(guess_sums[G_POSITIVE] > type(guess_sums[0])(0.0), 0, 1)
 
 
 @wp.func
@@ -386,5 +405,5 @@ def guess_scale(guess_sums: wp.array(dtype=Any), pressure_cap: Any, pressure: wp
 
 
 for _k in (normal_interference, normal_gap, normal_direction, normal_step_sums, normal_update, normal_advance,
-           count_positive, guess_max_interference, guess_shape, guess_fit_sums, guess_scale):
+           count_positive, guess_needed, guess_max_interference, guess_shape, guess_fit_sums, guess_scale):
     register_float_overloads(_k)

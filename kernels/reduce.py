@@ -26,7 +26,8 @@ C_G_OLD = wp.constant(0)  # S_G of the last iteration
 C_DELTA = wp.constant(1)  # 0: restart the conjugacy in the next iteration
 C_ITER = wp.constant(2)  # iterations done in this solve
 C_RESIDUAL = wp.constant(3)  # relative residual of the iterate the last iteration started from
-N_SCALARS = 4
+C_STOP = wp.constant(4)  # 1: the loop stopped for convergence, the limit or a non-finite value; 0: at a launch's end
+N_SCALARS = 5
 # slots of a solver's ``settings`` array: the values of one solve that its iteration reads on the
 # device (so that a captured CUDA graph of the iteration serves every solve)
 P_TOL = wp.constant(0)  # relative residual to reach
@@ -78,26 +79,60 @@ def cg_converged(sums: wp.array(dtype=Any), tol: Any):
 
 
 @wp.func
-def advance(sums: wp.array(dtype=Any), settings: wp.array(dtype=Any), restart_every: int, scalars: wp.array(dtype=Any),
-            residual_history: wp.array(dtype=Any), loop: wp.array(dtype=wp.int32)):
-    """End of an iteration (one thread): record the relative residual sqrt(S_VIOL / S_RHS) of the
-    iterate the iteration started from, carry G_old <- S_G and delta <- (no cell re-entered the
-    free set), count the iteration, and set ``loop[0]`` for the device loop: 0 (stop) once that
-    residual is under ``settings[P_TOL]`` or not finite, at ``settings[P_MAX_ITER]`` iterations,
-    and at every multiple of ``settings[P_CHUNK]`` (the host's turn: interrupts, progress); 1
-    otherwise. Every ``restart_every`` iterations (0: never) the next direction is the gradient."""
+def relative_residual(sums: wp.array(dtype=Any)):
+    """The relative residual sqrt(S_VIOL / S_RHS) of the iterate the sums describe (1 where the
+    right-hand side is zero but not the violation), and whether both sums are finite; a residual
+    that is not finite when they are not."""
     zero = type(sums[0])(0.0)
-    one = type(zero)(1.0)
     viol = sums[S_VIOL]
     rhs = sums[S_RHS]
     res = zero
     if rhs > zero:
         res = wp.sqrt(viol / rhs)
     elif viol > zero:
-        res = one
+        res = type(zero)(1.0)
     finite = wp.isfinite(viol) and wp.isfinite(rhs)
     if not finite:
         res = viol + rhs  # not finite: the host names the cell
+    return res, finite
+
+
+@wp.func
+def stop_loop(scalars: wp.array(dtype=Any), loop: wp.array(dtype=wp.int32), refresh: wp.array(dtype=wp.int32),
+              settled: bool):
+    """End the device loop: for good (``settled``: converged, at the limit or not finite; the
+    launch then makes the iterate's residual exact, ``refresh[0]`` = 1) or at a launch's end."""
+    loop[0] = 0
+    refresh[0] = wp.where(settled, 1, 0)
+    scalars[C_STOP] = wp.where(settled, type(scalars[0])(1.0), type(scalars[0])(0.0))
+
+
+@wp.kernel
+def loop_start(sums: wp.array(dtype=Any), settings: wp.array(dtype=Any), scalars: wp.array(dtype=Any),
+               loop: wp.array(dtype=wp.int32), refresh: wp.array(dtype=wp.int32)):
+    """One thread, before a launch's iterations: go on (``loop[0]`` = 1) unless the iterate's
+    residual is under ``settings[P_TOL]`` or not finite, or the iteration limit is reached."""
+    res, finite = relative_residual(sums)
+    if finite and not (res < settings[P_TOL]) and int(scalars[C_ITER]) < int(settings[P_MAX_ITER]):
+        loop[0] = 1
+        refresh[0] = 0
+        scalars[C_STOP] = type(scalars[0])(0.0)
+    else:
+        stop_loop(scalars, loop, refresh, True)
+
+
+@wp.func
+def advance(sums: wp.array(dtype=Any), settings: wp.array(dtype=Any), restart_every: int, scalars: wp.array(dtype=Any),
+            residual_history: wp.array(dtype=Any), loop: wp.array(dtype=wp.int32), refresh: wp.array(dtype=wp.int32)):
+    """End of an iteration (one thread): record the relative residual of the iterate the
+    iteration started from, carry G_old <- S_G and delta <- (no cell re-entered the free set),
+    count the iteration, and stop the device loop (:func:`stop_loop`) once that residual is under
+    ``settings[P_TOL]`` or not finite or at ``settings[P_MAX_ITER]`` iterations (settled), and at
+    every multiple of ``settings[P_CHUNK]`` (the host's turn: interrupts). Every
+    ``restart_every`` iterations (0: never) the next direction is the gradient."""
+    zero = type(sums[0])(0.0)
+    one = type(zero)(1.0)
+    res, finite = relative_residual(sums)
     it = int(scalars[C_ITER])
     if it < residual_history.shape[0]:
         residual_history[it] = res
@@ -108,15 +143,17 @@ def advance(sums: wp.array(dtype=Any), settings: wp.array(dtype=Any), restart_ev
     scalars[C_DELTA] = wp.where(sums[S_RESTART] > zero, zero, one)
     scalars[C_ITER] = type(zero)(done)
     scalars[C_RESIDUAL] = res
-    stop = (not finite) or res < settings[P_TOL] or done >= int(settings[P_MAX_ITER]) or done % int(settings[P_CHUNK]) == 0
-    loop[0] = wp.where(stop, 0, 1)
+    settled = (not finite) or res < settings[P_TOL] or done >= int(settings[P_MAX_ITER])
+    if settled or done % int(settings[P_CHUNK]) == 0:
+        stop_loop(scalars, loop, refresh, settled)
 
 
 @wp.kernel
 def cg_advance(sums: wp.array(dtype=Any), settings: wp.array(dtype=Any), restart_every: int, scalars: wp.array(dtype=Any),
-               residual_history: wp.array(dtype=Any), loop: wp.array(dtype=wp.int32)):
+               residual_history: wp.array(dtype=Any), loop: wp.array(dtype=wp.int32), refresh: wp.array(dtype=wp.int32)):
     """One thread, end of an iteration: :func:`advance`."""
-    advance(sums, settings, restart_every, scalars, residual_history, loop)
+    advance(sums, settings, restart_every, scalars, residual_history, loop, refresh)
 
 
+register_float_overloads(loop_start)
 register_float_overloads(cg_advance)

@@ -186,11 +186,13 @@ def test_column_norm_bounds_one_cells_displacement():
 def _advance(correction, deferred, violation, it, rhs=1.0, tol=1e-10, column_norm=2.0, deferral=0.1, exact_every=50,
              exact=0.0, max_iter=2000, chunk=64, extra=None):
     """One launch of kernels/normal.py's normal_advance on the CPU, at the end of iteration
-    ``it`` (1-based): (recompute flag, deferred after, loop flag, sums after)."""
+    ``it`` (1-based): (recompute flag, deferred after, loop flag, sums after, refresh flag). The
+    updated iterate's sums (S_NEXT_*) are the start's unless ``extra`` sets them."""
     from warpcontact.kernels import normal as nk
 
     sums = np.zeros(nk.N_SUMS)
     sums[nk.S_CORRECTION], sums[nk.S_VIOL], sums[nk.S_RHS] = correction, violation, rhs
+    sums[nk.S_NEXT_VIOL], sums[nk.S_NEXT_RHS] = violation, rhs
     for slot, value in (extra or {}).items():
         sums[slot] = value
     scalars = np.zeros(nk.N_SCALARS)
@@ -198,13 +200,15 @@ def _advance(correction, deferred, violation, it, rhs=1.0, tol=1e-10, column_nor
     settings = np.zeros(nk.N_SETTINGS)
     settings[[nk.P_TOL, nk.P_MAX_ITER, nk.P_CHUNK, nk.P_EXACT]] = tol, max_iter, chunk, exact
     held = wp.array([deferred], dtype=wp.float64, device="cpu")
-    flag, loop = wp.zeros(1, dtype=wp.int32, device="cpu"), wp.zeros(1, dtype=wp.int32, device="cpu")
+    flag, refresh = (wp.zeros(1, dtype=wp.int32, device="cpu") for _ in range(2))
+    loop = wp.ones(1, dtype=wp.int32, device="cpu")  # as loop_start leaves it: the kernel only stops the loop
     sums_wp = wp.array(sums, dtype=wp.float64)
     wp.launch(nk.normal_advance, dim=1, device="cpu",
               inputs=[sums_wp, wp.array(settings, dtype=wp.float64), exact_every, wp.float64(column_norm),
                       wp.float64(deferral)],
-              outputs=[wp.array(scalars, dtype=wp.float64), wp.zeros(max_iter + 1, dtype=wp.float64), held, flag, loop])
-    return int(flag.numpy()[0]), float(held.numpy()[0]), int(loop.numpy()[0]), sums_wp.numpy()
+              outputs=[wp.array(scalars, dtype=wp.float64), wp.zeros(max_iter + 1, dtype=wp.float64), held, flag, loop,
+                       refresh])
+    return int(flag.numpy()[0]), float(held.numpy()[0]), int(loop.numpy()[0]), sums_wp.numpy(), int(refresh.numpy()[0])
 
 
 def _recompute_flag(correction, deferred, violation, it, **kw):
@@ -235,12 +239,18 @@ def test_advance_moves_the_new_iterates_sums_and_sets_the_loop_flag():
     from warpcontact.kernels import normal as nk
 
     nxt = {nk.S_NEXT_G: 3.0, nk.S_NEXT_VIOL: 4.0, nk.S_NEXT_RHS: 5.0, nk.S_GT: 7.0, nk.S_RT: 8.0, nk.S_IOL: 2.0}
-    *_, sums = _advance(0.1, 0.0, 1.0, it=3, extra=nxt)
+    sums = _advance(0.1, 0.0, 1.0, it=3, extra=nxt)[3]
     np.testing.assert_array_equal(sums[[nk.S_G, nk.S_VIOL, nk.S_RHS]], [3.0, 4.0, 5.0])
     assert not np.any(sums[nk.S_GT:]), sums
-    assert _advance(0.0, 0.0, 1.0, it=3)[2] == 1  # residual 1
-    assert _advance(0.0, 0.0, 1e-22, it=3)[2] == 0  # residual 1e-11 < tol 1e-10
-    assert _advance(0.0, 0.0, math.nan, it=3)[2] == 0
-    assert _advance(0.0, 0.0, 1.0, it=10, max_iter=10)[2] == 0
-    assert _advance(0.0, 0.0, 1.0, it=9, max_iter=10, chunk=3)[2] == 0
-    assert _advance(0.0, 0.0, 1.0, it=8, max_iter=10, chunk=3)[2] == 1
+    loop_refresh = lambda *a, **kw: tuple(_advance(*a, **kw)[i] for i in (2, 4))  # noqa: E731
+    assert loop_refresh(0.0, 0.0, 1.0, it=3) == (1, 0)  # residual 1
+    assert loop_refresh(0.0, 0.0, 1e-22, it=3) == (0, 1)  # residual 1e-11 < tol 1e-10: settled
+    assert loop_refresh(0.0, 0.0, math.nan, it=3) == (0, 1)
+    assert loop_refresh(0.0, 0.0, 1.0, it=10, max_iter=10) == (0, 1)
+    assert loop_refresh(0.0, 0.0, 1.0, it=9, max_iter=10, chunk=3) == (0, 0)  # the launch's end: not settled
+    assert loop_refresh(0.0, 0.0, 1.0, it=8, max_iter=10, chunk=3) == (1, 0)
+    # the updated iterate converged: settled at once when no cell was projected since the last
+    # exact gap (its carried gap is exact), not when one was (the next iteration starts exact)
+    converged_next = {nk.S_NEXT_VIOL: 1e-22, nk.S_NEXT_RHS: 1.0}
+    assert loop_refresh(0.0, 0.0, 1.0, it=3, extra=converged_next) == (0, 1)
+    assert loop_refresh(1e-9, 0.0, 1.0, it=3, extra=converged_next) == (1, 0)

@@ -8,7 +8,9 @@ from collections import OrderedDict
 import numpy as np
 import warp as wp
 
-from warpcontact.kernels.reduce import C_ITER, C_RESIDUAL, N_SETTINGS, P_CHUNK, P_MAX_ITER, P_TOL
+from warpcontact.kernels.reduce import (
+    C_ITER, C_STOP, N_SETTINGS, P_CHUNK, P_MAX_ITER, P_TOL, S_RHS, S_VIOL, loop_start,
+)
 
 from .. import interrupts
 from ..state import SolveInfo
@@ -23,34 +25,35 @@ def default_tolerance(dtype) -> float:
 class ProjectedCG:
     """Base of the normal and tangential solvers.
 
-    A subclass gives :meth:`_run` the device work of one iteration (``body``: its last kernel
-    calls :func:`warpcontact.kernels.reduce.advance`, which records the residual of the iterate the
-    iteration started from, counts the iteration and sets the loop flag) and a function that
-    computes the fields and relative residual of the current iterate. Scalars stay on the device.
+    A solve is one launch of device work, or a few: ``start`` (what the solve sets up on the
+    device), ``exact`` (the exact fields and residual sums of the current iterate), then the
+    iterations in a loop on the device (``wp.capture_while`` on ``self.loop``, ``body`` the device
+    work of one iteration, whose last kernel calls :func:`warpcontact.kernels.reduce.advance`:
+    it records the residual of the iterate the iteration started from, counts the iteration and
+    sets the loop flag). The loop settles as soon as an iterate's residual is under the tolerance,
+    is not finite, or the iteration limit is reached, and ``exact`` then runs again; it also stops
+    after ``iterations_per_launch`` iterations, where the host checks for interrupts and launches
+    it again (nothing else changes there, so the results do not depend on the launch length). The
+    host reads the scalars once per launch, and the sums once the loop settled. A solve that
+    starts near its solution (the turns of a coupled or adhesive step: often 0-4 iterations)
+    stops at the iteration where it converged.
 
-    The iterations run in a loop on the device (``wp.capture_while`` on ``self.loop``): one launch
-    runs up to ``iterations_per_launch`` iterations and stops as soon as the residual of the
-    iterate an iteration starts from is under the tolerance, is not finite, or the iteration
-    limit is reached; the host then reads two numbers (iteration count, last residual), checks
-    for interrupts, and launches again or finishes. A solve that starts near its solution (the
-    turns of a coupled or adhesive step: often 1-4 iterations) stops at the iteration where it
-    converged, with one read.
-
-    On CUDA (``use_graphs``) the launch is a CUDA graph captured the first time a set of arrays is
-    seen: with conditional graph nodes (CUDA 12.4+) the whole loop, a while node around the
-    iteration, so the host waits once per launch; without them, a graph of one iteration, with the
-    flag read after each. The values of a solve that the kernels read (tolerance, approach,
+    On CUDA (``use_graphs``, default where conditional graph nodes are supported: CUDA 12.4+) the
+    launch is a CUDA graph captured the first time a set of arrays is seen, so a solve waits for
+    the device once per launch. The values of a solve that the kernels read (tolerance, approach,
     iteration limit) live in the device array ``settings``, so one graph serves every solve. On
-    the CPU the loop runs eagerly and reads the flag after each iteration (a read is free there).
+    the CPU, and on CUDA without graphs, the same work runs eagerly and the host reads the loop's
+    flag after each iteration (free on the CPU).
     """
 
     #: iterations between restarts of the conjugacy (beta = 0); 0 for none. Restarts cure the
     #: stalls of conjugate directions built while the active set was changing.
     restart_every = 0
-    #: captured graphs kept per solver (one per set of arrays and iteration variant), oldest dropped
+    #: captured graphs kept per solver (two per set of arrays: the first launch of a solve and the
+    #: later ones), oldest dropped
     max_graphs = 8
     #: iterations per launch of the device loop at most: the host checks for interrupts between
-    #: launches (one read of two numbers each)
+    #: launches
     iterations_per_launch = 64
 
     def __init__(self, model, n_sums: int, n_scalars: int, tol=None, max_iter: int = 2000, use_graphs: bool | None = None):
@@ -63,14 +66,16 @@ class ProjectedCG:
         #: per-solve values read by the kernels (slots P_* of kernels/reduce.py)
         self.settings = model.scalars(N_SETTINGS)
         self._settings = np.zeros(N_SETTINGS)
-        #: the device loop's flag: 1 while the iterations go on (kernels/reduce.py, ``advance``)
+        #: the device loop's flag: 1 while the iterations go on; and 1 when it settled (converged,
+        #: at the limit or not finite: the launch then makes the residual exact)
         self.loop = wp.zeros(1, dtype=wp.int32, device=model.device)
-        #: replay iterations as captured CUDA graphs (default: on CUDA devices)
-        self.use_graphs = model.device.is_cuda if use_graphs is None else bool(use_graphs)
-        if self.use_graphs and not model.device.is_cuda:
-            raise ValueError("use_graphs: CUDA graphs need a CUDA device")
-        #: the loop itself inside the graph (a conditional while node: CUDA 12.4+)
-        self.graph_loop = self.use_graphs and wp.is_conditional_graph_supported()
+        self.refresh = wp.zeros(1, dtype=wp.int32, device=model.device)
+        #: replay launches as captured CUDA graphs (default: on CUDA devices with conditional nodes)
+        supported = model.device.is_cuda and wp.is_conditional_graph_supported()
+        self.use_graphs = supported if use_graphs is None else bool(use_graphs)
+        if self.use_graphs and not supported:
+            raise ValueError("use_graphs: the solver's graphs need a CUDA device with conditional graph nodes "
+                             "(CUDA toolkit and driver 12.4+)")
         self._graphs: OrderedDict = OrderedDict()
 
     def _stage(self, slot: int, value: float):
@@ -83,51 +88,31 @@ class ProjectedCG:
 
     def _begin(self, tol=None):
         """Start a solve: stage its tolerance (default ``self.tol``), iteration limit and launch
-        length, send the settings (with what the subclass staged), reset the carried scalars."""
+        length, and send the settings (with what the subclass staged)."""
         self.active_tol = self.tol if tol is None else float(tol)
         self._stage(P_TOL, self.active_tol)
         self._stage(P_MAX_ITER, self.max_iter)
         self._stage(P_CHUNK, max(1, int(self.iterations_per_launch)))
         self._upload()
-        self.scalars.zero_()
-        self.history.fill_(-1.0)
 
-    def _graph(self, key, work):
-        """The CUDA graph of ``work()`` for ``key`` (the arrays it touches and its variant), or None
-        the first time: then ``work`` runs eagerly (loading its kernels and FFT plans) and is
-        captured for the next time, which does not run it again."""
+    def _launch(self, key, work):
+        """Run ``work()``: eagerly, or from the CUDA graph captured for ``key`` (the arrays it
+        touches and its variant) the first time, when it runs eagerly (loading its kernels and
+        FFT plans) and is then captured, which does not run it again."""
+        if not self.use_graphs:
+            work()
+            return
         graph = self._graphs.get(key)
         if graph is not None:
             self._graphs.move_to_end(key)
-            return graph
+            wp.capture_launch(graph)
+            return
         work()
         with wp.ScopedCapture(device=self.model.device, force_module_load=False) as capture:
             work()
         self._graphs[key] = capture.graph
         while len(self._graphs) > self.max_graphs:
             self._graphs.popitem(last=False)
-        return None
-
-    def _launch_iterations(self, key, body):
-        """Iterations of ``body`` until the loop flag drops (see the class docstring)."""
-
-        def loop():
-            self.loop.fill_(1)
-            wp.capture_while(self.loop, body)
-
-        if not self.use_graphs:
-            loop()
-        elif self.graph_loop:
-            graph = self._graph(("loop", *key), loop)
-            if graph is not None:
-                wp.capture_launch(graph)
-        else:
-            graph = self._graph(("iteration", *key), body)
-            if graph is None:  # the first iteration ran eagerly: go on while its flag asks
-                wp.capture_while(self.loop, body)
-            else:
-                self.loop.fill_(1)
-                wp.capture_while(self.loop, graph)  # the host reads the flag after each iteration
 
     def _relative_residual(self, viol_slot: int, rhs_slot: int) -> float:
         s = self.sums.numpy().astype(np.float64)
@@ -137,25 +122,44 @@ class ProjectedCG:
             return math.sqrt(s[viol_slot] / s[rhs_slot])
         return 0.0 if s[viol_slot] == 0 else 1.0
 
-    def _run(self, key, body, final_fields, on_non_finite) -> SolveInfo:
-        """The solve after :meth:`_begin`: iterate until the residual of the current iterate is
-        under the tolerance (``final_fields`` judges it) or the iteration limit."""
+    def _run(self, key, start, exact, body, on_non_finite, on_disagreement=None) -> SolveInfo:
+        """The solve after :meth:`_begin` (see the class docstring). ``exact`` fills the slots
+        S_VIOL and S_RHS of ``sums`` (zeroed before) for the current iterate;
+        ``on_disagreement()`` is called when an iteration's residual said "converged" and the
+        exact one does not (the normal solver then recomputes its gap at every iteration)."""
         tol = self.active_tol
-        it = 0
-        residual = final_fields()
-        while not residual < tol and it < self.max_iter:
-            if not math.isfinite(residual):
-                on_non_finite(it)
-            interrupts.check()
-            self._launch_iterations(key, body)
+
+        def refresh():
+            self.sums.zero_()
+            exact()
+
+        def work(first: bool):
+            if first:
+                self.scalars.zero_()
+                self.history.fill_(-1.0)
+                start()
+                refresh()
+            self.model.launch(loop_start, 1, [self.sums, self.settings], [self.scalars, self.loop, self.refresh])
+            wp.capture_while(self.loop, body)
+            wp.capture_if(self.refresh, on_true=refresh)
+
+        self._launch(("first", *key), lambda: work(True))
+        last = -1
+        while True:
             scalars = self.scalars.numpy()
-            it, recorded = int(scalars[C_ITER]), float(scalars[C_RESIDUAL])
-            if not math.isfinite(recorded):
-                on_non_finite(it)
-            if recorded < tol or it >= self.max_iter:
-                residual = final_fields()
-        if not math.isfinite(residual):
-            on_non_finite(it)
+            it = int(scalars[C_ITER])
+            if scalars[C_STOP]:  # settled: the sums are the exact residual's
+                residual = self._relative_residual(S_VIOL, S_RHS)
+                if not math.isfinite(residual):
+                    on_non_finite(it)
+                # (it == last: the device saw the tolerance met where the host, in float64, does not)
+                if residual < tol or it >= self.max_iter or it == last:
+                    break
+                if on_disagreement is not None:  # the carried residual said "converged", the exact one does not
+                    on_disagreement()
+                last = it
+            interrupts.check()
+            self._launch(("again", *key), lambda: work(False))
         hist = self.history.numpy()[:it].astype(np.float64)
         return SolveInfo(converged=bool(residual < tol), iterations=it, residual=residual, history=hist.tolist())
 

@@ -13,13 +13,6 @@ from ..state import SolveInfo
 from .base import ProjectedCG, default_tolerance, raise_non_finite  # noqa: F401  (re-export)
 
 
-def one_convolution_supported(device, use_graphs: bool) -> bool:
-    """Whether the one-convolution iteration can run on ``device``: its captured graphs need
-    conditional nodes (CUDA toolkit and driver 12.4+); without graphs (CPU, or CUDA eager, where
-    the host reads the decision each iteration) it always can."""
-    return not use_graphs or wp.is_conditional_graph_supported()
-
-
 class NormalSolver(ProjectedCG):
     """Projected conjugate gradients for the contact pressure at a given rigid approach.
 
@@ -46,12 +39,12 @@ class NormalSolver(ProjectedCG):
         max_iter: iteration limit; a solve that reaches it returns ``converged = False``.
         pressure_cap: upper bound of the pressure [Pa] (hardness), inf for none.
         one_convolution: carry the gap between exact recomputations: one convolution per
-            iteration instead of two (default: on, where the device supports it).
-        use_graphs: replay iterations as CUDA graphs (default: on CUDA).
+            iteration instead of two (default: on).
+        use_graphs: replay solves as CUDA graphs (default: on CUDA with conditional graph nodes).
     """
 
     def __init__(self, model, tol=None, max_iter: int = 2000, pressure_cap: float = math.inf,
-                 one_convolution: bool | None = None, use_graphs: bool | None = None):
+                 one_convolution: bool = True, use_graphs: bool | None = None):
         super().__init__(model, nk.N_SUMS, nk.N_SCALARS, tol, max_iter, use_graphs)
         #: upper bound of the pressure [Pa] (the softer body's hardness: elastic-perfectly-plastic
         #: surface; MODEL.md section 5); inf for none
@@ -63,15 +56,12 @@ class NormalSolver(ProjectedCG):
         #: the interference b = delta_z - h0 - u_known of the solve (scaled): g = K p - b
         self.interference = model.field()
         self.guess_sums = model.scalars(nk.N_GUESS_SUMS)
+        #: 1: the solve starts from rest and makes the first guess (set by the device)
+        self.guess_flag = wp.zeros(1, dtype=wp.int32, device=model.device)
         self.no_displacement = model.field()
         #: carry the gap between exact recomputations (one convolution per iteration, two after a
-        #: projection that may matter); default: wherever the device can decide (CPU; CUDA with
-        #: conditional graph nodes, 12.4+)
-        supported = one_convolution_supported(model.device, self.use_graphs)
-        self.one_convolution = supported if one_convolution is None else bool(one_convolution)
-        if self.one_convolution and not supported:
-            raise ValueError("one_convolution: needs CUDA graph conditional nodes (CUDA toolkit and driver 12.4+) "
-                             "on this device")
+        #: projection that may matter); False: recompute it at every iteration (settings P_EXACT)
+        self.one_convolution = bool(one_convolution)
         #: 1: the next iteration starts from an exact gap (set by the device)
         self.recompute = wp.zeros(1, dtype=wp.int32, device=model.device)
         #: iterations between exact recomputations of K p in the one-convolution mode
@@ -88,10 +78,10 @@ class NormalSolver(ProjectedCG):
         """Solve for ``state.pressure`` at the rigid approach ``approach_z`` [m].
 
         Starts from the pressure already in ``state`` (warm start along a path) or, if it is zero,
-        from a Hertz-shaped guess (:meth:`_initial_guess`). ``known_displacement`` (scaled,
-        (n, n)) is a normal displacement from other tractions (shear coupling, adhesion) held
-        fixed during the solve. Fills ``state.pressure``, ``state.disp_z``, ``state.gap``.
-        ``tol`` overrides the solver's tolerance for this solve.
+        from a Hertz-shaped guess (:meth:`_guess`). ``known_displacement`` (scaled, (n, n)) is a
+        normal displacement from other tractions (shear coupling, adhesion) held fixed during
+        the solve. Fills ``state.pressure``, ``state.disp_z``, ``state.gap``. ``tol`` overrides
+        the solver's tolerance for this solve.
         """
         m = self.model
         fft = m.operator.fft
@@ -100,26 +90,31 @@ class NormalSolver(ProjectedCG):
         self._stage(nk.P_EXACT, 0.0 if self.one_convolution else 1.0)
         self._begin(tol)
         p, g, t, b = (a.flatten() for a in (state.pressure, state.gap, self.direction, self.interference))
-        m.launch(nk.normal_interference, m.n_cells, [m.initial_gap.flatten(), known.flatten(), self.settings], [b])
-        self._initial_guess(state)
-        self.direction.zero_()  # no leftover from an earlier (possibly failed) solve
         output = [fft.padded_output, fft.output_scale, m.grid.n]
+
+        def start():  # the interference; the first guess when no cell has p > 0 (the device decides)
+            m.launch(nk.normal_interference, m.n_cells, [m.initial_gap.flatten(), known.flatten(), self.settings], [b])
+            self.guess_sums.zero_()
+            m.launch_reduce(nk.count_positive, [p], [self.guess_sums])
+            m.launch(nk.guess_needed, 1, [self.guess_sums], [self.guess_flag])
+            wp.capture_if(self.guess_flag, on_true=lambda: self._guess(state))
+            self.direction.zero_()  # no leftover from an earlier (possibly failed) solve
 
         def exact_gap():  # state.disp_z <- K p; state.gap and the residual sums of p
             m.operator.normal(state.pressure, state.disp_z)
             m.launch_reduce(nk.normal_gap, [state.disp_z.flatten(), b, p, self._cap], [g, self.sums])
 
+        def exact():
+            exact_gap()
+            self.recompute.zero_()  # state.gap is exact now
+            self.deferred.zero_()
+
         def recompute():
             self._current_sums.zero_()
             exact_gap()
 
-        conditional = one_convolution_supported(m.device, self.use_graphs)
-
         def body():
-            if conditional:  # a conditional node in a graph: the device's flag decides
-                wp.capture_if(self.recompute, on_true=recompute)
-            else:  # graphs without conditional nodes: two convolutions per iteration
-                recompute()
+            wp.capture_if(self.recompute, on_true=recompute)  # in a graph, a conditional node: the device decides
             m.launches.launch_rows(nk.normal_direction, m.grid.shape, [state.gap, state.pressure, self._cap, self.sums,
                                                                        self.scalars], [self.direction, fft.padded_input])
             m.operator.normal_padded()
@@ -127,44 +122,29 @@ class NormalSolver(ProjectedCG):
             m.launch_reduce(nk.normal_update, [t, *output, b, self._cap, self.settings], [p, g, self.sums])
             m.launch(nk.normal_advance, 1,
                      [self.sums, self.settings, self.exact_every, self._column_norm, m.scalar(self.deferral)],
-                     [self.scalars, self.history, self.deferred, self.recompute, self.loop])
+                     [self.scalars, self.history, self.deferred, self.recompute, self.loop, self.refresh])
 
-        checks = [0]
-
-        def final_fields():
-            self.sums.zero_()
-            exact_gap()
-            self.recompute.zero_()  # state.gap is exact now
-            self.deferred.zero_()
-            residual = self._relative_residual(nk.S_VIOL, nk.S_RHS)
-            checks[0] += 1
-            if checks[0] > 1 and not residual < self.active_tol and self._settings[nk.P_EXACT] == 0:
-                # the carried gap said "converged", the exact one does not: recompute from now on
-                self._stage(nk.P_EXACT, 1.0)
+        def on_disagreement():  # the carried gap said "converged", the exact one does not
+            if self._settings[nk.P_EXACT] == 0:
+                self._stage(nk.P_EXACT, 1.0)  # recompute the gap at every iteration from now on
                 self._upload()
-            return residual
 
         def on_non_finite(it):
             raise_non_finite("normal solve", state, ("pressure", "gap", "disp_z"), it)
 
-        key = (state.pressure.ptr, state.gap.ptr, state.disp_z.ptr, conditional)
-        return self._run(key, body, final_fields, on_non_finite)
+        key = (state.pressure.ptr, state.gap.ptr, state.disp_z.ptr, known.ptr)
+        return self._run(key, start, exact, body, on_non_finite, on_disagreement)
 
-    def _initial_guess(self, state):
-        """Unless the state holds a pressure already (warm start): p = c s, with s = sqrt(max(b -
-        b_max / 2, 0)), b = max(delta_z - h0 - u_known, 0) the rigid interference, and c the
-        least-squares fit of K p to b on the support of s, capped at the hardness. For a
-        paraboloid s is the Hertz pressure's shape on the Hertz contact area (an elastic contact
-        closes half the rigid interference), so a Hertz solve starts near its answer: 125 -> 52
-        iterations at n = 256, 127 -> 74 at 512, 153 -> 87 at 1024 (CPU, against the old guess
-        c b, whose support was twice the contact area). On the device; one scalar comes back
-        (whether p > 0 anywhere)."""
+    def _guess(self, state):
+        """The first guess of a solve from rest: p = c s, with s = sqrt(max(b - b_max / 2, 0)),
+        b = max(delta_z - h0 - u_known, 0) the rigid interference, and c the least-squares fit
+        of K p to b on the support of s, capped at the hardness. For a paraboloid s is the Hertz
+        pressure's shape on the Hertz contact area (an elastic contact closes half the rigid
+        interference), so a Hertz solve starts near its answer: 125 -> 52 iterations at n = 256,
+        127 -> 74 at 512, 153 -> 87 at 1024 (CPU, against the old guess c b, whose support was
+        twice the contact area). On the device (``guess_sums`` zeroed before)."""
         m = self.model
         p, b = state.pressure.flatten(), self.interference.flatten()
-        self.guess_sums.zero_()
-        m.launch_reduce(nk.count_positive, [p], [self.guess_sums])
-        if self.guess_sums.numpy()[nk.G_POSITIVE] > 0:
-            return
         m.launch_reduce(nk.guess_max_interference, [b], [self.guess_sums])
         m.launch(nk.guess_shape, m.n_cells, [b, self.guess_sums], [p])
         m.operator.normal(state.pressure, self.response)

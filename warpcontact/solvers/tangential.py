@@ -53,9 +53,11 @@ class TangentialSolver(ProjectedCG):
         gx, gy, tx, ty, rx, ry = (a.flatten() for a in (self.grad_x, self.grad_y, self.dir_x, self.dir_y, self.resp_x, self.resp_y))
         limit = shear_limit.flatten()
         self._begin(tol)
-        self.dir_x.zero_()  # no leftover from an earlier (possibly failed) solve
-        self.dir_y.zero_()
-        m.launch(tk.tangential_classify, dim=m.n_cells, inputs=[limit], outputs=[qx, qy, st])
+
+        def start():
+            self.dir_x.zero_()  # no leftover from an earlier (possibly failed) solve
+            self.dir_y.zero_()
+            m.launch(tk.tangential_classify, dim=m.n_cells, inputs=[limit], outputs=[qx, qy, st])
 
         def gradient():
             m.operator.tangential(state.shear_x, state.shear_y, state.disp_x, state.disp_y)
@@ -73,17 +75,12 @@ class TangentialSolver(ProjectedCG):
             m.launch_reduce(tk.tangential_step_sums, [gx, gy, tx, ty, rx, ry, qx, qy, limit, st], [self.sums])
             m.launch_reduce(tk.tangential_update, [gx, gy, tx, ty, limit, self.slip_step, self.settings], [qx, qy, st, self.sums])
             m.launch(reduce.cg_advance, dim=1, inputs=[self.sums, self.settings, self.restart_every],
-                     outputs=[self.scalars, self.history, self.loop])
+                     outputs=[self.scalars, self.history, self.loop, self.refresh])
 
         key = tuple(a.ptr for a in (state.shear_x, state.shear_y, state.status, state.disp_x, state.disp_y, kx, ky,
                                     target_x, target_y, limit))
 
-        def final_fields():
-            self.sums.zero_()
-            gradient()
-            return self._relative_residual(tk.S_VIOL, tk.S_RHS)
-
         def on_non_finite(it):
             raise_non_finite("tangential solve", state, ("shear_x", "shear_y", "disp_x", "disp_y"), it)
 
-        return self._run(key, body, final_fields, on_non_finite)
+        return self._run(key, start, gradient, body, on_non_finite)
