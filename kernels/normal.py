@@ -20,8 +20,8 @@ One iteration, four passes over the grid around one convolution (``solvers/norma
    and sets the device loop's flag.
 
 Scalars live in device arrays: ``sums`` (the reductions of one iteration; slots below),
-``scalars`` (carried: G_old, delta, iteration count, last residual) and ``settings`` (the values
-of one solve).
+``scalars`` (carried: G_old, delta, iteration count, why the loop stopped) and ``settings`` (the
+values of one solve).
 """
 
 from typing import Any

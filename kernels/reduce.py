@@ -25,9 +25,8 @@ S_RESTART = wp.constant(5)  # cells that re-entered the free set: restart the co
 C_G_OLD = wp.constant(0)  # S_G of the last iteration
 C_DELTA = wp.constant(1)  # 0: restart the conjugacy in the next iteration
 C_ITER = wp.constant(2)  # iterations done in this solve
-C_RESIDUAL = wp.constant(3)  # relative residual of the iterate the last iteration started from
-C_STOP = wp.constant(4)  # 1: the loop stopped for convergence, the limit or a non-finite value; 0: at a launch's end
-N_SCALARS = 5
+C_STOP = wp.constant(3)  # 1: the loop stopped for convergence, the limit or a non-finite value; 0: at a launch's end
+N_SCALARS = 4
 # slots of a solver's ``settings`` array: the values of one solve that its iteration reads on the
 # device (so that a captured CUDA graph of the iteration serves every solve)
 P_TOL = wp.constant(0)  # relative residual to reach
@@ -142,7 +141,6 @@ def advance(sums: wp.array(dtype=Any), settings: wp.array(dtype=Any), restart_ev
         scalars[C_G_OLD] = zero
     scalars[C_DELTA] = wp.where(sums[S_RESTART] > zero, zero, one)
     scalars[C_ITER] = type(zero)(done)
-    scalars[C_RESIDUAL] = res
     settled = (not finite) or res < settings[P_TOL] or done >= int(settings[P_MAX_ITER])
     if settled or done % int(settings[P_CHUNK]) == 0:
         stop_loop(scalars, loop, refresh, settled)
