@@ -16,9 +16,45 @@ new array at the same address with the same shape and type is the same argument 
 
 from __future__ import annotations
 
+import math
 from collections import OrderedDict
+from dataclasses import dataclass
 
 import warp as wp
+
+
+@dataclass(frozen=True)
+class ReductionLaunch:
+    """Launch shape of the reducing kernels (see kernels/reduce.py) over n entries on a device:
+    ``num_blocks`` blocks of ``block_dim`` threads; thread g visits the entries ``g * outer + k *
+    inner`` for k < ``per``."""
+
+    num_blocks: int
+    block_dim: int
+    outer: int
+    inner: int
+    per: int
+
+    #: CUDA: threads per block, and blocks per SM at most (``bench/reduction_launch.py``)
+    block_dim_cuda = 256
+    blocks_per_sm = 4
+
+    @staticmethod
+    def for_cells(n: int, device, blocks_per_sm: int | None = None) -> "ReductionLaunch":
+        """The shape for ``n`` entries: on the CPU one contiguous sweep (its kernels run serially);
+        on CUDA a grid-stride loop over at most ``blocks_per_sm`` (default: the class's) blocks per
+        SM."""
+        if device.is_cpu:
+            return ReductionLaunch(1, 1, n, 1, n)
+        block_dim = ReductionLaunch.block_dim_cuda
+        per_sm = ReductionLaunch.blocks_per_sm if blocks_per_sm is None else int(blocks_per_sm)
+        sms = device.sm_count if hasattr(device, "sm_count") else 132
+        blocks = max(1, min(per_sm * sms, math.ceil(n / block_dim)))
+        total = blocks * block_dim
+        return ReductionLaunch(blocks, block_dim, 1, total, math.ceil(n / total))
+
+    def args(self, n: int) -> list:
+        return [n, self.outer, self.inner, self.per]
 
 
 def _arg_key(a):
@@ -74,3 +110,8 @@ class LaunchCache:
         if self.device.is_cpu:
             block_dim = 1
         self.launch(kernel, (blocks, block_dim), inputs, outputs, block_dim=block_dim)
+
+    def launch_reduce(self, kernel, shape: ReductionLaunch, n: int, inputs, outputs=()):
+        """A reducing kernel (kernels/reduce.py) over ``n`` entries in the launch ``shape``:
+        ``inputs``, then the shape's arguments (n, outer, inner, per), then ``outputs``."""
+        self.launch_tiled(kernel, shape.num_blocks, shape.block_dim, [*inputs, *shape.args(n)], outputs)

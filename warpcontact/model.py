@@ -2,42 +2,15 @@
 
 from __future__ import annotations
 
-import math
-from dataclasses import dataclass
-
 import numpy as np
 import warp as wp
 
 from .device import dtype_name, numpy_dtype, resolve_device, resolve_dtype
 from .geometry import Grid, Sphere
-from .launch import LaunchCache
+from .launch import LaunchCache, ReductionLaunch
 from .materials import MaterialPair
 from .operator import ElasticOperator
 from .resources import check_index_limit
-
-
-@dataclass(frozen=True)
-class ReductionLaunch:
-    """Launch shape of the reducing kernels (see kernels/reduce.py) for n cells on a device."""
-
-    num_blocks: int
-    block_dim: int
-    outer: int
-    inner: int
-    per: int
-
-    @staticmethod
-    def for_cells(n: int, device) -> "ReductionLaunch":
-        if device.is_cpu:
-            blocks = 1  # CPU kernels run serially; one contiguous sweep
-            return ReductionLaunch(blocks, 1, n, 1, n)
-        block_dim = 256
-        blocks = max(1, min(4 * device.sm_count if hasattr(device, "sm_count") else 528, math.ceil(n / block_dim)))
-        total = blocks * block_dim
-        return ReductionLaunch(blocks, block_dim, 1, total, math.ceil(n / total))
-
-    def args(self, n: int) -> list:
-        return [n, self.outer, self.inner, self.per]
 
 
 class ContactModel:
@@ -86,8 +59,7 @@ class ContactModel:
     def launch_reduce(self, kernel, inputs, outputs):
         """A reducing kernel (kernels/reduce.py) over all cells: ``inputs``, then the launch shape's
         arguments (n, outer, inner, per), then ``outputs``."""
-        r = self.reduction
-        self.launches.launch_tiled(kernel, r.num_blocks, r.block_dim, [*inputs, *r.args(self.n_cells)], outputs)
+        self.launches.launch_reduce(kernel, self.reduction, self.n_cells, inputs, outputs)
 
     def scalar(self, value: float):
         """``value`` as a Warp scalar of the model's float type (for kernel arguments)."""
