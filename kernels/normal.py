@@ -8,12 +8,14 @@ for the reductions.
 Polonsky, I. A. & Keer, L. M. (1999), "A numerical method for solving rough contact problems
 based on the multi-level multi-summation and conjugate gradient techniques", Wear 231, 206-219.
 
-One iteration, four passes over the grid around one convolution (``solvers/normal.py``):
+One iteration, four passes over the grid around one convolution (three on CUDA) (``solvers/normal.py``):
 
 1. ``normal_direction``: the conjugate direction t, written also into the FFT backend's padded
    input (the zero padding of the DC-FFT stays zero);
 2. the transforms and the spectral product: K t in the backend's padded output;
 3. ``normal_step_sums``: g . t and (K t) . t over the free set, read from the padded output;
+   on CUDA instead ``normal_direction_sum`` sums g . t and the spectral product (K t) . t, in
+   Fourier space (Parseval; ``kernels/spectral.py``, ``spectral_normal_energy``), one pass less;
 4. ``normal_update``: the projected step on p, the carried gap g <- g - tau K t, and the residual
    sums of the new iterate; ``normal_advance`` (one thread) then carries the scalars, decides
    whether the next iteration starts from an exact gap (``normal_gap`` after a convolution of p),
@@ -32,7 +34,7 @@ from .overloads import register_float_overloads
 from .reduce import (  # noqa: F401  (shared slots)
     C_DELTA, C_G_OLD, C_ITER, N_SCALARS, N_SETTINGS, P_APPROACH, P_CHUNK, P_EXACT, P_MAX_ITER, P_TOL, S_G, S_GT, S_RHS,
     S_RT, S_VIOL, advance, relative_residual, stop_loop,
-    block_add, block_max, cell_index, cg_converged, cg_step_length,
+    block_add, block_add_vector, block_max, cell_index, cg_converged, cg_step_length,
 )
 from .reduce import S_RESTART as S_IOL  # cells that re-enter contact (or leave the cap)
 
@@ -122,40 +124,93 @@ def normal_gap(
             s_g += dg
             s_viol += dv
             s_rhs += dr
-    block_add(sums, S_G, s_g)
-    block_add(sums, S_VIOL, s_viol)
-    block_add(sums, S_RHS, s_rhs)
+    block_add_vector(sums, S_G, wp.vector(s_g, s_viol, s_rhs), lane)  # slots S_G, S_VIOL, S_RHS
+
+
+@wp.func
+def direction_beta(sums: wp.array(dtype=Any), scalars: wp.array(dtype=Any)):
+    """delta G / G_old: the conjugacy factor (0 on a restart and at the first iteration)."""
+    zero = sums[S_G] - sums[S_G]
+    beta = zero
+    if scalars[C_G_OLD] > zero:
+        beta = scalars[C_DELTA] * sums[S_G] / scalars[C_G_OLD]
+    return beta
+
+
+@wp.func
+def conjugate_direction(pressure: wp.array(dtype=Any), gap: wp.array(dtype=Any), direction: wp.array(dtype=Any),
+                        cell: int, beta: Any, pressure_cap: Any):
+    """(t, g t) of a cell: t = g + beta t_last on the free set 0 < p < cap, 0 elsewhere; g and
+    t_last are read only there.
+
+    t_last is read only on cells free now; when beta != 0 those were free then too (a cell that
+    re-entered sets delta = 0), so t there is the last iteration's direction."""
+    zero = pressure_cap - pressure_cap
+    t = zero
+    gt = zero
+    p = pressure[cell]
+    if p > zero and p < pressure_cap:
+        g = gap[cell]
+        t = g + beta * direction[cell]
+        gt = g * t
+    return t, gt
 
 
 @wp.kernel
 def normal_direction(
-    gap: wp.array2d(dtype=Any),
-    pressure: wp.array2d(dtype=Any),
+    gap: wp.array(dtype=Any),
+    pressure: wp.array(dtype=Any),
     pressure_cap: Any,
     sums: wp.array(dtype=Any),
     scalars: wp.array(dtype=Any),
+    width: int,
     per: int,
-    direction: wp.array2d(dtype=Any),
+    direction: wp.array(dtype=Any),
     padded_input: wp.array2d(dtype=Any),
 ):
-    """Conjugate direction t = g + delta (G / G_old) t on the free set 0 < p < cap, 0 elsewhere,
-    written to ``direction`` and to the FFT backend's ``padded_input`` (the field's corner of the
-    padded grid). Launched over (rows, chunks) (``LaunchCache.launch_rows``).
-
-    t of the last iteration is read only on cells free now; when beta != 0 those were free then
-    too (a cell that re-entered sets delta = 0), so t there is that iteration's direction."""
+    """Conjugate direction t (:func:`conjugate_direction`) written to ``direction`` and to the
+    FFT backend's ``padded_input`` (the field's corner of the padded grid). Launched over (rows,
+    chunks) (``LaunchCache.launch_rows``): the CPU's path, where ``normal_step_sums`` follows the
+    convolution."""
     i, c = wp.tid()
-    zero = pressure_cap - pressure_cap
-    beta = zero
-    if scalars[C_G_OLD] > zero:
-        beta = scalars[C_DELTA] * sums[S_G] / scalars[C_G_OLD]
-    for j in range(c * per, wp.min((c + 1) * per, gap.shape[1])):
-        p = pressure[i, j]
-        t = zero
-        if p > zero and p < pressure_cap:
-            t = gap[i, j] + beta * direction[i, j]
-        direction[i, j] = t
+    beta = direction_beta(sums, scalars)
+    for j in range(c * per, wp.min((c + 1) * per, width)):
+        t, gt = conjugate_direction(pressure, gap, direction, i * width + j, beta, pressure_cap)
+        direction[i * width + j] = t
         padded_input[i, j] = t
+
+
+@wp.kernel
+def normal_direction_sum(
+    gap: wp.array(dtype=Any),
+    pressure: wp.array(dtype=Any),
+    pressure_cap: Any,
+    sums: wp.array(dtype=Any),
+    scalars: wp.array(dtype=Any),
+    width: int,
+    n: int,
+    outer: int,
+    inner: int,
+    per: int,
+    direction: wp.array(dtype=Any),
+    padded_input: wp.array2d(dtype=Any),
+):
+    """``normal_direction``, and the sum of g t into slot S_GT: a reducing kernel. The CUDA path,
+    where the spectral product sums (K t) . t (``spectral_normal_energy``) and
+    ``normal_step_sums`` does not run."""
+    block, lane = wp.tid()
+    thread = block * wp.block_dim() + lane
+    beta = direction_beta(sums, scalars)
+    s_gt = beta - beta
+    for k in range(per):
+        i = cell_index(thread, outer, inner, k)
+        if i < n:
+            t, gt = conjugate_direction(pressure, gap, direction, i, beta, pressure_cap)
+            s_gt += gt
+            direction[i] = t
+            row = i // width
+            padded_input[row, i - row * width] = t
+    block_add(sums, S_GT, s_gt)
 
 
 @wp.kernel
@@ -258,11 +313,8 @@ def normal_update(
             s_g += dg
             s_viol += dv
             s_rhs += dr
-    block_add(sums, S_IOL, count)
-    block_add(sums, S_CORRECTION, corrected)
-    block_add(sums, S_NEXT_G, s_g)
-    block_add(sums, S_NEXT_VIOL, s_viol)
-    block_add(sums, S_NEXT_RHS, s_rhs)
+    # slots S_IOL, S_CORRECTION, S_NEXT_G, S_NEXT_VIOL, S_NEXT_RHS (consecutive)
+    block_add_vector(sums, S_IOL, wp.vector(count, corrected, s_g, s_viol, s_rhs), lane)
 
 
 @wp.kernel
@@ -404,6 +456,6 @@ def guess_scale(guess_sums: wp.array(dtype=Any), pressure_cap: Any, pressure: wp
     pressure[i] = wp.min(c * pressure[i], pressure_cap)
 
 
-for _k in (normal_interference, normal_gap, normal_direction, normal_step_sums, normal_update, normal_advance,
+for _k in (normal_interference, normal_gap, normal_direction, normal_direction_sum, normal_step_sums, normal_update, normal_advance,
            count_positive, guess_needed, guess_max_interference, guess_shape, guess_fit_sums, guess_scale):
     register_float_overloads(_k)

@@ -18,6 +18,8 @@ from typing import Any
 
 import warp as wp
 
+from .reduce import block_add, cell_index
+
 # no adjoints: nothing differentiates these kernels, and compiling them doubles the build
 wp.set_module_options({"enable_backward": False})
 
@@ -41,6 +43,45 @@ def spectral_normal(influence: wp.array3d(dtype=Any), spectrum: wp.array2d(dtype
     i, c = wp.tid()
     for j in range(c * per, wp.min((c + 1) * per, spectrum.shape[1])):
         spectrum[i, j] = influence[ZZ, i, j] * spectrum[i, j]
+
+
+@wp.kernel
+def spectral_normal_energy(
+    influence: wp.array3d(dtype=Any),
+    spectrum: wp.array2d(dtype=Any),
+    half_axis: int,
+    half_length: int,
+    energy_scale: Any,
+    slot: int,
+    n: int,
+    outer: int,
+    inner: int,
+    per: int,
+    sums: wp.array(dtype=Any),
+):
+    """u_z = K_zz p in Fourier space, in place on ``spectrum``, and sums[slot] += (K p) . p, the
+    sum over the padded grid, by Parseval's identity: ``energy_scale`` * sum_k w_k K(k) |P(k)|^2,
+    with w = 1 where the index along ``half_axis`` (the axis of the real transform's non-negative
+    frequencies, of length ``half_length`` in real space) is 0 or half_length / 2, 2 elsewhere
+    (``FFTBackend.half_axis``). A reducing kernel (kernels/reduce.py) over the n entries of the
+    spectrum, row-major."""
+    block, lane = wp.tid()
+    thread = block * wp.block_dim() + lane
+    width = spectrum.shape[1]
+    zero = energy_scale - energy_scale
+    energy = zero
+    for k in range(per):
+        e = cell_index(thread, outer, inner, k)
+        if e < n:
+            i = e // width
+            j = e - i * width
+            s = spectrum[i, j]
+            kzz = influence[ZZ, i, j]
+            spectrum[i, j] = kzz * s
+            f = wp.where(half_axis == 0, i, j)
+            weight = wp.where(f == 0 or 2 * f == half_length, energy_scale, energy_scale + energy_scale)
+            energy += weight * kzz * wp.dot(s, s)
+    block_add(sums, slot, energy)
 
 
 @wp.kernel
@@ -110,6 +151,11 @@ def spectrum_part(spectrum: wp.array2d(dtype=Any), component: int, part: wp.arra
 for _r, _v in ((wp.float32, wp.vec2f), (wp.float64, wp.vec2d)):
     wp.overload(spectrum_part, {"spectrum": wp.array2d(dtype=_v), "component": int, "part": wp.array2d(dtype=_r)})
     wp.overload(spectral_normal, {"influence": wp.array3d(dtype=_r), "spectrum": wp.array2d(dtype=_v), "per": int})
+    wp.overload(
+        spectral_normal_energy,
+        {"influence": wp.array3d(dtype=_r), "spectrum": wp.array2d(dtype=_v), "half_axis": int, "half_length": int,
+         "energy_scale": _r, "slot": int, "n": int, "outer": int, "inner": int, "per": int, "sums": wp.array(dtype=_r)},
+    )
     wp.overload(
         spectral_tangential,
         {"influence": wp.array3d(dtype=_r), "spectrum_x": wp.array2d(dtype=_v), "spectrum_y": wp.array2d(dtype=_v),

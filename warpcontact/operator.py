@@ -12,7 +12,7 @@ import warp as wp
 from warpcontact.kernels import spectral
 
 from .fft import make_fft
-from .launch import LaunchCache
+from .launch import LaunchCache, ReductionLaunch
 from .influence import KERNELS, SPECTRUM_PARTS, influence_coefficients
 
 
@@ -36,6 +36,9 @@ class ElasticOperator:
         self.shape = grid.shape
         self.fft = make_fft(fft, grid.n, grid.n, device, dtype)
         self.launches = LaunchCache(self.fft.device)
+        sy, sx = self.fft.spectral_shape
+        self._spectral_entries = sy * sx
+        self._spectral_reduction = ReductionLaunch.for_cells(self._spectral_entries, self.fft.device)
         self.coupled = pair.D != 0.0
         scale = pair.E_star / grid.dx  # scaled displacement per scaled traction
         coeffs = influence_coefficients(pair, grid.n, grid.n, grid.dx, grid.dy)
@@ -77,12 +80,25 @@ class ElasticOperator:
         self.spectral_product(spectral.spectral_normal, self._buf[:1])
         self.fft.inverse(self._buf[0], displacement)
 
-    def normal_padded(self):
+    def normal_product(self, spectrum: wp.array2d, energy: wp.array | None = None, slot: int = 0):
+        """The spectral product of K_zz on ``spectrum``, in place; with ``energy``, also
+        ``energy[slot] += (K_zz t) . t`` for the field t whose spectrum it is, summed in Fourier
+        space (Parseval; ``spectral.spectral_normal_energy``: no pass over the grid of its own)."""
+        if energy is None:
+            self.spectral_product(spectral.spectral_normal, [spectrum])
+            return
+        fft = self.fft
+        self.launches.launch_reduce(
+            spectral.spectral_normal_energy, self._spectral_reduction, self._spectral_entries,
+            [self.influence, spectrum, fft.half_axis, fft.half_length, fft.energy_scale, int(slot)], [energy])
+
+    def normal_padded(self, energy: wp.array | None = None, slot: int = 0):
         """K_zz applied to the field a kernel wrote into the corner of ``fft.padded_input``; the
         result, times ``fft.output_scale``, in the corner of ``fft.padded_output`` (for solver
-        kernels that pad and crop as part of their own passes)."""
+        kernels that pad and crop as part of their own passes). ``energy``, ``slot``: as
+        :meth:`normal_product`."""
         self.fft.transform_input(self._buf[0])
-        self.spectral_product(spectral.spectral_normal, self._buf[:1])
+        self.normal_product(self._buf[0], energy, slot)
         self.fft.transform_to_output(self._buf[0])
 
     def tangential(self, shear_x, shear_y, disp_x, disp_y):

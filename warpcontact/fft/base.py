@@ -93,6 +93,20 @@ class FFTBackend:
     padded_output: wp.array2d
     #: the normalisation of ``padded_output`` (a scalar of the backend's float type)
     output_scale = None
+    # Parseval's identity in this layout, for sums over the padded grid taken in Fourier space
+    # (``kernels/spectral.py``, ``spectral_normal_energy``): sum_x a(x) b(x) = energy_scale *
+    # sum_k w_k Re(A(k) conj(B(k))), w = 1 where the index along ``half_axis`` is 0 or
+    # half_length / 2, 2 elsewhere
+    #: the spectrum's axis that holds only the non-negative frequencies of the real transform
+    half_axis: int = 1
+    #: the length of the real transform along that axis (the padded grid's, in points)
+    half_length: int = 0
+    #: 1 / (points of the padded grid) (a scalar of the backend's float type)
+    energy_scale = None
+
+    def _set_parseval(self, half_axis: int, half_length: int, padded_points: int):
+        self.half_axis, self.half_length = int(half_axis), int(half_length)
+        self.energy_scale = self.dtype(1.0 / padded_points)
 
     def transform_input(self, spectrum: wp.array2d):
         """``spectrum`` <- transform of ``padded_input``."""

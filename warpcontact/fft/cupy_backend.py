@@ -159,6 +159,7 @@ class CupyFFT(FFTBackend):
         self._complex_to_complex = lib.cufftExecZ2Z if double else lib.cufftExecC2C
         r2c, c2r, c2c = (_D2Z, _Z2D, _Z2Z) if double else (_R2C, _C2R, _C2C)
         self.output_scale = dtype(1.0 / (4.0 * self.nx * self.ny))  # typed: a kernel argument
+        self._set_parseval(1, 2 * self.nx, 4 * self.nx * self.ny)
         ny2, nx2, nxh = 2 * self.ny, 2 * self.nx, self.nx + 1
         self._plans = []
         sizes = []

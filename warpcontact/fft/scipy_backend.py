@@ -38,6 +38,7 @@ class ScipyFFT(FFTBackend):
         self.padded_output = wp.zeros((ny, nx), dtype=dtype, device=self.device)
         self._output = self.padded_output.numpy()
         self.output_scale = dtype(1.0)
+        self._set_parseval(1, 2 * nx, 4 * nx * ny)
 
     @property
     def spectral_shape(self):

@@ -131,6 +131,7 @@ class WarpTileFFT(FFTBackend):
             self.padded_input = wp.zeros((self.ny, self.nx), dtype=self.dtype, device=self.device)
             self.padded_output = wp.zeros((self.ny, self.nx), dtype=self.dtype, device=self.device)
             self.output_scale = self.dtype(1.0)
+            self._set_parseval(0, self.lx, self.lx * self.ly)  # spectra are transposed: (Lx/2 + 1, Ly)
             self._load_kernels()
 
     def _block_dim(self, length: int) -> int:

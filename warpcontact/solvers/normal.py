@@ -9,6 +9,7 @@ import warp as wp
 
 from warpcontact.kernels import normal as nk
 
+from ..launch import ReductionLaunch
 from ..state import SolveInfo
 from .base import ProjectedCG, default_tolerance, raise_non_finite  # noqa: F401  (re-export)
 
@@ -29,9 +30,10 @@ class NormalSolver(ProjectedCG):
     (g <- g - tau K t) and made exact again (a second convolution, K p) only when what the
     projections changed since may matter (``deferral``), near convergence, and every
     ``exact_every`` iterations; the device decides (``kernels/normal.py``, ``normal_advance``).
-    The solver's own work is four passes over the grid (``kernels/normal.py``), two of which read
-    and write the FFT backend's padded buffers directly, so the convolution's padding and cropping
-    passes are those passes.
+    The solver's own work is four passes over the grid (``kernels/normal.py``), two of which
+    write and read the FFT backend's padded buffers directly, so the convolution's padding and
+    cropping passes are those passes. On CUDA (``fourier_step_sums``) three: the direction's pass
+    sums g . t and the spectral product (K t) . t, in Fourier space.
 
     Args:
         model: the :class:`~warpcontact.model.ContactModel`.
@@ -73,6 +75,17 @@ class NormalSolver(ProjectedCG):
         self._column_norm = model.scalar(model.operator.column_norm("zz"))
         self.deferred = model.scalars(1)
         self._current_sums = self.sums[: nk.S_RHS + 1]  # slots S_G, S_VIOL, S_RHS
+        #: sum g . t in the direction's pass and (K t) . t in the spectral product (Parseval), one
+        #: pass over the grid less (default on CUDA: H100, n = 1024, with the vector reductions and
+        #: the direction's launch below, 0.230 -> 0.21x ms per iteration); else both in ``normal_step_sums`` after the convolution (default on the
+        #: CPU, where the spectral sum over 2 n (n + 1) entries costs more than the pass it saves:
+        #: n = 512, 2.6 against 5.1 ms for the direction, product and sums). Same iterates up to
+        #: rounding. A captured graph keeps the path it was captured with.
+        self.fourier_step_sums = model.device.is_cuda
+        # the direction's pass (one sum) takes more blocks than the model's reductions (H100, L2
+        # flushed before each call: n = 1024, 20.1 -> 14.3 us at 8 blocks per SM against 4;
+        # n = 2048, 68 -> 43 us; bench/reduction_launch.py --cold)
+        self._direction_launch = ReductionLaunch.for_cells(model.n_cells, model.device, blocks_per_sm=8)
 
     def solve(self, state, approach_z: float, known_displacement: wp.array | None = None, tol=None) -> SolveInfo:
         """Solve for ``state.pressure`` at the rigid approach ``approach_z`` [m].
@@ -115,10 +128,15 @@ class NormalSolver(ProjectedCG):
 
         def body():
             wp.capture_if(self.recompute, on_true=recompute)  # in a graph, a conditional node: the device decides
-            m.launches.launch_rows(nk.normal_direction, m.grid.shape, [state.gap, state.pressure, self._cap, self.sums,
-                                                                       self.scalars], [self.direction, fft.padded_input])
-            m.operator.normal_padded()
-            m.launch_reduce(nk.normal_step_sums, [g, t, *output], [self.sums])
+            direction_in = [g, p, self._cap, self.sums, self.scalars, m.grid.n]
+            if self.fourier_step_sums:  # g . t with t, (K t) . t in the spectral product
+                m.launches.launch_reduce(nk.normal_direction_sum, self._direction_launch, m.n_cells, direction_in,
+                                         [t, fft.padded_input])
+                m.operator.normal_padded(self.sums, nk.S_RT)
+            else:
+                m.launches.launch_rows(nk.normal_direction, m.grid.shape, direction_in, [t, fft.padded_input])
+                m.operator.normal_padded()
+                m.launch_reduce(nk.normal_step_sums, [g, t, *output], [self.sums])
             m.launch_reduce(nk.normal_update, [t, *output, b, self._cap, self.settings], [p, g, self.sums])
             m.launch(nk.normal_advance, 1,
                      [self.sums, self.settings, self.exact_every, self._column_norm, m.scalar(self.deferral)],
