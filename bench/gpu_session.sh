@@ -16,8 +16,10 @@
 #   SIDE=DIR  the same benchmarks from another tree (DIR: e.g. the last commit, `git archive HEAD warpcontact
 #             kernels bench pyproject.toml README.md | tar -x -C .gpu/old`, carried), alternating with this
 #             tree's in one run: bench_iteration.py (SIDE_ARGS, default --sizes 1024 2048 4096
-#             --compare-up-to 0) ROUNDS times (default 2), each tree's log in $OUT/side_{old,new}_K.log
+#             --compare-up-to 0) ROUNDS times (default 2), each tree's log in $OUT/side_{old,new}_K.log;
+#             SIDE_SCRIPT=this: both trees run this tree's bench_iteration.py (the same measurement)
 #   SOLVE=1   bench/profile_normal_solve.py on cuda:0 (SOLVE_ARGS, default --sizes 1024 2048 4096)
+#   REDUCE=1  bench/reduction_launch.py on cuda:0 (REDUCE_ARGS, default --sizes 1024 2048 4096), warm and --cold
 #   ADH=W     bench/adhesion_sensitivity.py on W CPU workers, in the background while the rest runs
 #             (its cells.jsonl is kept in $OUT/adh; a copy in bench_results/adh/ is resumed)
 set -u
@@ -54,7 +56,8 @@ if [ -n "${SIDE:-}" ]; then
   SIDE_DIR=$(cd "$SIDE" && pwd)
   for k in $(seq 1 "${ROUNDS:-2}"); do
     for tree in old new; do
-      if [ "$tree" = old ]; then path=/opt/wstage/old; script="$SIDE_DIR/bench/bench_iteration.py"
+      if [ "$tree" = old ] && [ "${SIDE_SCRIPT:-}" != this ]; then path=/opt/wstage/old; script="$SIDE_DIR/bench/bench_iteration.py"
+      elif [ "$tree" = old ]; then path=/opt/wstage/old; script="$ROOT/bench/bench_iteration.py"
       else path=/opt/wstage/proj; script="$ROOT/bench/bench_iteration.py"; fi
       (cd /tmp && PYTHONPATH=$path:${PYTHONPATH#/opt/wstage/proj:} timeout "${SIDE_TIMEOUT:-200}" python3 "$script" \
          --device cuda:0 ${SIDE_ARGS:---sizes 1024 2048 4096 --compare-up-to 0} > "$OUT/side_${tree}_$k.log" 2>&1)
@@ -65,6 +68,12 @@ fi
 if [ "${SOLVE:-0}" = 1 ]; then
   (cd /tmp && timeout "${SOLVE_TIMEOUT:-200}" python3 "$ROOT/bench/profile_normal_solve.py" --device cuda:0 \
      ${SOLVE_ARGS:---sizes 1024 2048 4096} > "$OUT/solve_costs.log" 2>&1; grep -v "^ \|^-\|Self " "$OUT/solve_costs.log" | head -20)
+fi
+if [ "${REDUCE:-0}" = 1 ]; then
+  for mode in "" --cold; do
+    (cd /tmp && timeout "${REDUCE_TIMEOUT:-200}" python3 "$ROOT/bench/reduction_launch.py" --device cuda:0 \
+       ${REDUCE_ARGS:---sizes 1024 2048 4096} $mode 2>&1 | tee -a "$OUT/reduction_launch.log")
+  done
 fi
 if [ "${PARTS:-0}" = 1 ]; then
   (cd /tmp && timeout "${PARTS_TIMEOUT:-200}" python3 "$ROOT/bench/iteration_parts.py" --device cuda:0 \

@@ -1,10 +1,15 @@
 """Benchmark: where the time of one normal iteration goes, part by part, on one device.
 
 Each part of NormalSolver's iteration (and the FFT backend's passes) is captured 20 times in a
-CUDA graph and replayed; the table gives ms per call and the share of the sum. On the CPU the
-parts are launched one by one. Problem as bench_iteration.py (Hertz, paper pair, domain 4a).
+CUDA graph and replayed; the table gives ms per call. On the CPU the parts are launched one by
+one. Problem as bench_iteration.py (Hertz, paper pair, domain 4a).
 
-    python bench/iteration_parts.py --device cuda:0 --sizes 1024 2048 4096
+Replayed back to back, a part finds its arrays in the GPU's L2 cache (50 MB on an H100: the
+fields of a 1024 grid, 8 MB each, fit), which in a solve the transforms between the passes have
+evicted. ``--cold`` (CUDA) precedes every call with a copy of 256 MB, which evicts them, and
+subtracts the time of that copy measured alone: the parts as a solve meets them.
+
+    python bench/iteration_parts.py --device cuda:0 --sizes 1024 2048 4096 [--cold]
 """
 
 from __future__ import annotations
@@ -17,7 +22,6 @@ import warp as wp
 
 from warpcontact.geometry import Grid, Sphere
 from warpcontact.kernels import normal as nk
-from warpcontact.kernels import spectral
 from warpcontact.materials import PAPER_PAIR
 from warpcontact.model import ContactModel
 from warpcontact.solvers import NormalSolver
@@ -26,10 +30,22 @@ from warpcontact.state import ContactState
 R, DZ = 10e-6, 1.0e-10
 A = math.sqrt(R * DZ)
 REPEATS = 20
+#: bytes the cold mode copies before each call (more than the L2 cache of any GPU here)
+FLUSH_BYTES = 256 * 2**20
+_flush_buffers = {}
 
 
-def timed_ms(device, fn, best_of: int = 3) -> float:
-    """ms per call of fn(): replayed from a graph of REPEATS calls on CUDA, best of ``best_of``."""
+def _flush(device):
+    """Copy FLUSH_BYTES on ``device`` (evicts the L2 cache)."""
+    key = str(device)
+    if key not in _flush_buffers:
+        half = FLUSH_BYTES // 2 // 8
+        _flush_buffers[key] = (wp.zeros(half, dtype=wp.float64, device=device), wp.zeros(half, dtype=wp.float64, device=device))
+    src, dst = _flush_buffers[key]
+    wp.copy(dst, src)
+
+
+def _replay_ms(device, fn, best_of: int) -> float:
     fn()
     if device.is_cuda:
         with wp.ScopedCapture(device=device, force_module_load=False) as cap:
@@ -50,7 +66,20 @@ def timed_ms(device, fn, best_of: int = 3) -> float:
     return 1e3 * best / REPEATS
 
 
-def parts(n, device, dtype):
+def timed_ms(device, fn, best_of: int = 3, cold: bool = False) -> float:
+    """ms per call of fn(): replayed from a graph of REPEATS calls on CUDA, best of ``best_of``;
+    ``cold`` (CUDA): each call after an L2 flush, whose own time is subtracted."""
+    if not (cold and device.is_cuda):
+        return _replay_ms(device, fn, best_of)
+
+    def flushed():
+        _flush(device)
+        fn()
+
+    return _replay_ms(device, flushed, best_of) - _replay_ms(device, lambda: _flush(device), best_of)
+
+
+def parts(n, device, dtype, cold=False):
     m = ContactModel(PAPER_PAIR, Sphere(R, "paraboloid"), Grid(n, 4 * A), device=device, dtype=dtype)
     s = NormalSolver(m)
     st = ContactState(m)
@@ -60,35 +89,49 @@ def parts(n, device, dtype):
     p, g, t, b = (a.flatten() for a in (st.pressure, st.gap, s.direction, s.interference))
     output = [fft.padded_output, fft.output_scale, n]
     out = {}
+
+    def timed(fn):
+        return timed_ms(m.device, fn, cold=cold)
+
     # the convolution as the iteration runs it: from the padded input, into the padded output
-    out["transforms in (library)"] = timed_ms(m.device, lambda: fft.transform_input(spec))
-    out["spectral product"] = timed_ms(m.device, lambda: op.spectral_product(spectral.spectral_normal, [spec]))
-    out["transforms out (library)"] = timed_ms(m.device, lambda: fft.transform_to_output(spec))
-    out["library forward + inverse"] = timed_ms(m.device, lambda: fft.library_transforms(st.pressure, spec))
+    fourier = s.fourier_step_sums  # the path the solver takes on this device
+    out["transforms in (library)"] = timed(lambda: fft.transform_input(spec))
+    if fourier:
+        out["spectral product, (K t) . t"] = timed(lambda: op.normal_product(spec, s.sums, nk.S_RT))
+    else:
+        out["spectral product"] = timed(lambda: op.normal_product(spec))
+    out["transforms out (library)"] = timed(lambda: fft.transform_to_output(spec))
+    out["library forward + inverse"] = timed(lambda: fft.library_transforms(st.pressure, spec))
+    out["spectral product alone"] = timed(lambda: op.normal_product(spec))
     if fft.name == "cupy":  # the two layouts of cuFFT side by side
         from warpcontact.fft.cupy_backend import CupyFFT
 
         other = CupyFFT(n, n, m.device, m.dtype, pruned=not fft.pruned)
         label = "pruned" if other.pruned else "2-D"
-        out[f"library pair, {label} plans"] = timed_ms(m.device, lambda: other.library_transforms(st.pressure, spec))
+        out[f"library pair, {label} plans"] = timed(lambda: other.library_transforms(st.pressure, spec))
     # the solver's passes
-    out["normal_direction (+ pad)"] = timed_ms(m.device, lambda: m.launches.launch_rows(
-        nk.normal_direction, m.grid.shape, [st.gap, st.pressure, s._cap, s.sums, s.scalars], [s.direction, fft.padded_input]))
-    out["normal_step_sums (reads output)"] = timed_ms(m.device, lambda: m.launch_reduce(
-        nk.normal_step_sums, [g, t, *output], [s.sums]))
+    direction_in = [g, p, s._cap, s.sums, s.scalars, n]
+    if fourier:
+        out["normal_direction_sum (+ pad, g . t)"] = timed(lambda: m.launch_reduce(
+            nk.normal_direction_sum, direction_in, [t, fft.padded_input]))
+    else:
+        out["normal_direction (+ pad)"] = timed(lambda: m.launches.launch_rows(
+            nk.normal_direction, m.grid.shape, direction_in, [t, fft.padded_input]))
+        out["normal_step_sums (reads output)"] = timed(lambda: m.launch_reduce(
+            nk.normal_step_sums, [g, t, *output], [s.sums]))
     # tau = 0 (g.t = 0, t.Kt = 1) on an iterate not converged (residual 1): the update runs its
     # whole path and leaves p and the gap as they are
     s.sums.assign([0.0, 1.0, 1.0, 0.0, 1.0] + [0.0] * (nk.N_SUMS - 5))
-    out["normal_update (carries g)"] = timed_ms(m.device, lambda: m.launch_reduce(
+    out["normal_update (carries g)"] = timed(lambda: m.launch_reduce(
         nk.normal_update, [t, *output, b, s._cap, s.settings], [p, g, s.sums]))
-    out["normal_advance"] = timed_ms(m.device, lambda: m.launch(
+    out["normal_advance"] = timed(lambda: m.launch(
         nk.normal_advance, 1, [s.sums, s.settings, s.exact_every, s._column_norm, m.scalar(s.deferral)],
         [s.scalars, s.history, s.deferred, s.recompute, s.loop, s.refresh]))
     # what an iteration adds when the gap is made exact (a convolution of p and normal_gap)
-    out["exact gap: normal_gap (reduce)"] = timed_ms(m.device, lambda: m.launch_reduce(
+    out["exact gap: normal_gap (reduce)"] = timed(lambda: m.launch_reduce(
         nk.normal_gap, [st.disp_z.flatten(), b, p, s._cap], [g, s.sums]))
-    out["exact gap: forward (pad + library)"] = timed_ms(m.device, lambda: fft.forward(st.pressure, spec))
-    out["exact gap: inverse (library + crop)"] = timed_ms(m.device, lambda: fft.inverse(spec, st.disp_z))
+    out["exact gap: forward (pad + library)"] = timed(lambda: fft.forward(st.pressure, spec))
+    out["exact gap: inverse (library + crop)"] = timed(lambda: fft.inverse(spec, st.disp_z))
     return out
 
 
@@ -97,18 +140,21 @@ def main():
     ap.add_argument("--device", default="cpu")
     ap.add_argument("--sizes", type=int, nargs="*", default=[1024, 2048])
     ap.add_argument("--dtype", default="float64")
+    ap.add_argument("--cold", action="store_true", help="each call after an L2 flush (CUDA), its time subtracted")
     args = ap.parse_args()
     wp.config.quiet = True
     wp.init()
     device = wp.get_device(args.device)
-    print(f"# parts of a normal iteration; device {device} ({device.name}), {args.dtype}, {time.strftime('%Y-%m-%d')}")
+    cold = " (cold: L2 flushed before each call)" if args.cold and device.is_cuda else ""
+    print(f"# parts of a normal iteration{cold}; device {device} ({device.name}), {args.dtype}, {time.strftime('%Y-%m-%d')}")
     for n in args.sizes:
-        out = parts(n, device, args.dtype)
-        # an iteration: transforms in + product + transforms out + the four solver passes; an
-        # exact gap adds a padded forward, the product, a cropped inverse and normal_gap
-        conv = out["transforms in (library)"] + out["spectral product"] + out["transforms out (library)"]
+        out = parts(n, device, args.dtype, args.cold)
+        # an iteration: transforms in + product (on CUDA with (K t) . t) + transforms out + the
+        # solver's passes (four; three on CUDA); an exact gap adds a padded forward, the product, a cropped inverse and normal_gap
+        product = out.get("spectral product, (K t) . t", out.get("spectral product"))
+        conv = out["transforms in (library)"] + product + out["transforms out (library)"]
         passes = sum(v for k, v in out.items() if k.startswith("normal_"))
-        exact = (out["exact gap: forward (pad + library)"] + out["spectral product"]
+        exact = (out["exact gap: forward (pad + library)"] + out["spectral product alone"]
                  + out["exact gap: inverse (library + crop)"] + out["exact gap: normal_gap (reduce)"])
         print(f"N = {n}: one convolution {conv:.3f} ms, the solver's passes {passes:.3f} ms, sum of an iteration "
               f"{conv + passes:.3f} ms; an exact gap adds {exact:.3f} ms "

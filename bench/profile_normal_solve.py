@@ -10,7 +10,13 @@ domain 4a), on one device:
    T_short - short * marginal (first guess, first and final residual, host reads, set-up);
 3. on CUDA with PyTorch, one converged solve under ``torch.profiler``: the GPU kernels' busy time
    against the wall time, and the kernels by total time;
-4. with ``--cprofile``, one converged solve under cProfile: the host functions by own time.
+4. with ``--cprofile``, one converged solve under cProfile: the host functions by own time;
+5. with ``--trace DIR``, on CUDA with PyTorch, the timeline of one converged solve (state set-up
+   included): a Chrome trace in DIR, and on stdout the device's busy time, its idle gaps over
+   ``--gap`` us with the activity on each side, and the device time by phase (before the first
+   iteration's transforms, the iterations, after the last);
+6. the set-up of a state (``ContactState``) and a warm solve (from the converged pressure: no
+   iteration, the start and the two exact residuals) on their own.
 
     python bench/profile_normal_solve.py --device cuda:0 --sizes 1024 2048
 """
@@ -34,7 +40,37 @@ R, DZ = 10e-6, 1.0e-10
 A = math.sqrt(R * DZ)
 
 
-def probe(n, device, dtype, short, long, repeats, top, host_profile=False):
+def timeline(trace_path, gap_us, top):
+    """Summary of the device's activity in a Chrome trace written by torch.profiler."""
+    import json
+
+    with open(trace_path) as fh:
+        events = json.load(fh)["traceEvents"]
+    gpu = sorted((e for e in events if e.get("ph") == "X" and e.get("cat") in ("kernel", "gpu_memset", "gpu_memcpy")),
+                 key=lambda e: e["ts"])
+    if not gpu:
+        print("  trace: no device activity recorded")
+        return
+    span = gpu[-1]["ts"] + gpu[-1]["dur"] - gpu[0]["ts"]
+    busy = sum(e["dur"] for e in gpu)
+    gaps = []
+    for a, b in zip(gpu, gpu[1:]):
+        idle = b["ts"] - (a["ts"] + a["dur"])
+        if idle > gap_us:
+            gaps.append((idle, a["name"][:40], b["name"][:40], a["ts"] - gpu[0]["ts"]))
+    print(f"  trace: {len(gpu)} device activities over {span / 1e3:.3f} ms, busy {busy / 1e3:.3f} ms; "
+          f"{len(gaps)} gaps over {gap_us} us, {sum(g[0] for g in gaps) / 1e3:.3f} ms in all")
+    for idle, before, after, at in sorted(gaps, reverse=True)[:top]:
+        print(f"    {idle:8.1f} us idle at {at / 1e3:7.3f} ms, after {before} / before {after}")
+    ffts = [i for i, e in enumerate(gpu) if "fft" in e["name"]]
+    if ffts:
+        first, last = ffts[0], ffts[-1]
+        print(f"  device time before the first transform {sum(e['dur'] for e in gpu[:first]) / 1e3:.3f} ms "
+              f"({first} activities), from it to the last {sum(e['dur'] for e in gpu[first:last + 1]) / 1e3:.3f} ms, "
+              f"after {sum(e['dur'] for e in gpu[last + 1:]) / 1e3:.3f} ms ({len(gpu) - last - 1} activities)")
+
+
+def probe(n, device, dtype, short, long, repeats, top, host_profile=False, trace_dir=None, gap_us=10.0):
     model = ContactModel(PAPER_PAIR, Sphere(R, "paraboloid"), Grid(n, 4 * A), device=device, dtype=dtype)
     solver = NormalSolver(model)
     info = {}
@@ -55,6 +91,16 @@ def probe(n, device, dtype, short, long, repeats, top, host_profile=False):
     print(f"N = {n} {dtype}: converged solve {iters} iterations, {1e3 * t_conv:.2f} ms, {1e3 * t_conv / iters:.4f} ms/it; "
           f"marginal iteration {1e3 * marginal:.4f} ms, fixed cost per solve {1e3 * fixed:.2f} ms "
           f"({short} / {long} capped iterations: {1e3 * t_short:.2f} / {1e3 * t_long:.2f} ms)", flush=True)
+    t_state = best_wall_time(model.device, lambda: ContactState(model), repeats)
+    warm = ContactState(model)
+    solver.max_iter = 2000
+    solver.solve(warm, DZ)
+
+    def warm_solve():
+        info["warm"] = solver.solve(warm, DZ)
+
+    t_warm = best_wall_time(model.device, warm_solve, repeats)
+    print(f"  state set-up {1e3 * t_state:.3f} ms; warm solve ({info['warm'].iterations} iterations) {1e3 * t_warm:.3f} ms")
     if host_profile:
         import cProfile
         import io
@@ -79,6 +125,16 @@ def probe(n, device, dtype, short, long, repeats, top, host_profile=False):
         return
     torch.cuda.init()
     run = solve()
+    if trace_dir:
+        import os
+
+        os.makedirs(trace_dir, exist_ok=True)
+        path = os.path.join(trace_dir, f"normal_solve_{n}_{dtype}.json")
+        with profile(activities=[ProfilerActivity.CPU, ProfilerActivity.CUDA]) as prof:
+            run()
+            wp.synchronize_device(model.device)
+        prof.export_chrome_trace(path)
+        timeline(path, gap_us, top)
     with profile(activities=[ProfilerActivity.CUDA]) as prof:
         wp.synchronize_device(model.device)
         t0 = time.perf_counter()
@@ -102,6 +158,8 @@ def main():
     ap.add_argument("--repeats", type=int, default=3)
     ap.add_argument("--top", type=int, default=25)
     ap.add_argument("--cprofile", action="store_true", help="one converged solve under cProfile")
+    ap.add_argument("--trace", default=None, metavar="DIR", help="Chrome trace of one converged solve into DIR (CUDA, PyTorch)")
+    ap.add_argument("--gap", type=float, default=10.0, help="device idle gaps listed from this length [us]")
     args = ap.parse_args()
     wp.config.quiet = True
     wp.init()
@@ -109,7 +167,7 @@ def main():
     print(f"# normal solve: fixed and marginal costs; device {device} ({device.name}), warp {wp.__version__}, "
           f"{time.strftime('%Y-%m-%d')}")
     for n in args.sizes:
-        probe(n, device, args.dtype, args.short, args.long, args.repeats, args.top, args.cprofile)
+        probe(n, device, args.dtype, args.short, args.long, args.repeats, args.top, args.cprofile, args.trace, args.gap)
 
 
 if __name__ == "__main__":
