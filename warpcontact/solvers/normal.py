@@ -78,9 +78,10 @@ class NormalSolver(ProjectedCG):
         #: sum g . t in the direction's pass and (K t) . t in the spectral product (Parseval), one
         #: pass over the grid less (default on CUDA: H100, n = 1024, with the vector reductions and
         #: the direction's launch below, 0.230 -> 0.216-0.220 ms per iteration); else both in
-        #: ``normal_step_sums`` after the convolution (default on the CPU, where the spectral sum over 2 n (n + 1) entries costs more than the pass it saves:
-        #: n = 512, 2.6 against 5.1 ms for the direction, product and sums). Same iterates up to
-        #: rounding. A captured graph keeps the path it was captured with.
+        #: ``normal_step_sums`` after the convolution (default on the CPU, where the spectral sum
+        #: over 2 n (n + 1) entries costs more than the pass it saves: n = 512, 2.6 against 5.1 ms
+        #: for the direction, product and sums). Same iterates up to rounding. A captured graph
+        #: keeps the path it was captured with.
         self.fourier_step_sums = model.device.is_cuda
         # the direction's pass (one sum) takes more blocks than the model's reductions (H100, L2
         # flushed before each call: n = 1024, 20.1 -> 14.3 us at 8 blocks per SM against 4;
