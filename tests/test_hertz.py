@@ -166,17 +166,28 @@ def test_one_convolution_mode_matches_two(device):
     assert c1 < 0.8 * c2, f"convolutions: {c1} (one-conv) vs {c2}"
 
 
+def _backends_by_device():
+    """(fft, device) for each FFT backend on each device here: scipy and warp on the CPU; warp and
+    (with CuPy) cupy on each CUDA device."""
+    from warpcontact.fft import cupy_backend
+
+    out = [("scipy", "cpu"), ("warp", "cpu")]
+    for i in range(wp.get_cuda_device_count()):
+        ffts = ["warp"] + (["cupy"] if cupy_backend.available() else [])
+        out += [pytest.param(fft, f"cuda:{i}", marks=pytest.mark.gpu) for fft in ffts]
+    return out
+
+
 @pytest.mark.parametrize("dtype", ["float64", "float32"])
-@pytest.mark.parametrize("fft", ["scipy", "warp"])
-def test_step_sums_in_fourier_space_match_the_pass_after(fft, dtype, device):
+@pytest.mark.parametrize("fft,device", _backends_by_device())
+def test_step_sums_in_fourier_space_match_the_pass_after(fft, device, dtype):
     """The two ways of summing g . t and (K t) . t (``fourier_step_sums``: in the direction's pass
     and the spectral product, by Parseval; or in ``normal_step_sums`` after the convolution)
     differ by rounding only: the same pressure to 100 times the residual tolerance of its peak
     (both solves meet the tolerance, 1e-10 in float64, 1e-5 in float32; the pressure's condition
-    makes the cellwise error up to about 100 times the residual), and the same iterations within 2 (a last-digit difference can move the residual across
-    the tolerance one iteration earlier or later)."""
-    if fft == "scipy" and device != "cpu":
-        pytest.skip("the scipy backend runs on the CPU only")
+    makes the cellwise error up to about 100 times the residual), and the same iterations within
+    2 (a last-digit difference can move the residual across the tolerance one iteration earlier
+    or later)."""
     results = {}
     for fourier in (True, False):
         model = ContactModel(PAPER_PAIR, Sphere(R, "paraboloid"), Grid(80, 4 * A), device=device, dtype=dtype, fft=fft)
