@@ -447,13 +447,16 @@ def guess_fit_sums(interference: wp.array(dtype=Any), shape: wp.array(dtype=Any)
 
 
 @wp.kernel
-def guess_scale(guess_sums: wp.array(dtype=Any), pressure_cap: Any, pressure: wp.array(dtype=Any)):
+def guess_scale(guess_sums: wp.array(dtype=Any), pressure_cap: Any, response: wp.array(dtype=Any),
+                pressure: wp.array(dtype=Any), displacement: wp.array(dtype=Any)):
     """p <- min(c s, cap), c = sum (K s) b / sum (K s)^2: K p fits the interference best on the
-    support."""
+    support; and ``displacement`` <- c K s (``response`` = K s), which is K p where no cell
+    reached the cap."""
     i = wp.tid()
     zero = pressure_cap - pressure_cap
     c = wp.where(guess_sums[G_UU] > zero, guess_sums[G_UB] / guess_sums[G_UU], zero)
     pressure[i] = wp.min(c * pressure[i], pressure_cap)
+    displacement[i] = c * response[i]
 
 
 for _k in (normal_interference, normal_gap, normal_direction, normal_direction_sum, normal_step_sums, normal_update,

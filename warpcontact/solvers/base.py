@@ -122,14 +122,16 @@ class ProjectedCG:
             return math.sqrt(s[viol_slot] / s[rhs_slot])
         return 0.0 if s[viol_slot] == 0 else 1.0
 
-    def _run(self, key, start, exact, body, on_non_finite, on_disagreement=None) -> SolveInfo:
+    def _run(self, key, start, exact, body, on_non_finite, on_disagreement=None, start_exact=None) -> SolveInfo:
         """The solve after :meth:`_begin` (see the class docstring). ``exact`` fills the slots
-        S_VIOL and S_RHS of ``sums`` (zeroed before) for the current iterate;
-        ``on_disagreement()`` is called when an iteration's residual said "converged" and the
-        exact one does not (the normal solver then recomputes its gap at every iteration)."""
+        S_VIOL and S_RHS of ``sums`` (zeroed before) for the current iterate; ``start_exact``
+        (default ``exact``) does it right after ``start()``, for a start that made part of it
+        already. ``on_disagreement()`` is called when an iteration's residual said "converged"
+        and the exact one does not (the normal solver then recomputes its gap at every
+        iteration)."""
         tol = self.active_tol
 
-        def refresh():
+        def refresh(exact=exact):
             self.sums.zero_()
             exact()
 
@@ -138,7 +140,7 @@ class ProjectedCG:
                 self.scalars.zero_()
                 self.history.fill_(-1.0)
                 start()
-                refresh()
+                refresh(exact if start_exact is None else start_exact)
             self.model.launch(loop_start, 1, [self.sums, self.settings], [self.scalars, self.loop, self.refresh])
             wp.capture_while(self.loop, body)
             wp.capture_if(self.refresh, on_true=refresh)

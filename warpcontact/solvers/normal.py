@@ -66,8 +66,13 @@ class NormalSolver(ProjectedCG):
         self.one_convolution = bool(one_convolution)
         #: 1: the next iteration starts from an exact gap (set by the device)
         self.recompute = wp.zeros(1, dtype=wp.int32, device=model.device)
-        #: iterations between exact recomputations of K p in the one-convolution mode
-        self.exact_every = 50
+        #: iterations between exact recomputations of K p in the one-convolution mode, a bound on
+        #: the rounding the carried gap g <- g - tau K t gathers (about one unit of rounding of the
+        #: interference per iteration; the recomputes after projections and near convergence come
+        #: on top): 200 in float64, 50 in float32. In float64, 200 iterations keep it under 1e-4 of
+        #: the default tolerance; the Hertz solve at n = 1024 ends with the same residual to 2e-16
+        #: with a recompute at iteration 50 and without it (CPU).
+        self.exact_every = 200 if model.dtype == wp.float64 else 50
         #: recompute K p once the bound on what the carried gap misses exceeds this fraction of the
         #: violation (``kernels/normal.py``, ``normal_advance``); 0: after every projection.
         #: A captured graph keeps the value it was captured with: set it before the first solve.
@@ -106,26 +111,33 @@ class NormalSolver(ProjectedCG):
         p, g, t, b = (a.flatten() for a in (state.pressure, state.gap, self.direction, self.interference))
         output = [fft.padded_output, fft.output_scale, m.grid.n]
 
-        def start():  # the interference; the first guess when no cell has p > 0 (the device decides)
+        def displacement():  # state.disp_z <- K p
+            m.operator.normal(state.pressure, state.disp_z)
+
+        def start():  # the interference; the first guess when no cell has p > 0 (the device decides); K p
             m.launch(nk.normal_interference, m.n_cells, [m.initial_gap.flatten(), known.flatten(), self.settings], [b])
             self.guess_sums.zero_()
             m.launch_reduce(nk.count_positive, [p], [self.guess_sums])
             m.launch(nk.guess_needed, 1, [self.guess_sums], [self.guess_flag])
-            wp.capture_if(self.guess_flag, on_true=lambda: self._guess(state))
+            wp.capture_if(self.guess_flag, on_true=lambda: self._guess(state), on_false=displacement)
             self.direction.zero_()  # no leftover from an earlier (possibly failed) solve
 
-        def exact_gap():  # state.disp_z <- K p; state.gap and the residual sums of p
-            m.operator.normal(state.pressure, state.disp_z)
+        def gap_sums():  # state.gap and the residual sums of p, from state.disp_z = K p
             m.launch_reduce(nk.normal_gap, [state.disp_z.flatten(), b, p, self._cap], [g, self.sums])
 
-        def exact():
-            exact_gap()
+        def exact_from_displacement():
+            gap_sums()
             self.recompute.zero_()  # state.gap is exact now
             self.deferred.zero_()
 
+        def exact():
+            displacement()
+            exact_from_displacement()
+
         def recompute():
             self._current_sums.zero_()
-            exact_gap()
+            displacement()
+            gap_sums()
 
         def body():
             wp.capture_if(self.recompute, on_true=recompute)  # in a graph, a conditional node: the device decides
@@ -152,7 +164,7 @@ class NormalSolver(ProjectedCG):
             raise_non_finite("normal solve", state, ("pressure", "gap", "disp_z"), it)
 
         key = (state.pressure.ptr, state.gap.ptr, state.disp_z.ptr, known.ptr)
-        return self._run(key, start, exact, body, on_non_finite, on_disagreement)
+        return self._run(key, start, exact, body, on_non_finite, on_disagreement, start_exact=exact_from_displacement)
 
     def _guess(self, state):
         """The first guess of a solve from rest: p = c s, with s = sqrt(max(b - b_max / 2, 0)),
@@ -161,11 +173,18 @@ class NormalSolver(ProjectedCG):
         pressure's shape on the Hertz contact area (an elastic contact closes half the rigid
         interference), so a Hertz solve starts near its answer: 125 -> 52 iterations at n = 256,
         127 -> 74 at 512, 153 -> 87 at 1024 (CPU, against the old guess c b, whose support was
-        twice the contact area). On the device (``guess_sums`` zeroed before)."""
+        twice the contact area). On the device (``guess_sums`` zeroed before).
+
+        Leaves K p in ``state.disp_z``: c K s, from the convolution the fit made, so a solve from
+        rest makes its first exact gap without a convolution of its own; with a finite cap, which
+        c s may reach, a convolution of p."""
         m = self.model
         p, b = state.pressure.flatten(), self.interference.flatten()
         m.launch_reduce(nk.guess_max_interference, [b], [self.guess_sums])
         m.launch(nk.guess_shape, m.n_cells, [b, self.guess_sums], [p])
         m.operator.normal(state.pressure, self.response)
         m.launch_reduce(nk.guess_fit_sums, [b, p, self.response.flatten()], [self.guess_sums])
-        m.launch(nk.guess_scale, m.n_cells, [self.guess_sums, self._cap], [p])
+        m.launch(nk.guess_scale, m.n_cells, [self.guess_sums, self._cap, self.response.flatten()],
+                 [p, state.disp_z.flatten()])
+        if math.isfinite(self.pressure_cap):
+            m.operator.normal(state.pressure, state.disp_z)
