@@ -20,6 +20,7 @@
 #             SIDE_SCRIPT=this: both trees run this tree's bench_iteration.py (the same measurement)
 #   SOLVE=1   bench/profile_normal_solve.py on cuda:0 (SOLVE_ARGS, default --sizes 1024 2048 4096)
 #   REDUCE=1  bench/reduction_launch.py on cuda:0 (REDUCE_ARGS, default --sizes 1024 2048 4096), warm and --cold
+#   VARIANTS=1 bench/update_variants.py on cuda:0 (VARIANTS_ARGS, default --sizes 1024 2048), warm and --cold
 #   ADH=W     bench/adhesion_sensitivity.py on W CPU workers, in the background while the rest runs
 #             (its cells.jsonl is kept in $OUT/adh; a copy in bench_results/adh/ is resumed)
 set -u
@@ -73,6 +74,12 @@ if [ "${REDUCE:-0}" = 1 ]; then
   for mode in "" --cold; do
     (cd /tmp && timeout "${REDUCE_TIMEOUT:-200}" python3 "$ROOT/bench/reduction_launch.py" --device cuda:0 \
        ${REDUCE_ARGS:---sizes 1024 2048 4096} $mode 2>&1 | tee -a "$OUT/reduction_launch.log")
+  done
+fi
+if [ "${VARIANTS:-0}" = 1 ]; then
+  for mode in "" --cold; do
+    (cd /tmp && timeout "${VARIANTS_TIMEOUT:-200}" python3 "$ROOT/bench/update_variants.py" --device cuda:0 \
+       ${VARIANTS_ARGS:---sizes 1024 2048} $mode 2>&1 | tee -a "$OUT/update_variants.log")
   done
 fi
 if [ "${PARTS:-0}" = 1 ]; then

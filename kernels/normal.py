@@ -244,6 +244,27 @@ def normal_step_sums(
     block_add(sums, S_RT, s_rt)
 
 
+@wp.func
+def projected_step(pressure: Any, gap: Any, direction: Any, response: Any, tau: Any, pressure_cap: Any):
+    """One cell of the step (``normal_update``): returns the new pressure and carried gap, 1 where
+    the cell re-entered (or left the cap), and |p - (p_old - tau t)|, what the projection changed."""
+    zero = pressure_cap - pressure_cap
+    p = pressure
+    g = gap
+    count = zero
+    unprojected = p - tau * direction  # what K t accounts for (t = 0 off the free set)
+    if p >= pressure_cap:
+        if g > zero:
+            p = wp.max(pressure_cap - tau * g, zero)
+            count = type(zero)(1.0)
+    elif p > zero:
+        p = wp.min(wp.max(unprojected, zero), pressure_cap)
+    elif g < zero:
+        p = wp.min(-tau * g, pressure_cap)
+        count = type(zero)(1.0)
+    return p, g - tau * response, count, wp.abs(p - unprojected)
+
+
 @wp.kernel
 def normal_update(
     direction: wp.array(dtype=Any),
@@ -290,21 +311,12 @@ def normal_update(
             t = direction[i]
             r = output_scale * padded_entry(padded_output, i, width)
             if not done:
-                unprojected = p - tau * t  # what K t accounts for (t = 0 off the free set)
                 old = p
-                if p >= pressure_cap:
-                    if g > zero:
-                        p = wp.max(pressure_cap - tau * g, zero)
-                        count += type(zero)(1.0)
-                elif p > zero:
-                    p = wp.min(wp.max(unprojected, zero), pressure_cap)
-                elif g < zero:
-                    p = wp.min(-tau * g, pressure_cap)
-                    count += type(zero)(1.0)
-                corrected += wp.abs(p - unprojected)
+                p, g, entered, changed = projected_step(p, g, t, r, tau, pressure_cap)
+                count += entered
+                corrected += changed
                 if p != old:
                     pressure[i] = p
-                g = g - tau * r
                 gap[i] = g
             b = zero
             if p > zero:

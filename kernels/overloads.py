@@ -23,3 +23,9 @@ def register_float_overloads(kernel):
     for scalar in (wp.float32, wp.float64):
         wp.overload(kernel, [_substitute(a.type, scalar) for a in kernel.adj.args])
     return kernel
+
+
+def float_overload(kernel, scalar):
+    """The overload of a generic kernel registered by :func:`register_float_overloads` for the
+    float type ``scalar`` (for ``wp.get_cuda_kernel_properties``, which takes a concrete one)."""
+    return wp.overload(kernel, [_substitute(a.type, scalar) for a in kernel.adj.args])
