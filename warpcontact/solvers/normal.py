@@ -66,13 +66,12 @@ class NormalSolver(ProjectedCG):
         self.one_convolution = bool(one_convolution)
         #: 1: the next iteration starts from an exact gap (set by the device)
         self.recompute = wp.zeros(1, dtype=wp.int32, device=model.device)
-        #: iterations between exact recomputations of K p in the one-convolution mode, a bound on
-        #: the rounding the carried gap g <- g - tau K t gathers (about one unit of rounding of the
-        #: interference per iteration; the recomputes after projections and near convergence come
-        #: on top): 200 in float64, 50 in float32. In float64, 200 iterations keep it under 1e-4 of
-        #: the default tolerance; the Hertz solve at n = 1024 ends with the same residual to 2e-16
-        #: with a recompute at iteration 50 and without it (CPU).
-        self.exact_every = 200 if model.dtype == wp.float64 else 50
+        #: iterations between exact recomputations of K p in the one-convolution mode. Besides the
+        #: rounding the carried gap gathers, a recompute clears what the deferred projections left
+        #: out of it (up to ``deferral`` of the violation): with 200 instead of 50, Hertz solves
+        #: from rest on the H100 took 146-154 iterations against 131-150 at n = 2048 and 152-154
+        #: against 147-150 at 4096, 5 % longer at 4096 (``bench_results/first_exact/``).
+        self.exact_every = 50
         #: recompute K p once the bound on what the carried gap misses exceeds this fraction of the
         #: violation (``kernels/normal.py``, ``normal_advance``); 0: after every projection.
         #: A captured graph keeps the value it was captured with: set it before the first solve.
