@@ -16,12 +16,14 @@ from __future__ import annotations
 
 import argparse
 import math
+import os
 import time
 
 import warp as wp
 
 from warpcontact.geometry import Grid, Sphere
 from warpcontact.kernels import normal as nk
+from warpcontact.launch import Rows, Sums
 from warpcontact.materials import PAPER_PAIR
 from warpcontact.model import ContactModel
 from warpcontact.solvers import NormalSolver
@@ -79,8 +81,10 @@ def timed_ms(device, fn, best_of: int = 3, cold: bool = False) -> float:
     return _replay_ms(device, flushed, best_of) - _replay_ms(device, lambda: _flush(device), best_of)
 
 
-def parts(n, device, dtype, cold=False):
+def parts(n, device, dtype, cold=False, workers=None):
     m = ContactModel(PAPER_PAIR, Sphere(R, "paraboloid"), Grid(n, 4 * A), device=device, dtype=dtype)
+    if workers:  # the CPU threads the passes and spectral products are split over
+        m.launches.workers = m.operator.launches.workers = workers
     s = NormalSolver(m)
     st = ContactState(m)
     s.solve(st, DZ)  # a solved state: the sets are those of the last iterations
@@ -109,27 +113,30 @@ def parts(n, device, dtype, cold=False):
         other = CupyFFT(n, n, m.device, m.dtype, pruned=not fft.pruned)
         label = "pruned" if other.pruned else "2-D"
         out[f"library pair, {label} plans"] = timed(lambda: other.library_transforms(st.pressure, spec))
-    # the solver's passes
+    # the solver's passes, launched as the solver launches them (on the CPU split by rows over the
+    # model's threads)
+    p, g, t, b = (Rows(a) for a in (p, g, t, b))
+    output[0] = Rows(output[0])
     direction_in = [g, p, s._cap, s.sums, s.scalars, n]
     if fourier:
         out["normal_direction_sum (+ pad, g . t)"] = timed(lambda: m.launch_reduce(
             nk.normal_direction_sum, direction_in, [t, fft.padded_input]))
     else:
         out["normal_direction (+ pad)"] = timed(lambda: m.launches.launch_rows(
-            nk.normal_direction, m.grid.shape, direction_in, [t, fft.padded_input]))
+            nk.normal_direction, m.grid.shape, direction_in, [t, Rows(fft.padded_input)]))
         out["normal_step_sums (reads output)"] = timed(lambda: m.launch_reduce(
-            nk.normal_step_sums, [g, t, *output], [s.sums]))
+            nk.normal_step_sums, [g, t, *output], [Sums(s.sums)]))
     # tau = 0 (g.t = 0, t.Kt = 1) on an iterate not converged (residual 1): the update runs its
     # whole path and leaves p and the gap as they are
     s.sums.assign([0.0, 1.0, 1.0, 0.0, 1.0] + [0.0] * (nk.N_SUMS - 5))
     out["normal_update (carries g)"] = timed(lambda: m.launch_reduce(
-        nk.normal_update, [t, *output, b, s._cap, s.settings], [p, g, s.sums]))
+        nk.normal_update, [t, *output, b, s._cap, s.settings], [p, g, Sums(s.sums)]))
     out["normal_advance"] = timed(lambda: m.launch(
         nk.normal_advance, 1, [s.sums, s.settings, s.exact_every, s._column_norm, m.scalar(s.deferral)],
         [s.scalars, s.history, s.deferred, s.recompute, s.loop, s.refresh]))
     # what an iteration adds when the gap is made exact (a convolution of p and normal_gap)
     out["exact gap: normal_gap (reduce)"] = timed(lambda: m.launch_reduce(
-        nk.normal_gap, [st.disp_z.flatten(), b, p, s._cap], [g, s.sums]))
+        nk.normal_gap, [Rows(st.disp_z.flatten()), b, p, s._cap], [g, Sums(s.sums)]))
     out["exact gap: forward (pad + library)"] = timed(lambda: fft.forward(st.pressure, spec))
     out["exact gap: inverse (library + crop)"] = timed(lambda: fft.inverse(spec, st.disp_z))
     return out
@@ -141,14 +148,16 @@ def main():
     ap.add_argument("--sizes", type=int, nargs="*", default=[1024, 2048])
     ap.add_argument("--dtype", default="float64")
     ap.add_argument("--cold", action="store_true", help="each call after an L2 flush (CUDA), its time subtracted")
+    ap.add_argument("--workers", type=int, nargs="*", default=[0],
+                    help="CPU: threads the passes are split over, each count in turn (0: one per CPU)")
     args = ap.parse_args()
     wp.config.quiet = True
     wp.init()
     device = wp.get_device(args.device)
     cold = " (cold: L2 flushed before each call)" if args.cold and device.is_cuda else ""
     print(f"# parts of a normal iteration{cold}; device {device} ({device.name}), {args.dtype}, {time.strftime('%Y-%m-%d')}")
-    for n in args.sizes:
-        out = parts(n, device, args.dtype, args.cold)
+    for n, workers in ((n, w) for n in args.sizes for w in (args.workers if device.is_cpu else [0])):
+        out = parts(n, device, args.dtype, args.cold, workers)
         # an iteration: transforms in + product (on CUDA with (K t) . t) + transforms out + the
         # solver's passes (four; three on CUDA); an exact gap adds a padded forward, the product, a cropped inverse and normal_gap
         product = out.get("spectral product, (K t) . t", out.get("spectral product"))
@@ -156,7 +165,8 @@ def main():
         passes = sum(v for k, v in out.items() if k.startswith("normal_"))
         exact = (out["exact gap: forward (pad + library)"] + out["spectral product alone"]
                  + out["exact gap: inverse (library + crop)"] + out["exact gap: normal_gap (reduce)"])
-        print(f"N = {n}: one convolution {conv:.3f} ms, the solver's passes {passes:.3f} ms, sum of an iteration "
+        threads = f" ({workers or os.cpu_count()} CPU threads)" if device.is_cpu else ""
+        print(f"N = {n}{threads}: one convolution {conv:.3f} ms, the solver's passes {passes:.3f} ms, sum of an iteration "
               f"{conv + passes:.3f} ms; an exact gap adds {exact:.3f} ms "
               f"(library pair {out['library forward + inverse']:.3f} ms)")
         for k, v in out.items():

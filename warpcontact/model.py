@@ -58,8 +58,10 @@ class ContactModel:
 
     def launch_reduce(self, kernel, inputs, outputs):
         """A reducing kernel (kernels/reduce.py) over all cells: ``inputs``, then the launch shape's
-        arguments (n, outer, inner, per), then ``outputs``."""
-        self.launches.launch_reduce(kernel, self.reduction, self.n_cells, inputs, outputs)
+        arguments (n, outer, inner, per), then ``outputs``. On the CPU, with its fields marked
+        :class:`~warpcontact.launch.Rows` and its sums :class:`~warpcontact.launch.Sums`, split by
+        rows over the CPU's threads (``LaunchCache.split``)."""
+        self.launches.launch_reduce(kernel, self.reduction, self.n_cells, inputs, outputs, rows=self.grid.shape)
 
     def scalar(self, value: float):
         """``value`` as a Warp scalar of the model's float type (for kernel arguments)."""

@@ -12,7 +12,7 @@ import warp as wp
 from warpcontact.kernels import spectral
 
 from .fft import make_fft
-from .launch import LaunchCache, ReductionLaunch
+from .launch import LaunchCache, ReductionLaunch, Rows
 from .influence import KERNELS, SPECTRUM_PARTS, influence_coefficients
 
 
@@ -71,8 +71,10 @@ class ElasticOperator:
 
     def spectral_product(self, kernel, spectra):
         """Launch the product ``kernel`` (kernels/spectral.py) on ``spectra``, in place: one entry
-        per thread on CUDA, one row per thread on the CPU (``LaunchCache.launch_rows``)."""
-        self.launches.launch_rows(kernel, self.fft.spectral_shape, [self.influence, *spectra])
+        per thread on CUDA, one row per thread on the CPU (``LaunchCache.launch_rows``), the rows
+        split over the CPU's threads."""
+        self.launches.launch_rows(kernel, self.fft.spectral_shape,
+                                  [Rows(self.influence, axis=1), *(Rows(s) for s in spectra)])
 
     def normal(self, pressure: wp.array2d, displacement: wp.array2d):
         """displacement <- K_zz pressure (no coupling)."""

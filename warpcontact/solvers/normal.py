@@ -9,7 +9,7 @@ import warp as wp
 
 from warpcontact.kernels import normal as nk
 
-from ..launch import ReductionLaunch
+from ..launch import ReductionLaunch, Rows, Sums
 from ..state import SolveInfo
 from .base import ProjectedCG, default_tolerance, raise_non_finite  # noqa: F401  (re-export)
 
@@ -108,7 +108,9 @@ class NormalSolver(ProjectedCG):
         self._stage(nk.P_EXACT, 0.0 if self.one_convolution else 1.0)
         self._begin(tol)
         p, g, t, b = (a.flatten() for a in (state.pressure, state.gap, self.direction, self.interference))
-        output = [fft.padded_output, fft.output_scale, m.grid.n]
+        # the passes of an iteration, as the CPU splits them over its threads (by rows)
+        p_rows, g_rows, t_rows, b_rows = (Rows(a) for a in (p, g, t, b))
+        output = [Rows(fft.padded_output), fft.output_scale, m.grid.n]
 
         def displacement():  # state.disp_z <- K p
             m.operator.normal(state.pressure, state.disp_z)
@@ -122,7 +124,8 @@ class NormalSolver(ProjectedCG):
             self.direction.zero_()  # no leftover from an earlier (possibly failed) solve
 
         def gap_sums():  # state.gap and the residual sums of p, from state.disp_z = K p
-            m.launch_reduce(nk.normal_gap, [state.disp_z.flatten(), b, p, self._cap], [g, self.sums])
+            m.launch_reduce(nk.normal_gap, [Rows(state.disp_z.flatten()), Rows(b), Rows(p), self._cap],
+                            [Rows(g), Sums(self.sums)])
 
         def exact_from_displacement():
             gap_sums()
@@ -140,16 +143,17 @@ class NormalSolver(ProjectedCG):
 
         def body():
             wp.capture_if(self.recompute, on_true=recompute)  # in a graph, a conditional node: the device decides
-            direction_in = [g, p, self._cap, self.sums, self.scalars, m.grid.n]
+            direction_in = [g_rows, p_rows, self._cap, self.sums, self.scalars, m.grid.n]
             if self.fourier_step_sums:  # g . t with t, (K t) . t in the spectral product
                 m.launches.launch_reduce(nk.normal_direction_sum, self._direction_launch, m.n_cells, direction_in,
                                          [t, fft.padded_input])
                 m.operator.normal_padded(self.sums, nk.S_RT)
             else:
-                m.launches.launch_rows(nk.normal_direction, m.grid.shape, direction_in, [t, fft.padded_input])
+                m.launches.launch_rows(nk.normal_direction, m.grid.shape, direction_in, [t_rows, Rows(fft.padded_input)])
                 m.operator.normal_padded()
-                m.launch_reduce(nk.normal_step_sums, [g, t, *output], [self.sums])
-            m.launch_reduce(nk.normal_update, [t, *output, b, self._cap, self.settings], [p, g, self.sums])
+                m.launch_reduce(nk.normal_step_sums, [g_rows, t_rows, *output], [Sums(self.sums)])
+            m.launch_reduce(nk.normal_update, [t_rows, *output, b_rows, self._cap, self.settings],
+                            [p_rows, g_rows, Sums(self.sums)])
             m.launch(nk.normal_advance, 1,
                      [self.sums, self.settings, self.exact_every, self._column_norm, m.scalar(self.deferral)],
                      [self.scalars, self.history, self.deferred, self.recompute, self.loop, self.refresh])

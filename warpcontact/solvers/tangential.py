@@ -6,6 +6,7 @@ from __future__ import annotations
 from warpcontact.kernels import reduce
 from warpcontact.kernels import tangential as tk
 
+from ..launch import Rows, Sums
 from ..state import SolveInfo
 from .base import ProjectedCG, raise_non_finite
 
@@ -47,11 +48,13 @@ class TangentialSolver(ProjectedCG):
                 pressure's coupling term K_tp p), scaled; zero if None.
         """
         m = self.model
-        kx = (known_x if known_x is not None else self.no_displacement).flatten()
-        ky = (known_y if known_y is not None else self.no_displacement).flatten()
-        qx, qy, st = state.shear_x.flatten(), state.shear_y.flatten(), state.status.flatten()
-        gx, gy, tx, ty, rx, ry = (a.flatten() for a in (self.grad_x, self.grad_y, self.dir_x, self.dir_y, self.resp_x, self.resp_y))
-        limit = shear_limit.flatten()
+        known_x = known_x if known_x is not None else self.no_displacement
+        known_y = known_y if known_y is not None else self.no_displacement
+        # the fields flattened, marked as the CPU splits the reducing passes over its threads (by rows)
+        qx, qy, st, ux, uy, kx, ky, tgx, tgy, limit, gx, gy, tx, ty, rx, ry = (Rows(a.flatten()) for a in (
+            state.shear_x, state.shear_y, state.status, state.disp_x, state.disp_y, known_x, known_y, target_x,
+            target_y, shear_limit, self.grad_x, self.grad_y, self.dir_x, self.dir_y, self.resp_x, self.resp_y))
+        sums = Sums(self.sums)
         self._begin(tol)
 
         def start():
@@ -61,24 +64,21 @@ class TangentialSolver(ProjectedCG):
 
         def gradient():
             m.operator.tangential(state.shear_x, state.shear_y, state.disp_x, state.disp_y)
-            m.launch_reduce(
-                tk.tangential_gradient,
-                [state.disp_x.flatten(), state.disp_y.flatten(), kx, ky, target_x.flatten(), target_y.flatten(), qx, qy, limit, st, self.stiffness],
-                [gx, gy, self.sums],
-            )
+            m.launch_reduce(tk.tangential_gradient, [ux, uy, kx, ky, tgx, tgy, qx, qy, limit, st, self.stiffness],
+                            [gx, gy, sums])
 
         def body():
             self.sums.zero_()
             gradient()
             m.launch(tk.tangential_direction, dim=m.n_cells, inputs=[gx, gy, qx, qy, limit, st, self.stiffness, self.sums, self.scalars], outputs=[tx, ty])
             m.operator.tangential(self.dir_x, self.dir_y, self.resp_x, self.resp_y)
-            m.launch_reduce(tk.tangential_step_sums, [gx, gy, tx, ty, rx, ry, qx, qy, limit, st], [self.sums])
-            m.launch_reduce(tk.tangential_update, [gx, gy, tx, ty, limit, self.slip_step, self.settings], [qx, qy, st, self.sums])
+            m.launch_reduce(tk.tangential_step_sums, [gx, gy, tx, ty, rx, ry, qx, qy, limit, st], [sums])
+            m.launch_reduce(tk.tangential_update, [gx, gy, tx, ty, limit, self.slip_step, self.settings], [qx, qy, st, sums])
             m.launch(reduce.cg_advance, dim=1, inputs=[self.sums, self.settings, self.restart_every],
                      outputs=[self.scalars, self.history, self.loop, self.refresh])
 
-        key = tuple(a.ptr for a in (state.shear_x, state.shear_y, state.status, state.disp_x, state.disp_y, kx, ky,
-                                    target_x, target_y, limit))
+        key = tuple(a.ptr for a in (state.shear_x, state.shear_y, state.status, state.disp_x, state.disp_y, known_x,
+                                    known_y, target_x, target_y, shear_limit))
 
         def on_non_finite(it):
             raise_non_finite("tangential solve", state, ("shear_x", "shear_y", "disp_x", "disp_y"), it)

@@ -1,0 +1,144 @@
+"""Launches split over the CPU's threads by rows (warpcontact.launch: Rows, Sums, LaunchCache.split)."""
+
+import math
+
+import numpy as np
+import pytest
+import warp as wp
+
+from warpcontact.friction import TaborVonMises
+from warpcontact.geometry import Grid, Sphere
+from warpcontact.kernels import normal as nk
+from warpcontact.kernels import spectral
+from warpcontact.launch import LaunchCache, ReductionLaunch, Rows, Sums
+from warpcontact.materials import PAPER_PAIR
+from warpcontact.model import ContactModel
+from warpcontact.solvers import NormalSolver
+from warpcontact.slip_search import estimate_delta_x_max
+from warpcontact.solvers.contact import ContactSolver
+from warpcontact.state import ContactState
+
+R = 10e-6
+DELTA_Z = 1.0e-10
+A = math.sqrt(R * DELTA_Z)
+
+
+def _caches(workers):
+    """A CPU launch cache of ``workers`` threads that splits every launch with Rows arguments."""
+    cache = LaunchCache(wp.get_device("cpu"), workers=workers)
+    cache.min_split_entries = 0
+    return cache
+
+
+@pytest.mark.parametrize("workers", [2, 3])
+def test_split_reduction_equals_the_whole_launch(workers):
+    """normal_step_sums and normal_update over a (37, 29) grid, rows split over 2 and 3 threads
+    (37 rows: parts of unequal size; parts after the first run copies of the kernel compiled in
+    modules of their own, ``launch.part_kernel``), against the same launches whole: the fields
+    written equal bit for bit, the sums (added onto values already there, as the solver's are)
+    within the rounding of summing in another order (1e-13 relative; the sums are of order
+    1e2-1e3)."""
+    rng = np.random.default_rng(3)
+    ny, nx = 37, 29
+    n = ny * nx
+    data = [rng.random(n) - 0.3 for _ in range(4)]
+    padded_data = rng.random((ny, 2 * nx))
+    results = []
+    for cache in (_caches(1), _caches(workers)):
+        g, t, p, b = (wp.array(a, dtype=wp.float64, device="cpu") for a in data)
+        padded = wp.array(padded_data, dtype=wp.float64, device="cpu")
+        # slots 0-4 of the update's sums give its step: tau = g.t / t.Kt = 4 / 5
+        initial = np.arange(nk.N_SUMS, dtype=np.float64) + 1.0
+        step_sums, update_sums = (wp.array(initial, dtype=wp.float64, device="cpu") for _ in range(2))
+        settings = wp.zeros(nk.N_SETTINGS, dtype=wp.float64, device="cpu")
+        shape = ReductionLaunch.for_cells(n, cache.device)
+        output = [Rows(padded), wp.float64(0.5), nx]
+        # no cap, passed as the solver passes it (finite: the kernels take their 0 as cap - cap)
+        cap = wp.float64(np.finfo(np.float64).max)
+        cache.launch_reduce(nk.normal_step_sums, shape, n, [Rows(g), Rows(t), *output], [Sums(step_sums)],
+                            rows=(ny, nx))
+        cache.launch_reduce(nk.normal_update, shape, n, [Rows(t), *output, Rows(b), cap, settings],
+                            [Rows(p), Rows(g), Sums(update_sums)], rows=(ny, nx))
+        results.append((p.numpy(), g.numpy(), step_sums.numpy(), update_sums.numpy()))
+        if cache.workers > 1:
+            assert len(cache._splits) == 2  # both launches ran split
+    (p1, g1, *sums1), (p2, g2, *sums2) = results
+    assert all(np.isfinite(a).all() for a in (p1, g1, *sums1))
+    assert np.array_equal(p1, p2) and np.array_equal(g1, g2)
+    assert not np.array_equal(g1, data[0])  # the update moved the gap
+    for s1, s2 in zip(sums1, sums2):
+        assert not np.array_equal(s1, initial)  # the launches added something
+        np.testing.assert_allclose(s2, s1, rtol=1e-13, atol=0)
+
+
+def test_split_rows_of_a_stack_and_of_a_spectrum():
+    """The spectral product (one row of the spectrum per thread) split by rows of the influence
+    stack (axis 1) and of the spectrum equals the whole launch bit for bit."""
+    rng = np.random.default_rng(5)
+    rows, cols = 22, 13
+    influence = rng.random((6, rows, cols))
+    spectrum = rng.random((rows, cols, 2))
+    out = []
+    for cache in (_caches(1), _caches(2)):
+        inf = wp.array(influence, dtype=wp.float64, device="cpu")
+        spec = wp.array(spectrum, dtype=wp.vec2d, device="cpu")
+        cache.launch_rows(spectral.spectral_normal, (rows, cols), [Rows(inf, axis=1), Rows(spec)])
+        out.append(spec.numpy())
+    assert np.array_equal(out[0], out[1])
+    assert not np.array_equal(out[0], spectrum)
+
+
+def test_small_launches_run_whole():
+    """Under ``min_split_entries`` a launch is not split (no plan recorded)."""
+    cache = LaunchCache(wp.get_device("cpu"), workers=2)
+    field = wp.zeros(64, dtype=wp.float64, device="cpu")
+    sums = wp.zeros(nk.N_SUMS, dtype=wp.float64, device="cpu")
+    shape = ReductionLaunch.for_cells(64, cache.device)
+    cache.launch_reduce(nk.count_positive, shape, 64, [Rows(field)], [Sums(sums)], rows=(8, 8))
+    assert len(cache._splits) == 0
+
+
+def test_rows_must_hold_the_entries():
+    cache = _caches(2)
+    field = wp.zeros(64, dtype=wp.float64, device="cpu")
+    sums = wp.zeros(nk.N_SUMS, dtype=wp.float64, device="cpu")
+    with pytest.raises(ValueError, match="do not hold"):
+        cache.launch_reduce(nk.count_positive, ReductionLaunch.for_cells(64, cache.device), 64, [Rows(field)],
+                            [Sums(sums)], rows=(8, 7))
+
+
+def _threaded_model(n, workers):
+    model = ContactModel(PAPER_PAIR, Sphere(R, "paraboloid"), Grid(n, 4 * A), device="cpu")
+    for cache in (model.launches, model.operator.launches):
+        cache.workers = workers
+        cache.min_split_entries = 0
+    return model
+
+
+def test_solves_on_two_threads_equal_one():
+    """A Hertz solve and a coupled load step (normal and tangential CG, Tabor + von Mises) with
+    their passes split over two threads against one thread, n = 64. The block sums add in another
+    order, which moves the iterates by rounding only. The Hertz pressures agree to 1e-9 of their
+    peak (the solve's tolerance is 1e-10 on the residual) in iteration counts within 2. The step
+    ends its turns once the tractions change by less than ``outer_tol`` (1e-8, relative 2-norm)
+    from one turn to the next, so two runs may end that far apart and more, by the contraction's
+    factor: 10 outer_tol bounds it (measured 2.8e-9 of the peak shear)."""
+    out = []
+    for workers in (1, 2):
+        model = _threaded_model(64, workers)
+        state = ContactState(model)
+        info = NormalSolver(model).solve(state, DELTA_Z)
+        hertz_pressure = state.to_numpy_si()["pressure"]
+        law = TaborVonMises(0.8, PAPER_PAIR.softer.yield_strength)
+        solver = ContactSolver(model, law)
+        step = solver.step(state, (0.5 * estimate_delta_x_max(PAPER_PAIR, R, DELTA_Z, law), 0.0, DELTA_Z))
+        out.append((info, hertz_pressure, step, state.to_numpy_si(), solver.outer_tol))
+        if workers == 2:
+            assert len(model.launches._splits) >= 5 and len(model.operator.launches._splits) >= 2
+    (i1, h1, s1, f1, outer_tol), (i2, h2, s2, f2, _) = out
+    assert i1.converged and i2.converged and abs(i1.iterations - i2.iterations) <= 2
+    assert np.abs(h2 - h1).max() < 1e-9 * h1.max()
+    assert s1.converged and s2.converged
+    for name in ("pressure", "shear_x"):
+        norm = np.linalg.norm(f1[name])
+        assert norm > 0 and np.linalg.norm(f2[name] - f1[name]) < 10 * outer_tol * norm, name
