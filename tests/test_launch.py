@@ -23,7 +23,7 @@ DELTA_Z = 1.0e-10
 A = math.sqrt(R * DELTA_Z)
 
 
-def _caches(workers):
+def _cache(workers):
     """A CPU launch cache of ``workers`` threads that splits every launch with Rows arguments."""
     cache = LaunchCache(wp.get_device("cpu"), workers=workers)
     cache.min_split_entries = 0
@@ -44,7 +44,7 @@ def test_split_reduction_equals_the_whole_launch(workers):
     data = [rng.random(n) - 0.3 for _ in range(4)]
     padded_data = rng.random((ny, 2 * nx))
     results = []
-    for cache in (_caches(1), _caches(workers)):
+    for cache in (_cache(1), _cache(workers)):
         g, t, p, b = (wp.array(a, dtype=wp.float64, device="cpu") for a in data)
         padded = wp.array(padded_data, dtype=wp.float64, device="cpu")
         # slots 0-4 of the update's sums give its step: tau = g.t / t.Kt = 4 / 5
@@ -79,7 +79,7 @@ def test_split_rows_of_a_stack_and_of_a_spectrum():
     influence = rng.random((6, rows, cols))
     spectrum = rng.random((rows, cols, 2))
     out = []
-    for cache in (_caches(1), _caches(2)):
+    for cache in (_cache(1), _cache(2)):
         inf = wp.array(influence, dtype=wp.float64, device="cpu")
         spec = wp.array(spectrum, dtype=wp.vec2d, device="cpu")
         cache.launch_rows(spectral.spectral_normal, (rows, cols), [Rows(inf, axis=1), Rows(spec)])
@@ -99,7 +99,7 @@ def test_small_launches_run_whole():
 
 
 def test_rows_must_hold_the_entries():
-    cache = _caches(2)
+    cache = _cache(2)
     field = wp.zeros(64, dtype=wp.float64, device="cpu")
     sums = wp.zeros(nk.N_SUMS, dtype=wp.float64, device="cpu")
     with pytest.raises(ValueError, match="do not hold"):

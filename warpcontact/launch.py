@@ -218,8 +218,9 @@ class LaunchCache:
                 self._splits.popitem(last=False)
         else:
             self._splits.move_to_end(key)
-        sums, copies, launches = plan
-        totals = [s.numpy() for s in sums]
+        copies, launches = plan
+        # this call's Sums arrays (the plan's key holds their addresses, the plan not the arrays)
+        totals = [a.array.numpy() for a in outputs if isinstance(a, Sums)]
         before = [t.copy() for t in totals]
         for part_copies in copies:
             for c, b in zip(part_copies, before):
@@ -236,9 +237,9 @@ class LaunchCache:
             t[...] = b + sum(part_copies[i] - b for part_copies in copies)
 
     def _split_plan(self, kernel, shape, parts, part_launch, outputs, block_dim):
-        """A split launch, recorded: the Sums arrays, each part's copies of them (kept, as NumPy
-        views of the CPU arrays), and each part's recorded launch (which, like :meth:`launch`'s,
-        holds no reference to its arrays)."""
+        """A split launch, recorded: each part's copies of the Sums arrays (kept, as NumPy views
+        of the CPU arrays) and each part's recorded launch (which, like :meth:`launch`'s, holds no
+        reference to its arrays)."""
         rows, columns = shape
         sums = [a.array for a in outputs if isinstance(a, Sums)]
         copies, launches = [], []
@@ -261,7 +262,7 @@ class LaunchCache:
             cmd.fwd_args = cmd.adj_args = None
             copies.append([c.numpy() for c in part_copies])  # (each view holds its array)
             launches.append(cmd)
-        return sums, copies, launches
+        return copies, launches
 
     def launch_tiled(self, kernel, blocks: int, block_dim: int, inputs, outputs=()):
         """``wp.launch_tiled(kernel, dim=[blocks], ..., block_dim=block_dim)``: one tile per block.
