@@ -3,11 +3,18 @@
 import pytest
 import warp as wp
 
+from warpcontact.fft import fftw_backend
+
 wp.config.quiet = True
 wp.config.log_level = wp.LOG_WARNING
 wp.init()
 
 DEVICES = ["cpu"] + [f"cuda:{i}" for i in range(wp.get_cuda_device_count())]
+
+#: for the FFTW backend's cases: skipped, with the reason in the summary, where pyFFTW is missing
+#: (the test extra installs it)
+NEEDS_FFTW = pytest.mark.skipif(not fftw_backend.available(),
+                                reason="pyFFTW is not installed (pip install 'warpcontact[fftw]'): fftw backend untested")
 
 
 def pytest_addoption(parser):

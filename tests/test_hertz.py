@@ -6,6 +6,8 @@ import numpy as np
 import pytest
 import warp as wp
 
+from conftest import NEEDS_FFTW
+
 from warpcontact.geometry import Grid, Sphere
 from warpcontact.materials import PAPER_PAIR
 from warpcontact.model import ContactModel
@@ -188,7 +190,7 @@ def _backends_by_device():
     (with CuPy) cupy on each CUDA device."""
     from warpcontact.fft import cupy_backend
 
-    out = [("scipy", "cpu"), ("warp", "cpu")]
+    out = [pytest.param("fftw", "cpu", marks=NEEDS_FFTW), ("scipy", "cpu"), ("warp", "cpu")]
     for i in range(wp.get_cuda_device_count()):
         ffts = ["warp"] + (["cupy"] if cupy_backend.available() else [])
         out += [pytest.param(fft, f"cuda:{i}", marks=pytest.mark.gpu) for fft in ffts]

@@ -4,6 +4,8 @@ import numpy as np
 import pytest
 from scipy import integrate
 
+from conftest import NEEDS_FFTW
+
 from warpcontact.geometry import Grid
 from warpcontact.influence import KERNELS, cell_integral, influence_coefficients, point_kernels
 from warpcontact.materials import COPPER, HARDENED_STEEL, PAPER_PAIR, MaterialPair
@@ -234,7 +236,7 @@ def _energy_backends():
 
     from warpcontact.fft import cupy_backend
 
-    out = [("scipy", "cpu", None), ("warp", "cpu", None)]
+    out = [pytest.param("fftw", "cpu", None, marks=NEEDS_FFTW), ("scipy", "cpu", None), ("warp", "cpu", None)]
     for i in range(wp.get_cuda_device_count()):
         out.append(pytest.param("warp", f"cuda:{i}", None, marks=pytest.mark.gpu))
         if cupy_backend.available():

@@ -11,6 +11,8 @@ from hypothesis import assume, given, settings
 from hypothesis import strategies as st
 from hypothesis.extra import numpy as hnp
 
+from conftest import NEEDS_FFTW
+
 from warpcontact.errors import NonFiniteError
 from warpcontact.friction import TaborVonMises
 from warpcontact.geometry import Grid, Sphere
@@ -76,8 +78,9 @@ def coupled_path(n=48, device="cpu", dtype="float64", fft="auto", use_graphs=Non
 
 
 def test_repeated_cpu_runs_are_bit_identical():
-    """CPU kernels run serially and the reductions sum in one fixed order; scipy.fft's threads
-    split whole lines: nothing depends on timing, so two runs agree to the last bit."""
+    """CPU kernels sum in one fixed order (a launch split over the CPU's threads adds its parts'
+    sums in part order); scipy.fft's and FFTW's threads split whole lines: nothing depends on
+    timing, so two runs agree to the last bit."""
     first, second = coupled_path(), coupled_path()
     for name in ("pressure", "shear_x", "shear_y", "slip_x", "slip_y", "gap", "status"):
         assert np.array_equal(first[name], second[name]), f"{name} differs between two identical runs"
@@ -148,11 +151,12 @@ def _compare(a, b, label):
         assert v < (5e-8 if k in scales else 1e-9), (k, v)
 
 
-def test_fft_libraries_agree_on_cpu():
-    """scipy.fft and Warp's tile_fft round differently, as the CPU and a GPU do: the solutions
-    still agree to the solvers' tolerance (the bounds of _compare)."""
-    _compare(hertz(fft="scipy"), hertz(fft="warp"), "Hertz, scipy vs warp FFT")
-    _compare(coupled_path(fft="scipy"), coupled_path(fft="warp"), "coupled partial slip, scipy vs warp FFT")
+@pytest.mark.parametrize("other", [pytest.param("fftw", marks=NEEDS_FFTW), "warp"])
+def test_fft_libraries_agree_on_cpu(other):
+    """scipy.fft, FFTW and Warp's tile_fft round differently, as the CPU and a GPU do: the
+    solutions still agree to the solvers' tolerance (the bounds of _compare)."""
+    _compare(hertz(fft="scipy"), hertz(fft=other), f"Hertz, scipy vs {other} FFT")
+    _compare(coupled_path(fft="scipy"), coupled_path(fft=other), f"coupled partial slip, scipy vs {other} FFT")
 
 
 @no_cuda

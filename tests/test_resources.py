@@ -7,6 +7,8 @@ import numpy as np
 import pytest
 import warp as wp
 
+from conftest import NEEDS_FFTW
+
 from warpcontact import resources
 from warpcontact.adhesion import SMC
 from warpcontact.errors import InputError
@@ -69,7 +71,9 @@ def build(n, dtype="float64", fft="scipy", friction=True, adhesion=False):
     "n, dtype, fft, friction, adhesion",
     [(256, "float64", "scipy", True, False), (512, "float64", "scipy", True, False),
      (256, "float32", "scipy", False, False), (100, "float64", "warp", True, False),
-     (256, "float64", "scipy", True, True), (128, "float32", "scipy", False, True)],
+     (256, "float64", "scipy", True, True), (128, "float32", "scipy", False, True),
+     pytest.param(256, "float64", "fftw", True, False, marks=NEEDS_FFTW),
+     pytest.param(256, "float32", "fftw", False, True, marks=NEEDS_FFTW)],
 )
 def test_estimate_matches_what_is_allocated(n, dtype, fft, friction, adhesion):
     """estimate_bytes within 30 % of the Warp memory the objects hold (the brief's bound: the
@@ -156,7 +160,7 @@ def test_setup_peak_on_the_host(monkeypatch):
         assert on_cpu >= peak
 
 
-@pytest.mark.parametrize("backend", ["scipy", "warp"])
+@pytest.mark.parametrize("backend", [pytest.param("fftw", marks=NEEDS_FFTW), "scipy", "warp"])
 def test_host_transform_temporaries(backend):
     """What one host transform of FFTBackend.influence_spectra holds beyond its input
     (tracemalloc): at most ``HOST_FFT_SPECTRA`` complex128 spectra, and not less than 3/4 of it

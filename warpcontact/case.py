@@ -53,9 +53,10 @@ ADHESION_KEYS = {"smc": ("law", "sigma_max", "tau_max", "delta_n", "delta_t"), "
 
 PROFILES = ("sphere", "paraboloid")
 DTYPES = ("float64", "float32")
-FFT_BACKENDS = ("auto", "scipy", "cupy", "warp")
+#: FFT backends by name (see warpcontact.fft)
+FFT_BACKENDS = ("auto", "fftw", "scipy", "cupy", "warp")
 #: FFT backends that run only on one kind of device (see warpcontact.fft).
-FFT_DEVICE_KIND = {"scipy": "cpu", "cupy": "cuda"}
+FFT_DEVICE_KIND = {"fftw": "cpu", "scipy": "cpu", "cupy": "cuda"}
 #: Default relative tolerance of the conjugate-gradient solves, per dtype.
 DEFAULT_TOL = {"float64": 1e-10, "float32": 1e-5}
 #: Largest accepted tolerance.

@@ -13,6 +13,7 @@ import sys
 from pathlib import Path
 
 from . import interrupts
+from .case import FFT_BACKENDS
 from .errors import ConvergenceError, InputError, NonFiniteError
 from .progress import Progress, end_line, write_above
 
@@ -33,7 +34,7 @@ def _common(p):
     p.add_argument("--out", required=True, help="output folder (created if needed)")
     p.add_argument("--device", help="override [solver] device: cpu, cuda, cuda:N")
     p.add_argument("--dtype", choices=("float64", "float32"), help="override [solver] dtype")
-    p.add_argument("--fft", choices=("auto", "scipy", "cupy", "warp"), help="override [solver] fft")
+    p.add_argument("--fft", choices=FFT_BACKENDS, help="override [solver] fft")
     p.add_argument("--quiet", action="store_true", help="no progress output")
 
 

@@ -21,6 +21,7 @@ from pathlib import Path
 
 import numpy as np
 
+from .case import FFT_BACKENDS
 from .errors import InputError
 
 EXAMPLE_FIGURE = """example:
@@ -56,7 +57,7 @@ def add_parser(sub):
     p.add_argument("--out", required=True, help="output folder for the PNG files (created if needed)")
     p.add_argument("--device", help="with a case file: override [solver] device: cpu, cuda, cuda:N")
     p.add_argument("--dtype", choices=("float64", "float32"), help="with a case file: override [solver] dtype")
-    p.add_argument("--fft", choices=("auto", "scipy", "cupy", "warp"), help="with a case file: override [solver] fft")
+    p.add_argument("--fft", choices=FFT_BACKENDS, help="with a case file: override [solver] fft")
     p.add_argument("--state", type=int, default=-1,
                    help="state of the path to draw, from 0; negative counts from the end (default -1, the last)")
     p.add_argument("--dpi", type=int, default=150, help="resolution of the PNG files (default 150)")

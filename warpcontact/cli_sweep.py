@@ -18,6 +18,8 @@ from __future__ import annotations
 import argparse
 import sys
 
+from .case import FFT_BACKENDS
+
 EXIT_NOT_CONVERGED = 3
 EXIT_INTERRUPTED = 130
 
@@ -56,7 +58,7 @@ def add_parser(sub):
     p.add_argument("--out", required=True, help="output folder (created if needed; reused to resume)")
     p.add_argument("--device", help="override [solver] device of every case: cpu, cuda, cuda:N")
     p.add_argument("--dtype", choices=("float64", "float32"), help="override [solver] dtype of every case")
-    p.add_argument("--fft", choices=("auto", "scipy", "cupy", "warp"), help="override [solver] fft of every case")
+    p.add_argument("--fft", choices=FFT_BACKENDS, help="override [solver] fft of every case")
     p.add_argument("--quiet", action="store_true", help="no progress lines (warnings and errors are still printed)")
     p.set_defaults(func=cmd_sweep)
     return p

@@ -22,7 +22,8 @@ The estimate is counted from the allocations in the code, not fitted:
   2 + 3 x DEPTH scalars.
 - The FFT library's temporaries, an allowance (``FFT_TEMPORARY_SPECTRA``): scipy on the
   CPU allocates the row pass's (n, n + 1) output of the forward transform and the (n, 2n) output
-  of the inverse's last pass, one spectrum;
+  of the inverse's last pass, one spectrum; FFTW transforms in place and needs its plans only
+  (``FFTW_PLAN_BYTES``);
   the cupy backend's cuFFT plans share one work area, allocated once (``CupyFFT.work_bytes``),
   allowed ``cufft_work_spectra(n)`` spectra (one, or up to about nine where cuFFT falls back to
   Bluestein's algorithm); Warp's tile_fft needs none beyond its work buffers (one (n, n) field
@@ -74,7 +75,11 @@ HISTORY_RECORDS = 3
 #: with two threads, 0.20 MB more per thread with four
 SPLIT_RECORD_BYTES = 320 * 1024
 #: library temporaries during a transform, in spectra of the backend's shape (see module docstring)
-FFT_TEMPORARY_SPECTRA = {"scipy": 1.0, "warp": 0.0}  # cupy: cufft_work_spectra(n)
+FFT_TEMPORARY_SPECTRA = {"fftw": 0.0, "scipy": 1.0, "warp": 0.0}
+#: FFTW's plans (twiddles, buffers) and OpenMP threads for the three spectra of an operator: the
+#: process's resident memory grew 0.9-1.5 MB when they were made and run, n = 256 ... 2048, float64
+#: and float32, 2 threads (the transforms are in place: no temporaries of the grid's size)
+FFTW_PLAN_BYTES = 2 * 2**20  # cupy: cufft_work_spectra(n)
 
 
 def _largest_prime_factor(m: int) -> int:
@@ -110,7 +115,7 @@ INFLUENCE_BLOCK_ARRAYS = 16
 #: rfft2 2.01 in float64 and float32; the warp backend's embedding, numpy's rfft2 and the transposed
 #: copy 4.25 and 3.50). The cupy backend transforms on the device: only the float32 cast of one
 #: array on the host.
-HOST_FFT_SPECTRA = {"scipy": 2.1, "warp": 4.5}
+HOST_FFT_SPECTRA = {"fftw": 2.1, "scipy": 2.1, "warp": 4.5}
 
 
 def _kind(device_kind) -> str:
@@ -123,14 +128,14 @@ def _kind(device_kind) -> str:
 
 
 def _resolve_fft(fft: str, kind: str) -> str:
-    if fft not in ("auto", "scipy", "cupy", "warp"):
-        raise InputError("solver.fft", f"unknown FFT backend {fft!r}; choose one of auto, scipy, cupy, warp")
+    from .fft import BACKENDS, cupy_backend, fftw_backend
+
+    if fft not in BACKENDS:
+        raise InputError("solver.fft", f"unknown FFT backend {fft!r}; choose one of {', '.join(BACKENDS)}")
     if fft != "auto":
         return fft
     if kind == "cpu":
-        return "scipy"
-    from .fft import cupy_backend
-
+        return "fftw" if fftw_backend.available() else "scipy"
     return "cupy" if cupy_backend.available() else "warp"
 
 
@@ -207,7 +212,9 @@ def breakdown(n: int, dtype="float64", device_kind="cpu", friction: bool = True,
     spectrum = spectral_entries(n, fft) * cplx
     spectra = N_INFLUENCE_SPECTRA * spectral_entries(n, fft) * real + N_SPECTRAL_BUFFERS * spectrum
     fft_work = n * (2 * n) * real + cells * real  # scipy: the forward pass's padded rows, the kept output
-    if fft == "warp":
+    if fft == "fftw":  # the padded rows in, the (n, 2n) rows out
+        fft_work = 2 * n * (2 * n) * real
+    elif fft == "warp":
         half = _padded_length(n) // 2 + 1
         fft_work = spectrum + n * half * cplx + half * real + 2 * cells * real
     elif fft == "cupy":
@@ -227,6 +234,8 @@ def breakdown(n: int, dtype="float64", device_kind="cpu", friction: bool = True,
     arrays = spectra + fft_work + fields + scalars
     allowance = cufft_work_spectra(n) if fft == "cupy" else FFT_TEMPORARY_SPECTRA[fft]
     fft_temporaries = int(math.ceil(allowance * spectrum))
+    if fft == "fftw":
+        fft_temporaries = FFTW_PLAN_BYTES
     if fft == "warp" and kind == "cuda":
         fft_temporaries = cells * real
     host_temporaries = 0

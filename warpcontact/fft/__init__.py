@@ -3,7 +3,8 @@
 ========  ==========  =====================================================================
 name      devices     what
 ========  ==========  =====================================================================
-scipy     cpu         scipy.fft, real-to-complex, worker threads (default on CPU)
+fftw      cpu         FFTW through pyFFTW (optional extra), the scipy layout (default on CPU if installed)
+scipy     cpu         scipy.fft, real-to-complex, worker threads (default on CPU without pyFFTW)
 cupy      cuda        cuFFT through CuPy, zero-copy via DLPack (default on CUDA if installed)
 warp      cpu, cuda   Warp ``tile_fft``: no dependency beyond Warp (default on CUDA without CuPy)
 ========  ==========  =====================================================================
@@ -13,17 +14,23 @@ from __future__ import annotations
 
 import warp as wp
 
+from ..case import FFT_BACKENDS as BACKENDS
+from ..case import FFT_DEVICE_KIND
 from ..errors import InputError
 from .base import FFTBackend
 
-BACKENDS = ("auto", "scipy", "cupy", "warp")
+#: what installs the backends that are optional extras
+OPTIONAL = {"fftw": "pyFFTW is not installed: pip install 'warpcontact[fftw]'",
+            "cupy": "CuPy is not installed: pip install 'warpcontact[gpu]'"}
 
 
 def available_backends(device) -> list[str]:
     """Names of the backends that can run on ``device`` here."""
     device = wp.get_device(device)
     if device.is_cpu:
-        return ["scipy", "warp"]
+        from . import fftw_backend
+
+        return (["fftw"] if fftw_backend.available() else []) + ["scipy", "warp"]
     from . import cupy_backend
 
     return (["cupy"] if cupy_backend.available() else []) + ["warp"]
@@ -37,9 +44,16 @@ def make_fft(name: str, ny: int, nx: int, device, dtype) -> FFTBackend:
     if name == "auto":
         name = available_backends(device)[0]
     if name not in available_backends(device):
+        kind = "cpu" if device.is_cpu else "cuda"
+        hint = f" ({OPTIONAL[name]})" if FFT_DEVICE_KIND.get(name) == kind and name in OPTIONAL else ""
         raise InputError(
-            "solver.fft", f"backend {name!r} is not available on {device}; available: {available_backends(device)}"
+            "solver.fft",
+            f"backend {name!r} is not available on {device}{hint}; available: {available_backends(device)}",
         )
+    if name == "fftw":
+        from .fftw_backend import FFTWBackend
+
+        return FFTWBackend(ny, nx, device, dtype)
     if name == "scipy":
         from .scipy_backend import ScipyFFT
 
