@@ -5,6 +5,7 @@ convolutions are compared entry by entry. Without pyFFTW these tests are skipped
 in pytest's summary (the test extra installs it: CI runs them).
 """
 
+import json
 import os
 import subprocess
 import sys
@@ -115,3 +116,79 @@ def test_asking_for_fftw_without_pyfftw_says_how_to_install(monkeypatch):
         make_fft("fftw", 8, 8, "cpu", wp.float64)
     assert e.value.key == "solver.fft" and "pip install 'warpcontact[fftw]'" in str(e.value), str(e.value)
     assert make_fft("auto", 8, 8, "cpu", wp.float64).name == "scipy"
+
+
+def _measured_backend(n, monkeypatch, wisdom_file):
+    monkeypatch.setenv("WARPCONTACT_FFTW_WISDOM", str(wisdom_file))
+    monkeypatch.setattr(fftw_backend, "_wisdom_loaded", False)
+    return fftw_backend.FFTWBackend(n, n, "cpu", wp.float64, measure=True)
+
+
+def test_measured_plans_leave_the_arrays_alone_and_keep_their_wisdom(monkeypatch, tmp_path):
+    """FFTW_MEASURE runs transforms on the arrays it plans for: the backend measures on scratch
+    arrays, so a field already in the padded input and a spectrum already computed survive the
+    planning, and the results equal the estimated plans' to rounding. The wisdom goes to the kept
+    file, which a new process loads: it then plans from wisdom alone (FFTW_WISDOM_ONLY fails
+    without it)."""
+    n, wisdom = 48, tmp_path / "wisdom.json"
+    measured = _measured_backend(n, monkeypatch, wisdom)
+    estimated = fftw_backend.FFTWBackend(n, n, "cpu", wp.float64, measure=False)
+    field = _field(n, n, seed=3)
+    results = []
+    for backend in (measured, estimated):
+        s = backend.alloc_spectra(1)[0]
+        view = backend._complex_view(s)
+        view[...] = 1.0 + 2.0j  # what planning on this array would overwrite
+        backend.padded_input.numpy()[:n, :n] = field
+        before = backend.padded_input.numpy().copy()
+        backend._plans_for(s)
+        assert np.array_equal(backend.padded_input.numpy(), before) and np.all(view == 1.0 + 2.0j)
+        backend.transform_input(s)
+        spectrum = view.copy()
+        backend.transform_to_output(s)
+        results.append((spectrum, backend.padded_output.numpy()[:n, :n] * float(backend.output_scale)))
+    assert np.abs(results[0][0] - results[1][0]).max() < TOL[wp.float64] * np.abs(results[1][0]).max()
+    assert np.abs(results[0][1] - field).max() < TOL[wp.float64]
+    assert wisdom.exists()
+
+    code = f"""
+import pyfftw, warp as wp
+from warpcontact.fft import fftw_backend
+b = fftw_backend.FFTWBackend({n}, {n}, "cpu", wp.float64)
+arrays = (b._rows, b._complex_view(b.alloc_spectra(1)[0]), b._output, b.workers)
+try:
+    fftw_backend.FFTWPlans(*arrays, ("FFTW_MEASURE", "FFTW_WISDOM_ONLY"))
+    print("without wisdom: planned")
+except RuntimeError:
+    print("without wisdom: refused")
+fftw_backend._load_wisdom()
+fftw_backend.FFTWPlans(*arrays, ("FFTW_MEASURE", "FFTW_WISDOM_ONLY"))
+print("with the kept wisdom: planned")
+"""
+    env = {**os.environ, "WARPCONTACT_FFTW_WISDOM": str(wisdom)}
+    out = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True)
+    assert out.returncode == 0, out.stderr[-2000:]
+    assert out.stdout.split("\n")[-3:-1] == ["without wisdom: refused", "with the kept wisdom: planned"], out.stdout
+
+
+def test_a_damaged_wisdom_file_is_measured_again(monkeypatch, tmp_path):
+    wisdom = tmp_path / "wisdom.json"
+    wisdom.write_text("{not json")
+    backend = _measured_backend(40, monkeypatch, wisdom)
+    backend._plans_for(backend.alloc_spectra(1)[0])
+    assert isinstance(json.loads(wisdom.read_text()), list)
+
+
+def test_no_wisdom_file_when_switched_off(monkeypatch, tmp_path):
+    monkeypatch.setenv("WARPCONTACT_FFTW_WISDOM", "")
+    monkeypatch.setattr(fftw_backend, "_wisdom_loaded", False)
+    monkeypatch.setattr(fftw_backend, "WISDOM_FOLDER", tmp_path)
+    assert fftw_backend.wisdom_path() is None
+    backend = fftw_backend.FFTWBackend(40, 40, "cpu", wp.float64, measure=True)
+    backend._plans_for(backend.alloc_spectra(1)[0])
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_large_grids_get_measured_plans():
+    assert not fftw_backend.FFTWBackend(256, 256, "cpu", wp.float64).measure
+    assert fftw_backend.FFTWBackend(300, 300, "cpu", wp.float64).measure

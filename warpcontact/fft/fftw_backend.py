@@ -7,15 +7,21 @@ columns in place and the ny kept rows straight into the (ny, 2 nx) ``padded_outp
 half the solver kernels read, unnormalised (``output_scale`` = 1 / (4 nx ny)). No temporary
 arrays and no copies between the passes, which scipy.fft makes (it returns new arrays).
 
-Plans (``FFTW_ESTIMATE``: planning costs milliseconds, and ``FFTW_MEASURE`` would overwrite the
-arrays it plans on) are made on first use for each spectrum array the backend meets (an operator
-has three) and kept. Optional: ``pip install warpcontact[fftw]``. pyFFTW is BSD-licensed, but its
+Plans are made on first use for each spectrum array the backend meets (an operator has three)
+and kept: measured (``FFTW_MEASURE``) from ``MEASURE_FROM_CELLS`` cells on, where they take
+1.2-1.5x less time than estimated ones, else estimated (``FFTW_ESTIMATE``, milliseconds to make). What the
+measuring learns (FFTW's wisdom) is kept in a file per machine (:func:`wisdom_path`), so a grid
+size is measured once per machine, not once per run. Optional: ``pip install warpcontact[fftw]``. pyFFTW is BSD-licensed, but its
 wheels bundle FFTW, which is GPL-2.0-or-later: see the README.
 """
 
 from __future__ import annotations
 
+import hashlib
+import json
 import os
+import platform
+from pathlib import Path
 
 # pyFFTW's wheels run FFTW's threads under GNU OpenMP, whose idle threads spin for a while after
 # each transform (OMP_WAIT_POLICY unset): on 2 cores they took a core from the solver's passes
@@ -39,14 +45,71 @@ def available() -> bool:
     return True
 
 
-class FFTWPlans:
-    """The four transforms of one spectrum: rows and columns, forward and inverse."""
+#: grids of at least this many cells get measured plans (``FFTW_MEASURE``), smaller ones estimated
+#: plans. The pair of an iteration, estimated -> measured, 2 cores, float64 (``bench/fftw_planning.py``,
+#: one run; planning in brackets): n = 512 4.64 -> 3.88 ms (0.89 s), 1024 30.8 -> 20.9 ms (1.8 s),
+#: 2048 216 -> 160 ms (4.9 s); at 256 1.07 -> 0.92 ms (0.61 s) and 128 0.25 -> 0.17 ms (0.33 s), too
+#: little for a first run's planning
+MEASURE_FROM_CELLS = 300 * 300
+#: where measured plans are kept between runs (FFTW's "wisdom", a text per precision), one file per
+#: machine; the environment variable WARPCONTACT_FFTW_WISDOM names another file, or "" for none
+WISDOM_FOLDER = Path(os.environ.get("XDG_CACHE_HOME", Path.home() / ".cache")) / "warpcontact"
+_wisdom_loaded = False
 
-    def __init__(self, rows_in: np.ndarray, spectrum: np.ndarray, rows_out: np.ndarray, threads: int):
+
+def wisdom_path() -> Path | None:
+    """The file this machine's FFTW wisdom is kept in (None: not kept)."""
+    chosen = os.environ.get("WARPCONTACT_FFTW_WISDOM")
+    if chosen is not None:
+        return Path(chosen) if chosen else None
+    import pyfftw
+
+    machine = f"{platform.node()} {platform.machine()} {platform.processor()} {os.cpu_count()} {pyfftw.__version__}"
+    return WISDOM_FOLDER / f"fftw-wisdom-{hashlib.sha1(machine.encode()).hexdigest()[:12]}.json"
+
+
+def _load_wisdom():
+    """Import the kept wisdom, once per process (an unreadable file counts as none)."""
+    global _wisdom_loaded
+    if _wisdom_loaded:
+        return
+    _wisdom_loaded = True
+    path = wisdom_path()
+    if path is None or not path.exists():
+        return
+    import pyfftw
+
+    try:
+        texts = json.loads(path.read_text())
+        pyfftw.import_wisdom(tuple(t.encode("ascii") for t in texts))
+    except (OSError, ValueError, TypeError):
+        pass  # measured again and written anew
+
+
+def _save_wisdom():
+    """Write all wisdom of this process to the kept file (atomically; a failure costs only time)."""
+    path = wisdom_path()
+    if path is None:
+        return
+    import pyfftw
+
+    from ..results import atomic_write_bytes
+
+    try:
+        atomic_write_bytes(path, json.dumps([t.decode("ascii") for t in pyfftw.export_wisdom()]).encode())
+    except OSError:
+        pass
+
+
+class FFTWPlans:
+    """The four transforms of one spectrum: rows and columns, forward and inverse, made with the
+    planner ``flags``."""
+
+    def __init__(self, rows_in: np.ndarray, spectrum: np.ndarray, rows_out: np.ndarray, threads: int, flags=()):
         import pyfftw
 
         ny = rows_in.shape[0]
-        common = dict(flags=("FFTW_ESTIMATE",), threads=threads)
+        common = dict(flags=tuple(flags) or ("FFTW_ESTIMATE",), threads=threads)
         self.spectrum = spectrum
         self.rows_forward = pyfftw.FFTW(rows_in, spectrum[:ny], axes=(1,), direction="FFTW_FORWARD", **common)
         self.columns_forward = pyfftw.FFTW(spectrum, spectrum, axes=(0,), direction="FFTW_FORWARD", **common)
@@ -56,22 +119,47 @@ class FFTWPlans:
         self.rows_inverse = pyfftw.FFTW(spectrum[:ny], rows_out, axes=(1,), direction="FFTW_BACKWARD",
                                         normalise_idft=False, **common)
 
+    @staticmethod
+    def measured(rows_in: np.ndarray, spectrum: np.ndarray, rows_out: np.ndarray, threads: int) -> "FFTWPlans":
+        """Measured plans for these arrays, without touching them: from wisdom (kept on disk,
+        :func:`wisdom_path`) when there is some for their layout; else measured first on scratch
+        arrays of the same layout (``FFTW_MEASURE`` runs the transforms on the arrays it plans
+        for) and the wisdom written back."""
+        import pyfftw
+
+        _load_wisdom()
+        wise = ("FFTW_MEASURE", "FFTW_WISDOM_ONLY")
+        try:
+            return FFTWPlans(rows_in, spectrum, rows_out, threads, wise)
+        except RuntimeError:  # no wisdom for this layout yet
+            pass
+        scratch = [pyfftw.empty_aligned(a.shape, a.dtype) for a in (rows_in, spectrum, rows_out)]
+        FFTWPlans(*scratch, threads, ("FFTW_MEASURE",))
+        _save_wisdom()
+        try:
+            return FFTWPlans(rows_in, spectrum, rows_out, threads, wise)
+        except RuntimeError:  # an alignment the scratch arrays did not have: estimate
+            return FFTWPlans(rows_in, spectrum, rows_out, threads)
+
 
 class FFTWBackend(ScipyFFT):
     name = "fftw"
 
-    def __init__(self, ny, nx, device, dtype, workers: int | None = None):
+    def __init__(self, ny, nx, device, dtype, workers: int | None = None, measure: bool | None = None):
         super().__init__(ny, nx, device, dtype, workers)
         #: the (ny, 2 nx) unnormalised inverse rows; the solver kernels read the left half
         self.padded_output = wp.zeros((ny, 2 * nx), dtype=dtype, device=self.device)
         self._output = self.padded_output.numpy()
         self.output_scale = dtype(1.0 / (4 * nx * ny))
+        #: measured plans (default: from MEASURE_FROM_CELLS cells on), else estimated
+        self.measure = ny * nx >= MEASURE_FROM_CELLS if measure is None else bool(measure)
         self._plans: dict[int, FFTWPlans] = {}
 
     def _plans_for(self, spectrum: wp.array2d) -> FFTWPlans:
         plans = self._plans.get(spectrum.ptr)
         if plans is None or plans.spectrum.shape != spectrum.shape:
-            plans = FFTWPlans(self._rows, self._complex_view(spectrum), self._output, self.workers)
+            arrays = (self._rows, self._complex_view(spectrum), self._output, self.workers)
+            plans = FFTWPlans.measured(*arrays) if self.measure else FFTWPlans(*arrays)
             self._plans[spectrum.ptr] = plans
         return plans
 
