@@ -10,6 +10,7 @@ from warpcontact.friction import TaborVonMises
 from warpcontact.geometry import Grid, Sphere
 from warpcontact.kernels import normal as nk
 from warpcontact.kernels import spectral
+from warpcontact.kernels import tangential as tk
 from warpcontact.launch import LaunchCache, ReductionLaunch, Rows, Sums
 from warpcontact.materials import PAPER_PAIR
 from warpcontact.model import ContactModel
@@ -86,6 +87,33 @@ def test_split_rows_of_a_stack_and_of_a_spectrum():
         out.append(spec.numpy())
     assert np.array_equal(out[0], out[1])
     assert not np.array_equal(out[0], spectrum)
+
+
+@pytest.mark.parametrize("workers", [2, 3])
+def test_split_cells_equal_the_whole_launch(workers):
+    """An elementwise kernel of one thread per cell (the tangential direction: stick, slip and
+    out-of-contact cells, a non-zero conjugation factor) split by rows of a (23, 17) grid equals
+    the whole launch bit for bit."""
+    rng = np.random.default_rng(11)
+    ny, nx = 23, 17
+    n = ny * nx
+    fields = [rng.standard_normal(n) for _ in range(6)]  # grad x/y, shear x/y, old direction x/y
+    limit = rng.random(n) + 0.5
+    status = rng.integers(0, 3, n).astype(np.int32)  # OUT, STICK, SLIP
+    sums = np.arange(tk.N_SUMS, dtype=np.float64) + 1.0
+    scalars = np.arange(tk.N_SCALARS, dtype=np.float64) + 1.0
+    out = []
+    for cache in (_cache(1), _cache(workers)):
+        gx, gy, qx, qy, tx, ty = (wp.array(a, dtype=wp.float64, device="cpu") for a in fields)
+        inputs = [Rows(gx), Rows(gy), Rows(qx), Rows(qy), Rows(wp.array(limit, dtype=wp.float64, device="cpu")),
+                  Rows(wp.array(status, dtype=wp.int32, device="cpu")), wp.float64(2.0),
+                  wp.array(sums, dtype=wp.float64, device="cpu"), wp.array(scalars, dtype=wp.float64, device="cpu")]
+        cache.launch_cells(tk.tangential_direction, (ny, nx), inputs, [Rows(tx), Rows(ty)])
+        out.append((tx.numpy(), ty.numpy()))
+        if cache.workers > 1:
+            assert len(cache._splits) == 1
+    assert np.array_equal(out[0][0], out[1][0]) and np.array_equal(out[0][1], out[1][1])
+    assert not np.array_equal(out[0][0], fields[4])
 
 
 def test_small_launches_run_whole():

@@ -183,6 +183,16 @@ class LaunchCache:
             self._launches.move_to_end(key)
         cmd.launch()
 
+    def launch_cells(self, kernel, shape, inputs, outputs=()):
+        """An elementwise kernel of one thread per entry (``i = wp.tid()``) over the entries of a
+        (rows, columns) ``shape``, row-major; on the CPU split by rows over its threads
+        (:meth:`split`; the part of rows [r0, r1) runs (r1 - r0) * columns threads)."""
+        rows, columns = shape
+        if self.device.is_cpu:
+            self.split(kernel, shape, lambda r0, r1: ((r1 - r0) * columns, inputs), inputs, outputs)
+        else:
+            self.launch(kernel, rows * columns, inputs, outputs)
+
     def launch_rows(self, kernel, shape, inputs, outputs=()):
         """An elementwise kernel over a (rows, columns) ``shape``, launched over (rows, chunks):
         thread (i, c) does the entries j of row i from ``c * per`` to ``(c + 1) * per``, ``per``

@@ -56,6 +56,11 @@ class ContactModel:
         """``wp.launch`` on the model's device, recorded the first time and replayed after."""
         self.launches.launch(kernel, dim, inputs, outputs)
 
+    def launch_cells(self, kernel, inputs, outputs=()):
+        """An elementwise kernel of one thread per cell; on the CPU, with its fields marked
+        :class:`~warpcontact.launch.Rows`, split by rows over the CPU's threads."""
+        self.launches.launch_cells(kernel, self.grid.shape, inputs, outputs)
+
     def launch_reduce(self, kernel, inputs, outputs):
         """A reducing kernel (kernels/reduce.py) over all cells: ``inputs``, then the launch shape's
         arguments (n, outer, inner, per), then ``outputs``. On the CPU, with its fields marked

@@ -60,7 +60,7 @@ class TangentialSolver(ProjectedCG):
         def start():
             self.dir_x.zero_()  # no leftover from an earlier (possibly failed) solve
             self.dir_y.zero_()
-            m.launch(tk.tangential_classify, dim=m.n_cells, inputs=[limit], outputs=[qx, qy, st])
+            m.launch_cells(tk.tangential_classify, [limit], [qx, qy, st])
 
         def gradient():
             m.operator.tangential(state.shear_x, state.shear_y, state.disp_x, state.disp_y)
@@ -70,7 +70,8 @@ class TangentialSolver(ProjectedCG):
         def body():
             self.sums.zero_()
             gradient()
-            m.launch(tk.tangential_direction, dim=m.n_cells, inputs=[gx, gy, qx, qy, limit, st, self.stiffness, self.sums, self.scalars], outputs=[tx, ty])
+            m.launch_cells(tk.tangential_direction, [gx, gy, qx, qy, limit, st, self.stiffness, self.sums, self.scalars],
+                           [tx, ty])
             m.operator.tangential(self.dir_x, self.dir_y, self.resp_x, self.resp_y)
             m.launch_reduce(tk.tangential_step_sums, [gx, gy, tx, ty, rx, ry, qx, qy, limit, st], [sums])
             m.launch_reduce(tk.tangential_update, [gx, gy, tx, ty, limit, self.slip_step, self.settings], [qx, qy, st, sums])
