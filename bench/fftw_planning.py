@@ -64,7 +64,8 @@ def main():
             b._plans_for(s)
             row[measure] = (time.perf_counter() - t0, pair_ms(b, s, repeats))
         (pe, te), (pm, tm) = row[False], row[True]
-        print(f"{n:>6} {row['scipy']:>9.3f} {pe:>17.3f} {te:>8.3f} {pm:>16.3f} {tm:>8.3f} {te / tm:>16.2f}x", flush=True)
+        print(f"{n:>6} {row['scipy']:>9.3f} {pe:>17.3f} {te:>8.3f} {pm:>16.3f} {tm:>8.3f} {te / tm:>16.2f}x",
+              flush=True)
 
 
 if __name__ == "__main__":

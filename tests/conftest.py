@@ -13,8 +13,9 @@ DEVICES = ["cpu"] + [f"cuda:{i}" for i in range(wp.get_cuda_device_count())]
 
 #: for the FFTW backend's cases: skipped, with the reason in the summary, where pyFFTW is missing
 #: (the test extra installs it)
-NEEDS_FFTW = pytest.mark.skipif(not fftw_backend.available(),
-                                reason="pyFFTW is not installed (pip install 'warpcontact[fftw]'): fftw backend untested")
+NEEDS_FFTW = pytest.mark.skipif(
+    not fftw_backend.available(),
+    reason="pyFFTW is not installed (pip install 'warpcontact[fftw]'): fftw backend untested")
 
 
 def pytest_addoption(parser):

@@ -9,10 +9,12 @@ arrays and no copies between the passes, which scipy.fft makes (it returns new a
 
 Plans are made on first use for each spectrum array the backend meets (an operator has three)
 and kept: measured (``FFTW_MEASURE``) from ``MEASURE_FROM_CELLS`` cells on, where they take
-1.2-1.5x less time than estimated ones, else estimated (``FFTW_ESTIMATE``, milliseconds to make). What the
-measuring learns (FFTW's wisdom) is kept in a file per machine (:func:`wisdom_path`), so a grid
-size is measured once per machine, not once per run. Optional: ``pip install warpcontact[fftw]``. pyFFTW is BSD-licensed, but its
-wheels bundle FFTW, which is GPL-2.0-or-later: see the README.
+1.2-1.5x less time than estimated ones, else estimated (``FFTW_ESTIMATE``, milliseconds to
+make). What the measuring learns (FFTW's wisdom) is kept in a file per machine
+(:func:`wisdom_path`), so a grid size is measured once per machine, not once per run.
+
+Optional: ``pip install warpcontact[fftw]``. pyFFTW is BSD-licensed, but its wheels bundle FFTW,
+which is GPL-2.0-or-later: see the README.
 """
 
 from __future__ import annotations

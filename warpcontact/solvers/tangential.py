@@ -70,8 +70,8 @@ class TangentialSolver(ProjectedCG):
         def body():
             self.sums.zero_()
             gradient()
-            m.launch_cells(tk.tangential_direction, [gx, gy, qx, qy, limit, st, self.stiffness, self.sums, self.scalars],
-                           [tx, ty])
+            m.launch_cells(tk.tangential_direction,
+                           [gx, gy, qx, qy, limit, st, self.stiffness, self.sums, self.scalars], [tx, ty])
             m.operator.tangential(self.dir_x, self.dir_y, self.resp_x, self.resp_y)
             m.launch_reduce(tk.tangential_step_sums, [gx, gy, tx, ty, rx, ry, qx, qy, limit, st], [sums])
             m.launch_reduce(tk.tangential_update, [gx, gy, tx, ty, limit, self.slip_step, self.settings], [qx, qy, st, sums])
