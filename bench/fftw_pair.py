@@ -1,7 +1,9 @@
 """FFTW (through pyFFTW) against scipy.fft on the CPU, for the pruned DC-FFT transform pair of the
 scipy backend (rows of the N data rows, columns in place, and back), copies included.
 
-Not a dependency of warpcontact: the README reports this measurement for the choice of library.
+The first measurement behind the fftw backend (warpcontact/fft/fftw_backend.py), kept as it was
+run: estimated and measured plans made here by hand. The backend's own pair, with its planning,
+against scipy's: bench/fftw_planning.py.
     pip install pyfftw && N=512 python bench/fftw_pair.py
 """
 import os
