@@ -192,3 +192,12 @@ def test_no_wisdom_file_when_switched_off(monkeypatch, tmp_path):
 def test_large_grids_get_measured_plans():
     assert not fftw_backend.FFTWBackend(256, 256, "cpu", wp.float64).measure
     assert fftw_backend.FFTWBackend(300, 300, "cpu", wp.float64).measure
+
+
+def test_the_wisdom_file_is_per_machine_in_the_cache_folder(monkeypatch, tmp_path):
+    monkeypatch.delenv("WARPCONTACT_FFTW_WISDOM", raising=False)
+    monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path))
+    path = fftw_backend.wisdom_path()
+    assert path.parent == tmp_path / "warpcontact" and path.name.startswith("fftw-wisdom-")
+    monkeypatch.setattr(fftw_backend, "WISDOM_FOLDER", tmp_path / "elsewhere")
+    assert fftw_backend.wisdom_path().parent == tmp_path / "elsewhere"

@@ -27,7 +27,7 @@ from pathlib import Path
 
 # pyFFTW's wheels run FFTW's threads under GNU OpenMP, whose idle threads spin for a while after
 # each transform (OMP_WAIT_POLICY unset): on 2 cores they took a core from the solver's passes
-# that follow (n = 512: normal_update 1.5 -> 2.7 ms, a Hertz solve 0.68 -> 0.90 s). Passive
+# that follow (n = 512: normal_update 1.53 -> 2.70 ms, a Hertz solve 0.67-0.69 -> 0.86-0.95 s). Passive
 # waiting, unless the user chose otherwise; read once, when OpenMP starts (at pyFFTW's import).
 os.environ.setdefault("OMP_WAIT_POLICY", "PASSIVE")
 
@@ -53,21 +53,28 @@ def available() -> bool:
 #: 2048 216 -> 160 ms (4.9 s); at 256 1.07 -> 0.92 ms (0.61 s) and 128 0.25 -> 0.17 ms (0.33 s), too
 #: little for a first run's planning
 MEASURE_FROM_CELLS = 300 * 300
-#: where measured plans are kept between runs (FFTW's "wisdom", a text per precision), one file per
-#: machine; the environment variable WARPCONTACT_FFTW_WISDOM names another file, or "" for none
-WISDOM_FOLDER = Path(os.environ.get("XDG_CACHE_HOME", Path.home() / ".cache")) / "warpcontact"
+#: the folder measured plans are kept in between runs (FFTW's "wisdom", a text per precision), one
+#: file per machine; None: $XDG_CACHE_HOME/warpcontact or ~/.cache/warpcontact. The environment
+#: variable WARPCONTACT_FFTW_WISDOM names another file, or "" for none
+WISDOM_FOLDER: Path | None = None
 _wisdom_loaded = False
 
 
 def wisdom_path() -> Path | None:
-    """The file this machine's FFTW wisdom is kept in (None: not kept)."""
+    """The file this machine's FFTW wisdom is kept in (None: not kept, or no home folder)."""
     chosen = os.environ.get("WARPCONTACT_FFTW_WISDOM")
     if chosen is not None:
         return Path(chosen) if chosen else None
     import pyfftw
 
+    folder = WISDOM_FOLDER
+    if folder is None:
+        try:
+            folder = Path(os.environ.get("XDG_CACHE_HOME") or Path.home() / ".cache") / "warpcontact"
+        except RuntimeError:  # no home folder to be found
+            return None
     machine = f"{platform.node()} {platform.machine()} {platform.processor()} {os.cpu_count()} {pyfftw.__version__}"
-    return WISDOM_FOLDER / f"fftw-wisdom-{hashlib.sha1(machine.encode()).hexdigest()[:12]}.json"
+    return folder / f"fftw-wisdom-{hashlib.sha1(machine.encode()).hexdigest()[:12]}.json"
 
 
 def _load_wisdom():
@@ -84,7 +91,7 @@ def _load_wisdom():
     try:
         texts = json.loads(path.read_text())
         pyfftw.import_wisdom(tuple(t.encode("ascii") for t in texts))
-    except (OSError, ValueError, TypeError):
+    except (OSError, ValueError, TypeError, AttributeError):
         pass  # measured again and written anew
 
 
