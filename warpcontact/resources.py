@@ -75,11 +75,11 @@ HISTORY_RECORDS = 3
 #: with two threads, 0.20 MB more per thread with four
 SPLIT_RECORD_BYTES = 320 * 1024
 #: library temporaries during a transform, in spectra of the backend's shape (see module docstring)
-FFT_TEMPORARY_SPECTRA = {"fftw": 0.0, "scipy": 1.0, "warp": 0.0}
+FFT_TEMPORARY_SPECTRA = {"scipy": 1.0, "warp": 0.0}  # cupy: cufft_work_spectra(n); fftw: FFTW_PLAN_BYTES
 #: FFTW's plans (twiddles, buffers) and OpenMP threads for the three spectra of an operator: the
 #: process's resident memory grew 0.9-1.5 MB when they were made and run, n = 256 ... 2048, float64
 #: and float32, 2 threads (the transforms are in place: no temporaries of the grid's size)
-FFTW_PLAN_BYTES = 2 * 2**20  # cupy: cufft_work_spectra(n)
+FFTW_PLAN_BYTES = 2 * 2**20
 
 
 def _largest_prime_factor(m: int) -> int:
@@ -232,10 +232,11 @@ def breakdown(n: int, dtype="float64", device_kind="cpu", friction: bool = True,
     fields = n_fields * cells * real + states * cells * 4  # + int32 status per state
     scalars = n_scalars * real
     arrays = spectra + fft_work + fields + scalars
-    allowance = cufft_work_spectra(n) if fft == "cupy" else FFT_TEMPORARY_SPECTRA[fft]
-    fft_temporaries = int(math.ceil(allowance * spectrum))
-    if fft == "fftw":
+    if fft == "fftw":  # in place: its plans only
         fft_temporaries = FFTW_PLAN_BYTES
+    else:
+        allowance = cufft_work_spectra(n) if fft == "cupy" else FFT_TEMPORARY_SPECTRA[fft]
+        fft_temporaries = int(math.ceil(allowance * spectrum))
     if fft == "warp" and kind == "cuda":
         fft_temporaries = cells * real
     host_temporaries = 0
