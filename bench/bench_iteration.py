@@ -3,8 +3,9 @@
 For each grid size N, on the problem of bench_normal.py (paper pair, R = 10 um, delta_z = 1e-4 um,
 domain 4a):
 
-- normal: the Hertz normal solve (Polonsky-Keer) from rest (the pressure of a state allocated
-  once zeroed before each solve) as the solver runs it by default (CUDA: graphs,
+- normal: the Hertz normal solve (Polonsky-Keer, without the preconditioner: one convolution
+  per iteration, the issue's measure) from rest (the pressure of a state allocated
+  once zeroed before each solve) as the solver runs it by default otherwise (CUDA: graphs,
   one convolution per iteration, pruned cuFFT transforms); ms per iteration; on CUDA side by side
   with the same solve in three alternatives, each differing from the default in one thing:
   "eager" (no CUDA graphs: a Python launch per kernel and per transform), "2-conv" (K p
@@ -17,6 +18,10 @@ domain 4a):
   call them; on the CPU the scipy backend's transforms, which skip the padding already), without
   the padding and cropping passes, plus one elementwise pass (a device copy of an N x N field):
   the issue's floor; ratio = normal / floor1;
+- precond: the same solve as the solver runs it by default, preconditioned (a second padded
+  transform pair per iteration: ``NormalSolver.preconditioned``): iterations, ms per iteration
+  against floor2 (two pairs and one pass), and the whole solve's time against the plain one's
+  (``solve x``: plain solve time / preconditioned solve time);
 - coupled: one load step of the coupled problem (Tabor + von Mises, k_tau = 0.8, delta_x = half
   of Mindlin's delta_x_max) from the solved normal state: its inner iterations (normal and
   tangential CG) and ms per inner iteration; with --adhesion also the SMC law;
@@ -122,7 +127,10 @@ def bench(n, device, dtype, fft, repeats, adhesion: bool, compare_up_to: int = 2
         t = best_wall_time(model.device, solve_normal, repeats)
         return info["normal"].iterations, 1e3 * t / info["normal"].iterations
 
-    row["normal_iters"], row["normal_ms"] = normal_ms(NormalSolver(model))
+    row["normal_iters"], row["normal_ms"] = normal_ms(NormalSolver(model, preconditioned=False))
+    row["precond_iters"], row["precond_ms"] = normal_ms(NormalSolver(model))
+    row["normal_solve_ms"] = row["normal_iters"] * row["normal_ms"]
+    row["precond_solve_ms"] = row["precond_iters"] * row["precond_ms"]
     law = TaborVonMises(0.8, PAPER_PAIR.softer.yield_strength)
     adh = SMC(2e7, 2e7, 5e-12, 5e-12) if adhesion else None
     solver = ContactSolver(model, law, adhesion=adh)
@@ -142,18 +150,22 @@ def bench(n, device, dtype, fft, repeats, adhesion: bool, compare_up_to: int = 2
     row["memory_MiB"] = (used_bytes(device) - (0 if device.is_cpu else base)) / 2**20
     floor_fft = unpruned_fft(model)
     if model.device.is_cuda and n <= compare_up_to:
-        row["eager_iters"], row["eager_ms"] = normal_ms(NormalSolver(model, use_graphs=False))
-        row["two_conv_iters"], row["two_conv_ms"] = normal_ms(NormalSolver(model, one_convolution=False))
-        strict = NormalSolver(model)
+        plain = {"preconditioned": False}  # the alternatives of the plain solve (normal)
+        row["eager_iters"], row["eager_ms"] = normal_ms(NormalSolver(model, use_graphs=False, **plain))
+        row["two_conv_iters"], row["two_conv_ms"] = normal_ms(NormalSolver(model, one_convolution=False, **plain))
+        strict = NormalSolver(model, **plain)
         strict.deferral = 0.0
         row["strict_iters"], row["strict_ms"] = normal_ms(strict)
         if floor_fft is not model.operator.fft:
             pruned, model.operator.fft = model.operator.fft, floor_fft
-            row["fft2d_iters"], row["fft2d_ms"] = normal_ms(NormalSolver(model))
+            row["fft2d_iters"], row["fft2d_ms"] = normal_ms(NormalSolver(model, **plain))
             model.operator.fft = pruned
     row["floor1_ms"] = floor_ms(model, 1, repeats, floor_fft)
+    row["floor2_ms"] = floor_ms(model, 2, repeats, floor_fft)
     row["floor3_ms"] = floor_ms(model, 3, repeats, floor_fft)
     row["normal_ratio"] = row["normal_ms"] / row["floor1_ms"]
+    row["precond_ratio"] = row["precond_ms"] / row["floor2_ms"]
+    row["precond_gain"] = row["normal_solve_ms"] / row["precond_solve_ms"]
     row["coupled_ratio"] = row["coupled_ms"] / row["floor3_ms"]
     kind = "cpu" if device.is_cpu else "cuda"
     row["estimate_MiB"] = resources.estimate_bytes(n, dtype, kind, True, fft, states=2, adhesion=adhesion) / 2**20
@@ -180,7 +192,7 @@ def main():
     print(f"# iteration vs FFT floor; device {device} ({name}), warp {wp.__version__}, fft {args.fft}, "
           f"{time.strftime('%Y-%m-%d')}; coupled step {'with' if args.adhesion else 'without'} adhesion")
     print(f"{'N':>6} {'dtype':>8} {'it':>5} {'ms/it':>8} {'floor1':>7} {'ratio':>6} | {'eager':>7} {'2-conv':>7} {'strict':>7} {'2-D fft':>7} | "
-          f"{'it':>6} {'turns':>5} {'ms/it':>8} {'floor3':>7} {'ratio':>6} {'step s':>8} | {'mem MiB':>8} {'est MiB':>8}")
+          f"{'pc it':>5} {'ms/it':>8} {'floor2':>7} {'ratio':>6} {'solve x':>7} | {'it':>6} {'turns':>5} {'ms/it':>8} {'floor3':>7} {'ratio':>6} {'step s':>8} | {'mem MiB':>8} {'est MiB':>8}")
     rows = []
     for n in sizes:
         for dtype in args.dtype:
@@ -188,7 +200,8 @@ def main():
             rows.append({"device": str(device), **r})
             side = " ".join(f"{r[k]:>7.3f}" if k in r else f"{'-':>7}" for k in ("eager_ms", "two_conv_ms", "strict_ms", "fft2d_ms"))
             print(f"{n:>6} {dtype:>8} {r['normal_iters']:>5} {r['normal_ms']:>8.3f} {r['floor1_ms']:>7.3f} "
-                  f"{r['normal_ratio']:>6.2f} | {side} | {r['coupled_iters']:>6} {r['coupled_turns']:>5} {r['coupled_ms']:>8.3f} "
+                  f"{r['normal_ratio']:>6.2f} | {side} | {r['precond_iters']:>5} {r['precond_ms']:>8.3f} "
+                  f"{r['floor2_ms']:>7.3f} {r['precond_ratio']:>6.2f} {r['precond_gain']:>7.2f} | {r['coupled_iters']:>6} {r['coupled_turns']:>5} {r['coupled_ms']:>8.3f} "
                   f"{r['floor3_ms']:>7.3f} {r['coupled_ratio']:>6.2f} {r['coupled_s']:>8.3f} | {r['memory_MiB']:>8.0f} "
                   f"{r['estimate_MiB']:>8.0f}" + ("" if r["coupled_converged"] else "  (coupled step not converged)"),
                   flush=True)

@@ -34,9 +34,17 @@ R, DZ = 10e-6, 1.0e-10
 A = math.sqrt(R * DZ)
 
 
-def time_warpcontact(n, device, dtype, fft, repeats, one_convolution=True):
+#: the normal solver's variants a run may time side by side (``--modes``): its keyword arguments
+MODES = {
+    "default": {},  # preconditioned, one convolution per iteration
+    "plain": {"preconditioned": False},  # Polonsky-Keer without the preconditioner
+    "two-conv": {"one_convolution": False},  # the gap recomputed (K p) at every iteration
+}
+
+
+def time_warpcontact(n, device, dtype, fft, repeats, mode="default"):
     model = ContactModel(PAPER_PAIR, Sphere(R, "paraboloid"), Grid(n, 4 * A), device=device, dtype=dtype, fft=fft)
-    solver = NormalSolver(model, one_convolution=one_convolution)
+    solver = NormalSolver(model, **MODES[mode])
     best = math.inf
     info = None
     for rep in range(repeats + 1):  # the first solve compiles and warms caches: not timed
@@ -100,8 +108,9 @@ def main():
     ap.add_argument("--repeats", type=int, default=2)
     ap.add_argument("--no-tamaas", action="store_true")
     ap.add_argument("--slippy-python", help="interpreter of a venv with slippy 0.5.2: time it side by side")
-    ap.add_argument("--modes", nargs="*", default=["default"], choices=["default", "one-conv", "two-conv"],
-                    help="normal-solver variants to time side by side: one or two convolutions per iteration")
+    ap.add_argument("--modes", nargs="*", default=["default"], choices=list(MODES),
+                    help="normal-solver variants to time side by side: the default (preconditioned), plain "
+                         "(no preconditioner), two convolutions per iteration")
     ap.add_argument("--json", help="also write the rows to this file")
     args = ap.parse_args()
     wp.config.quiet = True
@@ -126,9 +135,8 @@ def main():
         slip = time_slippy(n, args.slippy_python) if args.slippy_python else None
         for dtype in args.dtype:
             for fft, mode in [(f, md) for f in backends for md in args.modes]:
-                one_conv = {"default": True, "one-conv": True, "two-conv": False}[mode]  # the default: one
                 try:
-                    r = time_warpcontact(n, args.device, dtype, fft, args.repeats, one_conv)
+                    r = time_warpcontact(n, args.device, dtype, fft, args.repeats, mode)
                 except (ValueError, RuntimeError) as e:  # e.g. a size the tile-FFT backend cannot do
                     print(f"{n:>6} {dtype:>8} {fft:>6}  not run: {str(e).splitlines()[0][:90]}", flush=True)
                     continue

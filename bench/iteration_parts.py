@@ -117,7 +117,11 @@ def parts(n, device, dtype, cold=False, workers=None):
     # model's threads)
     p, g, t, b = (Rows(a) for a in (p, g, t, b))
     output[0] = Rows(output[0])
-    direction_in = [g, p, s._cap, s.sums, s.scalars, n]
+    direction_in = [g, p, s._cap, s.sums, s.scalars, output[0], fft.output_scale, int(s.preconditioned), n]
+    if s.preconditioned:  # what the preconditioner adds to an iteration
+        out["precondition: normal_free_gap (pad)"] = timed(lambda: m.launches.launch_rows(
+            nk.normal_free_gap, m.grid.shape, [g, p, s._cap, n], [Rows(fft.padded_input)]))
+        out["precondition: pair, 1/K, g . M g"] = timed(lambda: op.normal_padded(s.sums, nk.S_G, inverse=True))
     if fourier:
         out["normal_direction_sum (+ pad, g . t)"] = timed(lambda: m.launch_reduce(
             nk.normal_direction_sum, direction_in, [t, fft.padded_input]))
@@ -165,9 +169,10 @@ def main():
         passes = sum(v for k, v in out.items() if k.startswith("normal_"))
         exact = (out["exact gap: forward (pad + library)"] + out["spectral product alone"]
                  + out["exact gap: inverse (library + crop)"] + out["exact gap: normal_gap (reduce)"])
+        precondition = sum(v for k, v in out.items() if k.startswith("precondition"))
         threads = f" ({workers or os.cpu_count()} CPU threads)" if device.is_cpu else ""
         print(f"N = {n}{threads}: one convolution {conv:.3f} ms, the solver's passes {passes:.3f} ms, sum of an iteration "
-              f"{conv + passes:.3f} ms; an exact gap adds {exact:.3f} ms "
+              f"{conv + passes:.3f} ms; the preconditioner adds {precondition:.3f} ms, an exact gap {exact:.3f} ms "
               f"(library pair {out['library forward + inverse']:.3f} ms)")
         for k, v in out.items():
             print(f"  {k:<36} {v:8.3f} ms")

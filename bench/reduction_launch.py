@@ -80,12 +80,13 @@ def main():
         s.sums.assign([0.0, 1.0, 1.0, 0.0, 1.0] + [0.0] * (nk.N_SUMS - 5))
         cell_kernels = {
             "normal_gap": (nk.normal_gap, [st.disp_z.flatten(), b, p, s._cap], [g, s.sums]),
-            "normal_direction_sum": (nk.normal_direction_sum, [g, p, s._cap, s.sums, s.scalars, n],
+            "normal_direction_sum": (nk.normal_direction_sum, [g, p, s._cap, s.sums, s.scalars, fft.padded_output,
+                                                           fft.output_scale, int(s.preconditioned), n],
                                      [t, fft.padded_input]),
             "normal_update": (nk.normal_update, [t, *output, b, s._cap, s.settings], [p, g, s.sums]),
         }
         energy = (spectral.spectral_normal_energy,
-                  [op.influence, spec, fft.half_axis, fft.half_length, fft.energy_scale, nk.S_RT], [s.sums])
+                  [op.influence, spec, fft.half_axis, fft.half_length, fft.energy_scale, 0, nk.S_RT, 0], [s.sums])
         entries = op._spectral_entries
         for (label, shape), (_, spectral_shape) in zip(shapes(m.n_cells, device, args.block_dims, args.per_sm),
                                                        shapes(entries, device, args.block_dims, args.per_sm)):

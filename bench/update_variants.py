@@ -228,7 +228,8 @@ def main():
         reducing = {
             "normal_update": (nk.normal_update, inputs, [p, g, s.sums]),
             "normal_gap": (nk.normal_gap, [st.disp_z.flatten(), b, p, s._cap], [g, s.sums]),
-            "normal_direction_sum": (nk.normal_direction_sum, [g, p, s._cap, s.sums, s.scalars, n],
+            "normal_direction_sum": (nk.normal_direction_sum, [g, p, s._cap, s.sums, s.scalars, fft.padded_output,
+                                                           fft.output_scale, int(s.preconditioned), n],
                                      [t, fft.padded_input]),
         }
         for name, (kernel, k_in, k_out) in reducing.items():

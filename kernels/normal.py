@@ -21,6 +21,12 @@ One iteration, four passes over the grid around one convolution (three on CUDA) 
    whether the next iteration starts from an exact gap (``normal_gap`` after a convolution of p),
    and sets the device loop's flag.
 
+Preconditioned (``NormalSolver.preconditioned``, the default), the iteration starts with
+``normal_free_gap`` (the gap on the free set into the padded input), a transform pair whose
+spectral product is the operator's inverse (``spectral_normal_energy`` with ``inverse``, which
+also sums g . M g into slot S_G), and the direction's pass reads z = M g from the padded output
+in place of g.
+
 Scalars live in device arrays: ``sums`` (the reductions of one iteration; slots below),
 ``scalars`` (carried: G_old, delta, iteration count, why the loop stopped) and ``settings`` (the
 values of one solve).
@@ -138,20 +144,45 @@ def direction_beta(sums: wp.array(dtype=Any), scalars: wp.array(dtype=Any)):
 
 
 @wp.func
-def conjugate_direction(pressure: wp.array(dtype=Any), gap: wp.array(dtype=Any), direction: wp.array(dtype=Any),
-                        cell: int, beta: Any, pressure_cap: Any):
-    """(t, g t) of a cell: t = g + beta t_last on the free set 0 < p < cap, 0 elsewhere; g and
-    t_last are read only there.
+def is_free(pressure: Any, pressure_cap: Any):
+    """Whether a cell is in the free set 0 < p < cap, where the gap must close."""
+    return pressure > type(pressure)(0.0) and pressure < pressure_cap
+
+
+@wp.kernel
+def normal_free_gap(gap: wp.array(dtype=Any), pressure: wp.array(dtype=Any), pressure_cap: Any, width: int, per: int,
+                    padded_input: wp.array2d(dtype=Any)):
+    """The gap on the free set, 0 elsewhere, into the FFT backend's ``padded_input``: what the
+    preconditioner transforms (``NormalSolver.preconditioned``). Launched over (rows, chunks)
+    (``LaunchCache.launch_rows``)."""
+    i, c = wp.tid()
+    for j in range(c * per, wp.min((c + 1) * per, width)):
+        cell = i * width + j
+        g = pressure_cap - pressure_cap
+        if is_free(pressure[cell], pressure_cap):
+            g = gap[cell]
+        padded_input[i, j] = g
+
+
+@wp.func
+def conjugate_direction(pressure: wp.array(dtype=Any), gap: wp.array(dtype=Any),
+                        preconditioned: wp.array2d(dtype=Any), output_scale: Any, precondition: int,
+                        direction: wp.array(dtype=Any), cell: int, width: int, beta: Any, pressure_cap: Any):
+    """(t, g t) of a cell: t = z + beta t_last on the free set 0 < p < cap, 0 elsewhere, with
+    z = g, or with ``precondition`` z = M g, the preconditioned gap, read from ``preconditioned``
+    (the FFT backend's padded output, times ``output_scale``); g, z and t_last are read only there.
 
     t_last is read only on cells free now; when beta != 0 those were free then too (a cell that
     re-entered sets delta = 0), so t there is the last iteration's direction."""
     zero = pressure_cap - pressure_cap
     t = zero
     gt = zero
-    p = pressure[cell]
-    if p > zero and p < pressure_cap:
+    if is_free(pressure[cell], pressure_cap):
         g = gap[cell]
-        t = g + beta * direction[cell]
+        z = g
+        if precondition != 0:
+            z = output_scale * padded_entry(preconditioned, cell, width)
+        t = z + beta * direction[cell]
         gt = g * t
     return t, gt
 
@@ -163,6 +194,9 @@ def normal_direction(
     pressure_cap: Any,
     sums: wp.array(dtype=Any),
     scalars: wp.array(dtype=Any),
+    preconditioned: wp.array2d(dtype=Any),
+    output_scale: Any,
+    precondition: int,
     width: int,
     per: int,
     direction: wp.array(dtype=Any),
@@ -175,7 +209,8 @@ def normal_direction(
     i, c = wp.tid()
     beta = direction_beta(sums, scalars)
     for j in range(c * per, wp.min((c + 1) * per, width)):
-        t, gt = conjugate_direction(pressure, gap, direction, i * width + j, beta, pressure_cap)
+        t, gt = conjugate_direction(pressure, gap, preconditioned, output_scale, precondition, direction,
+                                    i * width + j, width, beta, pressure_cap)
         direction[i * width + j] = t
         padded_input[i, j] = t
 
@@ -187,6 +222,9 @@ def normal_direction_sum(
     pressure_cap: Any,
     sums: wp.array(dtype=Any),
     scalars: wp.array(dtype=Any),
+    preconditioned: wp.array2d(dtype=Any),
+    output_scale: Any,
+    precondition: int,
     width: int,
     n: int,
     outer: int,
@@ -205,7 +243,8 @@ def normal_direction_sum(
     for k in range(per):
         i = cell_index(thread, outer, inner, k)
         if i < n:
-            t, gt = conjugate_direction(pressure, gap, direction, i, beta, pressure_cap)
+            t, gt = conjugate_direction(pressure, gap, preconditioned, output_scale, precondition, direction, i,
+                                        width, beta, pressure_cap)
             s_gt += gt
             direction[i] = t
             row = i // width
@@ -471,6 +510,6 @@ def guess_scale(guess_sums: wp.array(dtype=Any), pressure_cap: Any, response: wp
     displacement[i] = c * response[i]
 
 
-for _k in (normal_interference, normal_gap, normal_direction, normal_direction_sum, normal_step_sums, normal_update,
+for _k in (normal_interference, normal_gap, normal_free_gap, normal_direction, normal_direction_sum, normal_step_sums, normal_update,
            normal_advance, count_positive, guess_needed, guess_max_interference, guess_shape, guess_fit_sums, guess_scale):
     register_float_overloads(_k)

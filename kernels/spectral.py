@@ -52,7 +52,9 @@ def spectral_normal_energy(
     half_axis: int,
     half_length: int,
     energy_scale: Any,
+    inverse: int,
     slot: int,
+    first_row: int,
     n: int,
     outer: int,
     inner: int,
@@ -64,7 +66,13 @@ def spectral_normal_energy(
     with w = 1 where the index along ``half_axis`` (the axis of the real transform's non-negative
     frequencies, of length ``half_length`` in real space) is 0 or half_length / 2, 2 elsewhere
     (``FFTBackend.half_axis``). A reducing kernel (kernels/reduce.py) over the n entries of the
-    spectrum, row-major."""
+    spectrum, row-major; ``first_row``: the spectrum's first row (the CPU splits the launch by
+    rows, ``launch.FirstRow``).
+
+    With ``inverse`` = 1 the multiplier is 1 / K_zz(k) instead (0 where K_zz(k) <= 0; it is
+    positive on the padded grids, about 0.18 at the highest frequency and 2.2 n at the lowest,
+    scaled): the circulant inverse of the operator, the normal solver's preconditioner, and
+    the sum is g . M g for the gap g whose spectrum it is."""
     block, lane = wp.tid()
     thread = block * wp.block_dim() + lane
     width = spectrum.shape[1]
@@ -77,8 +85,10 @@ def spectral_normal_energy(
             j = e - i * width
             s = spectrum[i, j]
             kzz = influence[ZZ, i, j]
+            if inverse != 0:
+                kzz = wp.where(kzz > zero, type(zero)(1.0) / kzz, zero)
             spectrum[i, j] = kzz * s
-            f = wp.where(half_axis == 0, i, j)
+            f = wp.where(half_axis == 0, first_row + i, j)
             weight = wp.where(f == 0 or 2 * f == half_length, energy_scale, energy_scale + energy_scale)
             energy += weight * kzz * wp.dot(s, s)
     block_add(sums, slot, energy)
@@ -154,7 +164,7 @@ for _r, _v in ((wp.float32, wp.vec2f), (wp.float64, wp.vec2d)):
     wp.overload(
         spectral_normal_energy,
         {"influence": wp.array3d(dtype=_r), "spectrum": wp.array2d(dtype=_v), "half_axis": int, "half_length": int,
-         "energy_scale": _r, "slot": int, "n": int, "outer": int, "inner": int, "per": int, "sums": wp.array(dtype=_r)},
+         "energy_scale": _r, "inverse": int, "slot": int, "first_row": int, "n": int, "outer": int, "inner": int, "per": int, "sums": wp.array(dtype=_r)},
     )
     wp.overload(
         spectral_tangential,

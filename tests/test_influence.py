@@ -244,17 +244,23 @@ def _energy_backends():
     return out
 
 
+@pytest.mark.parametrize("inverse", [False, True])
 @pytest.mark.parametrize("n", [12, 17])
 @pytest.mark.parametrize("dtype", ["float64", "float32"])
 @pytest.mark.parametrize("fft,device,pruned", _energy_backends())
-def test_normal_energy_in_fourier_space_is_the_real_space_sum(fft, device, pruned, dtype, n):
+def test_normal_energy_in_fourier_space_is_the_real_space_sum(fft, device, pruned, dtype, n, inverse):
     """normal_padded(energy, slot) sums (K t) . t by Parseval during the spectral product: it must
     equal the sum over the grid of t times the K t it leaves in the padded output, in every
     backend's layout (scipy and cupy: rfft along x; warp: transposed, power-of-two padding), and
     leave that K t as the plain product does. Tolerance: float64 1e-12, float32 2e-5 relative (both
     sides come from the same transforms; each carries their rounding, ~eps log2(points) ~ 1e-15
     and 1e-6). A wrong Parseval weight on the half axis's end entries (1 against 2) shows at the
-    ~1 / n level."""
+    ~1 / n level. With ``inverse`` (the preconditioner's product, 1 / K in Fourier space) the same
+    for t . (M t), and M t is the circulant inverse computed with NumPy on the 2 n padded grid
+    (all backends but warp, whose padded grid is a power of two: another circulant)."""
+    if inverse:
+        _check_inverse_product(fft, device, pruned, dtype, n)
+        return
     import warp as wp
 
     from warpcontact.fft.cupy_backend import CupyFFT
@@ -281,3 +287,64 @@ def test_normal_energy_in_fourier_space_is_the_real_space_sum(fft, device, prune
     assert got[1] == pytest.approx(want, rel=tol)
     assert got[0] == 0.0 and got[2] == 0.0
     assert np.abs(kt - plain.numpy()).max() <= tol * np.abs(kt).max()
+
+
+def _check_inverse_product(fft, device, pruned, dtype, n):
+    import warp as wp
+
+    from warpcontact.fft.cupy_backend import CupyFFT
+
+    wdtype = getattr(wp, dtype)
+    grid = Grid(n, 1e-8)
+    op = ElasticOperator(PAPER_PAIR, grid, device, wdtype, fft)
+    if pruned is not None:
+        op.fft = CupyFFT(n, n, device, wdtype, pruned=pruned)
+    f = op.fft
+    rng = np.random.default_rng(n)
+    t = rng.standard_normal((n, n))
+    t[rng.random((n, n)) < 0.3] = 0.0
+    padded = np.zeros(f.padded_input.shape)
+    padded[:n, :n] = t
+    f.padded_input.assign(padded.astype(f.np_real))
+    energy = wp.zeros(3, dtype=wdtype, device=device)
+    op.normal_padded(energy, 1, inverse=True)
+    mt = f.padded_output.numpy()[:n, :n].astype(np.float64) * float(f.output_scale)
+    tol = 1e-12 if dtype == "float64" else 2e-5
+    got = energy.numpy().astype(np.float64)
+    assert got[1] == pytest.approx(float(np.sum(mt * t)), rel=tol)
+    assert got[1] > 0 and got[0] == 0.0 and got[2] == 0.0  # M is positive definite
+    if fft != "warp":
+        coefficients = influence_coefficients(PAPER_PAIR, n, n, grid.dx, grid.dy)["zz"] * PAPER_PAIR.E_star / grid.dx
+        full = np.zeros((2 * n, 2 * n))
+        full[:n, :n] = t
+        want = np.fft.irfft2(np.fft.rfft2(full) / np.fft.rfft2(coefficients).real, s=full.shape)[:n, :n]
+        assert np.abs(mt - want).max() <= tol * np.abs(want).max()
+
+
+@pytest.mark.parametrize("inverse", [False, True])
+@pytest.mark.parametrize("fft", [pytest.param("fftw", marks=NEEDS_FFTW), "scipy", "warp"])
+def test_spectral_energy_split_over_cpu_threads_is_the_whole_one(fft, inverse):
+    """On the CPU the spectral product with its Parseval sum is split by rows over the threads
+    (``launch.FirstRow`` gives each part its first row, which the Parseval weight needs where the
+    half axis runs along the rows: the warp backend). Split and whole launches must give the same
+    product and the same sum up to the order of the additions (1e-12 relative, float64), on a
+    grid large enough to be split (n = 200: 2 n (n + 1) spectral entries over ``min_split_entries``)."""
+    import warp as wp
+
+    n = 200
+    op = ElasticOperator(PAPER_PAIR, Grid(n, 1e-8), "cpu", wp.float64, fft)
+    spectra = op.fft.alloc_spectra(2)
+    rng = np.random.default_rng(3)
+    values = rng.standard_normal((*op.fft.spectral_shape, 2))
+    results = []
+    for part, workers in enumerate((1, 2)):
+        op.launches.workers = workers
+        spectra[part].assign(values)
+        energy = wp.zeros(1, dtype=wp.float64, device="cpu")
+        op.normal_product(spectra[part], energy, 0, inverse=inverse)
+        results.append((spectra[part].numpy(), float(energy.numpy()[0])))
+    (whole, e1), (split, e2) = results
+    rows, columns = op.fft.spectral_shape
+    assert rows * columns >= op.launches.min_split_entries  # (or the test would not split)
+    assert np.array_equal(whole, split)
+    assert e2 == pytest.approx(e1, rel=1e-12) and e1 > 0

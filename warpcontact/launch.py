@@ -91,7 +91,16 @@ class Sums:
     array: wp.array
 
 
+@dataclass(frozen=True)
+class FirstRow:
+    """An int argument: the first row of the part of a split CPU launch that gets it, 0 in a
+    whole launch (for kernels whose work depends on the absolute row, not only on the part's
+    rows)."""
+
+
 def _plain(a):
+    if isinstance(a, FirstRow):
+        return 0
     return a.array if isinstance(a, (Rows, Sums)) else a
 
 
@@ -262,6 +271,8 @@ class LaunchCache:
             def piece(a):
                 if isinstance(a, Rows):
                     return a.part(r0, r1, columns)
+                if isinstance(a, FirstRow):
+                    return r0
                 if isinstance(a, Sums):
                     return copy_of[id(a.array)]
                 return a

@@ -12,7 +12,7 @@ import warp as wp
 from warpcontact.kernels import spectral
 
 from .fft import make_fft
-from .launch import LaunchCache, ReductionLaunch, Rows
+from .launch import FirstRow, LaunchCache, ReductionLaunch, Rows, Sums
 from .influence import KERNELS, SPECTRUM_PARTS, influence_coefficients
 
 
@@ -39,6 +39,7 @@ class ElasticOperator:
         sy, sx = self.fft.spectral_shape
         self._spectral_entries = sy * sx
         self._spectral_reduction = ReductionLaunch.for_cells(self._spectral_entries, self.fft.device)
+        self._no_energy = wp.zeros(1, dtype=dtype, device=self.fft.device)  # where a product's unused sum goes
         self.coupled = pair.D != 0.0
         scale = pair.E_star / grid.dx  # scaled displacement per scaled traction
         coeffs = influence_coefficients(pair, grid.n, grid.n, grid.dx, grid.dy)
@@ -82,25 +83,31 @@ class ElasticOperator:
         self.spectral_product(spectral.spectral_normal, self._buf[:1])
         self.fft.inverse(self._buf[0], displacement)
 
-    def normal_product(self, spectrum: wp.array2d, energy: wp.array | None = None, slot: int = 0):
+    def normal_product(self, spectrum: wp.array2d, energy: wp.array | None = None, slot: int = 0,
+                       inverse: bool = False):
         """The spectral product of K_zz on ``spectrum``, in place; with ``energy``, also
         ``energy[slot] += (K_zz t) . t`` for the field t whose spectrum it is, summed in Fourier
-        space (Parseval; ``spectral.spectral_normal_energy``: no pass over the grid of its own)."""
-        if energy is None:
+        space (Parseval; ``spectral.spectral_normal_energy``: no pass over the grid of its own).
+        ``inverse``: the product of the circulant inverse 1 / K_zz instead (with ``energy``, the
+        sum is t . (K_zz^-1 t)), the normal solver's preconditioner."""
+        if energy is None and not inverse:
             self.spectral_product(spectral.spectral_normal, [spectrum])
             return
         fft = self.fft
+        sums = self._no_energy if energy is None else energy
         self.launches.launch_reduce(
             spectral.spectral_normal_energy, self._spectral_reduction, self._spectral_entries,
-            [self.influence, spectrum, fft.half_axis, fft.half_length, fft.energy_scale, int(slot)], [energy])
+            [Rows(self.influence, axis=1), Rows(spectrum), fft.half_axis, fft.half_length, fft.energy_scale,
+             int(inverse), int(slot), FirstRow()],
+            [Sums(sums)], rows=fft.spectral_shape)
 
-    def normal_padded(self, energy: wp.array | None = None, slot: int = 0):
+    def normal_padded(self, energy: wp.array | None = None, slot: int = 0, inverse: bool = False):
         """K_zz applied to the field a kernel wrote into the corner of ``fft.padded_input``; the
         result, times ``fft.output_scale``, in the corner of ``fft.padded_output`` (for solver
-        kernels that pad and crop as part of their own passes). ``energy``, ``slot``: as
-        :meth:`normal_product`."""
+        kernels that pad and crop as part of their own passes). ``energy``, ``slot``,
+        ``inverse``: as :meth:`normal_product`."""
         self.fft.transform_input(self._buf[0])
-        self.normal_product(self._buf[0], energy, slot)
+        self.normal_product(self._buf[0], energy, slot, inverse)
         self.fft.transform_to_output(self._buf[0])
 
     def tangential(self, shear_x, shear_y, disp_x, disp_y):

@@ -35,6 +35,20 @@ class NormalSolver(ProjectedCG):
     cropping passes are those passes. On CUDA (``fourier_step_sums``) three: the direction's pass
     sums g . t and the spectral product (K t) . t, in Fourier space.
 
+    Preconditioned (``preconditioned``, the default): each iteration's direction is built from
+    z = M g on the free set F (0 < p < cap) instead of g, with M the circulant inverse of K on
+    the padded grid (1 / K(k) in Fourier space: the operator's spectrum inverted; the restriction
+    to F makes M g an approximate inverse of K restricted to F, exact but for the set's edge), and
+    beta = delta (g . z) / (g_old . z_old): preconditioned conjugate gradients, with Polonsky and
+    Keer's projections and re-entries unchanged. An iteration makes a second transform pair (of
+    the free gap ``normal_free_gap``; g . M g summed in Fourier space by Parseval), and a Hertz solve
+    from rest needs 5-7 times fewer: n = 512, 13 against 71-82 iterations; 1024, 11 against 86
+    (the iterations of plain conjugate gradients grow with the contact's width in cells, as the
+    square root of K's condition number on the contact; M removes that growth). The preconditioner
+    is the continuous operator's inverse (|k| E* / 2) as the grid sees it; FFT-based
+    preconditioners of the same kind for the contact integral equation: Zhao, Vollebregt &
+    Oosterlee (2014), Numer. Linear Algebra Appl. 21, 256-274.
+
     Args:
         model: the :class:`~warpcontact.model.ContactModel`.
         tol: relative residual to reach (default: 1e-10 in float64, 1e-5 in float32).
@@ -43,10 +57,12 @@ class NormalSolver(ProjectedCG):
         one_convolution: carry the gap between exact recomputations: one convolution per
             iteration instead of two (default: on).
         use_graphs: replay solves as CUDA graphs (default: on CUDA with conditional graph nodes).
+        preconditioned: precondition with the circulant inverse of K (default: on); False:
+            Polonsky-Keer's conjugate gradients as published.
     """
 
     def __init__(self, model, tol=None, max_iter: int = 2000, pressure_cap: float = math.inf,
-                 one_convolution: bool = True, use_graphs: bool | None = None):
+                 one_convolution: bool = True, use_graphs: bool | None = None, preconditioned: bool = True):
         super().__init__(model, nk.N_SUMS, nk.N_SCALARS, tol, max_iter, use_graphs)
         #: upper bound of the pressure [Pa] (the softer body's hardness: elastic-perfectly-plastic
         #: surface; MODEL.md section 5); inf for none
@@ -79,6 +95,10 @@ class NormalSolver(ProjectedCG):
         self._column_norm = model.scalar(model.operator.column_norm("zz"))
         self.deferred = model.scalars(1)
         self._current_sums = self.sums[: nk.S_RHS + 1]  # slots S_G, S_VIOL, S_RHS
+        self._preconditioned_g = self.sums[nk.S_G: nk.S_G + 1]
+        #: precondition the iteration with the circulant inverse of the operator (``preconditioned``
+        #: in the class docstring); False: plain Polonsky-Keer. A captured graph is kept per choice.
+        self.preconditioned = bool(preconditioned)
         #: sum g . t in the direction's pass and (K t) . t in the spectral product (Parseval), one
         #: pass over the grid less (default on CUDA: H100, n = 1024, with the vector reductions and
         #: the direction's launch below, 0.230 -> 0.216-0.220 ms per iteration); else both in
@@ -141,9 +161,20 @@ class NormalSolver(ProjectedCG):
             displacement()
             gap_sums()
 
+        preconditioned = self.preconditioned
+
+        def precondition():  # M g on the free set into the padded output; its G = g . M g into slot S_G
+            m.launches.launch_rows(nk.normal_free_gap, m.grid.shape, [g_rows, p_rows, self._cap, m.grid.n],
+                                   [Rows(fft.padded_input)])
+            self._preconditioned_g.zero_()
+            m.operator.normal_padded(self.sums, nk.S_G, inverse=True)
+
         def body():
             wp.capture_if(self.recompute, on_true=recompute)  # in a graph, a conditional node: the device decides
-            direction_in = [g_rows, p_rows, self._cap, self.sums, self.scalars, m.grid.n]
+            if preconditioned:
+                precondition()
+            direction_in = [g_rows, p_rows, self._cap, self.sums, self.scalars, *output[:2], int(preconditioned),
+                            m.grid.n]
             if self.fourier_step_sums:  # g . t with t, (K t) . t in the spectral product
                 m.launches.launch_reduce(nk.normal_direction_sum, self._direction_launch, m.n_cells, direction_in,
                                          [t, fft.padded_input])
@@ -166,7 +197,7 @@ class NormalSolver(ProjectedCG):
         def on_non_finite(it):
             raise_non_finite("normal solve", state, ("pressure", "gap", "disp_z"), it)
 
-        key = (state.pressure.ptr, state.gap.ptr, state.disp_z.ptr, known.ptr)
+        key = (state.pressure.ptr, state.gap.ptr, state.disp_z.ptr, known.ptr, preconditioned)
         return self._run(key, start, exact, body, on_non_finite, on_disagreement, start_exact=exact_from_displacement)
 
     def _guess(self, state):
