@@ -78,11 +78,16 @@ def spectral_normal_energy(
     width = spectrum.shape[1]
     zero = energy_scale - energy_scale
     energy = zero
+    # the entry (i, j) of e, carried from one k to the next (e grows by ``inner``): one integer
+    # division per thread, not per entry (the CPU's sweep: n = 512, 2.4 -> 1.0 ms)
+    first = cell_index(thread, outer, inner, 0)
+    i = first // width
+    j = first - i * width
+    di = inner // width
+    dj = inner - di * width
     for k in range(per):
         e = cell_index(thread, outer, inner, k)
         if e < n:
-            i = e // width
-            j = e - i * width
             s = spectrum[i, j]
             kzz = influence[ZZ, i, j]
             if inverse != 0:
@@ -91,6 +96,11 @@ def spectral_normal_energy(
             f = wp.where(half_axis == 0, first_row + i, j)
             weight = wp.where(f == 0 or 2 * f == half_length, energy_scale, energy_scale + energy_scale)
             energy += weight * kzz * wp.dot(s, s)
+        i += di
+        j += dj
+        if j >= width:
+            i += 1
+            j -= width
     block_add(sums, slot, energy)
 
 

@@ -348,3 +348,13 @@ def test_spectral_energy_split_over_cpu_threads_is_the_whole_one(fft, inverse):
     assert rows * columns >= op.launches.min_split_entries  # (or the test would not split)
     assert np.array_equal(whole, split)
     assert e2 == pytest.approx(e1, rel=1e-12) and e1 > 0
+
+
+@pytest.mark.parametrize("inverse", [False, True])
+@pytest.mark.parametrize("fft,device,pruned", _energy_backends())
+def test_spectral_energy_of_a_grid_with_several_entries_per_thread(fft, device, pruned, inverse):
+    """As above at n = 300 in float64: on CUDA the spectrum (600 x 301 entries, more than the
+    launch's 4 blocks per SM of 256 threads) makes each thread visit several entries, whose (row,
+    column) the kernel carries from one to the next instead of dividing (``spectral_normal_energy``);
+    on the CPU the launch is split by rows over the threads."""
+    test_normal_energy_in_fourier_space_is_the_real_space_sum(fft, device, pruned, "float64", 300, inverse)
