@@ -37,12 +37,12 @@ class NormalSolver(ProjectedCG):
 
     Preconditioned (``preconditioned``, the default): each iteration's direction is built from
     z = M g on the free set F (0 < p < cap) instead of g, with M the circulant inverse of K on
-    the padded grid (1 / K(k) in Fourier space: the operator's spectrum inverted; the restriction
-    to F makes M g an approximate inverse of K restricted to F, exact but for the set's edge), and
+    the padded grid (1 / K(k) in Fourier space: the operator's spectrum inverted; restricted to F,
+    M approximates the inverse of K restricted to F, most closely away from F's edge), and
     beta = delta (g . z) / (g_old . z_old): preconditioned conjugate gradients, with Polonsky and
     Keer's projections and re-entries unchanged. An iteration makes a second transform pair (of
     the free gap ``normal_free_gap``; g . M g summed in Fourier space by Parseval), and a Hertz solve
-    from rest needs 5-7 times fewer: n = 512, 13 against 71-82 iterations; 1024, 11 against 86
+    from rest needs 4-8 times fewer: n = 256, 12 against 51; 512, 13 against 71-82; 1024, 11 against 86
     (the iterations of plain conjugate gradients grow with the contact's width in cells, as the
     square root of K's condition number on the contact; M removes that growth). The preconditioner
     is the continuous operator's inverse (|k| E* / 2) as the grid sees it; FFT-based
