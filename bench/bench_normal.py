@@ -10,6 +10,7 @@ slippy 0.5.2 too (``bench/slippy_hertz.py`` in that interpreter: slippy needs a 
     python bench/bench_normal.py --device cuda         # GPU: N = 256 ... 4096
     python bench/bench_normal.py --sizes 256 512 --fft scipy warp --json out.json
     python bench/bench_normal.py --fft scipy --slippy-python /tmp/slippy_venv/bin/python
+    python bench/bench_normal.py --modes default plain     # preconditioned (default) and plain, side by side
 """
 
 from __future__ import annotations

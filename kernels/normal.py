@@ -511,5 +511,6 @@ def guess_scale(guess_sums: wp.array(dtype=Any), pressure_cap: Any, response: wp
 
 
 for _k in (normal_interference, normal_gap, normal_free_gap, normal_direction, normal_direction_sum, normal_step_sums,
-           normal_update, normal_advance, count_positive, guess_needed, guess_max_interference, guess_shape, guess_fit_sums, guess_scale):
+           normal_update, normal_advance, count_positive, guess_needed, guess_max_interference, guess_shape,
+           guess_fit_sums, guess_scale):
     register_float_overloads(_k)
