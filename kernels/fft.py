@@ -126,19 +126,22 @@ from .overloads import register_float_overloads  # noqa: E402
 
 
 @wp.kernel
-def pad_field(field: wp.array2d(dtype=Any), padded: wp.array2d(dtype=Any)):
+def pad_field(field: wp.array2d(dtype=Any), per: int, padded: wp.array2d(dtype=Any)):
     """padded[i, j] <- field[i, j] on the (ny, nx) corner of a backend's ``padded_input``, whose
-    other entries are zero and never written."""
-    i, j = wp.tid()
-    padded[i, j] = field[i, j]
+    other entries are zero and never written. Launched over (rows, chunks)
+    (``LaunchCache.launch_rows``: on the CPU a row per thread, split over the threads)."""
+    i, c = wp.tid()
+    for j in range(c * per, wp.min((c + 1) * per, field.shape[1])):
+        padded[i, j] = field[i, j]
 
 
 @wp.kernel
-def crop_field(padded: wp.array2d(dtype=Any), scale: Any, field: wp.array2d(dtype=Any)):
+def crop_field(padded: wp.array2d(dtype=Any), scale: Any, per: int, field: wp.array2d(dtype=Any)):
     """field[i, j] <- scale * padded[i, j]: the kept (ny, nx) corner of an unnormalised inverse
-    transform, with its 1 / (4 nx ny)."""
-    i, j = wp.tid()
-    field[i, j] = padded[i, j] * scale
+    transform, with its 1 / (4 nx ny). Launched as ``pad_field``."""
+    i, c = wp.tid()
+    for j in range(c * per, wp.min((c + 1) * per, field.shape[1])):
+        field[i, j] = padded[i, j] * scale
 
 
 for _k in (pad_field, crop_field):

@@ -16,7 +16,7 @@ import numpy as np
 import warp as wp
 
 from ..kernels.fft import crop_field, pad_field
-from ..launch import LaunchCache
+from ..launch import LaunchCache, Rows
 
 
 class FFTBackend:
@@ -119,7 +119,7 @@ class FFTBackend:
 
     def forward(self, field: wp.array2d, spectrum: wp.array2d):
         """``spectrum`` <- transform of the real (ny, nx) ``field`` zero-padded to (2 ny, 2 nx)."""
-        self.launches.launch(pad_field, (self.ny, self.nx), [field], [self.padded_input])
+        self.launches.launch_rows(pad_field, (self.ny, self.nx), [Rows(field)], [Rows(self.padded_input)])
         self.transform_input(spectrum)
 
     def inverse(self, spectrum: wp.array2d, field: wp.array2d):
@@ -128,7 +128,8 @@ class FFTBackend:
         May overwrite ``spectrum``.
         """
         self.transform_to_output(spectrum)
-        self.launches.launch(crop_field, (self.ny, self.nx), [self.padded_output, self.output_scale], [field])
+        self.launches.launch_rows(crop_field, (self.ny, self.nx), [Rows(self.padded_output), self.output_scale],
+                                  [Rows(field)])
 
     def library_transforms(self, field: wp.array2d, spectrum: wp.array2d):
         """The FFT library's own forward and inverse transforms of the padded grid, without this
