@@ -39,7 +39,6 @@ class ElasticOperator:
         sy, sx = self.fft.spectral_shape
         self._spectral_entries = sy * sx
         self._spectral_reduction = ReductionLaunch.for_cells(self._spectral_entries, self.fft.device)
-        self._no_energy = wp.zeros(1, dtype=dtype, device=self.fft.device)  # where a product's unused sum goes
         self.coupled = pair.D != 0.0
         scale = pair.E_star / grid.dx  # scaled displacement per scaled traction
         coeffs = influence_coefficients(pair, grid.n, grid.n, grid.dx, grid.dy)
@@ -88,18 +87,19 @@ class ElasticOperator:
         """The spectral product of K_zz on ``spectrum``, in place; with ``energy``, also
         ``energy[slot] += (K_zz t) . t`` for the field t whose spectrum it is, summed in Fourier
         space (Parseval; ``spectral.spectral_normal_energy``: no pass over the grid of its own).
-        ``inverse``: the product of the circulant inverse 1 / K_zz instead (with ``energy``, the
-        sum is t . (K_zz^-1 t)), the normal solver's preconditioner."""
-        if energy is None and not inverse:
+        ``inverse``: the product of the circulant inverse 1 / K_zz instead, with its sum
+        t . (K_zz^-1 t) (``energy`` required), the normal solver's preconditioner."""
+        if energy is None:
+            if inverse:
+                raise ValueError("normal_product: the inverse product is launched with its sum (pass energy)")
             self.spectral_product(spectral.spectral_normal, [spectrum])
             return
         fft = self.fft
-        sums = self._no_energy if energy is None else energy
         self.launches.launch_reduce(
             spectral.spectral_normal_energy, self._spectral_reduction, self._spectral_entries,
             [Rows(self.influence, axis=1), Rows(spectrum), fft.half_axis, fft.half_length, fft.energy_scale,
              int(inverse), int(slot), FirstRow()],
-            [Sums(sums)], rows=fft.spectral_shape)
+            [Sums(energy)], rows=fft.spectral_shape)
 
     def normal_padded(self, energy: wp.array | None = None, slot: int = 0, inverse: bool = False):
         """K_zz applied to the field a kernel wrote into the corner of ``fft.padded_input``; the

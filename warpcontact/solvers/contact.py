@@ -62,8 +62,7 @@ class ContactSolver:
         self.friction = friction
         self.adhesion = adhesion
         self.normal = NormalSolver(model, tol, max_iter, pressure_cap=pressure_cap, use_graphs=use_graphs,
-                                   preconditioned=False)
-        self.normal.preconditioned = not self.iterative if preconditioned is None else bool(preconditioned)
+                                   preconditioned=not self.iterative if preconditioned is None else preconditioned)
         self.tol = self.normal.tol
         self.outer_tol = 100 * self.tol if outer_tol is None else float(outer_tol)
         self.max_outer = int(max_outer)
