@@ -21,6 +21,7 @@
 #   SOLVE=1   bench/profile_normal_solve.py on cuda:0 (SOLVE_ARGS, default --sizes 1024 2048 4096)
 #   REDUCE=1  bench/reduction_launch.py on cuda:0 (REDUCE_ARGS, default --sizes 1024 2048 4096), warm and --cold
 #   VARIANTS=1 bench/update_variants.py on cuda:0 (VARIANTS_ARGS, default --sizes 1024 2048), warm and --cold
+#   TURNS=1   bench/graph_turns.py on cuda:0 (TURNS_ARGS): what a turn of the device loop costs
 #   ADH=W     bench/adhesion_sensitivity.py on W CPU workers, in the background while the rest runs
 #             (its cells.jsonl is kept in $OUT/adh; a copy in bench_results/adh/ is resumed)
 set -u
@@ -81,6 +82,10 @@ if [ "${VARIANTS:-0}" = 1 ]; then
     (cd /tmp && timeout "${VARIANTS_TIMEOUT:-200}" python3 "$ROOT/bench/update_variants.py" --device cuda:0 \
        ${VARIANTS_ARGS:---sizes 1024 2048} $mode 2>&1 | tee -a "$OUT/update_variants.log")
   done
+fi
+if [ "${TURNS:-0}" = 1 ]; then
+  (cd /tmp && timeout "${TURNS_TIMEOUT:-120}" python3 "$ROOT/bench/graph_turns.py" --device cuda:0 ${TURNS_ARGS:-} 2>&1 \
+     | tee "$OUT/graph_turns.log")
 fi
 if [ "${PARTS:-0}" = 1 ]; then
   (cd /tmp && timeout "${PARTS_TIMEOUT:-200}" python3 "$ROOT/bench/iteration_parts.py" --device cuda:0 \

@@ -70,9 +70,10 @@ def timeline(trace_path, gap_us, top):
               f"after {sum(e['dur'] for e in gpu[last + 1:]) / 1e3:.3f} ms ({len(gpu) - last - 1} activities)")
 
 
-def probe(n, device, dtype, short, long, repeats, top, host_profile=False, trace_dir=None, gap_us=10.0):
+def probe(n, device, dtype, short, long, repeats, top, host_profile=False, trace_dir=None, gap_us=10.0,
+          preconditioned=True):
     model = ContactModel(PAPER_PAIR, Sphere(R, "paraboloid"), Grid(n, 4 * A), device=device, dtype=dtype)
-    solver = NormalSolver(model)
+    solver = NormalSolver(model, preconditioned=preconditioned)
     info = {}
 
     def solve(max_iter=None, tol=None):
@@ -82,15 +83,17 @@ def probe(n, device, dtype, short, long, repeats, top, host_profile=False, trace
             info["last"] = solver.solve(state, DZ, tol=tol)
         return run
 
+    kind = "preconditioned" if preconditioned else "plain"
     t_conv = best_wall_time(model.device, solve(), repeats)
     iters = info["last"].iterations
     t_short = best_wall_time(model.device, solve(short, 0.0), repeats)
     t_long = best_wall_time(model.device, solve(long, 0.0), repeats)
     marginal = (t_long - t_short) / (long - short)
     fixed = t_short - short * marginal
-    print(f"N = {n} {dtype}: converged solve {iters} iterations, {1e3 * t_conv:.2f} ms, {1e3 * t_conv / iters:.4f} ms/it; "
-          f"marginal iteration {1e3 * marginal:.4f} ms, fixed cost per solve {1e3 * fixed:.2f} ms "
-          f"({short} / {long} capped iterations: {1e3 * t_short:.2f} / {1e3 * t_long:.2f} ms)", flush=True)
+    print(f"N = {n} {dtype} {kind}: converged solve {iters} iterations, {1e3 * t_conv:.2f} ms, "
+          f"{1e3 * t_conv / iters:.4f} ms/it; marginal iteration {1e3 * marginal:.4f} ms, fixed cost per solve "
+          f"{1e3 * fixed:.2f} ms ({short} / {long} capped iterations: {1e3 * t_short:.2f} / {1e3 * t_long:.2f} ms)",
+          flush=True)
     t_state = best_wall_time(model.device, lambda: ContactState(model), repeats)
     warm = ContactState(model)
     solver.max_iter = 2000
@@ -160,6 +163,7 @@ def main():
     ap.add_argument("--cprofile", action="store_true", help="one converged solve under cProfile")
     ap.add_argument("--trace", default=None, metavar="DIR", help="Chrome trace of one converged solve into DIR (CUDA, PyTorch)")
     ap.add_argument("--gap", type=float, default=10.0, help="device idle gaps listed from this length [us]")
+    ap.add_argument("--plain", action="store_true", help="the solver without its preconditioner")
     args = ap.parse_args()
     wp.config.quiet = True
     wp.init()
@@ -167,7 +171,8 @@ def main():
     print(f"# normal solve: fixed and marginal costs; device {device} ({device.name}), warp {wp.__version__}, "
           f"{time.strftime('%Y-%m-%d')}")
     for n in args.sizes:
-        probe(n, device, args.dtype, args.short, args.long, args.repeats, args.top, args.cprofile, args.trace, args.gap)
+        probe(n, device, args.dtype, args.short, args.long, args.repeats, args.top, args.cprofile, args.trace, args.gap,
+              not args.plain)
 
 
 if __name__ == "__main__":

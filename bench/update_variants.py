@@ -12,7 +12,9 @@ path runs, p and g stay), isolate one suspect each:
   (they are written only where they cannot be: a negative count);
 - ``two cells``: the loop takes two cells per turn, every load of both before any store (the
   compiler may not move a load above a store to another array, which serialises the turns);
-- ``stream``: the traffic alone: g <- g - tau K t with p, t and b read, one sum.
+- ``stream``: the traffic alone: g <- g - tau K t with p, t and b read, one sum;
+- ``b first``: b read with p, g, t and K t, on every cell (no load that waits for the step);
+- ``prefetch``: as ``b first``, with the next cell's loads issued before this cell's stores.
 
 With their register counts (``wp.get_cuda_kernel_properties``), which set how many blocks of 256
 threads an SM holds at once (65536 registers per SM on an H100: 4 blocks at 64 registers or fewer).
@@ -170,7 +172,96 @@ def update_stream(direction: wp.array(dtype=Any), padded_output: wp.array2d(dtyp
     block_add(sums, nk.S_NEXT_VIOL, s)
 
 
-for _k in (update_no_block_sum, update_two_cells, update_stream):
+@wp.func
+def step_cell(p: Any, g: Any, t: Any, r: Any, b: Any, tau: Any, done: bool, pressure_cap: Any, i: int,
+              pressure: wp.array(dtype=Any), gap: wp.array(dtype=Any)):
+    """``update_cell`` from values already loaded (b read unconditionally): step, stores, terms."""
+    zero = pressure_cap - pressure_cap
+    entered = zero
+    changed = zero
+    q = p
+    h = g
+    if not done:
+        q, h, entered, changed = nk.projected_step(p, g, t, r, tau, pressure_cap)
+        if q != p:
+            pressure[i] = q
+        gap[i] = h
+    dg, dv, dr = nk.residual_terms(q, h, wp.where(q > zero, b, zero), pressure_cap)
+    return wp.vector(entered, changed, dg, dv, dr)
+
+
+@wp.kernel
+def update_b_first(direction: wp.array(dtype=Any), padded_output: wp.array2d(dtype=Any), output_scale: Any,
+                   width: int, interference: wp.array(dtype=Any), pressure_cap: Any,
+                   settings: wp.array(dtype=Any), n: int, outer: int, inner: int, per: int,
+                   pressure: wp.array(dtype=Any), gap: wp.array(dtype=Any), sums: wp.array(dtype=Any)):
+    block, lane = wp.tid()
+    thread = block * wp.block_dim() + lane
+    tau = cg_step_length(sums)
+    done = cg_converged(sums, settings[nk.P_TOL])
+    zero = output_scale - output_scale
+    acc = wp.vector(zero, zero, zero, zero, zero)
+    for k in range(per):
+        i = cell_index(thread, outer, inner, k)
+        if i < n:
+            p = pressure[i]
+            g = gap[i]
+            t = direction[i]
+            r = output_scale * nk.padded_entry(padded_output, i, width)
+            b = interference[i]
+            acc += step_cell(p, g, t, r, b, tau, done, pressure_cap, i, pressure, gap)
+    block_add_vector(sums, nk.S_IOL, acc, lane)
+
+
+@wp.kernel
+def update_prefetch(direction: wp.array(dtype=Any), padded_output: wp.array2d(dtype=Any), output_scale: Any,
+                    width: int, interference: wp.array(dtype=Any), pressure_cap: Any,
+                    settings: wp.array(dtype=Any), n: int, outer: int, inner: int, per: int,
+                    pressure: wp.array(dtype=Any), gap: wp.array(dtype=Any), sums: wp.array(dtype=Any)):
+    block, lane = wp.tid()
+    thread = block * wp.block_dim() + lane
+    tau = cg_step_length(sums)
+    done = cg_converged(sums, settings[nk.P_TOL])
+    zero = output_scale - output_scale
+    acc = wp.vector(zero, zero, zero, zero, zero)
+    i = cell_index(thread, outer, inner, 0)
+    p = zero
+    g = zero
+    t = zero
+    r = zero
+    b = zero
+    if i < n:
+        p = pressure[i]
+        g = gap[i]
+        t = direction[i]
+        r = output_scale * nk.padded_entry(padded_output, i, width)
+        b = interference[i]
+    for k in range(per):
+        if i < n:
+            # the next cell's loads before this cell's stores
+            j = cell_index(thread, outer, inner, k + 1)
+            pn = zero
+            gn = zero
+            tn = zero
+            rn = zero
+            bn = zero
+            if k + 1 < per and j < n:
+                pn = pressure[j]
+                gn = gap[j]
+                tn = direction[j]
+                rn = output_scale * nk.padded_entry(padded_output, j, width)
+                bn = interference[j]
+            acc += step_cell(p, g, t, r, b, tau, done, pressure_cap, i, pressure, gap)
+            i = j
+            p = pn
+            g = gn
+            t = tn
+            r = rn
+            b = bn
+    block_add_vector(sums, nk.S_IOL, acc, lane)
+
+
+for _k in (update_no_block_sum, update_two_cells, update_stream, update_b_first, update_prefetch):
     register_float_overloads(_k)
 
 
@@ -192,6 +283,7 @@ def main():
     ap.add_argument("--cold", action="store_true", help="each call after an L2 flush, its time subtracted")
     ap.add_argument("--registers", type=int, nargs="*", default=[64, 32],
                     help="cuda_max_registers caps to compile the solver's reducing kernels with")
+    ap.add_argument("--per-sm", type=int, nargs="*", default=[2, 4, 8], help="blocks per SM of the variants' launches")
     args = ap.parse_args()
     wp.config.quiet = True
     wp.init()
@@ -200,7 +292,7 @@ def main():
     print(f"# normal_update variants, ms per call{cold}; device {device} ({device.name}), float64, "
           f"{time.strftime('%Y-%m-%d')}")
     variants = {"as solved": nk.normal_update, "no block sum": update_no_block_sum, "two cells": update_two_cells,
-                "stream": update_stream}
+                "stream": update_stream, "b first": update_b_first, "prefetch": update_prefetch}
     if device.is_cuda:
         regs = {}
         for name, k in variants.items():
@@ -218,7 +310,7 @@ def main():
         # tau = 0 (g.t = 0, t.Kt = 1) on an iterate not converged (residual 1): the whole path runs
         s.sums.assign([0.0, 1.0, 1.0, 0.0, 1.0] + [0.0] * (nk.N_SUMS - 5))
         row = []
-        for per_sm in (4, 8):
+        for per_sm in args.per_sm:
             shape = ReductionLaunch.for_cells(m.n_cells, device, blocks_per_sm=per_sm)
             for name, k in variants.items():
                 ms = timed_ms(device, lambda k=k: m.launches.launch_reduce(k, shape, m.n_cells, inputs, [p, g, s.sums]),
