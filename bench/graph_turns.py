@@ -10,6 +10,8 @@ kernels (one thread each, so launch and scheduling costs are all there is) and M
 - ``while + if``: the same with an IF node (false) in each iteration, as the normal solver has;
 - ``unrolled k``: k iterations per turn, the 2nd..k-th each under an IF node on the loop flag
   (same iterations: the loop stops where the flag drops);
+- ``nested while``: the iterations in a WHILE node inside the body of another (the normal
+  solver's two-level loop: ``ProjectedCG._run``'s prelude);
 
 and prints us per iteration and the overhead over ``straight``.
 
@@ -32,9 +34,11 @@ def touch(a: wp.array(dtype=wp.float64)):
 
 
 @wp.kernel
-def tick(counter: wp.array(dtype=wp.int32), limit: int, loop: wp.array(dtype=wp.int32)):
+def tick(counter: wp.array(dtype=wp.int32), limit: int, loop: wp.array(dtype=wp.int32),
+         inner: wp.array(dtype=wp.int32)):
     counter[0] = counter[0] + 1
     loop[0] = wp.where(counter[0] < limit, 1, 0)
+    inner[0] = loop[0]
 
 
 def main():
@@ -54,13 +58,14 @@ def main():
     counter = wp.zeros(1, dtype=wp.int32, device=device)
     loop = wp.zeros(1, dtype=wp.int32, device=device)
     never = wp.zeros(1, dtype=wp.int32, device=device)
+    inner = wp.zeros(1, dtype=wp.int32, device=device)
 
     def iteration(with_if=False):
         for _ in range(args.kernels):
             wp.launch(touch, 1, [a], device=device)
         if with_if:
             wp.capture_if(never, on_true=lambda: wp.launch(touch, 1, [a], device=device))
-        wp.launch(tick, 1, [counter, m, loop], device=device)
+        wp.launch(tick, 1, [counter, m, loop, inner], device=device)
 
     def start():
         counter.zero_()
@@ -73,6 +78,10 @@ def main():
                 wp.capture_if(loop, on_true=lambda: iteration(with_if))
         return turn
 
+    def nested():
+        inner.fill_(1)
+        wp.capture_while(inner, iteration)
+
     variants = {
         "straight": lambda: [iteration() for _ in range(m)],
         "while": lambda: wp.capture_while(loop, iteration),
@@ -80,6 +89,7 @@ def main():
         "unrolled 2": lambda: wp.capture_while(loop, unrolled(2)),
         "unrolled 4": lambda: wp.capture_while(loop, unrolled(4)),
         "unrolled 2 + if": lambda: wp.capture_while(loop, unrolled(2, True)),
+        "nested while": lambda: wp.capture_while(loop, nested),
     }
     graphs = {}
     with wp.ScopedDevice(device):

@@ -372,7 +372,7 @@ def normal_update(
 def normal_advance(sums: wp.array(dtype=Any), settings: wp.array(dtype=Any), exact_every: int, column_norm: Any,
                    deferral: Any, scalars: wp.array(dtype=Any), residual_history: wp.array(dtype=Any),
                    deferred: wp.array(dtype=Any), recompute: wp.array(dtype=wp.int32), loop: wp.array(dtype=wp.int32),
-                   refresh: wp.array(dtype=wp.int32)):
+                   refresh: wp.array(dtype=wp.int32), inner_loop: wp.array(dtype=wp.int32)):
     """One thread, end of an iteration: the shared :func:`~warpcontact.kernels.reduce.advance`
     (residual history, G_old, delta, the loop flag), then whether the next iteration starts
     from an exact gap (``recompute[0] = 1``: a convolution of p and ``normal_gap``), then the
@@ -388,7 +388,9 @@ def normal_advance(sums: wp.array(dtype=Any), settings: wp.array(dtype=Any), exa
     ``exact_every`` iterations (rounding), and always when ``settings[P_EXACT]`` is 1.
 
     The loop also stops (settled) when the new iterate's residual, from the update's sums, is
-    under the tolerance and no cell was projected since the last exact gap.
+    under the tolerance and no cell was projected since the last exact gap. ``inner_loop[0]``: 1
+    while the loop goes on without a recompute (the solver's inner device loop, see
+    ``ProjectedCG._run``).
     """
     advance(sums, settings, 0, scalars, residual_history, loop, refresh)
     zero = type(sums[0])(0.0)
@@ -413,6 +415,7 @@ def normal_advance(sums: wp.array(dtype=Any), settings: wp.array(dtype=Any), exa
     res, finite = relative_residual(sums)
     if not finite or (missed == zero and res < tol):
         stop_loop(scalars, loop, refresh, True)
+    inner_loop[0] = wp.where(loop[0] != 0 and recompute[0] == 0, 1, 0)
 
 
 # slots of the first guess's sums (NormalSolver.guess_sums)

@@ -118,10 +118,12 @@ def stop_loop(scalars: wp.array(dtype=Any), loop: wp.array(dtype=wp.int32), refr
 
 
 @wp.kernel
-def loop_start(sums: wp.array(dtype=Any), settings: wp.array(dtype=Any), scalars: wp.array(dtype=Any),
+def loop_start(sums: wp.array(dtype=Any), settings: wp.array(dtype=Any), exact: int, scalars: wp.array(dtype=Any),
                loop: wp.array(dtype=wp.int32), refresh: wp.array(dtype=wp.int32)):
     """One thread, before a launch's iterations: go on (``loop[0]`` = 1) unless the iterate's
-    residual is under ``settings[P_TOL]`` or not finite, or the iteration limit is reached."""
+    residual is under ``settings[P_TOL]`` or not finite, or the iteration limit is reached.
+    ``exact`` = 1: the sums were just made exact (a solve's first launch), so a solve that settles
+    here needs no refresh (a warm start already converged: one convolution instead of two)."""
     res, finite = relative_residual(sums)
     if finite and not (res < settings[P_TOL]) and int(scalars[C_ITER]) < int(settings[P_MAX_ITER]):
         loop[0] = 1
@@ -129,6 +131,8 @@ def loop_start(sums: wp.array(dtype=Any), settings: wp.array(dtype=Any), scalars
         scalars[C_STOP] = type(scalars[0])(0.0)
     else:
         stop_loop(scalars, loop, refresh, True)
+        if exact != 0:
+            refresh[0] = 0
 
 
 @wp.func

@@ -143,22 +143,35 @@ def spectral_coupled(
 
 
 @wp.kernel
-def spectral_cross(
+def spectral_cross_normal(
     influence: wp.array3d(dtype=Any),
     spectrum_z: wp.array2d(dtype=Any),
     spectrum_x: wp.array2d(dtype=Any),
     spectrum_y: wp.array2d(dtype=Any),
     per: int,
 ):
-    """Only the normal-tangential coupling: u_z = K_zt q, (u_x, u_y) = K_tp p, in place."""
+    """The shear's normal displacement u_z = K_zt q into ``spectrum_z`` (from the shear's
+    spectra, left as they are)."""
+    i, c = wp.tid()
+    for j in range(c * per, wp.min((c + 1) * per, spectrum_z.shape[1])):
+        spectrum_z[i, j] = -times_i(influence[XZ, i, j] * spectrum_x[i, j] + influence[YZ, i, j] * spectrum_y[i, j])
+
+
+@wp.kernel
+def spectral_cross_tangential(
+    influence: wp.array3d(dtype=Any),
+    spectrum_z: wp.array2d(dtype=Any),
+    spectrum_x: wp.array2d(dtype=Any),
+    spectrum_y: wp.array2d(dtype=Any),
+    per: int,
+):
+    """The pressure's tangential displacement (u_x, u_y) = K_tp p into ``spectrum_x``,
+    ``spectrum_y`` (from the pressure's spectrum in ``spectrum_z``, left as it is)."""
     i, c = wp.tid()
     for j in range(c * per, wp.min((c + 1) * per, spectrum_z.shape[1])):
         ip = times_i(spectrum_z[i, j])
-        kxz = influence[XZ, i, j]
-        kyz = influence[YZ, i, j]
-        spectrum_z[i, j] = -times_i(kxz * spectrum_x[i, j] + kyz * spectrum_y[i, j])
-        spectrum_x[i, j] = kxz * ip
-        spectrum_y[i, j] = kyz * ip
+        spectrum_x[i, j] = influence[XZ, i, j] * ip
+        spectrum_y[i, j] = influence[YZ, i, j] * ip
 
 
 @wp.kernel
@@ -182,7 +195,7 @@ for _r, _v in ((wp.float32, wp.vec2f), (wp.float64, wp.vec2d)):
         {"influence": wp.array3d(dtype=_r), "spectrum_x": wp.array2d(dtype=_v), "spectrum_y": wp.array2d(dtype=_v),
          "per": int},
     )
-    for _k in (spectral_coupled, spectral_cross):
+    for _k in (spectral_coupled, spectral_cross_normal, spectral_cross_tangential):
         wp.overload(
             _k,
             {

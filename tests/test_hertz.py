@@ -20,6 +20,20 @@ DELTA_Z = 1.0e-10
 A = math.sqrt(R * DELTA_Z)
 
 
+def count_convolutions(model):
+    """Count the calls of ``model.operator.normal`` (K p) from now on, in the list it returns
+    (one entry; calls, not executions: a CUDA graph's replay makes none)."""
+    calls = [0]
+    apply = model.operator.normal
+
+    def counted(*args, **kw):
+        calls[0] += 1
+        return apply(*args, **kw)
+
+    model.operator.normal = counted
+    return calls
+
+
 def solve_hertz(n, device="cpu", dtype="float64", fft="auto", profile="paraboloid"):
     model = ContactModel(PAPER_PAIR, Sphere(R, profile), Grid(n, 4 * A), device=device, dtype=dtype, fft=fft)
     state = ContactState(model)
@@ -152,6 +166,28 @@ def test_preconditioned_solve_matches_plain(device, cap_over_p0):
     assert it1 <= 0.5 * it2, (it1, it2)
 
 
+def test_warm_start_at_the_solution_makes_one_convolution(device):
+    """A solve that starts at its solution (the later turns of a coupled or adhesive step) makes
+    no iteration, leaves the fields as they were, and makes one convolution (K p, for its exact
+    residual), not a second for a final residual of an iterate that did not change. Counted
+    where the launches run eagerly (``use_graphs=False``: every convolution calls the operator);
+    on CUDA the same solve replayed from captured graphs too (same fields and residual)."""
+    for use_graphs in [False] + ([None] if wp.get_device(device).is_cuda else []):
+        model = ContactModel(PAPER_PAIR, Sphere(R, "paraboloid"), Grid(64, 4 * A), device=device)
+        solver = NormalSolver(model, use_graphs=use_graphs)
+        state = ContactState(model)
+        first = solver.solve(state, DELTA_Z)
+        fields = {k: getattr(state, k).numpy().copy() for k in ("pressure", "gap", "disp_z")}
+        calls = count_convolutions(model)
+        again = solver.solve(state, DELTA_Z)
+        assert first.converged and again.converged and again.iterations == 0, (use_graphs, first, again)
+        assert again.residual < solver.tol
+        for k, v in fields.items():
+            np.testing.assert_array_equal(getattr(state, k).numpy(), v, err_msg=f"{k}, use_graphs={use_graphs}")
+        if not solver.use_graphs:
+            assert calls[0] == 1, calls
+
+
 def test_no_contact_gives_zero_pressure():
     model = ContactModel(PAPER_PAIR, Sphere(R), Grid(16, 4 * A))
     state = ContactState(model)
@@ -184,14 +220,7 @@ def test_one_convolution_mode_matches_two(device):
     results = {}
     for one_conv in (True, False):
         model = ContactModel(PAPER_PAIR, Sphere(R, "paraboloid"), Grid(96, 4 * A), device=device)
-        calls = [0]
-        apply = model.operator.normal
-
-        def counted(*args, **kw):
-            calls[0] += 1
-            return apply(*args, **kw)
-
-        model.operator.normal = counted
+        calls = count_convolutions(model)
         padded = model.operator.normal_padded  # K t of the iteration's direction
 
         def counted_padded(*args, **kw):
@@ -266,7 +295,8 @@ def test_column_norm_bounds_one_cells_displacement():
 def _advance(correction, deferred, violation, it, rhs=1.0, tol=1e-10, column_norm=2.0, deferral=0.1, exact_every=50,
              exact=0.0, max_iter=2000, chunk=64, extra=None):
     """One launch of kernels/normal.py's normal_advance on the CPU, at the end of iteration
-    ``it`` (1-based): (recompute flag, deferred after, loop flag, sums after, refresh flag). The
+    ``it`` (1-based): (recompute flag, deferred after, loop flag, sums after, refresh flag, inner
+    loop flag). The
     updated iterate's sums (S_NEXT_*) are the start's unless ``extra`` sets them."""
     from warpcontact.kernels import normal as nk
 
@@ -280,15 +310,16 @@ def _advance(correction, deferred, violation, it, rhs=1.0, tol=1e-10, column_nor
     settings = np.zeros(nk.N_SETTINGS)
     settings[[nk.P_TOL, nk.P_MAX_ITER, nk.P_CHUNK, nk.P_EXACT]] = tol, max_iter, chunk, exact
     held = wp.array([deferred], dtype=wp.float64, device="cpu")
-    flag, refresh = (wp.zeros(1, dtype=wp.int32, device="cpu") for _ in range(2))
+    flag, refresh, inner = (wp.zeros(1, dtype=wp.int32, device="cpu") for _ in range(3))
     loop = wp.ones(1, dtype=wp.int32, device="cpu")  # as loop_start leaves it: the kernel only stops the loop
     sums_wp = wp.array(sums, dtype=wp.float64)
     wp.launch(nk.normal_advance, dim=1, device="cpu",
               inputs=[sums_wp, wp.array(settings, dtype=wp.float64), exact_every, wp.float64(column_norm),
                       wp.float64(deferral)],
               outputs=[wp.array(scalars, dtype=wp.float64), wp.zeros(max_iter + 1, dtype=wp.float64), held, flag, loop,
-                       refresh])
-    return int(flag.numpy()[0]), float(held.numpy()[0]), int(loop.numpy()[0]), sums_wp.numpy(), int(refresh.numpy()[0])
+                       refresh, inner])
+    return (int(flag.numpy()[0]), float(held.numpy()[0]), int(loop.numpy()[0]), sums_wp.numpy(), int(refresh.numpy()[0]),
+            int(inner.numpy()[0]))
 
 
 def _recompute_flag(correction, deferred, violation, it, **kw):
@@ -334,3 +365,15 @@ def test_advance_moves_the_new_iterates_sums_and_sets_the_loop_flag():
     converged_next = {nk.S_NEXT_VIOL: 1e-22, nk.S_NEXT_RHS: 1.0}
     assert loop_refresh(0.0, 0.0, 1.0, it=3, extra=converged_next) == (0, 1)
     assert loop_refresh(1e-9, 0.0, 1.0, it=3, extra=converged_next) == (1, 0)
+
+
+def test_inner_loop_flag_stops_for_a_recompute_or_the_loops_end():
+    """The solver's inner device loop (``ProjectedCG._run``'s prelude) goes on only while the
+    loop does and no recompute of K p is due: it stops for a recompute (the outer loop then makes
+    it and enters the inner loop again), at the launch's end and when the solve settles."""
+    flags = lambda *a, **kw: tuple(_advance(*a, **kw)[i] for i in (0, 2, 5))  # noqa: E731  (recompute, loop, inner)
+    assert flags(0.0, 0.0, 1.0, it=3) == (0, 1, 1)
+    assert flags(0.0, 0.0, 1.0, it=50) == (1, 1, 0)  # exact_every
+    assert flags(0.02, 0.04, 1.0, it=3) == (1, 1, 0)  # the deferral's bound
+    assert flags(0.0, 0.0, 1.0, it=9, chunk=3) == (0, 0, 0)  # the launch's end
+    assert flags(0.0, 0.0, 1e-22, it=3) == (0, 0, 0)  # settled

@@ -131,6 +131,27 @@ def test_stick_cells_do_not_slip(adhesive):
     assert cos.min() > 0.999, "slip cells' shear is not along their slip increment"
 
 
+@pytest.mark.parametrize("adhesive", [False, True])
+def test_turns_keep_the_normal_displacement_of_the_pressure(adhesive, device):
+    """The later turns of a coupled (and adhesive) step start their normal solves from the
+    state's displacement instead of convolving the unchanged pressure again
+    (``displacement_current``): after the step, disp_z is K p of the final pressure, as a fresh
+    convolution makes it (to float64 rounding: the first guess's K p is c K s, not K (c s))."""
+    from warpcontact.adhesion import SMC
+
+    law = SMC(2e7, 2e7, 2e-11, 2e-11) if adhesive else None
+    model = ContactModel(PAPER_PAIR, Sphere(R, "paraboloid"), Grid(48, 3 * A), device=device)
+    solver = ContactSolver(model, TaborVonMises(0.8, COPPER.yield_strength), adhesion=law)
+    state = ContactState(model)
+    for approach in ((0.0, 0.0, DZ), (2.0e-11, 0.0, DZ)):
+        info = solver.step(state, approach)
+        assert info.converged and info.outer_iterations > 2, info
+        fresh = model.field()
+        model.operator.normal(state.pressure, fresh)
+        u, ref = state.disp_z.numpy(), fresh.numpy()
+        assert np.abs(u - ref).max() < 1e-13 * np.abs(ref).max(), np.abs(u - ref).max() / np.abs(ref).max()
+
+
 def test_normal_solves_preconditioned_where_a_step_is_one_solve():
     """ContactSolver preconditions its normal solves where a step is one normal solve (no
     friction, or friction between identical materials: no turns) and not in the turns of the

@@ -126,10 +126,18 @@ class ElasticOperator:
         for buf, dst in zip(self._buf, (disp_z, disp_x, disp_y)):
             self.fft.inverse(buf, dst)
 
-    def cross(self, pressure, shear_x, shear_y, disp_z, disp_x, disp_y):
-        """Only the coupling terms: disp_z <- K_zt q, (disp_x, disp_y) <- K_tp p."""
-        for src, buf in zip((pressure, shear_x, shear_y), self._buf):
-            self.fft.forward(src, buf)
-        self.spectral_product(spectral.spectral_cross, self._buf)
-        for buf, dst in zip(self._buf, (disp_z, disp_x, disp_y)):
-            self.fft.inverse(buf, dst)
+    def cross_normal(self, shear_x, shear_y, disp_z):
+        """disp_z <- K_zt q: the shear's normal displacement (coupling only; two forward
+        transforms and one inverse)."""
+        self.fft.forward(shear_x, self._buf[1])
+        self.fft.forward(shear_y, self._buf[2])
+        self.spectral_product(spectral.spectral_cross_normal, self._buf)
+        self.fft.inverse(self._buf[0], disp_z)
+
+    def cross_tangential(self, pressure, disp_x, disp_y):
+        """(disp_x, disp_y) <- K_tp p: the pressure's tangential displacement (coupling only; one
+        forward transform and two inverse)."""
+        self.fft.forward(pressure, self._buf[0])
+        self.spectral_product(spectral.spectral_cross_tangential, self._buf)
+        self.fft.inverse(self._buf[1], disp_x)
+        self.fft.inverse(self._buf[2], disp_y)

@@ -31,7 +31,8 @@ class ProjectedCG:
     work of one iteration, whose last kernel calls :func:`warpcontact.kernels.reduce.advance`:
     it records the residual of the iterate the iteration started from, counts the iteration and
     sets the loop flag). The loop settles as soon as an iterate's residual is under the tolerance,
-    is not finite, or the iteration limit is reached, and ``exact`` then runs again; it also stops
+    is not finite, or the iteration limit is reached, and ``exact`` then runs again (unless it
+    settled before the first iteration, where the sums are exact already); it also stops
     after ``iterations_per_launch`` iterations, where the host checks for interrupts and launches
     it again (nothing else changes there, so the results do not depend on the launch length). The
     host reads the scalars once per launch, and the sums once the loop settled. A solve that
@@ -70,6 +71,9 @@ class ProjectedCG:
         #: at the limit or not finite: the launch then makes the residual exact)
         self.loop = wp.zeros(1, dtype=wp.int32, device=model.device)
         self.refresh = wp.zeros(1, dtype=wp.int32, device=model.device)
+        #: the inner loop's flag where iterations may start with a conditional step (``_run``'s
+        #: ``prelude``): 1 while the iterations go on without it
+        self.inner_loop = wp.zeros(1, dtype=wp.int32, device=model.device)
         #: replay launches as captured CUDA graphs (default: on CUDA devices with conditional nodes)
         supported = model.device.is_cuda and wp.is_conditional_graph_supported()
         self.use_graphs = supported if use_graphs is None else bool(use_graphs)
@@ -122,14 +126,36 @@ class ProjectedCG:
             return math.sqrt(s[viol_slot] / s[rhs_slot])
         return 0.0 if s[viol_slot] == 0 else 1.0
 
-    def _run(self, key, start, exact, body, on_non_finite, on_disagreement=None, start_exact=None) -> SolveInfo:
+    def _run(self, key, start, exact, body, on_non_finite, on_disagreement=None, start_exact=None,
+             prelude=None) -> SolveInfo:
         """The solve after :meth:`_begin` (see the class docstring). ``exact`` fills the slots
         S_VIOL and S_RHS of ``sums`` (zeroed before) for the current iterate; ``start_exact``
         (default ``exact``) does it right after ``start()``, for a start that made part of it
         already. ``on_disagreement()`` is called when an iteration's residual said "converged"
         and the exact one does not (the normal solver then recomputes its gap at every
-        iteration)."""
+        iteration).
+
+        ``prelude`` = (flag, step): an iteration starts with ``step()`` where ``flag[0]`` is 1 (the
+        normal solver's recompute of K p: a few iterations in a solve). In a graph, an IF node in
+        every iteration would cost more than a turn of the loop (H100: about 4 us each,
+        ``bench/graph_turns.py``), so the loop has two levels instead: the inner loop runs the
+        iterations while ``inner_loop[0]`` is 1 (the body's last kernel sets it to 0 when the loop
+        stops or the flag is raised), the outer loop runs ``step()`` if the flag is raised and
+        enters the inner loop again. The iterations are the same either way."""
         tol = self.active_tol
+
+        def iterations():
+            if prelude is None:
+                wp.capture_while(self.loop, body)
+                return
+            flag, step = prelude
+
+            def turn():
+                wp.capture_if(flag, on_true=step)
+                self.inner_loop.fill_(1)  # the outer loop runs while the loop does
+                wp.capture_while(self.inner_loop, body)
+
+            wp.capture_while(self.loop, turn)
 
         def refresh(exact=exact):
             self.sums.zero_()
@@ -141,8 +167,8 @@ class ProjectedCG:
                 self.history.fill_(-1.0)
                 start()
                 refresh(exact if start_exact is None else start_exact)
-            self.model.launch(loop_start, 1, [self.sums, self.settings], [self.scalars, self.loop, self.refresh])
-            wp.capture_while(self.loop, body)
+            self.model.launch(loop_start, 1, [self.sums, self.settings, int(first)], [self.scalars, self.loop, self.refresh])
+            iterations()
             wp.capture_if(self.refresh, on_true=refresh)
 
         self._launch(("first", *key), lambda: work(True))

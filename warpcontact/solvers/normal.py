@@ -112,14 +112,17 @@ class NormalSolver(ProjectedCG):
         # n = 2048, 68 -> 43 us; bench/reduction_launch.py --cold)
         self._direction_launch = ReductionLaunch.for_cells(model.n_cells, model.device, blocks_per_sm=8)
 
-    def solve(self, state, approach_z: float, known_displacement: wp.array | None = None, tol=None) -> SolveInfo:
+    def solve(self, state, approach_z: float, known_displacement: wp.array | None = None, tol=None,
+              displacement_current: bool = False) -> SolveInfo:
         """Solve for ``state.pressure`` at the rigid approach ``approach_z`` [m].
 
         Starts from the pressure already in ``state`` (warm start along a path) or, if it is zero,
         from a Hertz-shaped guess (:meth:`_guess`). ``known_displacement`` (scaled, (n, n)) is a
         normal displacement from other tractions (shear coupling, adhesion) held fixed during
         the solve. Fills ``state.pressure``, ``state.disp_z``, ``state.gap``. ``tol`` overrides
-        the solver's tolerance for this solve.
+        the solver's tolerance for this solve. ``displacement_current``: ``state.disp_z`` is K p
+        of ``state.pressure`` already (the pressure has not changed since a solve left it), so the
+        start makes no convolution of its own (the later turns of a coupled or adhesive step).
         """
         m = self.model
         fft = m.operator.fft
@@ -140,7 +143,8 @@ class NormalSolver(ProjectedCG):
             self.guess_sums.zero_()
             m.launch_reduce(nk.count_positive, [p], [self.guess_sums])
             m.launch(nk.guess_needed, 1, [self.guess_sums], [self.guess_flag])
-            wp.capture_if(self.guess_flag, on_true=lambda: self._guess(state), on_false=displacement)
+            wp.capture_if(self.guess_flag, on_true=lambda: self._guess(state),
+                          on_false=None if displacement_current else displacement)
             self.direction.zero_()  # no leftover from an earlier (possibly failed) solve
 
         def gap_sums():  # state.gap and the residual sums of p, from state.disp_z = K p
@@ -169,8 +173,7 @@ class NormalSolver(ProjectedCG):
             self._preconditioned_g.zero_()
             m.operator.normal_padded(self.sums, nk.S_G, inverse=True)
 
-        def body():
-            wp.capture_if(self.recompute, on_true=recompute)  # in a graph, a conditional node: the device decides
+        def body():  # after recompute() where self.recompute is set (the device decides: _run's prelude)
             if preconditioned:
                 precondition()
             direction_in = [g_rows, p_rows, self._cap, self.sums, self.scalars, *output[:2], int(preconditioned),
@@ -187,7 +190,8 @@ class NormalSolver(ProjectedCG):
                             [p_rows, g_rows, Sums(self.sums)])
             m.launch(nk.normal_advance, 1,
                      [self.sums, self.settings, self.exact_every, self._column_norm, m.scalar(self.deferral)],
-                     [self.scalars, self.history, self.deferred, self.recompute, self.loop, self.refresh])
+                     [self.scalars, self.history, self.deferred, self.recompute, self.loop, self.refresh,
+                      self.inner_loop])
 
         def on_disagreement():  # the carried gap said "converged", the exact one does not
             if self._settings[nk.P_EXACT] == 0:
@@ -197,8 +201,9 @@ class NormalSolver(ProjectedCG):
         def on_non_finite(it):
             raise_non_finite("normal solve", state, ("pressure", "gap", "disp_z"), it)
 
-        key = (state.pressure.ptr, state.gap.ptr, state.disp_z.ptr, known.ptr, preconditioned)
-        return self._run(key, start, exact, body, on_non_finite, on_disagreement, start_exact=exact_from_displacement)
+        key = (state.pressure.ptr, state.gap.ptr, state.disp_z.ptr, known.ptr, preconditioned, displacement_current)
+        return self._run(key, start, exact, body, on_non_finite, on_disagreement, start_exact=exact_from_displacement,
+                         prelude=(self.recompute, recompute))
 
     def _guess(self, state):
         """The first guess of a solve from rest: p = c s, with s = sqrt(max(b - b_max / 2, 0)),
