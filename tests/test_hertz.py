@@ -318,8 +318,8 @@ def _advance(correction, deferred, violation, it, rhs=1.0, tol=1e-10, column_nor
                       wp.float64(deferral)],
               outputs=[wp.array(scalars, dtype=wp.float64), wp.zeros(max_iter + 1, dtype=wp.float64), held, flag, loop,
                        refresh, inner])
-    return (int(flag.numpy()[0]), float(held.numpy()[0]), int(loop.numpy()[0]), sums_wp.numpy(), int(refresh.numpy()[0]),
-            int(inner.numpy()[0]))
+    flags = [int(a.numpy()[0]) for a in (flag, loop, refresh, inner)]
+    return flags[0], float(held.numpy()[0]), flags[1], sums_wp.numpy(), flags[2], flags[3]
 
 
 def _recompute_flag(correction, deferred, violation, it, **kw):

@@ -186,7 +186,8 @@ def test_dcfft_matches_direct_summation(n, device):
         for i in range(n):
             for j in range(n):
                 # u[i, j] = sum_{k, l} K[i - k, j - l] t[k, l]; offsets index as n - 1 + d
-                part[(c, s)][i, j] = np.sum(k[n - 1 + i - np.arange(n)[:, None], n - 1 + j - np.arange(n)[None, :]] * t[s])
+                offsets = (n - 1 + i - np.arange(n)[:, None], n - 1 + j - np.arange(n)[None, :])
+                part[(c, s)][i, j] = np.sum(k[offsets] * t[s])
     ref = {c: part[(c, 0)] + part[(c, 1)] + part[(c, 2)] for c in "zxy"}
     src = [wp.array(t[s], dtype=wp.float64, device=device) for s in range(3)]
     dst = [wp.zeros((n, n), dtype=wp.float64, device=device) for _ in range(3)]

@@ -167,7 +167,8 @@ class ProjectedCG:
                 self.history.fill_(-1.0)
                 start()
                 refresh(exact if start_exact is None else start_exact)
-            self.model.launch(loop_start, 1, [self.sums, self.settings, int(first)], [self.scalars, self.loop, self.refresh])
+            self.model.launch(loop_start, 1, [self.sums, self.settings, int(first)],
+                              [self.scalars, self.loop, self.refresh])
             iterations()
             wp.capture_if(self.refresh, on_true=refresh)
 
