@@ -86,7 +86,8 @@ def main():
             "normal_update": (nk.normal_update, [t, *output, b, s._cap, s.settings], [p, g, s.sums]),
         }
         energy = (spectral.spectral_normal_energy,
-                  [op.influence, spec, fft.half_axis, fft.half_length, fft.energy_scale, 0, nk.S_RT, 0], [s.sums])
+                  [op.influence, spec, fft.half_axis, fft.half_length, fft.energy_scale, 0, nk.S_RT, 0, op._mirror],
+                  [s.sums])
         entries = op._spectral_entries
         for (label, shape), (_, spectral_shape) in zip(shapes(m.n_cells, device, args.block_dims, args.per_sm),
                                                        shapes(entries, device, args.block_dims, args.per_sm)):

@@ -39,7 +39,7 @@ import warp as wp
 from .overloads import register_float_overloads
 from .reduce import (  # noqa: F401  (shared slots)
     C_DELTA, C_G_OLD, C_ITER, N_SCALARS, N_SETTINGS, P_APPROACH, P_CHUNK, P_EXACT, P_MAX_ITER, P_TOL, S_G, S_GT, S_RHS,
-    S_RT, S_VIOL, advance, relative_residual, stop_loop,
+    S_RT, S_VIOL, advance, residual_of, stop_loop,
     block_add, block_add_vector, block_max, cell_index, cg_converged, cg_step_length,
 )
 from .reduce import S_RESTART as S_IOL  # cells that re-enter contact (or leave the cap)
@@ -392,30 +392,35 @@ def normal_advance(sums: wp.array(dtype=Any), settings: wp.array(dtype=Any), exa
     while the loop goes on without a recompute (the solver's inner device loop, see
     ``ProjectedCG._run``).
     """
-    advance(sums, settings, 0, scalars, residual_history, loop, refresh)
-    zero = type(sums[0])(0.0)
-    missed = deferred[0] + sums[S_CORRECTION]
-    bound = column_norm * missed
+    # every load before the first store (see advance): one round trip to memory, not one per load
     tol = settings[P_TOL]
-    near = sums[S_VIOL] <= type(zero)(16.0) * tol * tol * sums[S_RHS]
-    if (settings[P_EXACT] > zero or bound * bound > deferral * deferral * sums[S_VIOL] or (near and missed > zero)
-            or int(scalars[C_ITER]) % exact_every == 0):
-        recompute[0] = 1
-        deferred[0] = zero
-    else:
-        recompute[0] = 0
-        deferred[0] = missed
-    sums[S_G] = sums[S_NEXT_G]
-    sums[S_VIOL] = sums[S_NEXT_VIOL]
-    sums[S_RHS] = sums[S_NEXT_RHS]
+    exact = settings[P_EXACT]
+    viol = sums[S_VIOL]
+    rhs = sums[S_RHS]
+    missed = deferred[0] + sums[S_CORRECTION]
+    next_g = sums[S_NEXT_G]
+    next_viol = sums[S_NEXT_VIOL]
+    next_rhs = sums[S_NEXT_RHS]
+    done, stopped = advance(sums, settings, 0, scalars, residual_history, loop, refresh)
+    zero = type(tol)(0.0)
+    bound = column_norm * missed
+    near = viol <= type(zero)(16.0) * tol * tol * rhs
+    again = (exact > zero or bound * bound > deferral * deferral * viol or (near and missed > zero)
+             or done % exact_every == 0)
+    recompute[0] = wp.where(again, 1, 0)
+    deferred[0] = wp.where(again, zero, missed)
+    sums[S_G] = next_g
+    sums[S_VIOL] = next_viol
+    sums[S_RHS] = next_rhs
     for slot in range(S_GT, N_SUMS):
         sums[slot] = zero
     # the new iterate converged, and no projection changed since the last exact gap, so its carried
     # gap is exact but for rounding: stop here rather than in an iteration that only observes it
-    res, finite = relative_residual(sums)
+    res, finite = residual_of(next_viol, next_rhs)
     if not finite or (missed == zero and res < tol):
         stop_loop(scalars, loop, refresh, True)
-    inner_loop[0] = wp.where(loop[0] != 0 and recompute[0] == 0, 1, 0)
+        stopped = True
+    inner_loop[0] = wp.where(stopped or again, 0, 1)
 
 
 # slots of the first guess's sums (NormalSolver.guess_sums)

@@ -93,9 +93,13 @@ def relative_residual(sums: wp.array(dtype=Any)):
     """The relative residual sqrt(S_VIOL / S_RHS) of the iterate the sums describe (1 where the
     right-hand side is zero but not the violation), and whether both sums are finite; a residual
     that is not finite when they are not."""
-    zero = type(sums[0])(0.0)
-    viol = sums[S_VIOL]
-    rhs = sums[S_RHS]
+    return residual_of(sums[S_VIOL], sums[S_RHS])
+
+
+@wp.func
+def residual_of(viol: Any, rhs: Any):
+    """:func:`relative_residual` from the sums' values."""
+    zero = type(viol)(0.0)
     res = zero
     if rhs > zero:
         res = wp.sqrt(viol / rhs)
@@ -143,29 +147,41 @@ def advance(sums: wp.array(dtype=Any), settings: wp.array(dtype=Any), restart_ev
     count the iteration, and stop the device loop (:func:`stop_loop`) once that residual is under
     ``settings[P_TOL]`` or not finite or at ``settings[P_MAX_ITER]`` iterations (settled), and at
     every multiple of ``settings[P_CHUNK]`` (the host's turn: interrupts). Every
-    ``restart_every`` iterations (0: never) the next direction is the gradient."""
-    zero = type(sums[0])(0.0)
-    one = type(zero)(1.0)
-    res, finite = relative_residual(sums)
+    ``restart_every`` iterations (0: never) the next direction is the gradient. Returns the
+    iterations done and whether the loop stopped.
+
+    Every load comes before the first store: the compiler keeps a load after a store to another
+    array (they might alias), so each would wait for the one before, and a one-thread kernel is
+    all latency."""
+    viol = sums[S_VIOL]
+    rhs = sums[S_RHS]
+    g = sums[S_G]
+    restart = sums[S_RESTART]
     it = int(scalars[C_ITER])
+    tol = settings[P_TOL]
+    max_iter = int(settings[P_MAX_ITER])
+    chunk = int(settings[P_CHUNK])
+    zero = type(tol)(0.0)
+    one = type(tol)(1.0)
+    res, finite = residual_of(viol, rhs)
     if it < residual_history.shape[0]:
         residual_history[it] = res
     done = it + 1
-    scalars[C_G_OLD] = sums[S_G]
-    if restart_every > 0 and done % restart_every == 0:
-        scalars[C_G_OLD] = zero
-    scalars[C_DELTA] = wp.where(sums[S_RESTART] > zero, zero, one)
+    scalars[C_G_OLD] = wp.where(restart_every > 0 and done % restart_every == 0, zero, g)
+    scalars[C_DELTA] = wp.where(restart > zero, zero, one)
     scalars[C_ITER] = type(zero)(done)
-    settled = (not finite) or res < settings[P_TOL] or done >= int(settings[P_MAX_ITER])
-    if settled or done % int(settings[P_CHUNK]) == 0:
+    settled = (not finite) or res < tol or done >= max_iter
+    stopped = settled or done % chunk == 0
+    if stopped:
         stop_loop(scalars, loop, refresh, settled)
+    return done, stopped
 
 
 @wp.kernel
 def cg_advance(sums: wp.array(dtype=Any), settings: wp.array(dtype=Any), restart_every: int, scalars: wp.array(dtype=Any),
                residual_history: wp.array(dtype=Any), loop: wp.array(dtype=wp.int32), refresh: wp.array(dtype=wp.int32)):
     """One thread, end of an iteration: :func:`advance`."""
-    advance(sums, settings, restart_every, scalars, residual_history, loop, refresh)
+    done, stopped = advance(sums, settings, restart_every, scalars, residual_history, loop, refresh)
 
 
 register_float_overloads(loop_start)

@@ -55,6 +55,7 @@ def spectral_normal_energy(
     inverse: int,
     slot: int,
     first_row: int,
+    mirror: int,
     n: int,
     outer: int,
     inner: int,
@@ -67,7 +68,10 @@ def spectral_normal_energy(
     frequencies, of length ``half_length`` in real space) is 0 or half_length / 2, 2 elsewhere
     (``FFTBackend.half_axis``). A reducing kernel (kernels/reduce.py) over the n entries of the
     spectrum, row-major; ``first_row``: the spectrum's first row (the CPU splits the launch by
-    rows, ``launch.FirstRow``).
+    rows, ``launch.FirstRow``). ``mirror`` > 0: the length of the spectrum's full axis (the one
+    that is not ``half_axis``); K_zz is even, so K_zz(k) = K_zz(-k), and entries past the middle
+    of that axis read K_zz at their mirror image: the kernel reads half of K_zz's spectrum
+    (CUDA; the CPU's split launches hold only their own rows of it: 0 there).
 
     With ``inverse`` = 1 the multiplier is 1 / K_zz(k) instead (0 where K_zz(k) <= 0; it is
     positive on the padded grids, about 0.18 at the highest frequency and 2.2 n at the lowest,
@@ -89,7 +93,14 @@ def spectral_normal_energy(
         e = cell_index(thread, outer, inner, k)
         if e < n:
             s = spectrum[i, j]
-            kzz = influence[ZZ, i, j]
+            ki = i
+            kj = j
+            if mirror > 0:
+                if half_axis == 1 and 2 * i > mirror:
+                    ki = mirror - i
+                elif half_axis == 0 and 2 * j > mirror:
+                    kj = mirror - j
+            kzz = influence[ZZ, ki, kj]
             if inverse != 0:
                 kzz = wp.where(kzz > zero, type(zero)(1.0) / kzz, zero)
             spectrum[i, j] = kzz * s
@@ -187,7 +198,8 @@ for _r, _v in ((wp.float32, wp.vec2f), (wp.float64, wp.vec2d)):
     wp.overload(
         spectral_normal_energy,
         {"influence": wp.array3d(dtype=_r), "spectrum": wp.array2d(dtype=_v), "half_axis": int, "half_length": int,
-         "energy_scale": _r, "inverse": int, "slot": int, "first_row": int, "n": int, "outer": int, "inner": int,
+         "energy_scale": _r, "inverse": int, "slot": int, "first_row": int, "mirror": int, "n": int, "outer": int,
+         "inner": int,
          "per": int, "sums": wp.array(dtype=_r)},
     )
     wp.overload(

@@ -338,6 +338,52 @@ def test_spectral_energy_split_over_cpu_threads_is_the_whole_one(fft, inverse):
     assert e2 == pytest.approx(e1, rel=1e-12) and e1 > 0
 
 
+@pytest.mark.parametrize("fft", ["scipy", "warp"])
+def test_spectral_energy_reads_the_mirror_of_its_even_spectrum(fft):
+    """K_zz is even, so its spectrum is too along the full axis (the one the real transform does
+    not halve): with ``mirror`` (CUDA's launch) the energy product reads only the entries up to
+    the middle of that axis. Checked on the CPU in one whole launch, for both layouts (full axis
+    along the rows: scipy; along the columns: the warp backend): with the entries past the middle
+    set to NaN the product and its sum are those of the stored spectrum to 1e-13 (the stored
+    halves agree to the rounding of the transform that made them) and finite; without
+    ``mirror`` they are NaN (the test can fail)."""
+    import warp as wp
+
+    from warpcontact.kernels import spectral
+    from warpcontact.launch import ReductionLaunch
+
+    n = 24
+    op = ElasticOperator(PAPER_PAIR, Grid(n, 1e-8), "cpu", wp.float64, fft)
+    fft_ = op.fft
+    full_axis = 1 - fft_.half_axis
+    length = fft_.spectral_shape[full_axis]
+    rng = np.random.default_rng(5)
+    values = rng.standard_normal((*fft_.spectral_shape, 2))
+    influence = op.influence.numpy()
+    poisoned = influence.copy()
+    past = [slice(None)] * 3
+    past[0] = 0  # ZZ
+    past[1 + full_axis] = slice(length // 2 + 1, None)
+    poisoned[tuple(past)] = np.nan
+    entries = int(np.prod(fft_.spectral_shape))
+    shape = ReductionLaunch.for_cells(entries, fft_.device)
+
+    def product(table, mirror):
+        spectrum = wp.array(values, dtype=fft_.complex_dtype, device="cpu")
+        energy = wp.zeros(1, dtype=wp.float64, device="cpu")
+        op.launches.launch_reduce(
+            spectral.spectral_normal_energy, shape, entries,
+            [wp.array(table, dtype=wp.float64, device="cpu"), spectrum, fft_.half_axis, fft_.half_length,
+             fft_.energy_scale, 0, 0, 0, mirror], [energy])
+        return spectrum.numpy(), float(energy.numpy()[0])
+
+    (want, e_want), (got, e_got) = product(influence, 0), product(poisoned, length)
+    assert np.isfinite(got).all() and np.isfinite(e_got)
+    assert np.abs(got - want).max() <= 1e-13 * np.abs(want).max()
+    assert e_got == pytest.approx(e_want, rel=1e-13)
+    assert np.isnan(product(poisoned, 0)[1])
+
+
 @pytest.mark.parametrize("inverse", [False, True])
 @pytest.mark.parametrize("fft,device,pruned", _energy_backends())
 def test_spectral_energy_of_a_grid_with_several_entries_per_thread(fft, device, pruned, inverse):

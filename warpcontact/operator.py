@@ -39,6 +39,9 @@ class ElasticOperator:
         sy, sx = self.fft.spectral_shape
         self._spectral_entries = sy * sx
         self._spectral_reduction = ReductionLaunch.for_cells(self._spectral_entries, self.fft.device)
+        # K_zz is even: on CUDA the energy product reads its spectrum up to the middle of the full
+        # axis and mirrors past it, half of K_zz's bytes (``spectral_normal_energy``'s ``mirror``)
+        self._mirror = self.fft.spectral_shape[1 - self.fft.half_axis] if self.fft.device.is_cuda else 0
         self.coupled = pair.D != 0.0
         scale = pair.E_star / grid.dx  # scaled displacement per scaled traction
         coeffs = influence_coefficients(pair, grid.n, grid.n, grid.dx, grid.dy)
@@ -98,7 +101,7 @@ class ElasticOperator:
         self.launches.launch_reduce(
             spectral.spectral_normal_energy, self._spectral_reduction, self._spectral_entries,
             [Rows(self.influence, axis=1), Rows(spectrum), fft.half_axis, fft.half_length, fft.energy_scale,
-             int(inverse), int(slot), FirstRow()],
+             int(inverse), int(slot), FirstRow(), self._mirror],
             [Sums(energy)], rows=fft.spectral_shape)
 
     def normal_padded(self, energy: wp.array | None = None, slot: int = 0, inverse: bool = False):
