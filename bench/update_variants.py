@@ -13,8 +13,8 @@ path runs, p and g stay), isolate one suspect each:
 - ``two cells``: the loop takes two cells per turn, every load of both before any store (the
   compiler may not move a load above a store to another array, which serialises the turns);
 - ``stream``: the traffic alone: g <- g - tau K t with p, t and b read, one sum;
-- ``b first``: b read with p, g, t and K t, on every cell (no load that waits for the step);
-- ``prefetch``: as ``b first``, with the next cell's loads issued before this cell's stores.
+- ``prefetch``: b read with p, g, t and K t on every cell (no load that waits for the step), and
+  the next cell's loads issued before this cell's stores (inside a solve it was slower: README).
 
 With their register counts (``wp.get_cuda_kernel_properties``), which set how many blocks of 256
 threads an SM holds at once (65536 registers per SM on an H100: 4 blocks at 64 registers or fewer).
@@ -191,29 +191,6 @@ def step_cell(p: Any, g: Any, t: Any, r: Any, b: Any, tau: Any, done: bool, pres
 
 
 @wp.kernel
-def update_b_first(direction: wp.array(dtype=Any), padded_output: wp.array2d(dtype=Any), output_scale: Any,
-                   width: int, interference: wp.array(dtype=Any), pressure_cap: Any,
-                   settings: wp.array(dtype=Any), n: int, outer: int, inner: int, per: int,
-                   pressure: wp.array(dtype=Any), gap: wp.array(dtype=Any), sums: wp.array(dtype=Any)):
-    block, lane = wp.tid()
-    thread = block * wp.block_dim() + lane
-    tau = cg_step_length(sums)
-    done = cg_converged(sums, settings[nk.P_TOL])
-    zero = output_scale - output_scale
-    acc = wp.vector(zero, zero, zero, zero, zero)
-    for k in range(per):
-        i = cell_index(thread, outer, inner, k)
-        if i < n:
-            p = pressure[i]
-            g = gap[i]
-            t = direction[i]
-            r = output_scale * nk.padded_entry(padded_output, i, width)
-            b = interference[i]
-            acc += step_cell(p, g, t, r, b, tau, done, pressure_cap, i, pressure, gap)
-    block_add_vector(sums, nk.S_IOL, acc, lane)
-
-
-@wp.kernel
 def update_prefetch(direction: wp.array(dtype=Any), padded_output: wp.array2d(dtype=Any), output_scale: Any,
                     width: int, interference: wp.array(dtype=Any), pressure_cap: Any,
                     settings: wp.array(dtype=Any), n: int, outer: int, inner: int, per: int,
@@ -261,7 +238,7 @@ def update_prefetch(direction: wp.array(dtype=Any), padded_output: wp.array2d(dt
     block_add_vector(sums, nk.S_IOL, acc, lane)
 
 
-for _k in (update_no_block_sum, update_two_cells, update_stream, update_b_first, update_prefetch):
+for _k in (update_no_block_sum, update_two_cells, update_stream, update_prefetch):
     register_float_overloads(_k)
 
 
@@ -292,7 +269,7 @@ def main():
     print(f"# normal_update variants, ms per call{cold}; device {device} ({device.name}), float64, "
           f"{time.strftime('%Y-%m-%d')}")
     variants = {"as solved": nk.normal_update, "no block sum": update_no_block_sum, "two cells": update_two_cells,
-                "stream": update_stream, "b first": update_b_first, "prefetch": update_prefetch}
+                "stream": update_stream, "prefetch": update_prefetch}
     if device.is_cuda:
         regs = {}
         for name, k in variants.items():
