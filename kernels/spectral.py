@@ -199,8 +199,7 @@ for _r, _v in ((wp.float32, wp.vec2f), (wp.float64, wp.vec2d)):
         spectral_normal_energy,
         {"influence": wp.array3d(dtype=_r), "spectrum": wp.array2d(dtype=_v), "half_axis": int, "half_length": int,
          "energy_scale": _r, "inverse": int, "slot": int, "first_row": int, "mirror": int, "n": int, "outer": int,
-         "inner": int,
-         "per": int, "sums": wp.array(dtype=_r)},
+         "inner": int, "per": int, "sums": wp.array(dtype=_r)},
     )
     wp.overload(
         spectral_tangential,

@@ -96,8 +96,8 @@ class ContactSolver:
         tangential solve (from the pressure). Each solve of a turn needs only its own: half the
         transforms of making all three before each. With the solves' shortcuts of a turn (no
         second convolution where a solve settles at once, ``displacement_current``), a coupled
-        step at n = 256 (``bench_iteration.py``'s, CPU) made 856 forward transforms instead of 929,
-        the adhesive one 1437 instead of 1754 (42 turns instead of 46: the iterates differ in
+        step at n = 256 (``bench_iteration.py``'s, CPU) made 855 forward transforms instead of 929,
+        the adhesive one 1436 instead of 1754 (42 turns instead of 46: the iterates differ in
         rounding from the second turn on)."""
         m = self.model
         if normal:
@@ -164,7 +164,9 @@ class ContactSolver:
             outer += retry_outer
             iterations += retry_iterations
         if self.iterative:  # gap and u_z with the final tractions held fixed
-            self._known_displacements(state)
+            # known_x, known_y are current: the last turn made them from this pressure before its
+            # tangential solve (and nothing reads them without friction)
+            self._known_displacements(state, tangential=False)
             final = self.normal.solve(state, dz, self.known_z, displacement_current=True)  # as the turns left it
             iterations += final.iterations
             normal_info = final
