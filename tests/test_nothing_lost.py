@@ -1,5 +1,6 @@
-"""Nothing finished is lost: `warpcontact table2` killed (SIGKILL) or interrupted (SIGINT) after
-its first cell leaves whole files, and a rerun keeps the finished cells without duplicating them."""
+"""Nothing finished is lost: `warpcontact table2` killed (SIGKILL) or stopped (SIGINT, SIGTERM) after
+its first cell leaves whole files marked partial, and a rerun keeps the finished cells without
+duplicating them."""
 
 import csv
 import io
@@ -32,15 +33,24 @@ def start(out, log):
                             preexec_fn=_default_sigint, start_new_session=True)
 
 
-def wait_for(proc, paths, log_path, limit=START_LIMIT_S):
+def cells_on_disk(out) -> int:
+    """Cells in out/table2.json (0 while it is missing; the file is whole or absent: atomic writes)."""
+    try:
+        return len(json.loads((out / "table2.json").read_text())["cells"])
+    except FileNotFoundError:
+        return 0
+
+
+def wait_for(proc, ready, log_path, what, limit=START_LIMIT_S):
+    """Poll ``ready()`` until it holds; fail when the run ends first or takes over ``limit`` s."""
     t0 = time.monotonic()
-    while not all(p.exists() for p in paths):
+    while not ready():
         if proc.poll() is not None:
-            pytest.fail(f"table2 ended (status {proc.returncode}) before writing {paths}:\n{log_path.read_text()}")
+            pytest.fail(f"table2 ended (status {proc.returncode}) before {what}:\n{log_path.read_text()}")
         if time.monotonic() - t0 > limit:
             proc.kill()
             proc.wait()
-            pytest.fail(f"no {paths} after {limit} s:\n{log_path.read_text()}")
+            pytest.fail(f"not {what} after {limit} s:\n{log_path.read_text()}")
         time.sleep(0.05)
 
 
@@ -57,7 +67,9 @@ def read_outputs(out, max_tmp: int) -> list:
     assert set(names) - set(tmps) <= set(OUTPUTS), names
     assert "table2.json" in names, names  # the run was stopped only after it existed
 
-    cells = json.loads((out / "table2.json").read_text())["cells"]
+    table = json.loads((out / "table2.json").read_text())
+    assert table["complete"] is False  # every run here is stopped before its last cell
+    cells = table["cells"]
     keys = [(c["n"], c["k_tau"], c["delta_z_um"]) for c in cells]
     assert len(keys) == len(set(keys)), f"duplicated cells: {keys}"
     for c in cells:
@@ -87,6 +99,10 @@ def rerun_first_cell(out, before: list):
     records, elapsed times included) and writes the three files whole and consistent."""
     r = subprocess.run([*TABLE2, "--out", str(out), *FIRST_CELL], capture_output=True, text=True, timeout=300)
     assert r.returncode in (0, 3), r.stderr  # 3: a finished cell did not converge (reported, kept)
+    table = json.loads((out / "table2.json").read_text())
+    assert table["complete"] is True and table["interrupted"] is False  # the rerun's one cell was done before
+    assert table["cells_planned"] == table["cells_done"] == 1
+    (out / "table2.json").write_text(json.dumps({**table, "complete": False}))  # for read_outputs' check
     stale = [p for p in out.iterdir() if p.name.endswith(".tmp")]  # a killed run's; the rerun leaves them
     after = read_outputs(out, max_tmp=len(stale))
     key = lambda c: (c["n"], c["k_tau"], c["delta_z_um"])  # noqa: E731
@@ -102,36 +118,44 @@ def test_sigkill_after_the_first_cell_loses_nothing(tmp_path):
     with open(log_path, "w") as log:
         proc = start(out, log)
         try:
-            wait_for(proc, [out / "table2.json"], log_path)
+            wait_for(proc, lambda: cells_on_disk(out) >= 1, log_path, "the first cell was written")
         finally:
             proc.kill()  # SIGKILL: no handler runs, a write in progress is cut off
             proc.wait(timeout=60)
     assert proc.returncode == -signal.SIGKILL
     # a kill inside atomic_write_bytes leaves its temporary file; the target is then the old one
     cells = read_outputs(out, max_tmp=1)
+    assert json.loads((out / "table2.json").read_text())["interrupted"] is False  # killed: no chance to say
     assert (0.5, 1e-5) in {(c["k_tau"], c["delta_z_um"]) for c in cells}
     rerun_first_cell(out, cells)
 
 
-def test_sigint_after_the_first_cell_exits_130_and_keeps_the_cells(tmp_path):
+@pytest.mark.parametrize("stop", ["SIGINT", "SIGTERM"])
+def test_a_stop_after_the_first_cell_exits_128_plus_the_signal_and_keeps_the_cells(tmp_path, stop):
+    signum = getattr(signal, stop)
     out, log_path = tmp_path / "t2", tmp_path / "log.txt"
     with open(log_path, "w") as log:
         proc = start(out, log)
         try:
             # the first cell's last write is table2.csv; then the second cell runs for seconds, and
-            # the interrupt lands inside it (table2_cell), where the command catches it
-            wait_for(proc, [out / "table2.json", out / "table2.csv"], log_path)
+            # the stop lands inside it (table2_cell), where the command catches it
+            wait_for(proc, lambda: cells_on_disk(out) >= 1 and (out / "table2.csv").exists(), log_path,
+                     "the first cell was written")
             time.sleep(0.5)
-            proc.send_signal(signal.SIGINT)
+            proc.send_signal(signum)
             proc.wait(timeout=120)
         finally:
             if proc.poll() is None:
                 proc.kill()
                 proc.wait()
     text = log_path.read_text()
-    assert proc.returncode == 130, text
+    assert proc.returncode == 128 + signum, text  # 130, 143: as a shell reports the signal
     assert "interrupted" in text and "Traceback" not in text, text
+    assert (stop == "SIGINT") == ("interrupted: " in text) and (stop == "SIGINT") != (f"({stop})" in text), text
     cells = read_outputs(out, max_tmp=0)  # an interrupt runs atomic_write_bytes' clean-up
+    table = json.loads((out / "table2.json").read_text())
+    assert table["interrupted"] is True and table["stop_signal"] == stop
+    assert table["cells_done"] == len(cells) < table["cells_planned"] == 12
     assert (0.5, 1e-5) in {(c["k_tau"], c["delta_z_um"]) for c in cells}
     md_rows = len((out / "table2.md").read_text().splitlines()) - 2
     assert md_rows == len(cells)  # written again, whole, on the way out

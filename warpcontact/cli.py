@@ -1,33 +1,44 @@
-"""Command line: ``warpcontact solve CASE.toml --out DIR``.
+"""Command line: ``warpcontact solve CASE.toml --out DIR`` and the other commands.
 
-Exit status: 0 success; 2 a mistake in the input (one line on stderr naming it, no traceback);
-3 a solve that did not converge (results are written and marked ``converged: false``);
-130 interrupted by Ctrl-C (the states finished so far are written).
+Exit status (every command; docs/faults.md says what each leaves on disk):
+
+- 0 success;
+- 2 a mistake in the input (one line on stderr naming it, no traceback);
+- 3 a state did not converge (results are written and marked ``converged: false``);
+- 74 an output could not be written (no space left, read-only file system, quota, I/O error:
+  one line naming the file; what was written before is left whole; sysexits' EX_IOERR);
+- 130, 143, 129 stopped by Ctrl-C, SIGTERM, SIGHUP (128 + the signal's number, as shells report
+  it): the states or cases finished so far are written, marked ``"interrupted": true``.
 """
 
 from __future__ import annotations
 
 import argparse
+import errno
 import math
 import sys
 from pathlib import Path
 
 from . import interrupts
 from .case import FFT_BACKENDS
-from .errors import ConvergenceError, InputError, NonFiniteError
+from .errors import ConvergenceError, InputError, NonFiniteError, OutputError
 from .progress import Progress, end_line, write_above
 
 EXIT_INPUT = 2
 EXIT_NOT_CONVERGED = 3
-EXIT_INTERRUPTED = 130
+EXIT_WRITE_ERROR = 74
+EXIT_INTERRUPTED = 130  # Ctrl-C; SIGTERM 143, SIGHUP 129: interrupts.exit_status()
+#: --fields of solve: runner.FIELDS_CHOICES (not imported here: the parser is built before the solver is needed)
+FIELDS_CHOICES = ("all", "last", "none")
 
 EXAMPLE_SOLVE = """example:
   warpcontact solve examples/hertz.toml --out out/hertz
   warpcontact solve examples/hertz.toml --out out/hertz --device cuda --dtype float32
 
 writes OUT/result.json (forces [N], contact area [m^2] and radius [m], max pressure [Pa],
-convergence, timings, the case) and OUT/fields.npz (pressure, shear, gap, slip fields in SI
-units for every state of the path, with masks; loads with numpy alone)."""
+convergence, timings, the case; "complete": false until the run has solved and written
+everything) and OUT/fields.npz (pressure, shear, gap, slip fields in SI units for every state
+of the path, with masks; loads with numpy alone; --fields last or none writes less)."""
 
 
 def _common(p):
@@ -52,6 +63,9 @@ def _parser():
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
     p.add_argument("case", help="case file (TOML)")
+    p.add_argument("--fields", choices=FIELDS_CHOICES, default="all",
+                   help="whose fields OUT/fields.npz holds: every state's (all, the default), the last state's "
+                   "(last: 1/n_states of the size) or none (no fields.npz)")
     _common(p)
 
     g = sub.add_parser(
@@ -124,23 +138,31 @@ def cmd_solve(args) -> int:
     from .runner import run_path
 
     case = load_case(args.case).with_overrides(device=args.device, dtype=args.dtype, fft=args.fft)
+    fields = getattr(args, "fields", None) or "all"
     out = Path(args.out)
+    result_path, fields_path = out / "result.json", out / "fields.npz"
     progress = Progress("solve", total=len(case.load.path()), quiet=args.quiet)
+
+    def on_start(result):
+        """The first write: this run's result.json (complete: false, no state yet) replaces an earlier
+        run's, whose fields.npz goes with it (it would not match)."""
+        atomic_write_json(result_path, result.summary(complete=False))
+        _remove_stale(fields_path)
 
     def on_state(k, total, summary, result):
         progress.update(k + 1, summary["iterations"], summary["residual"], f"F_z {summary['force']['z']:.3e} N")
-        atomic_write_json(out / "result.json", result.summary())  # nothing finished is lost
+        atomic_write_json(result_path, result.summary(complete=False))  # nothing finished is lost
 
     try:
-        result = run_path(case, on_state=on_state)
+        result = run_path(case, on_state=on_state, fields=fields, on_start=on_start)
     finally:
         progress.close()
-    if result.states:
-        atomic_write_json(out / "result.json", result.summary())
-        atomic_write_npz(out / "fields.npz", result.stacked_fields())
+    with interrupts.deferred(raise_after=False):  # the last writes are not cut by a second signal
+        _write_solve_outputs(result, out, fields, atomic_write_json, atomic_write_npz)
     if result.interrupted:
-        print(f"interrupted: {len(result.states)} state(s) finished and written to {out}", file=sys.stderr)
-        return EXIT_INTERRUPTED
+        print(f"{interrupts.describe()}: {len(result.states)} of {len(case.load.path())} state(s) finished and "
+              f"written to {out}", file=sys.stderr)
+        return interrupts.exit_status()
     if not result.converged:
         bad = [i for i, s in enumerate(result.states) if not s["converged"]]
         s = result.states[bad[0]]
@@ -162,6 +184,53 @@ def cmd_solve(args) -> int:
     return 0
 
 
+def _remove_stale(path: Path):
+    """Remove an output an earlier run left (it would not belong to this run's result)."""
+    try:
+        path.unlink(missing_ok=True)
+    except OSError as e:
+        from .results import output_error
+
+        raise output_error(path, e, "remove the earlier run's") from None
+
+
+def _write_solve_outputs(result, out: Path, fields: str, atomic_write_json, atomic_write_npz):
+    """The last writes of ``solve``: OUT/fields.npz (the fields kept, when any), then OUT/result.json
+    marked complete when every state is solved and both are written. When the fields do not fit,
+    result.json still gets every summary (``write_error`` says what failed) and the OutputError is
+    raised with the option that writes fewer."""
+    fields_path, result_path = out / "fields.npz", out / "result.json"
+    fields_error = None
+    if fields != "none" and result.fields:
+        try:
+            atomic_write_npz(fields_path, result.stacked_fields())
+        except OutputError as e:
+            fields_error = e.with_hint(_fewer_fields_hint(result, e))
+    summary = result.summary(complete=fields_error is None and not result.interrupted)
+    summary["fields_file"] = fields_path.name if fields != "none" and fields_error is None and result.fields else None
+    summary["fields_kept"] = fields
+    if fields_error is not None:
+        summary["write_error"] = str(fields_error)
+    try:
+        atomic_write_json(result_path, summary)
+    except OutputError as e:
+        raise (fields_error or e) from None
+    if fields_error is not None:
+        raise fields_error
+
+
+def _fewer_fields_hint(result, e: OutputError) -> str:
+    """What to say when fields.npz does not fit: the summaries are written; the option that writes fewer."""
+    from .errors import human_bytes
+
+    n = len(result.fields)
+    text = f"the fields of {n} state(s) are what does not fit (every state's summary is in result.json)"
+    if n > 1 and e.needed_bytes:
+        return text + f": --fields last writes the last state's (about {human_bytes(e.needed_bytes / n)}), " \
+                      "--fields none writes none"
+    return text + ": --fields none writes none"
+
+
 def cmd_gross_slip(args) -> int:
     from .case import load_case
     from .guards import GROSS_SLIP_RESULTS, withhold_if_unconverged
@@ -177,25 +246,30 @@ def cmd_gross_slip(args) -> int:
         raise InputError("load.delta_z", f"gross-slip needs a positive normal approach, got {dz!r}")
     model, solver, _ = build(case)
     out = Path(args.out)
+    info = _run_info(model, case)
 
     progress = Progress("gross-slip", quiet=args.quiet)  # a search: the number of states is not known
-    states = []  # the finished states, written on Ctrl-C
+    states = []  # the finished states: written after each, and on a stop
+    _write_partial(out, {"states": states}, info, GROSS_SLIP_RESULTS)  # replaces an earlier run's
 
     def on_state(k, s):
-        states.append(s)
+        with interrupts.deferred():  # the list and the file stay in step
+            states.append(s)
+            _write_partial(out, {"states": states}, info, GROSS_SLIP_RESULTS)
         progress.update(k + 1, s["iterations"], s["residual"],
                         f"{s['kind']} delta_x {s['delta']['x']:.4e} m, {s['stick_cells']} stick cells")
 
     steps = case.load.steps if not case.load.explicit else 4
     try:
         r = find_gross_slip(model, solver, dz, normal_steps=steps, on_state=on_state)
-    except KeyboardInterrupt:
+    except KeyboardInterrupt as e:
         progress.close()
-        return _interrupted(out, {"states": states}, _run_info(model, case), GROSS_SLIP_RESULTS)
+        return _interrupted(out, {"states": states}, info, GROSS_SLIP_RESULTS, e)
     finally:
         progress.close()
-    result = withhold_if_unconverged({**r, **_run_info(model, case)}, GROSS_SLIP_RESULTS)
-    atomic_write_json(out / "result.json", result)
+    result = withhold_if_unconverged({**r, "complete": True, "interrupted": False, **info}, GROSS_SLIP_RESULTS)
+    with interrupts.deferred(raise_after=False):
+        atomic_write_json(out / "result.json", result)
     if not r["converged"]:
         print(f"not converged: a state of the gross-slip path did not converge{_turns_hint(r['states'], case)}; "
               f"see {out / 'result.json'}", file=sys.stderr)
@@ -226,29 +300,42 @@ def cmd_pull_off(args) -> int:
         raise InputError("--retract-to", f"must lie below the deepest approach {dz_max:g} m, got {end:g}")
     out = Path(args.out)
 
+    info = _run_info(model, case)
     progress = Progress("pull-off", total=2 * args.steps + 1, quiet=args.quiet)
-    curve = []  # the finished states, written on Ctrl-C
+    curve = []  # the finished states: written after each, and on a stop
+    _write_partial(out, {"curve": curve}, info, PULL_OFF_RESULTS)  # replaces an earlier run's
+    _remove_stale(out / "pull_off.png")
 
     def on_state(k, total, s):
-        curve.append(s)
+        with interrupts.deferred():  # the list and the file stay in step
+            curve.append(s)
+            _write_partial(out, {"curve": curve}, info, PULL_OFF_RESULTS)
         progress.update(k + 1, s["iterations"], s["residual"],
                         f"delta_z {s['delta']['z']:+.3e} m, F_z {s['force']['z']:+.3e} N, {s['outer_iterations']} turns")
 
     try:
         r = approach_retract(model, solver, -2.0 * law.range, dz_max, end, args.steps, on_state=on_state)
-    except KeyboardInterrupt:
+    except KeyboardInterrupt as e:
         progress.close()
-        return _interrupted(out, {"curve": curve}, _run_info(model, case), PULL_OFF_RESULTS)
+        return _interrupted(out, {"curve": curve}, info, PULL_OFF_RESULTS, e)
     finally:
         progress.close()
     R, w = case.sphere.radius, law.work_of_adhesion
     result = {
         **r, "work_of_adhesion": w, "tabor_parameter": tabor_parameter(case.pair, R, w, law.range),
-        "dmt_pull_off": -2 * math.pi * R * w, "jkr_pull_off": -1.5 * math.pi * R * w, **_run_info(model, case),
+        "dmt_pull_off": -2 * math.pi * R * w, "jkr_pull_off": -1.5 * math.pi * R * w, "interrupted": False, **info,
     }
     result = withhold_if_unconverged(result, PULL_OFF_RESULTS)
-    atomic_write_json(out / "result.json", result)
-    _plot_pull_off(r, out / "pull_off.png", result)
+    with interrupts.deferred(raise_after=False):  # the plot first: complete = every output written
+        try:
+            _plot_pull_off(r, out / "pull_off.png", result)
+        except OSError as e:
+            from .results import output_error
+
+            error = output_error(out / "pull_off.png", e)
+            atomic_write_json(out / "result.json", {**result, "complete": False, "write_error": str(error)})
+            raise error from None
+        atomic_write_json(out / "result.json", {**result, "complete": True})
     if not r["converged"]:
         print(f"not converged: a state of the approach-retract curve did not converge{_turns_hint(r['curve'], case)}; "
               f"see {out / 'result.json'}", file=sys.stderr)
@@ -267,18 +354,33 @@ def _run_info(model, case) -> dict:
             "software": {"warpcontact": __version__}, "case": case.to_dict()}
 
 
-def _interrupted(out: Path, finished: dict, info: dict, keys) -> int:
-    """After Ctrl-C: OUT/result.json with what finished (``finished``: one list of state summaries,
-    by its name) and ``info``, the results ``keys`` null, marked interrupted and not converged.
-    Returns EXIT_INTERRUPTED."""
+def _write_partial(out: Path, finished: dict, info: dict, keys, stop: BaseException | None = None):
+    """OUT/result.json of a run not finished: the states so far (``finished``: one list of state
+    summaries, by its name) and ``info``, the results ``keys`` null, ``complete: false``; after a
+    stop (``stop``: the KeyboardInterrupt), ``interrupted: true`` and the signal."""
     from .results import atomic_write_json
 
     (name, states), = finished.items()
-    atomic_write_json(out / "result.json", {
-        **{k: None for k in keys}, "converged": False, "interrupted": True, name: states, **info,
-        "note": f"interrupted (Ctrl-C) after {len(states)} state(s): {', '.join(keys)} not reported"})
-    print(f"interrupted: {len(states)} state(s) finished and written to {out}", file=sys.stderr)
-    return EXIT_INTERRUPTED
+    record = {**{k: None for k in keys}, "converged": False, "complete": False, "interrupted": stop is not None,
+              name: states, **info}
+    if stop is not None:
+        signal_name = interrupts.signal_name(interrupts.stop_signal(stop))
+        record["stop_signal"] = signal_name
+        record["note"] = f"interrupted ({signal_name}) after {len(states)} state(s): {', '.join(keys)} not reported"
+    else:
+        record["note"] = f"running, or stopped without a chance to write (kill -9): {len(states)} state(s) so far"
+    atomic_write_json(out / "result.json", record)
+
+
+def _interrupted(out: Path, finished: dict, info: dict, keys, stop: BaseException | None = None) -> int:
+    """After a stop (Ctrl-C, SIGTERM, SIGHUP): OUT/result.json with what finished, marked interrupted
+    and not converged (:func:`_write_partial`); one line on stderr. Returns the exit status (130,
+    143, 129)."""
+    (name, states), = finished.items()
+    with interrupts.deferred(raise_after=False):
+        _write_partial(out, finished, info, keys, stop if stop is not None else KeyboardInterrupt())
+    print(f"{interrupts.describe(stop)}: {len(states)} state(s) finished and written to {out}", file=sys.stderr)
+    return interrupts.exit_status(stop)
 
 
 def _plot_pull_off(r, path, result):
@@ -347,6 +449,8 @@ def cmd_table2(args) -> int:
     if args.workers < 1:
         raise InputError("--workers", f"must be at least 1, got {args.workers}")
     interrupted = False
+    write_error = None  # an OutputError that stopped the run
+    kept = len(records)  # cells in table2.json on disk
     finished = sum(1 for c in todo if key(*c, *settings_key, law_key) in done)
     progress = Progress("table2", total=len(todo), quiet=args.quiet, start=finished)  # a bar over the cells
     pending = [(i, c) for i, c in enumerate(todo) if key(*c, *settings_key, law_key) not in done]
@@ -358,47 +462,68 @@ def cmd_table2(args) -> int:
     def label(n, k, dz, adh):
         return f"n {n} k_tau {k:.2f} delta_z {dz:.1e} um {'adhesive' if adh else 'adhesionless'}"
 
-    def finish(i, cell, rec, settings):
-        """Keep a finished cell and write the tables at once; False if interrupted meanwhile."""
-        nonlocal finished
-        rec.update(size_in_a=args.size_in_a, device=settings.device, dtype=settings.dtype, fft=settings.fft)
-        records.append(rec)
+    def write(complete=False, stopped=False):
+        nonlocal kept
+        status = {"complete": complete, "interrupted": stopped, "cells_planned": len(todo),
+                  "cells_done": finished, "stop_signal": interrupts.signal_name(interrupts.stop_signal())
+                  if stopped else None}
         try:
-            _write_table2(out, records, atomic_write_json, atomic_write_bytes, markdown)
-        except KeyboardInterrupt:  # the atomic writes leave whole files either way
-            return False
-        finished += 1
+            _write_table2(out, records, status, atomic_write_json, atomic_write_bytes, markdown)
+        except OutputError as e:
+            if Path(e.path).name != "table2.json":  # the JSON, written first, holds them all
+                kept = len(records)
+            raise
+        kept = len(records)
+
+    def finish(i, cell, rec, settings):
+        """Keep a finished cell and write the tables at once; False if stopped meanwhile (a stop
+        signal, a write error)."""
+        nonlocal finished, write_error
+        rec.update(size_in_a=args.size_in_a, device=settings.device, dtype=settings.dtype, fft=settings.fft)
+        with interrupts.deferred():  # the tables are written whole, then a stop that came meanwhile is raised
+            records.append(rec)
+            finished += 1
+            try:
+                write()
+            except OutputError as e:
+                write_error = e
+                return False
         progress.write(f"table2 [{i + 1}/{len(todo)}] {cell}: {_table2_result(rec)}")
         progress.status(finished)
         return True
 
-    if args.workers == 1 or len(pending) <= 1:
-        for i, (n, k, dz, adh) in pending:
-            settings = settings_for(n)
-            cell = label(n, k, dz, adh)
-            progress.status(finished, extra=cell)
-
-            def on_state(j, s, cell=cell):  # the current cell's states, on a terminal
-                progress.status(finished, s["iterations"], s["residual"], f"{cell}: state {j + 1} ({s['kind']})")
-
-            try:
-                rec = table2_cell(k, dz, settings, on_state=on_state, adhesion=adh)
-            except KeyboardInterrupt:
-                interrupted = True
-                break
-            if not finish(i, cell, rec, settings):
-                interrupted = True
-                break
-    else:
-        interrupted = _table2_in_workers(args.workers, pending, settings_for, label, finish, progress)
-    progress.close()
     try:
-        _write_table2(out, records, atomic_write_json, atomic_write_bytes, markdown)
+        with interrupts.deferred():
+            write()  # this run's marker (complete: false) replaces the last run's before any cell
+        if args.workers == 1 or len(pending) <= 1:
+            for i, (n, k, dz, adh) in pending:
+                settings = settings_for(n)
+                cell = label(n, k, dz, adh)
+                progress.status(finished, extra=cell)
+
+                def on_state(j, s, cell=cell):  # the current cell's states, on a terminal
+                    progress.status(finished, s["iterations"], s["residual"], f"{cell}: state {j + 1} ({s['kind']})")
+
+                rec = table2_cell(k, dz, settings, on_state=on_state, adhesion=adh)
+                if not finish(i, cell, rec, settings):
+                    break
+        else:
+            _table2_in_workers(args.workers, pending, settings_for, label, finish, progress)
     except KeyboardInterrupt:
         interrupted = True
+    progress.close()
+    if write_error is not None:
+        raise write_error.with_hint(f"{kept} cell(s) finished and kept in {path}: free space and run the same "
+                                    "command again to compute the others") from None
+    with interrupts.deferred(raise_after=False):
+        try:
+            write(complete=not interrupted, stopped=interrupted)
+        except OutputError as e:
+            raise e.with_hint(f"{kept} cell(s) finished and kept in {path}: free space and run the same command "
+                              "again to finish") from None
     if interrupted:
-        print(f"interrupted: {len(records)} cell(s) written to {out}; rerun to finish", file=sys.stderr)
-        return EXIT_INTERRUPTED
+        print(f"{interrupts.describe()}: {len(records)} cell(s) written to {out}; rerun to finish", file=sys.stderr)
+        return interrupts.exit_status()
     return 0 if all(r["converged"] for r in records) else EXIT_NOT_CONVERGED
 
 
@@ -411,17 +536,20 @@ def _turns_hint(states, case) -> str:
     return ""
 
 
-def _table2_in_workers(workers, pending, settings_for, label, finish, progress) -> bool:
+def _table2_in_workers(workers, pending, settings_for, label, finish, progress):
     """The pending cells on ``workers`` spawned processes, each finished cell kept at once by
-    ``finish``; returns whether the run was interrupted. A cell's error stops the run (the cells
-    finished so far are written) and is raised as in a run without workers."""
+    ``finish`` (the run ends when it returns False). A cell's error stops the run (the cells
+    finished so far are written) and is raised as in a run without workers; a stop
+    (KeyboardInterrupt: Ctrl-C, SIGTERM, SIGHUP) ends the workers' cells at once and is raised."""
     import multiprocessing
     from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
+    from concurrent.futures.process import BrokenProcessPool
 
     from .table2 import table2_cell_in_worker
 
     pool = ProcessPoolExecutor(max_workers=min(workers, len(pending)), mp_context=multiprocessing.get_context("spawn"))
     running = {}
+    stopped = True  # until the loop ends by itself
     try:
         for i, (n, k, dz, adh) in pending:
             settings = settings_for(n)
@@ -431,12 +559,23 @@ def _table2_in_workers(workers, pending, settings_for, label, finish, progress) 
             done_now, _ = wait(running, return_when=FIRST_COMPLETED)
             for fut in done_now:
                 i, cell, settings = running.pop(fut)
-                if not finish(i, cell, fut.result(), settings):
-                    return True
-        return False
-    except KeyboardInterrupt:
-        return True
+                try:
+                    rec = fut.result()
+                except BrokenProcessPool:
+                    # workers ended by a stop sent to the whole process group; the stop reaches us too
+                    if interrupts.received() is not None:
+                        raise interrupts.Stop(interrupts.received()) from None
+                    raise
+                if not finish(i, cell, rec, settings):
+                    return
+        stopped = False
     finally:
+        if stopped:  # the workers' cells are not waited for: their processes end now
+            for proc in list((getattr(pool, "_processes", None) or {}).values()):
+                try:
+                    proc.terminate()
+                except (OSError, ValueError, AttributeError):
+                    pass
         pool.shutdown(wait=False, cancel_futures=True)
 
 
@@ -450,12 +589,15 @@ def _table2_result(rec) -> str:
             f"mu {mu}, {rec['elapsed_s']:.0f} s")
 
 
-def _write_table2(out, records, atomic_write_json, atomic_write_bytes, markdown):
+def _write_table2(out, records, status, atomic_write_json, atomic_write_bytes, markdown):
+    """OUT/table2.json (``status``: complete, interrupted, cells planned and done; the cells),
+    then table2.md and table2.csv, each whole (atomic: a failure raises OutputError and leaves
+    the file as it was)."""
     import csv
     import io
 
     records = sorted(records, key=lambda r: (r.get("adhesion", False), r["n"], r["k_tau"], r["delta_z_um"]))
-    atomic_write_json(out / "table2.json", {"cells": records})
+    atomic_write_json(out / "table2.json", {**status, "cells": records})
     atomic_write_bytes(out / "table2.md", markdown(records).encode())
     buf = io.StringIO()
     law_keys = ["sigma_max", "tau_max", "delta_n", "delta_t"]
@@ -471,10 +613,16 @@ def _show_warning(message, category, filename, lineno, file=None, line=None):
     write_above(f"warpcontact: warning: {message}")  # above a progress bar being drawn
 
 
+#: errors of the system met while writing: reported in one line, exit EXIT_WRITE_ERROR
+WRITE_ERRNOS = tuple(getattr(errno, name) for name in ("ENOSPC", "EROFS", "EDQUOT", "EIO", "EFBIG")
+                     if hasattr(errno, name))
+
+
 def main(argv=None) -> int:
     import warnings
 
     warnings.showwarning = _show_warning
+    interrupts.reset()  # a new run: no stop received yet
     interrupts.install()
     args = _parser().parse_args(argv)
     try:
@@ -492,6 +640,22 @@ def main(argv=None) -> int:
         end_line()
         print(f"warpcontact: error: {e}", file=sys.stderr)
         return EXIT_NOT_CONVERGED
+    except OutputError as e:
+        end_line()
+        print(f"warpcontact: error: {e}", file=sys.stderr)
+        return EXIT_WRITE_ERROR
+    except OSError as e:
+        if e.errno not in WRITE_ERRNOS:
+            raise
+        end_line()
+        where = f" {e.filename}" if e.filename else " an output"
+        print(f"warpcontact: error: cannot write{where}: {(e.strerror or str(e)).lower()}", file=sys.stderr)
+        return EXIT_WRITE_ERROR
+    except KeyboardInterrupt as e:  # a stop where no command catches it: set-up, figures
+        end_line()
+        print(f"{interrupts.describe(e)}: stopped before the run's results were complete; the files written so "
+              f"far in {args.out} are whole", file=sys.stderr)
+        return interrupts.exit_status(e)
 
 
 if __name__ == "__main__":

@@ -104,8 +104,16 @@ def load_fields(arg) -> dict:
     return fields
 
 
+def _path_index(fields: dict, k: int) -> int:
+    """The index in the path (result.json's states) of entry ``k`` of the NPZ: its ``state_index``
+    where the file has one (``solve --fields last`` keeps one state), else ``k``."""
+    index = fields.get("state_index")
+    return int(index[k]) if index is not None and index.shape == (fields["pressure"].shape[0],) else k
+
+
 def _not_converged(npz: Path, k: int) -> bool:
-    """True when the result.json beside the NPZ marks state k as not converged (no file: False)."""
+    """True when the result.json beside the NPZ marks state k of the path as not converged (no
+    file: False)."""
     import json
 
     try:
@@ -113,6 +121,28 @@ def _not_converged(npz: Path, k: int) -> bool:
         return k < len(states) and states[k].get("converged") is False
     except (OSError, ValueError, AttributeError, TypeError):
         return False
+
+
+def partial_note(npz: Path) -> str:
+    """A warning's text when the result.json beside the NPZ says its run did not finish (stopped by
+    a signal, killed, or an output not written), else "" (no file, or a complete run)."""
+    import json
+
+    try:
+        res = json.loads((npz.parent / "result.json").read_text())
+    except (OSError, ValueError):
+        return ""
+    if not isinstance(res, dict) or res.get("complete", True) is not False:
+        return ""  # complete, or written before result files said
+    done, planned = res.get("n_states"), res.get("n_states_planned")
+    of = f"{done} of {planned} states" if done is not None and planned is not None else "a part of the path"
+    if res.get("interrupted"):
+        why = f"its run was stopped ({res.get('stop_signal') or 'interrupted'}) after {of}"
+    elif res.get("write_error"):
+        why = f"an output of its run was not written ({res['write_error']})"
+    else:
+        why = f"its run had not finished when it was last written ({of}; still running, or killed)"
+    return f"{npz.parent / 'result.json'} is not complete: {why}"
 
 
 def case_caption(npz: Path) -> str:
@@ -153,7 +183,7 @@ def cmd_figure(args) -> int:
                                         dtype=getattr(args, "dtype", None), fft=getattr(args, "fft", None),
                                         quiet=getattr(args, "quiet", False))
         status = cmd_solve(solve_args)
-        if status not in (0, 3):  # interrupted: nothing whole to draw; unconverged: drawn and marked
+        if status not in (0, 3):  # stopped (130, 143, 129): the solve's states are kept, nothing drawn
             return status
         args.fields = args.out
         fig_status = status
@@ -171,9 +201,14 @@ def cmd_figure(args) -> int:
     out = Path(args.out)
     if out.exists() and not out.is_dir():
         raise InputError("--out", f"{out} exists and is not a folder")
-    unconverged = _not_converged(_npz_path(str(args.fields)), k % n)
+    npz = _npz_path(str(args.fields))
+    note = partial_note(npz)
+    if note:
+        print(f"warpcontact: warning: {note}; the figures show a state that finished", file=sys.stderr)
+    path_k = _path_index(fields, k % n)
+    unconverged = _not_converged(npz, path_k)
     if unconverged:
-        print(f"warpcontact: warning: state {k % n} did not converge in its solve (result.json); "
+        print(f"warpcontact: warning: state {path_k} did not converge in its solve (result.json); "
               "the figures are marked NOT CONVERGED", file=sys.stderr)
     written = []
     caption = case_caption(_npz_path(str(args.fields)))

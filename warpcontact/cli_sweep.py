@@ -10,7 +10,9 @@ row per finished case); a rerun skips the cases already finished. The sweep file
 
 Exit status: 0 every case converged; 2 a mistake in the sweep file or a combination (raised as
 InputError for cli.main to report); 3 some case did not converge or recorded an error (results
-written); 130 interrupted (finished cases are written; rerun to finish).
+written); 74 an output could not be written (raised as OutputError for cli.main to report; the
+finished cases are on disk, a rerun resumes); 130, 143, 129 stopped by Ctrl-C, SIGTERM, SIGHUP
+(finished cases are written; rerun to finish).
 """
 
 from __future__ import annotations
@@ -21,7 +23,7 @@ import sys
 from .case import FFT_BACKENDS
 
 EXIT_NOT_CONVERGED = 3
-EXIT_INTERRUPTED = 130
+EXIT_INTERRUPTED = 130  # Ctrl-C; SIGTERM 143, SIGHUP 129: interrupts.exit_status()
 
 EXAMPLE_SWEEP = """example:
   warpcontact sweep examples/sweep_k_tau.toml --out out/sweep
@@ -66,16 +68,23 @@ def add_parser(sub):
 
 def cmd_sweep(args) -> int:
     """Run the sweep of ``args.sweep`` into ``args.out``. Returns 0 (every case converged), 3 (a case
-    did not converge or recorded an error) or 130 (interrupted). A bad sweep file raises InputError."""
+    did not converge or recorded an error) or 128 + the signal (stopped: 130 Ctrl-C, 143 SIGTERM,
+    129 SIGHUP). A bad sweep file raises InputError; a write that fails, OutputError (naming the
+    finished cases kept)."""
+    from . import interrupts
     from .sweep import load_sweep, run_sweep
 
     sweep = load_sweep(args.sweep, device=args.device, dtype=args.dtype, fft=args.fft)
     report = run_sweep(sweep, args.out, quiet=args.quiet)
     out = args.out
+    if report.write_error is not None:
+        raise report.write_error.with_hint(
+            f"{len(report.records)} of {report.total} case(s) finished and kept in {out}: free space and run the "
+            "same command again to resume") from None
     if report.interrupted:
-        print(f"interrupted: {len(report.records)} of {report.total} case(s) finished and written to {out}; "
-              "rerun to finish", file=sys.stderr)
-        return EXIT_INTERRUPTED
+        print(f"{interrupts.describe()}: {len(report.records)} of {report.total} case(s) finished and written to "
+              f"{out}; rerun to finish", file=sys.stderr)
+        return interrupts.exit_status()
     bad = report.not_converged
     if not args.quiet:
         print(f"sweep: {report.total} case(s) in {out}: {len(report.computed)} computed, {len(report.skipped)} "

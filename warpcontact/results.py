@@ -2,13 +2,17 @@
 
 from __future__ import annotations
 
+import errno
 import json
 import math
 import os
-import tempfile
+import secrets
+import shutil
 from pathlib import Path
 
 import numpy as np
+
+from .errors import OutputError
 
 from warpcontact.kernels.tangential import STICK
 
@@ -77,18 +81,64 @@ def state_fields(state, adhesion=None) -> dict:
     return f
 
 
-def atomic_write_bytes(path, data: bytes):
-    """Write ``data`` to ``path`` through a temporary file and a rename: readers see all or nothing."""
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(prefix=path.name + ".", suffix=".tmp", dir=path.parent)
+def _write_temporary(tmp: Path, data: bytes) -> None:
+    """Create ``tmp`` (a name of our own: O_EXCL; mode 0666 less the umask, an ordinary file's,
+    not mkstemp's 0600) and write ``data`` to it. The one place where output bytes reach the
+    disk (tests make it fail with ENOSPC or EROFS)."""
+    fd = os.open(tmp, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o666)
+    with os.fdopen(fd, "wb") as fh:
+        fh.write(data)
+
+
+def free_bytes(path) -> int | None:
+    """Bytes free to an ordinary user on the file system of ``path`` (its nearest existing
+    folder), or None when that cannot be told."""
+    p = Path(path)
+    while not p.exists() and p != p.parent:
+        p = p.parent
     try:
-        with os.fdopen(fd, "wb") as fh:
-            fh.write(data)
-        os.replace(tmp, path)
+        return shutil.disk_usage(p).free
+    except OSError:
+        return None
+
+
+def output_error(path, e: OSError, action: str = "write", needed_bytes: int | None = None) -> OutputError:
+    """``e`` (an OSError met while writing ``path``) as an OutputError naming the file, what
+    failed and, for a full disk, the size of the file and the space left."""
+    if isinstance(e, OutputError):
+        return e
+    free = free_bytes(Path(path).parent) if e.errno == errno.ENOSPC else None
+    return OutputError(path, e.errno, e.strerror or str(e), action, needed_bytes, free)
+
+
+def atomic_write_bytes(path, data: bytes):
+    """Write ``data`` to ``path`` through a temporary file and a rename: readers see all or nothing.
+
+    A failure (no space left, read-only file system, quota, I/O error, a folder that cannot be
+    made) raises :class:`~warpcontact.errors.OutputError` naming ``path``; the file that was at
+    ``path`` before is left as it was and the temporary file is removed. An interrupt
+    (KeyboardInterrupt) likewise removes the temporary file and leaves ``path`` as it was.
+    """
+    path = Path(path)
+    try:
+        path.parent.mkdir(parents=True, exist_ok=True)
+    except OSError as e:
+        raise output_error(path, e, "create the folder of") from None
+    tmp = path.parent / f"{path.name}.{secrets.token_hex(6)}.tmp"
+    try:
+        try:
+            _write_temporary(tmp, data)
+        except OSError as e:
+            raise output_error(path, e, "write", len(data)) from None
+        try:
+            os.replace(tmp, path)
+        except OSError as e:
+            raise output_error(path, e, f"rename {tmp.name} to") from None
     except BaseException:
-        if os.path.exists(tmp):
-            os.unlink(tmp)
+        try:
+            tmp.unlink(missing_ok=True)
+        except OSError:  # the file system went away under us: nothing more to do
+            pass
         raise
 
 

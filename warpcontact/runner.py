@@ -49,30 +49,49 @@ def build(case):
     return model, solver, ContactState(model)
 
 
+#: what ``fields`` of :func:`run_path` may keep: every state's fields, the last state's, none
+FIELDS_CHOICES = ("all", "last", "none")
+
+
 @dataclass
 class PathResult:
-    """Summaries of every solved state of a path, and the fields of each (numpy, SI)."""
+    """Summaries of every solved state of a path, and the fields kept (numpy, SI).
+
+    ``fields`` holds the fields of the states listed in ``field_states`` (their indices in
+    ``states``): every state, the last one or none (``run_path``'s ``fields``). ``interrupted``:
+    a stop (Ctrl-C, SIGTERM, SIGHUP) ended the path early; ``stop_signal`` names it.
+    """
 
     case: object
     model: object
     states: list = field(default_factory=list)
     fields: list = field(default_factory=list)
+    field_states: list = field(default_factory=list)
     elapsed_s: float = 0.0
     interrupted: bool = False
+    stop_signal: str | None = None
 
     @property
     def converged(self) -> bool:
         return bool(self.states) and all(s["converged"] for s in self.states)
 
-    def summary(self) -> dict:
-        """result.json content: the last state's quantities at top level, every state listed."""
+    def summary(self, complete: bool = False) -> dict:
+        """result.json content: the last state's quantities at top level, every state listed.
+
+        ``complete``: every state of the path is solved and every output of the run written (the
+        caller says so in its last write); False while the run goes on, so that a file left by a
+        killed run reads as partial, and after a stop. ``interrupted``: a stop (``stop_signal``)
+        ended the path before its last state; the states finished are listed.
+        """
         last = self.states[-1] if self.states else {}
         m = self.model
-        return {
+        out = {
             **last,
             "converged": self.converged,
+            "complete": bool(complete),
             "interrupted": self.interrupted,
             "n_states": len(self.states),
+            "n_states_planned": len(self.case.load.path()),
             "states": self.states,
             "device": str(m.device),
             "dtype": m.dtype_name,
@@ -81,29 +100,51 @@ class PathResult:
             "software": {"warpcontact": __version__},
             "case": self.case.to_dict(),
         }
+        if self.interrupted:
+            out["stop_signal"] = self.stop_signal
+        return out
 
     def stacked_fields(self) -> dict:
-        """Fields of every state stacked along a first axis (state index), plus coordinates."""
+        """The fields kept stacked along a first axis, plus coordinates: ``state_index`` [-] (the
+        index in ``states`` of each entry), ``delta`` [m] (each entry's approach x, y, z), ``x``,
+        ``y`` [m] (cell centres)."""
         import numpy as np
 
         out = {k: np.stack([f[k] for f in self.fields]) for k in self.fields[0]} if self.fields else {}
         out["x"] = self.model.grid.x
         out["y"] = self.model.grid.y
-        out["delta"] = np.array([[s["delta"]["x"], s["delta"]["y"], s["delta"]["z"]] for s in self.states])
+        out["state_index"] = np.array(self.field_states, dtype=np.int64)
+        out["delta"] = np.array([[self.states[i]["delta"][c] for c in "xyz"] for i in self.field_states],
+                                dtype=np.float64).reshape(-1, 3)
         return out
 
 
-def run_path(case, on_state=None, keep_fields: bool = True) -> PathResult:
+def run_path(case, on_state=None, keep_fields: bool = True, fields: str = "all", on_start=None) -> PathResult:
     """Solve every state of the case's load path in order (slip history carried along).
 
-    ``on_state(index, total, summary)`` is called after each state (progress, saving). Warns
-    (guards: a coarse contact; the adhesive tail cut by the domain, once per path).
+    ``on_start(result)`` is called once the model is built, before the first state (a first
+    write); ``on_state(index, total, summary, result)`` after each state (progress, saving),
+    inside :func:`interrupts.deferred`: a stop that arrives while it writes lets it finish, the
+    state counted, and is raised after it. ``fields``: whose fields to keep, "all" states', the
+    last finished state's ("last") or "none" (``keep_fields=False`` is "none"). A stop (Ctrl-C,
+    SIGTERM, SIGHUP) ends the path: the states finished are kept and ``interrupted`` is set; a
+    stop during the model's set-up propagates (nothing is solved). Warns (guards: a coarse
+    contact; the adhesive tail cut by the domain, once per path).
     """
+    from . import interrupts
+
+    if fields not in FIELDS_CHOICES:
+        raise ValueError(f"fields must be one of {FIELDS_CHOICES}, got {fields!r}")
+    if not keep_fields:
+        fields = "none"
     t0 = time.perf_counter()
     model, solver, state = build(case)
     result = PathResult(case=case, model=model)
     path = case.load.path()
     edge_warned = False  # the adhesive tail cut by the domain: one warning per path
+    if on_start is not None:
+        with interrupts.deferred():
+            on_start(result)
     try:
         for k, approach in enumerate(path):
             solver.step(state, approach)
@@ -111,13 +152,20 @@ def run_path(case, on_state=None, keep_fields: bool = True) -> PathResult:
             if not edge_warned:
                 edge_warned = warn_if_adhesion_at_edge(state, solver.adhesion, case.load.delta_z_max)
             summary = state_summary(state, solver.adhesion)
-            result.states.append(summary)
-            if keep_fields:
-                result.fields.append(state_fields(state, solver.adhesion))
-            result.elapsed_s = time.perf_counter() - t0
-            if on_state is not None:
-                on_state(k, len(path), summary, result)
-    except KeyboardInterrupt:
+            kept = state_fields(state, solver.adhesion) if fields != "none" else None
+            with interrupts.deferred():  # the lists, and what on_state writes, stay in step
+                result.states.append(summary)
+                if kept is not None:
+                    if fields == "last":  # the last finished state's: the one a stop leaves last
+                        result.fields.clear()
+                        result.field_states.clear()
+                    result.fields.append(kept)
+                    result.field_states.append(k)
+                result.elapsed_s = time.perf_counter() - t0
+                if on_state is not None:
+                    on_state(k, len(path), summary, result)
+    except KeyboardInterrupt as e:
         result.interrupted = True
+        result.stop_signal = interrupts.signal_name(interrupts.stop_signal(e))
     result.elapsed_s = time.perf_counter() - t0
     return result

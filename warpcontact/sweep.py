@@ -25,7 +25,9 @@ Mistakes raise :class:`~warpcontact.errors.InputError` naming the key (``sweep.f
 
 Output folder: ``DIR/cases/<id>.json`` per finished case (parameters, summary, elapsed_s, the case
 dict), written atomically as soon as the case is done, and ``DIR/sweep.csv`` (one row per
-finished case, parameter columns first), rewritten atomically after each case. ``<id>`` is a
+finished case, parameter columns first), rewritten atomically after each case, and
+``DIR/sweep.json``: ``complete`` (false until every case is finished and written),
+``interrupted``, the counts and the finished ids (docs/faults.md). ``<id>`` is a
 short hash of the swept values. A rerun skips each case whose JSON holds the same parameters,
 task and case (solver settings included); a case that raised ``InputError`` (a contact reaching
 the domain's edge, say) is recorded with ``"error"`` and the sweep goes on.
@@ -54,10 +56,10 @@ try:
 except ModuleNotFoundError:  # Python < 3.11
     import tomli as tomllib
 
-from . import __version__
+from . import __version__, interrupts
 from .case import (ADHESION_KEYS, FLAT_KEYS, GRID_KEYS, LOAD_KEYS, SOLVER_KEYS, SPHERE_KEYS, Case,
                    case_from_dict, load_case)
-from .errors import ConvergenceError, InputError, NonFiniteError
+from .errors import ConvergenceError, InputError, NonFiniteError, OutputError
 from .guards import GROSS_SLIP_RESULTS, withhold_if_unconverged
 
 #: Tables of a sweep file.
@@ -410,9 +412,13 @@ class SweepReport:
         records: the JSON record of every finished case (computed now or before), in sweep order.
         computed: ids of the cases computed by this run.
         skipped: ids of the cases finished before (their JSON was kept).
-        interrupted: Ctrl-C stopped the run (finished cases are written).
+        interrupted: a stop (Ctrl-C, SIGTERM, SIGHUP: ``stop_signal`` names it) ended the run;
+            finished cases are written.
         elapsed_s: wall time of this run [s].
         total: number of cases in the sweep.
+        stop_signal: "SIGINT", "SIGTERM", "SIGHUP" when interrupted, else None.
+        write_error: the :class:`~warpcontact.errors.OutputError` that ended the run (a full disk,
+            a read-only file system, ...), or None; the cases finished before it are on disk.
     """
 
     records: list = field(default_factory=list)
@@ -421,6 +427,8 @@ class SweepReport:
     interrupted: bool = False
     elapsed_s: float = 0.0
     total: int = 0
+    stop_signal: str | None = None
+    write_error: Exception | None = None
 
     @property
     def errors(self) -> list:
@@ -539,6 +547,26 @@ def _write_csv(out: Path, sweep: Sweep, records: list) -> None:
     atomic_write_bytes(path, data)
 
 
+def _write_status(out: Path, sweep: Sweep, report: SweepReport, records: list, complete: bool) -> None:
+    """DIR/sweep.json: whether the sweep is complete (every case finished and written), interrupted
+    (and by which signal), the counts, and the ids of the finished cases in sweep order. Written at
+    the start (complete: false), after each case and at the end, atomically."""
+    from .results import atomic_write_json
+
+    atomic_write_json(out / "sweep.json", {
+        "complete": complete,
+        "interrupted": report.interrupted,
+        "stop_signal": report.stop_signal,
+        "total": len(sweep.cases),
+        "finished": len(records),
+        "not_converged": sum(1 for r in records if not r.get("converged")),
+        "task": sweep.task,
+        "keys": list(sweep.keys),
+        "finished_ids": [r["id"] for r in records],
+        "software": {"warpcontact": __version__},
+    })
+
+
 def _result_text(task: str, summary: dict) -> str:
     if task == "gross-slip":
         if summary["delta_x_max"] is None:
@@ -558,12 +586,16 @@ def run_sweep(sweep: Sweep, out: str | PathLike, quiet: bool = False, log=None) 
     (every finished case of this sweep), both atomically. A case that raises InputError (not a
     device or FFT problem, which stops the sweep), NonFiniteError or ConvergenceError is recorded
     with ``error`` and the sweep continues. Ctrl-C stops the run; what finished is written and the
-    report says ``interrupted``. Unless quiet, a result line per case goes to ``log`` (stderr),
+    report says ``interrupted`` (SIGTERM and SIGHUP likewise, where the command line handles them:
+    :mod:`warpcontact.interrupts`). A write that fails (no space left, read-only file system, ...)
+    ends the run with ``report.write_error`` set: the cases finished before are on disk and a rerun
+    resumes. ``out/sweep.json`` says whether the sweep is complete (:func:`_write_status`). Unless
+    quiet, a result line per case goes to ``log`` (stderr),
     under a progress bar on a terminal (:mod:`warpcontact.progress`); warnings and errors are
     printed either way.
     """
     from .progress import Progress
-    from .results import atomic_write_json
+    from .results import atomic_write_json, output_error
 
     log = sys.stderr if log is None else log
     out = Path(out)
@@ -587,8 +619,13 @@ def run_sweep(sweep: Sweep, out: str | PathLike, quiet: bool = False, log=None) 
     # a bar over the cases on a terminal, redrawn with the running case's states; a log gets a line per case
     progress = Progress("sweep", total=n, quiet=quiet, stream=log, start=len(records))
     try:
-        out.mkdir(parents=True, exist_ok=True)
-        _write_csv(out, sweep, ordered())
+        try:
+            out.mkdir(parents=True, exist_ok=True)
+        except OSError as e:
+            raise output_error(out, e, "create the folder") from None
+        with interrupts.deferred():
+            _write_csv(out, sweep, ordered())
+            _write_status(out, sweep, report, ordered(), complete=False)
         for sc in sweep.cases:
             if sc.id in records:
                 continue
@@ -628,10 +665,12 @@ def run_sweep(sweep: Sweep, out: str | PathLike, quiet: bool = False, log=None) 
                        software={"warpcontact": __version__})
             case = rec.pop("case")
             rec["case"] = case  # the long case dict last, for reading
-            atomic_write_json(_record_path(out, sc), rec)
-            records[sc.id] = rec
-            report.computed.append(sc.id)
-            _write_csv(out, sweep, ordered())
+            with interrupts.deferred():  # the record, the CSV and the status agree; a stop comes after
+                atomic_write_json(_record_path(out, sc), rec)
+                records[sc.id] = rec
+                report.computed.append(sc.id)
+                _write_csv(out, sweep, ordered())
+                _write_status(out, sweep, report, ordered(), complete=False)
             what = f"error: {error}" if error else _result_text(sweep.task, summary)
             progress.write(f"{head}: {what} ({rec['elapsed_s']:.1f} s)")
             if quiet and error:
@@ -640,11 +679,22 @@ def run_sweep(sweep: Sweep, out: str | PathLike, quiet: bool = False, log=None) 
             for m in messages:
                 progress.write(f"warpcontact: warning: {sc.label}: {m}", always=True)
             progress.status(len(records))
-    except KeyboardInterrupt:
+        with interrupts.deferred(raise_after=False):
+            _write_status(out, sweep, report, ordered(), complete=len(records) == n)
+    except KeyboardInterrupt as e:
         report.interrupted = True
-        try:  # every record is whole (atomic writes); bring the CSV up to date
-            _write_csv(out, sweep, ordered())
-        except KeyboardInterrupt:
+        report.stop_signal = interrupts.signal_name(interrupts.stop_signal(e))
+        with interrupts.deferred(raise_after=False):  # every record is whole (atomic writes)
+            try:  # bring the CSV and the status up to date
+                _write_csv(out, sweep, ordered())
+                _write_status(out, sweep, report, ordered(), complete=False)
+            except OutputError as w:
+                report.write_error = w
+    except OutputError as e:  # what finished is on disk; the rest cannot be written: stop
+        report.write_error = e
+        try:
+            _write_status(out, sweep, report, ordered(), complete=False)
+        except OutputError:
             pass
     finally:
         progress.close()
