@@ -319,3 +319,53 @@ def test_table2_workers_end_with_the_run(tmp_path):
     table = read_json(out / "table2.json")
     assert table["interrupted"] is True and table["complete"] is False
     assert table["cells_done"] == len(table["cells"]) < 12
+
+
+# --- the machinery, in this process -----------------------------------------------------------------
+
+
+@pytest.fixture
+def handlers():
+    """interrupts.install() in this process, pytest's handlers put back afterwards."""
+    from warpcontact import interrupts
+
+    saved = {s: signal.getsignal(s) for s in (signal.SIGINT, signal.SIGTERM, signal.SIGHUP)}
+    signal.signal(signal.SIGTERM, signal.SIG_DFL)
+    signal.signal(signal.SIGHUP, signal.SIG_DFL)
+    interrupts.reset()
+    interrupts.install()
+    yield interrupts
+    for s, h in saved.items():
+        signal.signal(s, h)
+    interrupts.reset()
+
+
+@pytest.mark.parametrize("name, status", [("SIGTERM", 143), ("SIGHUP", 129), ("SIGINT", 130)])
+def test_a_stop_signal_raises_a_keyboard_interrupt_that_knows_it(handlers, name, status):
+    signum = getattr(signal, name)
+    with pytest.raises(KeyboardInterrupt) as caught:
+        signal.raise_signal(signum)
+        time.sleep(1)  # the handler runs between bytecodes, at once
+    assert isinstance(caught.value, handlers.Stop) and caught.value.signum == signum
+    assert handlers.exit_status(caught.value) == handlers.exit_status() == status
+    assert handlers.describe() == ("interrupted" if name == "SIGINT" else f"interrupted ({name})")
+
+
+def test_a_stop_inside_deferred_lands_after_the_block(handlers):
+    done = []
+    with pytest.raises(handlers.Stop):
+        with handlers.deferred():
+            signal.raise_signal(signal.SIGTERM)
+            done.append("written")  # the block goes on to its end
+    assert done == ["written"]
+    with handlers.deferred(raise_after=False):  # the last writes: a second signal is only remembered
+        signal.raise_signal(signal.SIGTERM)
+        done.append("last")
+    assert done == ["written", "last"] and handlers.received() == signal.SIGTERM
+
+
+def test_an_ignored_sighup_stays_ignored(handlers):
+    """nohup: the user asked for SIGHUP to be ignored; install() leaves it so."""
+    signal.signal(signal.SIGHUP, signal.SIG_IGN)
+    handlers.install()
+    assert signal.getsignal(signal.SIGHUP) is signal.SIG_IGN

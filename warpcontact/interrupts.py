@@ -41,7 +41,6 @@ class Stop(KeyboardInterrupt):
 
 _pending: KeyboardInterrupt | None = None  # swallowed by a destructor, raised by check()
 _previous_hook = None
-_installed = False
 _received: int | None = None  # the first stop signal of the run
 _defer_depth = 0
 _deferred: int | None = None  # a signal that arrived inside deferred(), raised at its end
@@ -78,26 +77,28 @@ def _handler(signum, frame):
 
 def install():
     """Handle SIGTERM and SIGHUP as Ctrl-C (raise :class:`Stop`), take over Ctrl-C where Python's
-    own handler is set (a shell may start a background job with SIGINT ignored: left so), and
-    remember interrupts that a destructor swallowed (see the module docstring). Main thread only;
-    installing twice does nothing more."""
-    global _previous_hook, _installed
+    own handler is set, and remember interrupts that a destructor swallowed (see the module
+    docstring). A signal that is ignored (nohup, a shell's background job) or has a handler of the
+    host program's is left so. Main thread only; installing twice does nothing more."""
+    global _previous_hook
     if _previous_hook is None:
         _previous_hook = sys.unraisablehook
         sys.unraisablehook = _hook
-    if _installed:
-        return
     for name in SIGNALS:
         signum = getattr(signal, name, None)
         if signum is None:  # SIGHUP: not on Windows
             continue
         current = signal.getsignal(signum)
+        if current is _handler:
+            continue
         if name == "SIGINT" and current is not signal.default_int_handler:
             continue
-        if name != "SIGINT" and current is signal.SIG_IGN:  # nohup: the user asked for SIGHUP to be ignored
+        if name != "SIGINT" and current is not signal.SIG_DFL:  # nohup's SIG_IGN, or a host program's own
             continue
-        signal.signal(signum, _handler)
-    _installed = True
+        try:
+            signal.signal(signum, _handler)
+        except ValueError:  # not the main thread: signals stay as they are
+            return
 
 
 def check():

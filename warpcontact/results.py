@@ -123,22 +123,18 @@ def atomic_write_bytes(path, data: bytes):
     try:
         path.parent.mkdir(parents=True, exist_ok=True)
     except OSError as e:
-        raise output_error(path, e, "create the folder of") from None
+        raise output_error(path.parent, e, "create the folder") from None
     tmp = path.parent / f"{path.name}.{secrets.token_hex(6)}.tmp"
     try:
+        _write_temporary(tmp, data)
+        os.replace(tmp, path)
+    except BaseException as e:
         try:
-            _write_temporary(tmp, data)
-        except OSError as e:
-            raise output_error(path, e, "write", len(data)) from None
-        try:
-            os.replace(tmp, path)
-        except OSError as e:
-            raise output_error(path, e, f"rename {tmp.name} to") from None
-    except BaseException:
-        try:
-            tmp.unlink(missing_ok=True)
+            tmp.unlink(missing_ok=True)  # first: the space it took counts as free in the message
         except OSError:  # the file system went away under us: nothing more to do
             pass
+        if isinstance(e, OSError):
+            raise output_error(path, e, "write", len(data)) from None
         raise
 
 
