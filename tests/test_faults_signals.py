@@ -369,3 +369,59 @@ def test_an_ignored_sighup_stays_ignored(handlers):
     signal.signal(signal.SIGHUP, signal.SIG_IGN)
     handlers.install()
     assert signal.getsignal(signal.SIGHUP) is signal.SIG_IGN
+
+
+def test_a_stop_during_the_set_up_writes_nothing(handlers, tmp_path, monkeypatch, capsys):
+    """Before a command's first write (the model being built) a stop leaves the folder as it was."""
+    from warpcontact import runner
+    from warpcontact.cli import main
+
+    def stopped(case):
+        raise handlers.Stop(signal.SIGTERM)
+
+    monkeypatch.setattr(runner, "build", stopped)
+    out = tmp_path / "out"
+    assert main(["solve", str(case_file(tmp_path, LONG_PATH)), "--out", str(out), "--quiet"]) == 143
+    err = capsys.readouterr().err
+    assert f"interrupted (SIGTERM): stopped during the set-up, before anything was written to {out}" in err, err
+    assert not out.exists()
+
+
+def test_figure_stopped_while_drawing_keeps_the_figures_drawn(handlers, tmp_path, monkeypatch, capsys):
+    """A solve stopped after 2 of 4 states, drawn: the figure says the run is partial; a stop after the
+    first PNG leaves it whole and exits 143."""
+    from warpcontact import plots
+    from warpcontact.cli import main
+
+    out = tmp_path / "run"
+    case = case_file(tmp_path, LONG_PATH.replace("steps = 20", "steps = 2").replace("n = 64", "n = 40"))
+    from warpcontact.solvers import contact
+
+    real_step, steps = contact.ContactSolver.step, []
+
+    def step_then_stop(self, *a, **kw):
+        if len(steps) == 2:
+            raise handlers.Stop(signal.SIGTERM)
+        steps.append(1)
+        return real_step(self, *a, **kw)
+
+    monkeypatch.setattr(contact.ContactSolver, "step", step_then_stop)
+    assert main(["solve", str(case), "--out", str(out), "--quiet"]) == 143
+    monkeypatch.undo()
+    capsys.readouterr()
+
+    real_save, saved = plots.save, []
+
+    def save_then_stop(fig, path, dpi=None):
+        if saved:
+            raise handlers.Stop(signal.SIGTERM)
+        real_save(fig, path, dpi=dpi)
+        saved.append(path)
+
+    monkeypatch.setattr(plots, "save", save_then_stop)
+    assert main(["figure", str(out), "--out", str(tmp_path / "fig"), "--quiet"]) == 143
+    err = capsys.readouterr().err
+    assert f"{out / 'result.json'} is not complete: its run was stopped (SIGTERM) after 2 of 4 states" in err, err
+    assert f"interrupted (SIGTERM): stopped while drawing; 1 of 3 figure(s) written to {tmp_path / 'fig'}" in err
+    assert [p.name for p in (tmp_path / "fig").iterdir()] == ["area_map.png"]
+    assert (tmp_path / "fig" / "area_map.png").read_bytes()[:4] == b"\x89PNG"

@@ -250,7 +250,6 @@ def cmd_gross_slip(args) -> int:
 
     progress = Progress("gross-slip", quiet=args.quiet)  # a search: the number of states is not known
     states = []  # the finished states: written after each, and on a stop
-    _write_partial(out, {"states": states}, info, GROSS_SLIP_RESULTS)  # replaces an earlier run's
 
     def on_state(k, s):
         with interrupts.deferred():  # the list and the file stay in step
@@ -261,6 +260,8 @@ def cmd_gross_slip(args) -> int:
 
     steps = case.load.steps if not case.load.explicit else 4
     try:
+        with interrupts.deferred():
+            _write_partial(out, {"states": states}, info, GROSS_SLIP_RESULTS)  # replaces an earlier run's
         r = find_gross_slip(model, solver, dz, normal_steps=steps, on_state=on_state)
     except KeyboardInterrupt as e:
         progress.close()
@@ -303,8 +304,6 @@ def cmd_pull_off(args) -> int:
     info = _run_info(model, case)
     progress = Progress("pull-off", total=2 * args.steps + 1, quiet=args.quiet)
     curve = []  # the finished states: written after each, and on a stop
-    _write_partial(out, {"curve": curve}, info, PULL_OFF_RESULTS)  # replaces an earlier run's
-    _remove_stale(out / "pull_off.png")
 
     def on_state(k, total, s):
         with interrupts.deferred():  # the list and the file stay in step
@@ -314,6 +313,9 @@ def cmd_pull_off(args) -> int:
                         f"delta_z {s['delta']['z']:+.3e} m, F_z {s['force']['z']:+.3e} N, {s['outer_iterations']} turns")
 
     try:
+        with interrupts.deferred():
+            _write_partial(out, {"curve": curve}, info, PULL_OFF_RESULTS)  # replaces an earlier run's
+            _remove_stale(out / "pull_off.png")
         r = approach_retract(model, solver, -2.0 * law.range, dz_max, end, args.steps, on_state=on_state)
     except KeyboardInterrupt as e:
         progress.close()
@@ -509,8 +511,9 @@ def cmd_table2(args) -> int:
                     break
         else:
             _table2_in_workers(args.workers, pending, settings_for, label, finish, progress)
-    except KeyboardInterrupt:
+    except KeyboardInterrupt as e:
         interrupted = True
+        interrupts.stop_signal(e)  # the signal, for the status and the exit status
     progress.close()
     if write_error is not None:
         raise write_error.with_hint(f"{kept} cell(s) finished and kept in {path}: free space and run the same "
@@ -651,10 +654,10 @@ def main(argv=None) -> int:
         where = f" {e.filename}" if e.filename else " an output"
         print(f"warpcontact: error: cannot write{where}: {(e.strerror or str(e)).lower()}", file=sys.stderr)
         return EXIT_WRITE_ERROR
-    except KeyboardInterrupt as e:  # a stop where no command catches it: set-up, figures
+    except KeyboardInterrupt as e:  # the commands catch a stop once they have written: this is the set-up
         end_line()
-        print(f"{interrupts.describe(e)}: stopped before the run's results were complete; the files written so "
-              f"far in {args.out} are whole", file=sys.stderr)
+        print(f"{interrupts.describe(e)}: stopped during the set-up, before anything was written to {args.out}",
+              file=sys.stderr)
         return interrupts.exit_status(e)
 
 

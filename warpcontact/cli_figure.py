@@ -189,38 +189,45 @@ def cmd_figure(args) -> int:
         fig_status = status
     else:
         fig_status = 0
-    fields = load_fields(args.fields)
-    n = fields["pressure"].shape[0]
-    k = args.state
-    if not -n <= k < n:
-        raise InputError("--state", f"{k} is out of range: the file holds {n} state(s), 0 ... {n - 1} "
-                                    f"(or -{n} ... -1 from the end)")
-    dpi = getattr(args, "dpi", 150)
-    if dpi is None or not 10 <= dpi <= 1200:
-        raise InputError("--dpi", f"must be between 10 and 1200, got {dpi!r}")
-    out = Path(args.out)
-    if out.exists() and not out.is_dir():
-        raise InputError("--out", f"{out} exists and is not a folder")
-    npz = _npz_path(str(args.fields))
-    note = partial_note(npz)
-    if note:
-        print(f"warpcontact: warning: {note}; the figures show a state that finished", file=sys.stderr)
-    path_k = _path_index(fields, k % n)
-    unconverged = _not_converged(npz, path_k)
-    if unconverged:
-        print(f"warpcontact: warning: state {path_k} did not converge in its solve (result.json); "
-              "the figures are marked NOT CONVERGED", file=sys.stderr)
     written = []
-    caption = case_caption(_npz_path(str(args.fields)))
-    for name, draw in (("area_map.png", plots.area_map), ("fields.png", plots.field_maps),
-                       ("profile.png", plots.profile)):
-        fig = draw(fields, k)
-        if caption:
-            fig.text(0.5, 0.0, caption, color="dimgray", fontsize="small", ha="center", va="top")
+    try:  # a stop from here on: the solve's outputs and the figures drawn so far are whole
+        fields = load_fields(args.fields)
+        n = fields["pressure"].shape[0]
+        k = args.state
+        if not -n <= k < n:
+            raise InputError("--state", f"{k} is out of range: the file holds {n} state(s), 0 ... {n - 1} "
+                                        f"(or -{n} ... -1 from the end)")
+        dpi = getattr(args, "dpi", 150)
+        if dpi is None or not 10 <= dpi <= 1200:
+            raise InputError("--dpi", f"must be between 10 and 1200, got {dpi!r}")
+        out = Path(args.out)
+        if out.exists() and not out.is_dir():
+            raise InputError("--out", f"{out} exists and is not a folder")
+        npz = _npz_path(str(args.fields))
+        note = partial_note(npz)
+        if note:
+            print(f"warpcontact: warning: {note}; the figures show a state that finished", file=sys.stderr)
+        path_k = _path_index(fields, k % n)
+        unconverged = _not_converged(npz, path_k)
         if unconverged:
-            fig.text(0.01, 0.995, "NOT CONVERGED", color="red", fontweight="bold", ha="left", va="top")
-        plots.save(fig, out / name, dpi=dpi)
-        written.append(out / name)
+            print(f"warpcontact: warning: state {path_k} did not converge in its solve (result.json); "
+                  "the figures are marked NOT CONVERGED", file=sys.stderr)
+        caption = case_caption(_npz_path(str(args.fields)))
+        for name, draw in (("area_map.png", plots.area_map), ("fields.png", plots.field_maps),
+                           ("profile.png", plots.profile)):
+            fig = draw(fields, k)
+            if caption:
+                fig.text(0.5, 0.0, caption, color="dimgray", fontsize="small", ha="center", va="top")
+            if unconverged:
+                fig.text(0.01, 0.995, "NOT CONVERGED", color="red", fontweight="bold", ha="left", va="top")
+            plots.save(fig, out / name, dpi=dpi)  # whole or not at all
+            written.append(out / name)
+    except KeyboardInterrupt as e:  # Ctrl-C, SIGTERM, SIGHUP
+        from . import interrupts
+
+        print(f"{interrupts.describe(e)}: stopped while drawing; {len(written)} of 3 figure(s) written to "
+              f"{args.out}", file=sys.stderr)
+        return interrupts.exit_status(e)
     if not getattr(args, "quiet", False):
         print(f"figure: state {k % n} (of 0-{n - 1}) -> " + ", ".join(str(p) for p in written), file=sys.stderr)
     return fig_status

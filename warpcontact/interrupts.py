@@ -139,9 +139,13 @@ def received() -> int | None:
 
 
 def stop_signal(exc: BaseException | None = None) -> int:
-    """The signal behind an interrupt: ``exc``'s when it is a :class:`Stop`, else the first one
+    """The signal behind an interrupt: ``exc``'s when it is a :class:`Stop` (remembered as the run's
+    stop when none was received: a Stop raised by code, not by the handler), else the first one
     received, else SIGINT (a KeyboardInterrupt raised without a signal is Ctrl-C)."""
+    global _received
     if isinstance(exc, Stop):
+        if _received is None:
+            _received = exc.signum
         return exc.signum
     return _received if _received is not None else int(signal.SIGINT)
 

@@ -142,10 +142,10 @@ def run_path(case, on_state=None, keep_fields: bool = True, fields: str = "all",
     result = PathResult(case=case, model=model)
     path = case.load.path()
     edge_warned = False  # the adhesive tail cut by the domain: one warning per path
-    if on_start is not None:
-        with interrupts.deferred():
-            on_start(result)
     try:
+        if on_start is not None:
+            with interrupts.deferred():
+                on_start(result)
         for k, approach in enumerate(path):
             solver.step(state, approach)
             warn_if_coarse(state)
