@@ -1,8 +1,11 @@
-"""Adhesion laws (MODEL.md section 6). Each law launches one kernel of kernels/adhesion.py.
+"""Adhesion laws (MODEL.md section 6).
 
-To add a law: its ``@wp.func`` and tractions kernel in ``kernels/adhesion.py`` and a small class
-here with ``tractions(model, state, law_pressure, law_shear_x, law_shear_y)``, ``range`` and
-``work_of_adhesion``. The fixed point over the law (relaxation, convergence) is the solver's.
+The adhesive normal problem is one energy minimisation (``warpcontact.solvers.adhesive``): a law
+gives its potential, tension and stiffness as a function of the gap in ``kernels/adhesive.py``
+(``law_values``, one branch per law), selected by ``normal_law(model)``. To add a law: its branch
+there and a small class here with ``normal_law``, ``tangential_opening`` (zero unless the law
+couples the opening to the slip), ``range``, ``work_of_adhesion``, ``peak_tension`` and
+``describe``; a law with an adhesive shear (SMC) also has ``tractions`` (kernels/adhesion.py).
 """
 
 from __future__ import annotations
@@ -12,6 +15,7 @@ from dataclasses import dataclass
 
 
 from warpcontact.kernels import adhesion as ak
+from warpcontact.kernels import adhesive as nk
 
 from .errors import InputError
 
@@ -62,6 +66,22 @@ class SMC:
     def range(self) -> float:
         """Gap [m] up to which a cell counts as adhesive contact (the rising branch: delta_n)."""
         return self.delta_n
+
+    @property
+    def peak_tension(self) -> float:
+        """Largest normal tension [Pa] (pure opening)."""
+        return self.sigma_max
+
+    def normal_law(self, model):
+        """(law id, scaled parameters, scaled length) for the adhesive normal solve."""
+        L = model.length_scale
+        return int(nk.LAW_SMC), (self.sigma_max / model.traction_scale, self.delta_n / L, 0.0), self.delta_n / L
+
+    def tangential_opening(self, model, state, out):
+        """out <- |s| / delta_t of each cell: the normal law at the cell's current slip."""
+        model.launch(nk.smc_opening, model.n_cells,
+                     [state.slip_x.flatten(), state.slip_y.flatten(), model.scalar(self.delta_t / model.length_scale)],
+                     [out.flatten()])
 
     def tractions(self, model, state, law_pressure, law_shear_x, law_shear_y):
         """The law's tractions (scaled) of the state's gap and slip, on cells out of contact
@@ -118,6 +138,18 @@ class Dugdale:
     def range(self) -> float:
         return self.h_0 * (1.0 + self.smoothing)
 
+    @property
+    def peak_tension(self) -> float:
+        return self.sigma_0
+
+    def normal_law(self, model):
+        L = model.length_scale
+        return (int(nk.LAW_DUGDALE), (self.sigma_0 / model.traction_scale, self.h_0 / L, self.smoothing * self.h_0 / L),
+                self.h_0 / L)
+
+    def tangential_opening(self, model, state, out):
+        out.zero_()
+
     def tractions(self, model, state, law_pressure, law_shear_x, law_shear_y):
         """The law's tension (scaled) of the state's gap on cells out of contact; no shear."""
         L = model.length_scale
@@ -137,3 +169,87 @@ class Dugdale:
     def describe(self) -> dict:
         return {"law": "dugdale", "sigma_0": self.sigma_0, "h_0": self.h_0, "smoothing": self.smoothing,
                 "work_of_adhesion": self.work_of_adhesion}
+
+
+def _no_opening(model, state, out):
+    out.zero_()
+
+
+@dataclass(frozen=True)
+class Exponential:
+    """Exponential law: tension t(h) = (w / rho) exp(-h / rho), potential -w exp(-h / rho); the
+    largest tension w / rho acts at contact (h = 0). The law of Tamaas's exponential adhesion
+    functional and of the Adhesion package's exponential potential.
+
+    Attributes:
+        work_of_adhesion: w [J/m^2].
+        rho: decay length [m].
+    """
+
+    work_of_adhesion: float
+    rho: float
+
+    def __post_init__(self):
+        _positive("adhesion.work_of_adhesion", self.work_of_adhesion)
+        _positive("adhesion.rho", self.rho)
+
+    @property
+    def range(self) -> float:
+        """Gap [m] up to which a cell counts as adhesive contact: rho."""
+        return self.rho
+
+    @property
+    def peak_tension(self) -> float:
+        return self.work_of_adhesion / self.rho
+
+    def normal_law(self, model):
+        L = model.length_scale
+        w = self.work_of_adhesion / (model.traction_scale * L)
+        return int(nk.LAW_EXPONENTIAL), (w, self.rho / L, 0.0), self.rho / L
+
+    def tangential_opening(self, model, state, out):
+        _no_opening(model, state, out)
+
+    def describe(self) -> dict:
+        return {"law": "exponential", "work_of_adhesion": self.work_of_adhesion, "rho": self.rho}
+
+
+@dataclass(frozen=True)
+class LennardJones93:
+    """Lennard-Jones 9-3 law measured from its equilibrium distance z0 (z = h + z0; the repulsive
+    side is the hard wall at h = 0): t = (8 w / 3 z0) ((z0/z)^3 - (z0/z)^9), potential
+    -(4 w / 3) ((z0/z)^2 - (z0/z)^8 / 4), so that the work of separation is w and the largest
+    tension 16 w / (9 sqrt(3) z0) acts at z = 3^(1/6) z0 (Greenwood, Proc. R. Soc. A 453 (1997)
+    1277; the Adhesion package's Lj93 potential).
+
+    Attributes:
+        work_of_adhesion: w [J/m^2].
+        z0: equilibrium distance [m].
+    """
+
+    work_of_adhesion: float
+    z0: float
+
+    def __post_init__(self):
+        _positive("adhesion.work_of_adhesion", self.work_of_adhesion)
+        _positive("adhesion.z0", self.z0)
+
+    @property
+    def range(self) -> float:
+        """Gap [m] up to which a cell counts as adhesive contact: z0."""
+        return self.z0
+
+    @property
+    def peak_tension(self) -> float:
+        return 16.0 * self.work_of_adhesion / (9.0 * math.sqrt(3.0) * self.z0)
+
+    def normal_law(self, model):
+        L = model.length_scale
+        w = self.work_of_adhesion / (model.traction_scale * L)
+        return int(nk.LAW_LJ93), (w, self.z0 / L, 0.0), self.z0 / L
+
+    def tangential_opening(self, model, state, out):
+        _no_opening(model, state, out)
+
+    def describe(self) -> dict:
+        return {"law": "lj93", "work_of_adhesion": self.work_of_adhesion, "z0": self.z0}
