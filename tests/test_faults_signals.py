@@ -425,3 +425,12 @@ def test_figure_stopped_while_drawing_keeps_the_figures_drawn(handlers, tmp_path
     assert f"interrupted (SIGTERM): stopped while drawing; 1 of 3 figure(s) written to {tmp_path / 'fig'}" in err
     assert [p.name for p in (tmp_path / "fig").iterdir()] == ["area_map.png"]
     assert (tmp_path / "fig" / "area_map.png").read_bytes()[:4] == b"\x89PNG"
+
+
+def test_once_a_command_is_stopping_a_second_signal_waits(handlers):
+    """After stopping(): signals are remembered, not raised (the last writes are not cut)."""
+    with pytest.raises(handlers.Stop) as caught:
+        signal.raise_signal(signal.SIGTERM)
+    assert handlers.stopping(caught.value) == signal.SIGTERM
+    signal.raise_signal(signal.SIGHUP)  # not raised
+    assert handlers.exit_status() == 143  # the first stop decides

@@ -155,6 +155,8 @@ def cmd_solve(args) -> int:
 
     try:
         result = run_path(case, on_state=on_state, fields=fields, on_start=on_start)
+        if result.interrupted:
+            interrupts.stopping()  # a second signal does not cut the last writes
     finally:
         progress.close()
     with interrupts.deferred(raise_after=False):  # the last writes are not cut by a second signal
@@ -264,6 +266,7 @@ def cmd_gross_slip(args) -> int:
             _write_partial(out, {"states": states}, info, GROSS_SLIP_RESULTS)  # replaces an earlier run's
         r = find_gross_slip(model, solver, dz, normal_steps=steps, on_state=on_state)
     except KeyboardInterrupt as e:
+        interrupts.stopping(e)  # first: a second signal does not cut what follows
         progress.close()
         return _interrupted(out, {"states": states}, info, GROSS_SLIP_RESULTS, e)
     finally:
@@ -318,6 +321,7 @@ def cmd_pull_off(args) -> int:
             _remove_stale(out / "pull_off.png")
         r = approach_retract(model, solver, -2.0 * law.range, dz_max, end, args.steps, on_state=on_state)
     except KeyboardInterrupt as e:
+        interrupts.stopping(e)  # first: a second signal does not cut what follows
         progress.close()
         return _interrupted(out, {"curve": curve}, info, PULL_OFF_RESULTS, e)
     finally:
@@ -512,8 +516,8 @@ def cmd_table2(args) -> int:
         else:
             _table2_in_workers(args.workers, pending, settings_for, label, finish, progress)
     except KeyboardInterrupt as e:
+        interrupts.stopping(e)  # a second signal does not cut the last writes
         interrupted = True
-        interrupts.stop_signal(e)  # the signal, for the status and the exit status
     progress.close()
     if write_error is not None:
         raise write_error.with_hint(f"{kept} cell(s) finished and kept in {path}: free space and run the same "
@@ -627,7 +631,11 @@ def main(argv=None) -> int:
     warnings.showwarning = _show_warning
     interrupts.reset()  # a new run: no stop received yet
     interrupts.install()
-    args = _parser().parse_args(argv)
+    try:
+        args = _parser().parse_args(argv)  # imports the commands' modules: a second or so
+    except KeyboardInterrupt as e:
+        print(f"{interrupts.describe(e)}: stopped during the set-up, before anything was written", file=sys.stderr)
+        return interrupts.exit_status(e)
     try:
         from .cli_figure import cmd_figure
         from .cli_sweep import cmd_sweep

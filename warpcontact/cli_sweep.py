@@ -75,7 +75,7 @@ def cmd_sweep(args) -> int:
     from .sweep import load_sweep, run_sweep
 
     sweep = load_sweep(args.sweep, device=args.device, dtype=args.dtype, fft=args.fft)
-    report = run_sweep(sweep, args.out, quiet=args.quiet)
+    report = run_sweep(sweep, args.out, quiet=args.quiet)  # its writes after a stop are guarded (deferred)
     out = args.out
     if report.write_error is not None:
         raise report.write_error.with_hint(

@@ -18,7 +18,9 @@ Two places where an interrupt must not land:
   :func:`check`, called by the solvers once per iteration launch and per turn, raises it there.
 - the bookkeeping of a finished state or case (its summary added to the lists and its result
   file written): inside :func:`deferred` a signal is remembered and raised when the block ends, so
-  the lists and the files on disk always agree.
+  the lists and the files on disk always agree. Once a command has caught a stop (it calls
+  :func:`stopping`), later signals are only remembered: they do not cut the writing of what
+  finished.
 """
 
 from __future__ import annotations
@@ -44,6 +46,7 @@ _previous_hook = None
 _received: int | None = None  # the first stop signal of the run
 _defer_depth = 0
 _deferred: int | None = None  # a signal that arrived inside deferred(), raised at its end
+_stopping = False  # a command caught a stop and is writing what finished: later signals wait
 
 
 def signal_name(signum: int | None) -> str:
@@ -69,7 +72,7 @@ def _handler(signum, frame):
     global _received, _deferred
     if _received is None:
         _received = signum
-    if _defer_depth > 0:
+    if _defer_depth > 0 or _stopping:
         _deferred = signum if _deferred is None else _deferred
         return
     raise Stop(signum)
@@ -150,6 +153,16 @@ def stop_signal(exc: BaseException | None = None) -> int:
     return _received if _received is not None else int(signal.SIGINT)
 
 
+def stopping(exc: BaseException | None = None) -> int:
+    """A command caught a stop and writes what finished before it exits: from now on signals are
+    only remembered, so that a second one does not cut those writes. Returns the stop's signal
+    (:func:`stop_signal`). For the command line, whose process ends next; a library function that
+    catches a stop guards its writes with :func:`deferred` instead."""
+    global _stopping
+    _stopping = True
+    return stop_signal(exc)
+
+
 def exit_status(exc: BaseException | None = None) -> int:
     """128 + the number of the signal that stopped the run: 130 SIGINT, 143 SIGTERM, 129 SIGHUP."""
     return 128 + stop_signal(exc)
@@ -164,6 +177,7 @@ def describe(exc: BaseException | None = None) -> str:
 def reset():
     """Forget received, deferred and swallowed stops: a new run begins (the command line calls it
     first; tests run several commands in one process)."""
-    global _received, _deferred, _pending, _defer_depth
+    global _received, _deferred, _pending, _defer_depth, _stopping
     _received = _deferred = _pending = None
     _defer_depth = 0
+    _stopping = False
