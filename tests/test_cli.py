@@ -292,3 +292,25 @@ def test_gross_slip_ctrl_c_keeps_the_finished_states(tmp_path, monkeypatch, caps
     res = json.loads((tmp_path / "gs" / "result.json").read_text())
     assert res["interrupted"] and res["converged"] is False and len(res["states"]) == 3
     assert res["delta_x_max"] is None and res["mu"] is None and res["case"]["grid"]["n"] == 32
+
+
+def test_solve_fields_option_writes_the_last_state_or_none(tmp_path):
+    """--fields last: one entry, the last state's (state_index says which); none: no fields.npz, and
+    the run is complete all the same."""
+    from warpcontact import cli, runner
+
+    assert cli.FIELDS_CHOICES == runner.FIELDS_CHOICES  # the parser's copy of the choices
+    case = small_case(tmp_path, TABLE2_CASE, **{"n = 96": "n = 40", "steps = 4 ": "steps = 2\ndelta_x = 3e-11 "})
+    r = run_cli("solve", case, "--out", tmp_path / "last", "--fields", "last", "--quiet")
+    assert r.returncode == 0, r.stderr
+    res = json.loads((tmp_path / "last" / "result.json").read_text())
+    assert res["complete"] and res["fields_kept"] == "last" and res["n_states"] == 4
+    with np.load(tmp_path / "last" / "fields.npz", allow_pickle=False) as f:
+        assert f["state_index"].tolist() == [3] and f["pressure"].shape == (1, 40, 40)
+        cell = (res["case"]["grid"]["size"] / 40) ** 2
+        assert f["pressure"][0].sum() * cell == pytest.approx(res["states"][3]["force_elastic"]["z"], rel=1e-12)
+    r = run_cli("solve", case, "--out", tmp_path / "none", "--fields", "none", "--quiet")
+    assert r.returncode == 0, r.stderr
+    res = json.loads((tmp_path / "none" / "result.json").read_text())
+    assert res["complete"] and res["fields_file"] is None and res["n_states"] == 4
+    assert sorted(p.name for p in (tmp_path / "none").iterdir()) == ["result.json"]

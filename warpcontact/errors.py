@@ -25,7 +25,7 @@ class OutputError(OSError):
     Attributes:
         path: the file that could not be written.
         errno, strerror: the system's error.
-        action: what failed ("write", "create the folder of", "replace").
+        action: what failed ("write", "create the folder", "remove the earlier run's").
         needed_bytes: the size of the file being written [bytes], or None.
         free_bytes: the space left on its file system [bytes] when known, else None.
         hint: what to do, one sentence (may be empty).
