@@ -19,6 +19,20 @@ into stick with the step P(q - tau g) (the disk analogue of Polonsky-Keer's re-e
 the conjugacy restarts.
 
 Cell status: 0 out of contact (q_max = 0), 1 stick, 2 slip.
+
+Two iterations share these rules (``TangentialSolver.preconditioned``):
+
+- plain (Chen & Wang): ``tangential_gradient`` (the exact g from K q) and ``tangential_direction``
+  (Jacobi scaling by the self-influence, plus lambda / q_max on slip cells), then K t,
+  ``tangential_step_sums``, ``tangential_update`` and ``reduce.cg_advance``: two applications of
+  K_tt per iteration;
+- preconditioned (the default): g is carried (``tangential_carried_update``: g <- g - tau K t)
+  and made exact (``tangential_residual`` after K q) where ``tangential_advance`` asks for it;
+  the direction is built from z = M g, M the circulant inverse of K_tt
+  (``spectral.spectral_tangential_inverse_energy``) applied to g on the stick cells
+  (``tangential_stick_gradient`` writes it into the FFT backend's padded input) and read there
+  (``tangential_direction_stick`` for x, ``tangential_direction_rest`` for y and the slip
+  cells, which keep the Jacobi scaling): one application of K_tt and one of M per iteration.
 """
 
 from typing import Any
@@ -27,8 +41,8 @@ import warp as wp
 
 from .overloads import register_float_overloads
 from .reduce import (  # noqa: F401  (shared slots)
-    C_DELTA, C_G_OLD, N_SCALARS, N_SETTINGS, P_TOL, S_G, S_GT, S_RHS, S_RT, S_VIOL, block_add, cell_index, cg_converged,
-    cg_step_length,
+    C_DELTA, C_G_OLD, N_SCALARS, N_SETTINGS, P_EXACT, P_TOL, S_G, S_GT, S_RHS, S_RT, S_VIOL, advance, block_add,
+    block_add_vector, cell_index, cg_converged, cg_step_length, residual_of, stop_loop,
 )
 from .reduce import S_RESTART as S_RELEASED  # slip cells released into stick by the last step
 
@@ -63,11 +77,17 @@ def slip_frame(qx: Any, qy: Any):
 @wp.kernel
 def tangential_classify(
     shear_limit: wp.array(dtype=Any),
+    keep_slip: int,
     shear_x: wp.array(dtype=Any),
     shear_y: wp.array(dtype=Any),
     status: wp.array(dtype=wp.int32),
 ):
-    """At the start of a solve: project q onto the current disks and set each cell's status."""
+    """At the start of a solve: project q onto the current disks and set each cell's status.
+    ``keep_slip`` = 1: a cell that slipped when the last solve ended (status 2) and has q != 0
+    stays slip, its q scaled onto the new circle, also where q_max grew (the preconditioned
+    solve: such a cell left inside its disk by a grown q_max, or by rounding, would start as a
+    stick cell with the whole slip increment as its residual; the release rule returns it to
+    stick when its slip reverses)."""
     i = wp.tid()
     q_max = shear_limit[i]
     zero = q_max - q_max
@@ -83,6 +103,10 @@ def tangential_classify(
         shear_x[i] = q[0]
         shear_y[i] = q[1]
         status[i] = SLIP
+    elif keep_slip != 0 and status[i] == SLIP and qx * qx + qy * qy > zero:
+        e = slip_frame(qx, qy)
+        shear_x[i] = q_max * e[0]
+        shear_y[i] = q_max * e[1]
     else:
         status[i] = STICK
 
@@ -145,6 +169,22 @@ def tangential_gradient(
     block_add(sums, S_STICK, s_stick)
 
 
+@wp.func
+def slip_direction(gx: Any, gy: Any, qx: Any, qy: Any, q_max: Any, last_x: Any, last_y: Any, stiffness: Any,
+                   beta: Any):
+    """The conjugate direction of a slip cell: the tangent part of g scaled by 1 / (``stiffness``
+    + lambda / q_max), lambda = max(-g.q/|q|, 0) the constraint's curvature, plus beta times the
+    tangent part of the last direction."""
+    zero = type(gx)(0.0)
+    e = slip_frame(qx, qy)
+    gn = gx * e[0] + gy * e[1]
+    inv_m = type(zero)(1.0) / (stiffness + wp.max(-gn, zero) / q_max)
+    tgx = (gx - gn * e[0]) * inv_m
+    tgy = (gy - gn * e[1]) * inv_m
+    pn = last_x * e[0] + last_y * e[1]
+    return wp.vector(tgx + beta * (last_x - pn * e[0]), tgy + beta * (last_y - pn * e[1]))
+
+
 @wp.kernel
 def tangential_direction(
     grad_x: wp.array(dtype=Any),
@@ -171,16 +211,10 @@ def tangential_direction(
     tx = grad_x[i] / stiffness + beta * dir_x[i]
     ty = grad_y[i] / stiffness + beta * dir_y[i]
     if st == SLIP:
-        e = slip_frame(shear_x[i], shear_y[i])
-        gn = grad_x[i] * e[0] + grad_y[i] * e[1]
-        inv_m = type(zero)(1.0) / (stiffness + wp.max(-gn, zero) / shear_limit[i])
-        tgx = (grad_x[i] - gn * e[0]) * inv_m
-        tgy = (grad_y[i] - gn * e[1]) * inv_m
-        px = dir_x[i]
-        py = dir_y[i]
-        pn = px * e[0] + py * e[1]
-        tx = tgx + beta * (px - pn * e[0])
-        ty = tgy + beta * (py - pn * e[1])
+        t = slip_direction(grad_x[i], grad_y[i], shear_x[i], shear_y[i], shear_limit[i], dir_x[i], dir_y[i], stiffness,
+                           beta)
+        tx = t[0]
+        ty = t[1]
     elif st != STICK:
         tx = zero
         ty = zero
@@ -296,11 +330,319 @@ def tangential_update(
 
 
 
+# --- the preconditioned iteration (TangentialSolver.preconditioned) ---
+# slots of ``sums`` besides 0-5: what the projections changed (which the carried g misses), and
+# slots S_G and S_VIOL of the updated iterate (S_RHS does not change within a solve)
+S_CORRECTION = wp.constant(7)
+S_NEXT_G = wp.constant(8)
+S_NEXT_VIOL = wp.constant(9)
+N_SUMS_PRECONDITIONED = 10
+
+
+@wp.func
+def residual_terms(gx: Any, gy: Any, qx: Any, qy: Any, q_max: Any, status: int, stiffness: Any):
+    """One cell's shares of the sums S_G and S_VIOL in the preconditioned iteration: on slip cells
+    g_t . g_t / (``stiffness`` + lambda / q_max) (the Jacobi part of g . M g; the stick cells'
+    part comes from the spectral product) and the violation |g_t|^2 + max(g.e, 0)^2; on stick
+    cells the violation |g|^2."""
+    zero = type(gx)(0.0)
+    s_g = zero
+    s_viol = zero
+    if status == STICK:
+        s_viol = gx * gx + gy * gy
+    elif status == SLIP:
+        e = slip_frame(qx, qy)
+        normal = gx * e[0] + gy * e[1]
+        tx = gx - normal * e[0]
+        ty = gy - normal * e[1]
+        s_g = (tx * tx + ty * ty) / (stiffness + wp.max(-normal, zero) / q_max)
+        s_viol = tx * tx + ty * ty + wp.max(normal, zero) * wp.max(normal, zero)
+    return s_g, s_viol
+
+
+@wp.kernel
+def tangential_residual(
+    disp_x: wp.array(dtype=Any),
+    disp_y: wp.array(dtype=Any),
+    known_x: wp.array(dtype=Any),
+    known_y: wp.array(dtype=Any),
+    target_x: wp.array(dtype=Any),
+    target_y: wp.array(dtype=Any),
+    shear_x: wp.array(dtype=Any),
+    shear_y: wp.array(dtype=Any),
+    shear_limit: wp.array(dtype=Any),
+    status: wp.array(dtype=wp.int32),
+    stiffness: Any,
+    n: int,
+    outer: int,
+    inner: int,
+    per: int,
+    grad_x: wp.array(dtype=Any),
+    grad_y: wp.array(dtype=Any),
+    sums: wp.array(dtype=Any),
+):
+    """The exact g = K q + u_known - target from ``disp`` = K q, and slots S_G (the slip cells'
+    part), S_VIOL, S_RHS of the iterate."""
+    block, lane = wp.tid()
+    thread = block * wp.block_dim() + lane
+    zero = stiffness - stiffness
+    s_g = zero
+    s_viol = zero
+    s_rhs = zero
+    for k in range(per):
+        i = cell_index(thread, outer, inner, k)
+        if i < n:
+            rx = target_x[i] - known_x[i]
+            ry = target_y[i] - known_y[i]
+            gx = disp_x[i] - rx
+            gy = disp_y[i] - ry
+            grad_x[i] = gx
+            grad_y[i] = gy
+            st = status[i]
+            if st != OUT:
+                s_rhs += rx * rx + ry * ry
+                dg, dv = residual_terms(gx, gy, shear_x[i], shear_y[i], shear_limit[i], st, stiffness)
+                s_g += dg
+                s_viol += dv
+    block_add_vector(sums, S_G, wp.vector(s_g, s_viol, s_rhs), lane)  # slots S_G, S_VIOL, S_RHS
+
+
+@wp.kernel
+def tangential_stick_gradient(grad: wp.array(dtype=Any), status: wp.array(dtype=wp.int32), width: int, per: int,
+                              padded_input: wp.array2d(dtype=Any)):
+    """One component of g on the stick cells, 0 elsewhere, into the FFT backend's
+    ``padded_input``: what the preconditioner transforms. Launched over (rows, chunks)
+    (``LaunchCache.launch_rows``)."""
+    i, c = wp.tid()
+    for j in range(c * per, wp.min((c + 1) * per, width)):
+        cell = i * width + j
+        padded_input[i, j] = wp.where(status[cell] == STICK, grad[cell], type(grad[cell])(0.0))
+
+
+@wp.func
+def conjugacy(sums: wp.array(dtype=Any), scalars: wp.array(dtype=Any)):
+    """beta = delta G / G_old (0 on a restart and at the first iteration), G = g . M g."""
+    zero = sums[S_G] - sums[S_G]
+    beta = zero
+    if scalars[C_G_OLD] > zero:
+        beta = scalars[C_DELTA] * sums[S_G] / scalars[C_G_OLD]
+    return beta
+
+
+@wp.kernel
+def tangential_direction_stick(
+    preconditioned: wp.array2d(dtype=Any),
+    output_scale: Any,
+    status: wp.array(dtype=wp.int32),
+    sums: wp.array(dtype=Any),
+    scalars: wp.array(dtype=Any),
+    width: int,
+    per: int,
+    direction: wp.array(dtype=Any),
+):
+    """One component of the conjugate direction on stick cells, t = z + beta t_last with z = M g
+    read from ``preconditioned`` (the FFT backend's padded output, times ``output_scale``); 0 out
+    of contact; slip cells left as they are (``tangential_direction_rest`` writes them). Launched
+    over (rows, chunks)."""
+    i, c = wp.tid()
+    beta = conjugacy(sums, scalars)
+    for j in range(c * per, wp.min((c + 1) * per, width)):
+        cell = i * width + j
+        st = status[cell]
+        if st == STICK:
+            direction[cell] = output_scale * preconditioned[i, j] + beta * direction[cell]
+        elif st == OUT:
+            direction[cell] = output_scale - output_scale
+
+
+@wp.kernel
+def tangential_direction_rest(
+    preconditioned: wp.array2d(dtype=Any),
+    output_scale: Any,
+    grad_x: wp.array(dtype=Any),
+    grad_y: wp.array(dtype=Any),
+    shear_x: wp.array(dtype=Any),
+    shear_y: wp.array(dtype=Any),
+    shear_limit: wp.array(dtype=Any),
+    status: wp.array(dtype=wp.int32),
+    stiffness: Any,
+    sums: wp.array(dtype=Any),
+    scalars: wp.array(dtype=Any),
+    width: int,
+    per: int,
+    dir_x: wp.array(dtype=Any),
+    dir_y: wp.array(dtype=Any),
+):
+    """The rest of the conjugate direction after ``tangential_direction_stick`` wrote the stick
+    cells' x component: the y component on stick cells (z_y from ``preconditioned``), 0 out of
+    contact, and both components on slip cells (:func:`slip_direction`, from the last direction,
+    which the x pass left there). Launched over (rows, chunks)."""
+    i, c = wp.tid()
+    beta = conjugacy(sums, scalars)
+    for j in range(c * per, wp.min((c + 1) * per, width)):
+        cell = i * width + j
+        st = status[cell]
+        if st == STICK:
+            dir_y[cell] = output_scale * preconditioned[i, j] + beta * dir_y[cell]
+        elif st == SLIP:
+            t = slip_direction(grad_x[cell], grad_y[cell], shear_x[cell], shear_y[cell], shear_limit[cell],
+                               dir_x[cell], dir_y[cell], stiffness, beta)
+            dir_x[cell] = t[0]
+            dir_y[cell] = t[1]
+        else:
+            dir_y[cell] = output_scale - output_scale
+
+
+@wp.kernel
+def tangential_carried_update(
+    dir_x: wp.array(dtype=Any),
+    dir_y: wp.array(dtype=Any),
+    resp_x: wp.array(dtype=Any),
+    resp_y: wp.array(dtype=Any),
+    shear_limit: wp.array(dtype=Any),
+    slip_step: Any,
+    stiffness: Any,
+    settings: wp.array(dtype=Any),
+    n: int,
+    outer: int,
+    inner: int,
+    per: int,
+    shear_x: wp.array(dtype=Any),
+    shear_y: wp.array(dtype=Any),
+    status: wp.array(dtype=wp.int32),
+    grad_x: wp.array(dtype=Any),
+    grad_y: wp.array(dtype=Any),
+    sums: wp.array(dtype=Any),
+):
+    """``tangential_update``'s step on q and the statuses, with g carried: g <- g - tau K t (K t
+    in ``resp``), exact where no cell was projected. What the projections changed, sum_i |q_i -
+    (q_i - tau t_i)| (the slip cells' retraction onto their circle, stick cells projected onto
+    it, released cells), goes to slot S_CORRECTION: the carried g misses K of it until the next
+    exact g. Slots S_G and S_VIOL of the new iterate with the carried g go to S_NEXT_G and
+    S_NEXT_VIOL, the released cells' count to S_RELEASED. An iterate whose relative residual is
+    already under ``settings[P_TOL]`` is left as it is."""
+    block, lane = wp.tid()
+    thread = block * wp.block_dim() + lane
+    zero = stiffness - stiffness
+    tau = cg_step_length(sums)
+    tau_release = wp.where(tau > zero, tau, slip_step)
+    done = cg_converged(sums, settings[P_TOL])
+    released = zero
+    corrected = zero
+    s_g = zero
+    s_viol = zero
+    for k in range(per):
+        i = cell_index(thread, outer, inner, k)
+        if i < n:
+            st = status[i]
+            if st != OUT:
+                # every load before any store (see kernels/normal.py, normal_update)
+                q_max = shear_limit[i]
+                qx = shear_x[i]
+                qy = shear_y[i]
+                gx = grad_x[i]
+                gy = grad_y[i]
+                tx = dir_x[i]
+                ty = dir_y[i]
+                rx = resp_x[i]
+                ry = resp_y[i]
+                if not done:
+                    fx = qx - tau * tx  # what K t accounts for
+                    fy = qy - tau * ty
+                    new = st
+                    q = wp.vector(fx, fy)
+                    if st == SLIP and gx * qx + gy * qy > zero:
+                        # the slip would reverse: leave the circle inwards
+                        q = project_disk(qx - tau_release * gx, qy - tau_release * gy, q_max)
+                        if q[0] * q[0] + q[1] * q[1] < q_max * q_max:
+                            new = STICK
+                            released += type(zero)(1.0)
+                    elif st == SLIP:
+                        e = slip_frame(fx, fy)
+                        q = wp.vector(q_max * e[0], q_max * e[1])
+                    elif fx * fx + fy * fy >= q_max * q_max:
+                        q = project_disk(fx, fy, q_max)
+                        new = SLIP
+                    qx = q[0]
+                    qy = q[1]
+                    corrected += wp.sqrt((qx - fx) * (qx - fx) + (qy - fy) * (qy - fy))
+                    gx = gx - tau * rx
+                    gy = gy - tau * ry
+                    shear_x[i] = qx
+                    shear_y[i] = qy
+                    grad_x[i] = gx
+                    grad_y[i] = gy
+                    if new != st:
+                        status[i] = new
+                        st = new
+                dg, dv = residual_terms(gx, gy, qx, qy, q_max, st, stiffness)
+                s_g += dg
+                s_viol += dv
+    block_add(sums, S_RELEASED, released)
+    # slots S_CORRECTION, S_NEXT_G, S_NEXT_VIOL (consecutive)
+    block_add_vector(sums, S_CORRECTION, wp.vector(corrected, s_g, s_viol), lane)
+
+
+@wp.kernel
+def tangential_advance(sums: wp.array(dtype=Any), settings: wp.array(dtype=Any), restart_every: int, exact_every: int,
+                       column_norm: Any, deferral: Any, scalars: wp.array(dtype=Any),
+                       residual_history: wp.array(dtype=Any), deferred: wp.array(dtype=Any),
+                       recompute: wp.array(dtype=wp.int32), loop: wp.array(dtype=wp.int32),
+                       refresh: wp.array(dtype=wp.int32), inner_loop: wp.array(dtype=wp.int32)):
+    """One thread, end of a preconditioned iteration: the shared
+    :func:`~warpcontact.kernels.reduce.advance` (residual history, G_old, delta: a released cell
+    restarts the conjugacy; the loop flag), then whether the next iteration starts from an exact
+    g (``recompute[0]`` = 1: K q and ``tangential_residual``), then the new iterate's sums moved
+    into slots S_G and S_VIOL and slots S_GT on zeroed.
+
+    The carried g misses K c, c the projections' changes since the last exact g; their norms add
+    up in ``deferred[0]``, and ||K c||_2 <= ``column_norm`` * that. Recompute when that bound
+    exceeds ``deferral`` times the norm of the violation the iteration started from, after a
+    released cell (a restart), every ``exact_every`` iterations, and always when
+    ``settings[P_EXACT]`` is 1.
+
+    The loop also stops (settled) where the new iterate meets the tolerance with the carried g:
+    the launch then makes g exact (``ProjectedCG._run``'s refresh) and the host judges it, and
+    launches the loop again where the exact g does not agree. ``inner_loop[0]``: 1 while the
+    loop goes on without a recompute."""
+    tol = settings[P_TOL]
+    exact = settings[P_EXACT]
+    viol = sums[S_VIOL]
+    rhs = sums[S_RHS]
+    released = sums[S_RELEASED]
+    missed = deferred[0] + sums[S_CORRECTION]
+    next_g = sums[S_NEXT_G]
+    next_viol = sums[S_NEXT_VIOL]
+    done, stopped = advance(sums, settings, restart_every, scalars, residual_history, loop, refresh)
+    zero = type(tol)(0.0)
+    bound = column_norm * missed
+    again = (exact > zero or released > zero or bound * bound > deferral * deferral * viol
+             or done % exact_every == 0)
+    recompute[0] = wp.where(again, 1, 0)
+    deferred[0] = wp.where(again, zero, missed)
+    sums[S_G] = next_g
+    sums[S_VIOL] = next_viol
+    for slot in range(S_GT, N_SUMS_PRECONDITIONED):
+        sums[slot] = zero
+    # converged with the carried g: settle (the launch then makes g exact and the host judges it)
+    res, finite = residual_of(next_viol, rhs)
+    if not finite or res < tol:
+        stop_loop(scalars, loop, refresh, True)
+        stopped = True
+    inner_loop[0] = wp.where(stopped or again, 0, 1)
+
+
 for _k in (
     tangential_classify,
     tangential_gradient,
     tangential_direction,
     tangential_step_sums,
     tangential_update,
+    tangential_residual,
+    tangential_stick_gradient,
+    tangential_direction_stick,
+    tangential_direction_rest,
+    tangential_carried_update,
+    tangential_advance,
 ):
     register_float_overloads(_k)

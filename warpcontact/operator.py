@@ -144,3 +144,52 @@ class ElasticOperator:
         self.spectral_product(spectral.spectral_cross_tangential, self._buf)
         self.fft.inverse(self._buf[1], disp_x)
         self.fft.inverse(self._buf[2], disp_y)
+
+    # --- the circulant inverse of the tangential block: the tangential solver's preconditioner ---
+
+    def tangential_column_norm(self) -> float:
+        """Bound on the 2-norm of the displacements one cell's unit shear (of any direction)
+        causes over the padded grid, scaled units: the Frobenius norm of the cell's two columns
+        of K_tt, sqrt(|K_xx|^2 + 2 |K_xy|^2 + |K_yy|^2); so ||K_tt c||_2 <= this * sum_j |c_j|."""
+        c = self._column_norms
+        return float(np.sqrt(c["xx"] ** 2 + 2.0 * c["xy"] ** 2 + c["yy"] ** 2))
+
+    def tangential_inverse_product(self, energy: wp.array, slot: int, eigen_floor: float):
+        """The circulant inverse of K_tt (``spectral.spectral_tangential_inverse_energy``, its
+        eigenvalues floored at ``eigen_floor``, scaled) on the spectra in the shear buffers
+        (``_buf[1]``, ``_buf[2]``), in place, and ``energy[slot] += g . M g`` for the fields g
+        whose spectra they are (Parseval)."""
+        fft = self.fft
+        self.launches.launch_reduce(
+            spectral.spectral_tangential_inverse_energy, self._spectral_reduction, self._spectral_entries,
+            [Rows(self.influence, axis=1), Rows(self._buf[1]), Rows(self._buf[2]), fft.half_axis, fft.half_length,
+             fft.energy_scale, fft.dtype(eigen_floor), int(slot), FirstRow()],
+            [Sums(energy)], rows=fft.spectral_shape)
+
+    def tangential_inverse_padded(self, fill_x, fill_y, use_x, use_y, energy: wp.array, slot: int,
+                                  eigen_floor: float):
+        """M g for solver kernels that pad and crop as part of their own passes: ``fill_x()`` and
+        ``fill_y()`` each write one component of g into the corner of ``fft.padded_input`` (each
+        is transformed before the next is written); M g's components come out in the corner of
+        ``fft.padded_output`` (times ``fft.output_scale``), x while ``use_x()`` runs, then y while
+        ``use_y()`` runs. ``energy[slot] += g . M g``. Four transforms and the spectral product
+        (:meth:`tangential_inverse_product`)."""
+        fft = self.fft
+        fill_x()
+        fft.transform_input(self._buf[1])
+        fill_y()
+        fft.transform_input(self._buf[2])
+        self.tangential_inverse_product(energy, slot, eigen_floor)
+        fft.transform_to_output(self._buf[1])
+        use_x()
+        fft.transform_to_output(self._buf[2])
+        use_y()
+
+    def tangential_inverse(self, grad_x, grad_y, out_x, out_y, energy: wp.array, slot: int, eigen_floor: float):
+        """(out_x, out_y) <- M (grad_x, grad_y) on (n, n) fields, M the circulant inverse of K_tt
+        (:meth:`tangential_inverse_product`), and ``energy[slot] += g . M g``."""
+        self.fft.forward(grad_x, self._buf[1])
+        self.fft.forward(grad_y, self._buf[2])
+        self.tangential_inverse_product(energy, slot, eigen_floor)
+        self.fft.inverse(self._buf[1], out_x)
+        self.fft.inverse(self._buf[2], out_y)
