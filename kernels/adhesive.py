@@ -198,8 +198,10 @@ def adhesive_scale(
     n_side: int,
     field: wp.array(dtype=Any),
 ):
-    """The preconditioner's diagonal part: field <- field / (1 + max(k, 0) c0) on the physical
-    cells (the law's stiffness against a cell's own compliance c0), 0 on bound cells."""
+    """The preconditioner's diagonal part: field <- field / sqrt(1 + max(k, 0) c0) on the physical
+    cells (the law's stiffness k against a cell's own compliance c0), 0 on bound cells. Applied
+    before and after C, so that the preconditioner J^-1/2 C J^-1/2 stays symmetric positive
+    definite (a descent direction for the recursion)."""
     i = wp.tid()
     j = physical_cell(i, n_side)
     if j >= 0:
@@ -209,7 +211,7 @@ def adhesive_scale(
             field[i] = zero
         else:
             phi, t, kk = law_values(law, h, opening_t[j], a, b, c)
-            field[i] = field[i] / (type(a)(1.0) + wp.max(kk, zero) * self_compliance)
+            field[i] = field[i] / wp.sqrt(type(a)(1.0) + wp.max(kk, zero) * self_compliance)
 
 
 @wp.kernel

@@ -17,9 +17,12 @@ The estimate is counted from the allocations in the code, not fitted:
   scalars, a residual history of max_iter + 1); ``ContactSolver``: 9 fields (known_z/x/y,
   adhesive_z/x/y, previous x 3) and 8 scalars; with friction also ``TangentialSolver``'s 7 fields
   (grad, dir, resp x/y, no_displacement) with its scalars, and the solver's target_x/y,
-  shear_limit and scratch_x/y (5 fields). With adhesion, ``AndersonMixing`` holds 3 + 2 x DEPTH
-  fields per component of the adhesive vector (1 component without friction, 3 with) and
-  2 + 3 x DEPTH scalars.
+  shear_limit and scratch_x/y (5 fields). With adhesion and friction, ``AndersonMixing`` holds
+  3 + 2 x DEPTH fields per component of the adhesive vector (3) and 2 + 3 x DEPTH scalars; with
+  adhesion and no friction, ``AdhesiveNormalSolver`` holds ``adhesive.PADDED_FIELDS`` + 2 x
+  MEMORY fields on the padded (2n, 2n) grid (4 (n, n) fields each) and 3 (n, n) fields, and its
+  padded convolution's library temporaries are about one (2n, 2n) field and two spectra
+  (``ADHESIVE_TEMPORARY_*``).
 - The FFT library's temporaries, an allowance (``FFT_TEMPORARY_SPECTRA``): scipy on the
   CPU allocates the row pass's (n, n + 1) output of the forward transform and the (n, 2n) output
   of the inverse's last pass, one spectrum; FFTW transforms in place and needs its plans only
@@ -66,6 +69,10 @@ CONTACT_SOLVER_FIELDS = 9
 TANGENTIAL_SOLVER_FIELDS = 7
 FRICTION_FIELDS = 5  # ContactSolver.target_x, target_y, shear_limit, scratch_x, scratch_y
 CONTACT_SOLVER_SCALARS = 6  # change
+#: the adhesive solve's padded convolution (adhesion without friction): the library's spectrum,
+#: one more for its intermediates, and its (2n, 2n) real output (4 (n, n) fields)
+ADHESIVE_TEMPORARY_SPECTRA = 2
+ADHESIVE_TEMPORARY_FIELDS = 4
 #: residual histories of a step kept as Python lists (normal, tangential and final solves), each
 #: up to max_iter + 1 floats of about 32 bytes (a pointer and a float object)
 HISTORY_RECORDS = 3
@@ -199,6 +206,9 @@ def breakdown(n: int, dtype="float64", device_kind="cpu", friction: bool = True,
     from warpcontact.kernels import normal as nk
     from warpcontact.kernels import tangential as tk
 
+    from warpcontact.kernels import adhesive as ak
+
+    from .solvers.adhesive import MEMORY, PADDED_FIELDS
     from .solvers.fixed_point import DEPTH
     from .state import ContactState
 
@@ -226,9 +236,12 @@ def breakdown(n: int, dtype="float64", device_kind="cpu", friction: bool = True,
     if friction:
         n_fields += TANGENTIAL_SOLVER_FIELDS + FRICTION_FIELDS
         n_scalars += tk.N_SUMS + tk.N_SCALARS + (max_iter + 1)
-    if adhesion:
-        n_fields += (3 if friction else 1) * (3 + 2 * DEPTH)
+    if adhesion and friction:
+        n_fields += 3 * (3 + 2 * DEPTH)
         n_scalars += 2 + 3 * DEPTH
+    elif adhesion:
+        n_fields += 4 * (PADDED_FIELDS + 2 * MEMORY) + 3
+        n_scalars += ak.N_SUMS
     fields = n_fields * cells * real + states * cells * 4  # + int32 status per state
     scalars = n_scalars * real
     arrays = spectra + fft_work + fields + scalars
@@ -239,6 +252,8 @@ def breakdown(n: int, dtype="float64", device_kind="cpu", friction: bool = True,
         fft_temporaries = int(math.ceil(allowance * spectrum))
     if fft == "warp" and kind == "cuda":
         fft_temporaries = cells * real
+    if adhesion and not friction:
+        fft_temporaries += ADHESIVE_TEMPORARY_SPECTRA * 2 * n * (n + 1) * cplx + ADHESIVE_TEMPORARY_FIELDS * cells * real
     host_temporaries = 0
     if kind == "cpu":
         threads = os.cpu_count() or 1

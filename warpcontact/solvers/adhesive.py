@@ -24,6 +24,9 @@ MEMORY = 5
 ARMIJO = 1e-4
 #: halvings of a trial step before the iteration gives up on its direction
 MAX_HALVINGS = 40
+#: fields of the padded grid besides the L-BFGS pairs: displacement, traction, gradient,
+#: direction, its traction, work, and the trial point's three
+PADDED_FIELDS = 9
 #: iterations between exact recomputations of p = C^-1 u (the carried p gathers rounding)
 EXACT_EVERY = 50
 
@@ -111,10 +114,11 @@ class AdhesiveNormalSolver:
 
     The iteration: projected L-BFGS (``MEMORY`` pairs) whose initial inverse Hessian is the
     compliance C (the preconditioner: it maps the gradient, a traction, to a displacement;
-    the normal solver's circulant preconditioner, inverted) divided by 1 + max(k, 0) c0 on each
-    physical cell (k: the law's stiffness at the cell's gap, c0: a cell's self-compliance; a law
-    much stiffer than the elastic half-space there otherwise dominates the curvature), restricted
-    to the free cells: those not held at the bound (touching, h <= eps, with the gradient pushing
+    the normal solver's circulant preconditioner, inverted) scaled on both sides by
+    J^-1/2, J = 1 + max(k, 0) c0 on each physical cell (k: the law's stiffness at the cell's gap,
+    c0: a cell's self-compliance; a law much stiffer than the elastic half-space there otherwise
+    dominates the curvature; J^-1/2 C J^-1/2 is symmetric positive definite), restricted to the
+    free cells: those not held at the bound (touching, h <= eps, with the gradient pushing
     into the contact; eps = min(5e-3 l, 10 r l) with l the law's length and r the current
     residual: an epsilon-active set). A backtracking line search on the energy (Armijo) along the
     projected path; C^-1 d is made once per iteration (one transform pair), so that the trial
@@ -196,11 +200,11 @@ class AdhesiveNormalSolver:
             alphas.append(a)
             self._axpy(-a, y, q)
         free_in = [self.displacement, self.gradient, self.offset.flatten(), m.scalar(eps), m.grid.n]
-        self._launch(ak.adhesive_free, self.n_padded, free_in, [q])
+        scale_in = [self.displacement, self.gradient, self.offset.flatten(), self.opening_t.flatten(), self.law_id,
+                    *self._params, m.scalar(eps), self._self_compliance, m.grid.n]
+        self._launch(ak.adhesive_scale, self.n_padded, scale_in, [q])  # J^-1/2, 0 on bound cells
         self.convolution.apply(q, self.direction)
-        self._launch(ak.adhesive_scale, self.n_padded,
-                     [self.displacement, self.gradient, self.offset.flatten(), self.opening_t.flatten(), self.law_id,
-                      *self._params, m.scalar(eps), self._self_compliance, m.grid.n], [self.direction])
+        self._launch(ak.adhesive_scale, self.n_padded, scale_in, [self.direction])
         for (s, y, rho), a in zip(pairs, reversed(alphas)):
             b = rho * self._dot(y, self.direction)
             self._axpy(a - b, s, self.direction)

@@ -13,6 +13,7 @@ from warpcontact.kernels import coupling as ck
 from .. import interrupts
 from ..guards import check_contact_fits
 from ..state import SolveInfo
+from .adhesive import AdhesiveNormalSolver
 from .fixed_point import AndersonMixing
 from .normal import NormalSolver
 from .tangential import TangentialSolver
@@ -22,8 +23,10 @@ class ContactSolver:
     """Solves a state at given rigid shifts (delta_x, delta_y, delta_z) from the slip history.
 
     With friction, the normal and the tangential problems are solved in turns, each with the
-    other's coupling displacement held fixed (Dundurs coupling on whenever D != 0). With adhesion,
-    each turn first updates the adhesive tractions from the last gap and slip (relaxed), and they
+    other's coupling displacement held fixed (Dundurs coupling on whenever D != 0). With adhesion
+    and no friction, a step is one adhesive normal solve (``AdhesiveNormalSolver``: elastic and
+    adhesive energy minimised together, non-penetration as a bound), at any Tabor parameter.
+    With adhesion and friction, each turn first updates the adhesive tractions from the last gap and slip (relaxed), and they
     enter both solves as known tractions (MODEL.md section 6). Turns stop when the contact
     pressure, the shear and the adhesive tractions all change by less than ``outer_tol``
     (relative, 2-norm) from one turn to the next, in a turn solved at full tolerance. Identical
@@ -61,6 +64,16 @@ class ContactSolver:
         self.model = model
         self.friction = friction
         self.adhesion = adhesion
+        #: the adhesive normal problem as one minimisation (adhesion without friction)
+        self.adhesive = None
+        if adhesion is not None and friction is None:
+            if math.isfinite(pressure_cap):
+                from ..errors import InputError
+
+                raise InputError("solver.pressure_cap", "a hardness cap is not available with adhesion "
+                                                        "without friction")
+            self.adhesive = AdhesiveNormalSolver(model, adhesion, max_iter=max(int(max_iter), 5000)
+                                                 if max_iter >= 2000 else int(max_iter))
         self.normal = NormalSolver(model, tol, max_iter, pressure_cap=pressure_cap, use_graphs=use_graphs,
                                    preconditioned=not self.iterative if preconditioned is None else preconditioned)
         self.tol = self.normal.tol
@@ -72,7 +85,7 @@ class ContactSolver:
         self.adhesive_z, self.adhesive_x, self.adhesive_y = f(), f(), f()
         self.previous = [f(), f(), f()]
         self.change = model.scalars(6)
-        if adhesion is not None:  # the adhesive fixed point over the pressure (and the shears with friction)
+        if adhesion is not None and friction is not None:  # the adhesive fixed point over the pressure and shears
             self.mixing = AndersonMixing(model, 3 if friction is not None else 1, beta=self.relax)
         if friction is not None:
             self.tangential = TangentialSolver(model, tol, max_iter, use_graphs=use_graphs)
@@ -86,8 +99,8 @@ class ContactSolver:
 
     @property
     def iterative(self) -> bool:
-        """Whether a step needs turns (coupling or adhesion)."""
-        return self.coupled or self.adhesion is not None
+        """Whether a step needs turns (coupling, or adhesion with friction)."""
+        return self.coupled or (self.adhesion is not None and self.friction is not None)
 
     def _known_displacements(self, state, normal: bool = True, tangential: bool = True):
         """Displacements of the tractions held fixed in a turn: the coupling of the other unknown,
@@ -141,6 +154,16 @@ class ContactSolver:
         m = self.model
         dx, dy, dz = (float(a) for a in approach)
         L = m.length_scale
+        if self.adhesive is not None:  # adhesion without friction: one adhesive solve
+            for a in (state.shear_x, state.shear_y, state.adhesive_shear_x, state.adhesive_shear_y):
+                a.zero_()
+            info = self.adhesive.solve(state, dz)
+            state.approach = (dx, dy, dz)
+            info = SolveInfo(converged=info.converged, iterations=info.iterations, residual=info.residual,
+                             outer_iterations=1, history=info.history)
+            state.info = info
+            check_contact_fits(state)
+            return info
         if self.friction is None:
             state.shear_x.zero_()
             state.shear_y.zero_()
