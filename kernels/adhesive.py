@@ -88,9 +88,10 @@ def law_values(law: int, h: Any, opening_t: Any, a: Any, b: Any, c: Any):
         r2 = r * r
         r4 = r2 * r2
         r8 = r4 * r4
-        phi = -a * type(h)(4.0 / 3.0) * (r2 - type(h)(0.25) * r8)
-        t = a * type(h)(8.0 / 3.0) / b * (r2 * r - r8 * r)
-        k = a * type(h)(8.0 / 3.0) / (b * b) * (type(h)(9.0) * r8 * r2 - type(h)(3.0) * r4)
+        three = type(h)(3.0)  # (4 / 3 written as a literal would be rounded to float32)
+        phi = -a * type(h)(4.0) / three * (r2 - type(h)(0.25) * r8)
+        t = a * type(h)(8.0) / three / b * (r2 * r - r8 * r)
+        k = a * type(h)(8.0) / three / (b * b) * (type(h)(9.0) * r8 * r2 - three * r4)
     return phi, t, k
 
 
