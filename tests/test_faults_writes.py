@@ -196,7 +196,7 @@ def test_pull_off_plot_that_does_not_fit(tmp_path, monkeypatch, capsys):
         raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC))
 
     monkeypatch.setattr(plots, "save", full)
-    text = (ROOT / "examples" / "pull_off_dmt.toml").read_text().replace("n = 64", "n = 32")
+    text = (ROOT / "examples" / "pull_off_dmt.toml").read_text()  # n = 64, 5 states: about a second
     out = tmp_path / "po"
     status = main(["pull-off", str(case_file(tmp_path, text)), "--out", str(out), "--steps", "2", "--quiet"])
     assert status == 74
