@@ -188,3 +188,4 @@ def test_devices_agree(device):
     for name in ("pressure", "adhesive_pressure", "gap"):
         a, b = out["cpu"][name], out[device][name]
         assert np.abs(a - b).max() <= 1e-6 * np.abs(a).max(), name
+

@@ -17,11 +17,11 @@ The estimate is counted from the allocations in the code, not fitted:
   scalars, a residual history of max_iter + 1); ``ContactSolver``: 9 fields (known_z/x/y,
   adhesive_z/x/y, previous x 3) and 8 scalars; with friction also ``TangentialSolver``'s 7 fields
   (grad, dir, resp x/y, no_displacement) with its scalars, and the solver's target_x/y,
-  shear_limit and scratch_x/y (5 fields). With adhesion and friction, ``AndersonMixing`` holds
-  3 + 2 x DEPTH fields per component of the adhesive vector (3) and 2 + 3 x DEPTH scalars; with
-  adhesion and no friction, ``AdhesiveNormalSolver`` holds ``adhesive.PADDED_FIELDS`` + 2 x
+  shear_limit and scratch_x/y (5 fields). With adhesion, ``AndersonMixing`` holds 3 + 2 x DEPTH
+  fields per component of the adhesive vector (3; 1 without friction) and 2 + 3 x DEPTH
+  scalars; without friction also ``AdhesiveNormalSolver``: ``adhesive.PADDED_FIELDS`` + 2 x
   MEMORY fields on the padded (2n, 2n) grid (4 (n, n) fields each) and 3 (n, n) fields, and its
-  padded convolution's library temporaries are about one (2n, 2n) field and two spectra
+  padded convolution's library temporaries, about one (2n, 2n) field and two spectra
   (``ADHESIVE_TEMPORARY_*``).
 - The FFT library's temporaries, an allowance (``FFT_TEMPORARY_SPECTRA``): scipy on the
   CPU allocates the row pass's (n, n + 1) output of the forward transform and the (n, 2n) output
@@ -236,10 +236,10 @@ def breakdown(n: int, dtype="float64", device_kind="cpu", friction: bool = True,
     if friction:
         n_fields += TANGENTIAL_SOLVER_FIELDS + FRICTION_FIELDS
         n_scalars += tk.N_SUMS + tk.N_SCALARS + (max_iter + 1)
-    if adhesion and friction:
-        n_fields += 3 * (3 + 2 * DEPTH)
+    if adhesion:
+        n_fields += (3 if friction else 1) * (3 + 2 * DEPTH)
         n_scalars += 2 + 3 * DEPTH
-    elif adhesion:
+    if adhesion and not friction:
         n_fields += 4 * (PADDED_FIELDS + 2 * MEMORY) + 3
         n_scalars += ak.N_SUMS
     fields = n_fields * cells * real + states * cells * 4  # + int32 status per state
