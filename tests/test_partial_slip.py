@@ -20,9 +20,11 @@ A = math.sqrt(R * DZ)
 SAME = MaterialPair(COPPER, COPPER)
 
 
-def loaded(pair, friction, n=64, device="cpu", dtype="float64", size=3 * A):
+def loaded(pair, friction, n=64, device="cpu", dtype="float64", size=3 * A, preconditioned=True):
     model = ContactModel(pair, Sphere(R, "paraboloid"), Grid(n, size), device=device, dtype=dtype)
     solver = ContactSolver(model, friction)
+    if friction is not None:
+        solver.tangential.preconditioned = preconditioned
     state = ContactState(model)
     for k in (1, 2):
         info = solver.step(state, (0.0, 0.0, DZ * k / 2))
@@ -30,11 +32,13 @@ def loaded(pair, friction, n=64, device="cpu", dtype="float64", size=3 * A):
     return model, solver, state
 
 
+@pytest.mark.parametrize("preconditioned", [True, False])
 @pytest.mark.parametrize("ratio", [0.25, 0.5, 0.75])
-def test_cattaneo_mindlin_stick_radius_and_displacement(ratio, device):
+def test_cattaneo_mindlin_stick_radius_and_displacement(ratio, preconditioned, device):
     """Identical materials, Coulomb: stick radius within two cells of a (1 - Q/muP)^(1/3) and
-    delta_x(Q) within 2 % of Mindlin's, Q the computed tangential force."""
-    model, solver, state = loaded(SAME, Coulomb(MU), device=device)
+    delta_x(Q) within 2 % of Mindlin's, Q the computed tangential force; with the preconditioned
+    tangential solver (the default) and with Chen & Wang's plain iteration."""
+    model, solver, state = loaded(SAME, Coulomb(MU), device=device, preconditioned=preconditioned)
     ref = mindlin(SAME, R, DZ, MU, ratio)
     info = solver.step(state, (ref["delta_x"], 0.0, DZ))
     assert info.converged, info
@@ -42,7 +46,8 @@ def test_cattaneo_mindlin_stick_radius_and_displacement(ratio, device):
     q_ratio = s["force"]["x"] / (MU * s["force"]["z"])
     # Mindlin's delta_x at the computed Q: the displacement error, relative
     dx_mindlin = mindlin(SAME, R, DZ, MU, q_ratio)["delta_x"]
-    assert abs(ref["delta_x"] / dx_mindlin - 1) < 0.02, f"delta_x {ref['delta_x']:.4e} vs Mindlin {dx_mindlin:.4e} at Q/muP {q_ratio:.4f}"
+    assert abs(ref["delta_x"] / dx_mindlin - 1) < 0.02, (
+        f"delta_x {ref['delta_x']:.4e} vs Mindlin {dx_mindlin:.4e} at Q/muP {q_ratio:.4f}")
     c = math.sqrt(s["stick_area"] / math.pi)
     c_ref = A * (1 - q_ratio) ** (1 / 3)
     assert abs(c - c_ref) < 2 * model.grid.dx, f"stick radius {c:.3e} vs {c_ref:.3e} (cell {model.grid.dx:.2e})"
@@ -101,7 +106,8 @@ def test_hysteresis_loop_closes():
     # unloading branch crosses delta_x = 0 at Q = Q* - 2 Q(amp / 2)
     q_load = lambda d: MU * P * (1 - (1 - d / dmax) ** 1.5)  # noqa: E731
     expected = q_load(amp) - 2 * q_load(amp / 2)
-    assert abs(down_zero - expected) < 0.02 * MU * P, f"F_x at delta_x = 0 on unloading {down_zero:.4e} vs M-D {expected:.4e}"
+    assert abs(down_zero - expected) < 0.02 * MU * P, (
+        f"F_x at delta_x = 0 on unloading {down_zero:.4e} vs M-D {expected:.4e}")
 
 
 @pytest.mark.parametrize("adhesive", [False, True])
@@ -126,7 +132,8 @@ def test_stick_cells_do_not_slip(adhesive):
     assert (status == 1).sum() > 10 and (status == 2).sum() > 10
     assert ds[status == 1].max() < 1e-6 * shift, f"stick cells slipped by up to {ds[status == 1].max():.2e} m"
     slipping = (status == 2) & (ds > 1e-3 * shift)
-    cos = (after["shear_x"] * (after["slip_x"] - before["slip_x"]) + after["shear_y"] * (after["slip_y"] - before["slip_y"]))
+    cos = (after["shear_x"] * (after["slip_x"] - before["slip_x"])
+           + after["shear_y"] * (after["slip_y"] - before["slip_y"]))
     cos = cos[slipping] / (np.hypot(after["shear_x"], after["shear_y"])[slipping] * ds[slipping])
     assert cos.min() > 0.999, "slip cells' shear is not along their slip increment"
 

@@ -93,6 +93,9 @@ class TangentialSolver(ProjectedCG):
         #: 1: the next iteration starts from an exact g (set by the device)
         self.recompute = wp.zeros(1, dtype=wp.int32, device=model.device)
         self._current_sums = self.sums[: tk.S_RHS + 1]  # slots S_G, S_VIOL, S_RHS
+        #: launches of the last preconditioned solve that settled on a carried g whose exact
+        #: value did not meet the tolerance (the loop then went on from the exact g)
+        self.disagreements = 0
 
     def solve(self, state, target_x, target_y, shear_limit, known_x=None, known_y=None, tol=None) -> SolveInfo:
         """Solve for ``state.shear_x/y`` and ``state.status``.
