@@ -106,9 +106,32 @@ def physical_cell(i: int, n: int):
 
 
 @wp.func
+def padded_entry(j: int, n_side: int):
+    """Index in the padded (2 n, 2 n) grid of physical cell j (row-major in the (n, n) grid)."""
+    row = j / n_side
+    return row * (2 * n_side) + (j - row * n_side)
+
+
+@wp.func
 def is_bound(h: Any, g: Any, eps: Any):
     """A cell held at the bound: touching (h <= eps) and pushed into contact (g > 0)."""
     return h <= eps and g > h - h
+
+
+@wp.func
+def cell_energy_change(ui: Any, ut: Any, pi: Any, pt: Any, j: int, offset: wp.array(dtype=Any),
+                       opening_t: wp.array(dtype=Any), law: int, a: Any, b: Any, c: Any):
+    """A padded entry's share of the energy change from (u, p) to (u_trial, p_trial):
+    s (p + p_trial) / 2, plus phi(h_trial) - phi(h) on a physical cell (j >= 0). Summed from
+    differences, so that float32 keeps its digits."""
+    zero = a - a
+    change = type(a)(0.5) * (ut - ui) * (pi + pt)
+    if j >= 0:
+        o = offset[j]
+        phi_new, t_new, k_new = law_values(law, wp.max(o + ut, zero), opening_t[j], a, b, c)
+        phi_old, t_old, k_old = law_values(law, wp.max(o + ui, zero), opening_t[j], a, b, c)
+        change += phi_new - phi_old
+    return change
 
 
 @wp.kernel
@@ -297,20 +320,11 @@ def adhesive_trial(
             ut = ui + step * direction[i]
             pt = p[i] + step * direction_traction[i]
             j = physical_cell(i, n_side)
-            change = zero
-            if j >= 0:
-                o = offset[j]
-                if o + ut < zero:
-                    ut = -o
-                    s_clipped += type(a)(1.0)
-                h_old = wp.max(o + ui, zero)
-                h_new = wp.max(o + ut, zero)
-                phi_new, t_new, k_new = law_values(law, h_new, opening_t[j], a, b, c)
-                phi_old, t_old, k_old = law_values(law, h_old, opening_t[j], a, b, c)
-                change = phi_new - phi_old
-            s = ut - ui
-            s_change += change + type(a)(0.5) * s * (p[i] + pt)
-            s_slope += grad[i] * s
+            if j >= 0 and offset[j] + ut < zero:
+                ut = -offset[j]
+                s_clipped += type(a)(1.0)
+            s_change += cell_energy_change(ui, ut, p[i], pt, j, offset, opening_t, law, a, b, c)
+            s_slope += grad[i] * (ut - ui)
             u_trial[i] = ut
             p_trial[i] = pt
     block_add(sums, S_ENERGY, s_change)
@@ -337,8 +351,8 @@ def adhesive_change(
     per: int,
     sums: wp.array(dtype=Any),
 ):
-    """sums[S_ENERGY] += the energy change from (u, p) to (u_trial, p_trial): s . (p + p_trial) / 2
-    plus the law's change, s = u_trial - u (a trial whose traction was made exactly)."""
+    """sums[S_ENERGY] += the energy change from (u, p) to (u_trial, p_trial) (a trial whose
+    traction was made exactly)."""
     block, lane = wp.tid()
     thread = block * wp.block_dim() + lane
     zero = a - a
@@ -346,15 +360,8 @@ def adhesive_change(
     for k in range(per):
         i = cell_index(thread, outer, inner, k)
         if i < n:
-            s = u_trial[i] - u[i]
-            change = type(a)(0.5) * s * (p[i] + p_trial[i])
-            j = physical_cell(i, n_side)
-            if j >= 0:
-                o = offset[j]
-                phi_new, t_new, k_new = law_values(law, wp.max(o + u_trial[i], zero), opening_t[j], a, b, c)
-                phi_old, t_old, k_old = law_values(law, wp.max(o + u[i], zero), opening_t[j], a, b, c)
-                change += phi_new - phi_old
-            s_change += change
+            s_change += cell_energy_change(u[i], u_trial[i], p[i], p_trial[i], physical_cell(i, n_side), offset,
+                                           opening_t, law, a, b, c)
     block_add(sums, S_ENERGY, s_change)
 
 
@@ -378,8 +385,7 @@ def adhesive_state(
     u, adhesive pressure -t(h), contact pressure p + t(0) >= 0 on touching cells (h = 0: at the
     bound), 0 elsewhere."""
     j = wp.tid()
-    row = j / n_side
-    i = row * (2 * n_side) + (j - row * n_side)
+    i = padded_entry(j, n_side)
     zero = a - a
     ui = u[i]
     h = wp.max(offset[j] + ui, zero)
@@ -403,8 +409,7 @@ def adhesive_start(
     """traction (padded, zero outside the physical corner) <- pressure + adhesive pressure:
     the state's total normal traction, whose displacement C traction starts the solve."""
     j = wp.tid()
-    row = j / n_side
-    i = row * (2 * n_side) + (j - row * n_side)
+    i = padded_entry(j, n_side)
     traction[i] = pressure[j] + adhesive_pressure[j]
 
 
@@ -424,8 +429,7 @@ def adhesive_offset(
 def project_to_bound(u: wp.array(dtype=Any), offset: wp.array(dtype=Any), n_side: int):
     """u <- max(u, -offset) on the physical cells (one thread per physical cell)."""
     j = wp.tid()
-    row = j / n_side
-    i = row * (2 * n_side) + (j - row * n_side)
+    i = padded_entry(j, n_side)
     u[i] = wp.max(u[i], -offset[j])
 
 

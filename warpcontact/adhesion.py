@@ -27,6 +27,11 @@ from .errors import InputError
 TOUCHING = 1e-2
 
 
+def _no_opening(model, state, out):
+    """The tangential opening of a law without one: zero."""
+    out.zero_()
+
+
 def _positive(key, v):
     if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v) or v <= 0:
         raise InputError(key, f"must be a positive finite number, got {v!r}")
@@ -148,7 +153,7 @@ class Dugdale:
                 self.h_0 / L)
 
     def tangential_opening(self, model, state, out):
-        out.zero_()
+        _no_opening(model, state, out)
 
     def tractions(self, model, state, law_pressure, law_shear_x, law_shear_y):
         """The law's tension (scaled) of the state's gap on cells out of contact; no shear."""
@@ -169,10 +174,6 @@ class Dugdale:
     def describe(self) -> dict:
         return {"law": "dugdale", "sigma_0": self.sigma_0, "h_0": self.h_0, "smoothing": self.smoothing,
                 "work_of_adhesion": self.work_of_adhesion}
-
-
-def _no_opening(model, state, out):
-    out.zero_()
 
 
 @dataclass(frozen=True)
