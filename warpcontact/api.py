@@ -27,18 +27,20 @@ def _prepare(case: Case, device=None, dtype=None, fft=None) -> Case:
     return case.with_overrides(device=device, dtype=dtype, fft=fft)
 
 
-def solve(case: Case, device=None, dtype=None, fft=None, on_state=None):
+def solve(case: Case, device=None, dtype=None, fft=None, on_state=None, model=None):
     """Solve every state of the case's load path in order.
 
     Returns a :class:`~warpcontact.runner.PathResult`: ``states`` (one summary dict per state:
     force [N], contact/stick/adhesive areas [m^2], max pressure [Pa], convergence) and
     ``fields`` (per state, numpy arrays (n, n) in SI units: pressure, shear_x, shear_y, gap,
     slip_x, slip_y, ..., contact_mask, stick_mask, adhesive_mask).
-    ``on_state(index, total, summary, result)`` is called after each state.
+    ``on_state(index, total, summary, result)`` is called after each state. ``model``: a
+    :class:`~warpcontact.model.ContactModel` of the same materials, sphere, grid, device, float
+    type and FFT backend to reuse (many cases of one grid: :mod:`warpcontact.batch`).
     """
     from .runner import run_path
 
-    return run_path(_prepare(case, device, dtype, fft), on_state=on_state)
+    return run_path(_prepare(case, device, dtype, fft), on_state=on_state, model=model)
 
 
 def path(case: Case, device=None, dtype=None, fft=None):
@@ -54,12 +56,14 @@ def path(case: Case, device=None, dtype=None, fft=None):
         yield state_summary(state, solver.adhesion)
 
 
-def gross_slip(case: Case, device=None, dtype=None, fft=None, rel_tol: float = 0.01, on_state=None) -> dict:
+def gross_slip(case: Case, device=None, dtype=None, fft=None, rel_tol: float = 0.01, on_state=None,
+               model=None) -> dict:
     """delta_x at gross slip [m] and the static friction coefficient mu = F_x / F_z there.
 
     The case needs ``[friction]``; its final delta_z is loaded in ``load.steps`` steps, then
     delta_x rises until no cell sticks, and bisection narrows the bracket to ``rel_tol``.
-    Returns delta_x_max, delta_x_gross [m], mu, force [N], converged, states.
+    Returns delta_x_max, delta_x_gross [m], mu, force [N], converged, states. ``model``: as
+    :func:`solve`'s.
     """
     from .slip_search import find_gross_slip
     from .runner import build
@@ -67,7 +71,7 @@ def gross_slip(case: Case, device=None, dtype=None, fft=None, rel_tol: float = 0
     case = _prepare(case, device, dtype, fft)
     if case.friction is None:
         raise InputError("friction", "gross_slip needs a [friction] table")
-    model, solver, _ = build(case)
+    model, solver, _ = build(case, model)
     steps = case.load.steps if not case.load.explicit else 4
     return find_gross_slip(model, solver, case.load.delta_z_max, normal_steps=steps, rel_tol=rel_tol, on_state=on_state)
 

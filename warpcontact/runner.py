@@ -38,11 +38,21 @@ def adhesion_law(case):
     return Dugdale(ad.sigma_0, ad.h_0)
 
 
-def build(case):
-    """(model, solver, state) for a case; a case that will not fit in memory is refused first."""
+def build_model(case) -> ContactModel:
+    """The contact model of a case (materials, sphere, grid, device, float type, FFT backend); a case
+    that will not fit in memory is refused first."""
     s = case.solver
     check_fits(case.grid.n, s.dtype, s.device, case.friction is not None, s.fft, adhesion=case.adhesion is not None)
-    model = ContactModel(case.pair, case.sphere, case.grid, device=s.device, dtype=s.dtype, fft=s.fft)
+    return ContactModel(case.pair, case.sphere, case.grid, device=s.device, dtype=s.dtype, fft=s.fft)
+
+
+def build(case, model=None):
+    """(model, solver, state) for a case. ``model``: a model built for the same materials, sphere,
+    grid, device, float type and FFT backend to reuse (:mod:`warpcontact.batch` keeps one per
+    worker); by default one is built (:func:`build_model`)."""
+    s = case.solver
+    if model is None:
+        model = build_model(case)
     cap = case.pair.softer.hardness if case.friction is not None and case.friction.hardness_cap else math.inf
     solver = ContactSolver(model, friction_law(case), tol=s.tol, max_iter=s.max_iter, max_outer=s.max_turns,
                            pressure_cap=cap, adhesion=adhesion_law(case))
@@ -119,7 +129,8 @@ class PathResult:
         return out
 
 
-def run_path(case, on_state=None, keep_fields: bool = True, fields: str = "all", on_start=None) -> PathResult:
+def run_path(case, on_state=None, keep_fields: bool = True, fields: str = "all", on_start=None,
+             model=None) -> PathResult:
     """Solve every state of the case's load path in order (slip history carried along).
 
     ``on_start(result)`` is called once the model is built, before the first state (a first
@@ -129,7 +140,7 @@ def run_path(case, on_state=None, keep_fields: bool = True, fields: str = "all",
     last finished state's ("last") or "none" (``keep_fields=False`` is "none"). A stop (Ctrl-C,
     SIGTERM, SIGHUP) ends the path: the states finished are kept and ``interrupted`` is set; a
     stop during the model's set-up propagates (nothing is solved). Warns (guards: a coarse
-    contact; the adhesive tail cut by the domain, once per path).
+    contact; the adhesive tail cut by the domain, once per path). ``model``: as :func:`build`'s.
     """
     from . import interrupts
 
@@ -138,7 +149,7 @@ def run_path(case, on_state=None, keep_fields: bool = True, fields: str = "all",
     if not keep_fields:
         fields = "none"
     t0 = time.perf_counter()
-    model, solver, state = build(case)
+    model, solver, state = build(case, model)
     result = PathResult(case=case, model=model)
     path = case.load.path()
     edge_warned = False  # the adhesive tail cut by the domain: one warning per path
