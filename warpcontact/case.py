@@ -5,9 +5,11 @@ Every mistake in a case raises :class:`~warpcontact.errors.InputError` whose ``k
 dotted case-file key (``"sphere.E"``, ``"load.path"``), or the file path for a file that cannot
 be read or parsed; the message is one line, ``"<key>: <problem>"``.
 
-What is checked here: types, ranges, unknown and missing keys, and the consistency of the case
-(the Hertz contact fits in the domain, the domain lies inside the sphere, the FFT backend can run
-on the device kind). What is not: whether a CUDA device or CuPy exists on this machine (the
+What is checked here: types, ranges, unknown and missing keys, the plausibility of the values
+(:mod:`warpcontact.plausibility`: a modulus below its body's yield strength, an adhesive stress
+above E*, a work of adhesion no solids have, a contact far wider than the domain; each refused
+with the unit the user probably meant), and the consistency of the case (the Hertz contact fits
+in the domain, the domain lies inside the sphere, the FFT backend can run on the device kind). What is not: whether a CUDA device or CuPy exists on this machine (the
 runner checks that when it picks the device).
 
 Example::
@@ -37,6 +39,7 @@ except ModuleNotFoundError:  # Python < 3.11
 from .errors import InputError
 from .geometry import MIN_CELLS, Grid, Sphere
 from .materials import Material, MaterialPair
+from .plausibility import check_case
 
 #: Tables of a case file, in the order they are documented and written.
 TABLES = ("sphere", "flat", "grid", "load", "solver", "friction", "adhesion")
@@ -712,6 +715,8 @@ def case_from_dict(d: Mapping) -> Case:
         _require("adhesion", ad, ADHESION_KEYS[law], f" for law {law!r}")
         adhesion = AdhesionSpec(**ad)
 
+    # values no solid or contact can have (a unit slip, mostly), before the domain checks of Case
+    check_case(sphere, flat, grid, load, adhesion)
     return Case(
         pair=MaterialPair(sphere.material, flat),
         sphere=sphere.geometry,
