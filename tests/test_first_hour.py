@@ -166,3 +166,142 @@ def test_the_users_case_passes():
         warnings.simplefilter("error", PlausibilityWarning)
         case = case_from_dict(afm_dict())
     assert case.adhesion.work_of_adhesion == pytest.approx(0.1, rel=1e-3)
+
+
+# --- row 4: resolution checked by every command, once per run, with the grid that would do ------------
+
+
+def run_cli(capsys, tmp_path, d, *argv):
+    rc = main([argv[0], str(write(tmp_path, d)), "--out", str(tmp_path / "out"), "--quiet", *argv[1:]])
+    return rc, capsys.readouterr().err
+
+
+def warning_lines(err: str, text: str) -> list:
+    return [ln for ln in err.splitlines() if ln.startswith("warpcontact: warning:") and text in ln]
+
+
+def test_gross_slip_on_a_coarse_grid_warns_once_with_the_grid_that_would_do(capsys, tmp_path):
+    """n = 32 puts 2.3 cells across the 1.41 nm contact radius; measured on this case (no
+    adhesion): mu 0.266 at n = 32, 0.235 at 64, 0.242 at 128 (+10 %, -3 % against 128)."""
+    rc, err = run_cli(capsys, tmp_path, afm_dict(32, adhesion=False), "gross-slip")
+    assert rc == 0, err
+    lines = warning_lines(err, "cells (under 8)")
+    assert len(lines) == 1, err
+    assert "the contact radius (1.41e-09 m) spans 2.3 cells" in lines[0] and "grid.n >= 128" in lines[0], lines[0]
+
+
+def test_solve_warns_once_per_run_not_once_per_state(capsys, tmp_path):
+    d = afm_dict(32, adhesion=False)
+    d["load"]["steps"] = 4  # 8 states, the first ones with a tiny contact
+    rc, err = run_cli(capsys, tmp_path, d, "solve")
+    assert rc == 0, err
+    lines = warning_lines(err, "cells (under")
+    assert len(lines) == 1 and "at delta_z = 1e-10 m" in lines[0], err
+
+
+def test_a_fine_grid_does_not_warn(capsys, tmp_path):
+    d = afm_dict(64, adhesion=False, friction=False)
+    d["grid"]["size"] = 8e-9  # 8 nm, 64 cells: 11 cells across the contact radius
+    d["load"] = {"delta_z": 0.1e-9}
+    d["flat"]["yield_strength"] = 8e9
+    rc, err = run_cli(capsys, tmp_path, d, "solve")
+    assert rc == 0 and "warning" not in err, err
+
+
+def test_pull_off_checks_the_resolution_once(capsys, tmp_path):
+    d = afm_dict(32, friction=False)
+    d["load"] = {"delta_z": 0.1e-9}
+    rc, err = run_cli(capsys, tmp_path, d, "pull-off", "--steps", "2")
+    assert rc in (0, 3), err
+    lines = warning_lines(err, "cells (under")
+    assert len(lines) == 1 and "the contact radius (1.41e-09 m) spans 2.3 cells" in lines[0], err
+
+
+def test_the_adhesive_zone_is_judged_by_the_same_rule():
+    """A law of 5 pm range beside a contact of 11 cells: the adhesive zone, not the contact, asks
+    for the finer grid. With no adhesive cell at all the zone is estimated from the Hertz gap."""
+    from warpcontact.guards import CoarseGridWarning, RunChecks, adhesive_zone_estimate
+
+    d = afm_dict(64, friction=False)
+    d["grid"]["size"] = 8e-9
+    d["adhesion"].update(delta_n=5e-12, delta_t=5e-12)
+    case = case_from_dict(d)
+    a = math.sqrt(20e-9 * 0.1e-9)
+    zone = adhesive_zone_estimate(a, 20e-9, 5e-12)
+    assert 0.1e-9 < zone < 0.3e-9  # a few pm of gap open within a fraction of a nm of the edge
+    need = 16 * math.ceil(64 * 3 / (zone / (8e-9 / 64)) / 16)
+    s = {"delta": {"x": 0.0, "y": 0.0, "z": 0.1e-9}, "contact_radius": a, "contact_area": math.pi * a * a,
+         "adhesive_area": 0.0, "max_pressure": 1e9}
+    checks = RunChecks(case)
+    with pytest.warns(CoarseGridWarning, match=rf"the adhesive zone .* spans .* cells \(under 3\).*grid.n >= {need}"):
+        checks.observe(s, decisive=True)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        checks.observe(s, decisive=True)  # once per run
+
+
+def test_table2_grids_are_judged_by_the_same_rule():
+    from warpcontact.cli import _table2_resolution
+    from warpcontact.guards import CoarseGridWarning
+
+    law = {"delta_n": 5e-12}
+    with pytest.warns(CoarseGridWarning, match=r"table2 --n 16: the contact radius .* spans 5.3 cells .* --n 112"):
+        _table2_resolution([(16, 0.8, 5e-5, False), (16, 0.8, 1.5e-4, True)], 3.0, law)
+    with warnings.catch_warnings():  # the defaults (n = 128 over 3 a) resolve every cell
+        warnings.simplefilter("error", CoarseGridWarning)
+        _table2_resolution([(128, k, dz, adh) for k in (0.5, 0.8) for dz in (1e-5, 1.5e-4) for adh in (0, 1)], 3.0, law)
+
+
+def test_pressure_above_a_yield_strength_warns_once_naming_the_body(capsys, tmp_path):
+    """p0 = 4.4 GPa on the 4 GPa flat: the von Mises limit is zero over the centre."""
+    d = afm_dict(32, adhesion=False)
+    rc, err = run_cli(capsys, tmp_path, d, "solve")
+    lines = warning_lines(err, "yield_strength")
+    assert rc == 0 and len(lines) == 1, err
+    assert "above flat.yield_strength = 4e+09 Pa" in lines[0] and "sphere" not in lines[0], lines[0]
+    assert "von Mises limit" in lines[0] and "lowers mu" in lines[0], lines[0]
+    d["flat"]["yield_strength"] = 6e9  # above p0: no word
+    rc, err = run_cli(capsys, tmp_path, d, "solve")
+    assert rc == 0 and not warning_lines(err, "yield_strength"), err
+
+
+# --- row 7: one summary per kind of result --------------------------------------------------------
+
+#: what result.json adds to a summary: the run's record
+RECORD_KEYS = {"complete", "interrupted", "device", "dtype", "fft", "software", "case"}
+
+
+def test_gross_slip_summary_keys_are_the_same_in_the_cli_the_api_and_a_sweep_row(capsys, tmp_path):
+    import warpcontact as wc
+    from warpcontact.api import result_row
+
+    d = afm_dict(16, adhesion=False)
+    rc, err = run_cli(capsys, tmp_path, d, "gross-slip")
+    assert rc == 0, err
+    cli = json.loads((tmp_path / "out" / "result.json").read_text())
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        api = wc.gross_slip(case_from_dict(d))
+    assert set(cli) - RECORD_KEYS == set(api), set(cli) ^ set(api)
+    assert api["mu"] == cli["mu"] and api["force_elastic"] == cli["force_elastic"]  # same run, same numbers
+    row = result_row(api)
+    assert {"mu", "mu_elastic", "force", "force_elastic", "delta_x_max", "stick_area", "contact_area"} <= set(row)
+    assert row["n_states"] == len(api["states"]) and "states" not in row
+
+
+def test_pull_off_summary_keys_are_the_same_in_the_cli_and_the_api(capsys, tmp_path):
+    import warpcontact as wc
+
+    d = afm_dict(16, friction=False)
+    d["load"] = {"delta_z": 0.1e-9}
+    rc, err = run_cli(capsys, tmp_path, d, "pull-off", "--steps", "2")
+    assert rc in (0, 3), err
+    cli = json.loads((tmp_path / "out" / "result.json").read_text())
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        api = wc.pull_off(case_from_dict(d), steps=2)
+    assert set(cli) - RECORD_KEYS == set(api), set(cli) ^ set(api)
+    for key in ("tabor_parameter", "work_of_adhesion", "dmt_pull_off", "jkr_pull_off"):
+        assert api[key] == pytest.approx(cli[key], rel=1e-12), key
+    assert api["work_of_adhesion"] == pytest.approx(math.e * 122.6e6 * 0.3e-9, rel=1e-12)
+    assert api["dmt_pull_off"] == pytest.approx(-2 * math.pi * 20e-9 * api["work_of_adhesion"], rel=1e-12)

@@ -10,6 +10,10 @@
     gs = wc.gross_slip(case)                                    # delta_x_max [m], mu
     po = wc.pull_off(case)                                      # needs [adhesion]: pull_off_force [N]
 
+The dicts returned are the result.json of the matching command less the run's record (device,
+software, case, complete): one builder per kind of result (:func:`run_gross_slip`,
+:func:`run_pull_off`), shared with the command line and the sweep rows (:func:`result_row`).
+
 Every function takes a :class:`~warpcontact.case.Case` (SI units throughout) and optional
 ``device``, ``dtype`` and ``fft`` overrides; mistakes raise ``InputError`` (a ValueError) naming the
 key.
@@ -62,32 +66,122 @@ def gross_slip(case: Case, device=None, dtype=None, fft=None, rel_tol: float = 0
 
     The case needs ``[friction]``; its final delta_z is loaded in ``load.steps`` steps, then
     delta_x rises until no cell sticks, and bisection narrows the bracket to ``rel_tol``.
-    Returns delta_x_max, delta_x_gross [m], mu, force [N], converged, states. ``model``: as
-    :func:`solve`'s.
+    Returns the summary of :func:`run_gross_slip` (the keys of ``warpcontact gross-slip``'s
+    result.json less the run's record): delta_x_max, delta_x_gross [m], mu, mu_elastic, force,
+    force_elastic [N], stick_area, contact_area [m^2], converged, states, elapsed_s [s].
+    ``on_state(index, summary)`` is called after each state. ``model``: as :func:`solve`'s.
     """
-    from .slip_search import find_gross_slip
     from .runner import build
 
     case = _prepare(case, device, dtype, fft)
-    if case.friction is None:
-        raise InputError("friction", "gross_slip needs a [friction] table")
+    check_gross_slip_case(case)
     model, solver, _ = build(case, model)
-    steps = case.load.steps if not case.load.explicit else 4
-    return find_gross_slip(model, solver, case.load.delta_z_max, normal_steps=steps, rel_tol=rel_tol, on_state=on_state)
+    return run_gross_slip(case, model, solver, rel_tol=rel_tol, on_state=on_state)
 
 
 def pull_off(case: Case, steps: int = 20, retract_to: float | None = None, device=None, dtype=None, fft=None,
-             on_state=None) -> dict:
+             on_state=None, model=None) -> dict:
     """Approach to the case's delta_z and retract to ``retract_to`` [m] (default: -4 ranges of the
-    adhesion law), ``steps`` steps each way. Returns pull_off_force [N] (the most tensile total
-    F_z), its delta_z, the curve (summaries) and converged. The case needs ``[adhesion]``."""
-    from .approach_retract import approach_retract
+    adhesion law), ``steps`` steps each way. The case needs ``[adhesion]``. Returns the summary of
+    :func:`run_pull_off` (the keys of ``warpcontact pull-off``'s result.json less the run's
+    record): pull_off_force [N] (the most tensile total F_z, negative), pull_off_delta_z [m],
+    work_of_adhesion [J/m^2], tabor_parameter [-], dmt_pull_off and jkr_pull_off [N], the curve
+    (summaries), converged, elapsed_s [s]. ``on_state(index, total, summary)`` after each state.
+    ``model``: as :func:`solve`'s."""
     from .runner import build
 
     case = _prepare(case, device, dtype, fft)
+    check_pull_off_case(case, steps, retract_to)
+    model, solver, _ = build(case, model)
+    return run_pull_off(case, model, solver, steps=steps, retract_to=retract_to, on_state=on_state)
+
+
+# ---------------------------------------------------------------------------------------------
+# One summary per kind of result: the command line, this API and the sweep rows use these.
+
+
+def check_gross_slip_case(case: Case) -> None:
+    """What a gross-slip search needs of a case: a [friction] table and a positive approach."""
+    if case.friction is None:
+        raise InputError("friction", "gross-slip needs a [friction] table (law = 'tabor' or 'coulomb')")
+    dz = case.load.delta_z_max
+    if not dz > 0:
+        raise InputError("load.delta_z", f"gross-slip needs a positive normal approach, got {dz!r}")
+
+
+def check_pull_off_case(case: Case, steps: int = 20, retract_to: float | None = None) -> None:
+    """What an approach-retract curve needs: an [adhesion] table, 2 or more steps each way, an end
+    below the deepest approach."""
     if case.adhesion is None:
-        raise InputError("adhesion", "pull_off needs an [adhesion] table")
-    model, solver, _ = build(case)
+        raise InputError("adhesion", "pull-off needs an [adhesion] table (law = 'smc' or 'dugdale')")
+    if isinstance(steps, bool) or not isinstance(steps, int) or steps < 2:
+        raise InputError("steps", f"must be an integer of at least 2 (steps each way), got {steps!r}")
+    dz_max = case.load.delta_z_max
+    if retract_to is not None and not float(retract_to) < dz_max:
+        raise InputError("retract_to", f"must lie below the deepest approach {dz_max:g} m, got {retract_to:g}")
+
+
+def run_gross_slip(case: Case, model, solver, rel_tol: float = 0.01, on_state=None) -> dict:
+    """The gross-slip search of ``case`` on a built model and solver, with the run's checks
+    (:class:`~warpcontact.guards.RunChecks`: resolution and yield, one warning each), as a summary:
+    find_gross_slip's result with its results withheld (None, and a ``note``) when a state did
+    not converge. The one builder of a gross-slip summary."""
+    from .guards import GROSS_SLIP_RESULTS, RunChecks, withhold_if_unconverged
+    from .slip_search import find_gross_slip
+
+    checks = RunChecks(case)
+
+    def observe(k, s):
+        checks.observe(s, decisive=s.get("kind") == "normal" and checks.decisive(s))
+        if on_state is not None:
+            on_state(k, s)
+
+    steps = case.load.steps if not case.load.explicit else 4
+    r = find_gross_slip(model, solver, case.load.delta_z_max, normal_steps=steps, rel_tol=rel_tol, on_state=observe)
+    checks.gross_slip(r)
+    return withhold_if_unconverged(r, GROSS_SLIP_RESULTS)
+
+
+def run_pull_off(case: Case, model, solver, steps: int = 20, retract_to: float | None = None, on_state=None) -> dict:
+    """The approach-retract curve of ``case`` on a built model and solver, with the run's checks,
+    as a summary: the curve, pull_off_force [N], pull_off_delta_z [m], work_of_adhesion [J/m^2],
+    tabor_parameter [-] (with the law's range), dmt_pull_off = -2 pi R w and jkr_pull_off =
+    -1.5 pi R w [N]; the results withheld when a state did not converge. The one builder of a
+    pull-off summary."""
+    import math
+
+    from .approach_retract import approach_retract, tabor_parameter
+    from .guards import PULL_OFF_RESULTS, RunChecks, withhold_if_unconverged
+
+    checks = RunChecks(case)
     law = solver.adhesion
+    dz_max = case.load.delta_z_max
+    top_seen = []
+
+    def observe(k, total, s):
+        top = not top_seen and checks.decisive(s)  # the deepest approach: the contact is largest there
+        if top:
+            top_seen.append(k)
+        checks.observe(s, decisive=top)
+        if on_state is not None:
+            on_state(k, total, s)
+
     end = -4.0 * law.range if retract_to is None else float(retract_to)
-    return approach_retract(model, solver, -2.0 * law.range, case.load.delta_z_max, end, int(steps), on_state=on_state)
+    r = approach_retract(model, solver, -2.0 * law.range, dz_max, end, int(steps), on_state=observe)
+    R, w = case.sphere.radius, law.work_of_adhesion
+    result = {**r, "work_of_adhesion": w, "tabor_parameter": tabor_parameter(case.pair, R, w, law.range),
+              "dmt_pull_off": -2.0 * math.pi * R * w, "jkr_pull_off": -1.5 * math.pi * R * w}
+    return withhold_if_unconverged(result, PULL_OFF_RESULTS)
+
+
+#: the lists of states a result holds; a sweep row counts them (n_states) instead
+STATE_LISTS = ("states", "curve")
+
+
+def result_row(result: dict) -> dict:
+    """A summary as a sweep row: every key of :func:`run_gross_slip`'s, :func:`run_pull_off`'s or
+    a solve's last state, less the lists of states (counted in ``n_states``) and the timing (the
+    sweep records its own)."""
+    row = {k: v for k, v in result.items() if k not in STATE_LISTS and k != "elapsed_s"}
+    row["n_states"] = sum(len(result[k]) for k in STATE_LISTS if isinstance(result.get(k), list))
+    return row

@@ -234,18 +234,14 @@ def _fewer_fields_hint(result, e: OutputError) -> str:
 
 
 def cmd_gross_slip(args) -> int:
+    from .api import check_gross_slip_case, run_gross_slip
     from .case import load_case
-    from .guards import GROSS_SLIP_RESULTS, withhold_if_unconverged
-    from .slip_search import find_gross_slip
+    from .guards import GROSS_SLIP_RESULTS
     from .results import atomic_write_json
     from .runner import build
 
     case = load_case(args.case).with_overrides(device=args.device, dtype=args.dtype, fft=args.fft)
-    if case.friction is None:
-        raise InputError("friction", "gross-slip needs a [friction] table (law = 'tabor' or 'coulomb')")
-    dz = case.load.delta_z_max
-    if not dz > 0:
-        raise InputError("load.delta_z", f"gross-slip needs a positive normal approach, got {dz!r}")
+    check_gross_slip_case(case)
     model, solver, _ = build(case)
     out = Path(args.out)
     info = _run_info(model, case)
@@ -260,18 +256,17 @@ def cmd_gross_slip(args) -> int:
         progress.update(k + 1, s["iterations"], s["residual"],
                         f"{s['kind']} delta_x {s['delta']['x']:.4e} m, {s['stick_cells']} stick cells")
 
-    steps = case.load.steps if not case.load.explicit else 4
     try:
         with interrupts.deferred():
             _write_partial(out, {"states": states}, info, GROSS_SLIP_RESULTS)  # replaces an earlier run's
-        r = find_gross_slip(model, solver, dz, normal_steps=steps, on_state=on_state)
+        r = run_gross_slip(case, model, solver, on_state=on_state)
     except KeyboardInterrupt as e:
         interrupts.stopping(e)  # first: a second signal does not cut what follows
         progress.close()
         return _interrupted(out, {"states": states}, info, GROSS_SLIP_RESULTS, e)
     finally:
         progress.close()
-    result = withhold_if_unconverged({**r, "complete": True, "interrupted": False, **info}, GROSS_SLIP_RESULTS)
+    result = {**r, "complete": True, "interrupted": False, **info}
     with interrupts.deferred(raise_after=False):
         atomic_write_json(out / "result.json", result)
     if not r["converged"]:
@@ -285,23 +280,20 @@ def cmd_gross_slip(args) -> int:
 
 
 def cmd_pull_off(args) -> int:
-    from .approach_retract import approach_retract, tabor_parameter
+    from .api import check_pull_off_case, run_pull_off
     from .case import load_case
-    from .guards import PULL_OFF_RESULTS, withhold_if_unconverged
+    from .guards import PULL_OFF_RESULTS
     from .results import atomic_write_json
     from .runner import build
 
     case = load_case(args.case).with_overrides(device=args.device, dtype=args.dtype, fft=args.fft)
-    if case.adhesion is None:
-        raise InputError("adhesion", "pull-off needs an [adhesion] table (law = 'smc' or 'dugdale')")
     if args.steps < 2:
         raise InputError("--steps", f"must be at least 2, got {args.steps}")
-    model, solver, _ = build(case)
-    law = solver.adhesion
     dz_max = case.load.delta_z_max
-    end = -4.0 * law.range if args.retract_to is None else args.retract_to
-    if not end < dz_max:
-        raise InputError("--retract-to", f"must lie below the deepest approach {dz_max:g} m, got {end:g}")
+    if args.retract_to is not None and not args.retract_to < dz_max:
+        raise InputError("--retract-to", f"must lie below the deepest approach {dz_max:g} m, got {args.retract_to:g}")
+    check_pull_off_case(case, args.steps, args.retract_to)
+    model, solver, _ = build(case)
     out = Path(args.out)
 
     info = _run_info(model, case)
@@ -319,19 +311,15 @@ def cmd_pull_off(args) -> int:
         with interrupts.deferred():
             _write_partial(out, {"curve": curve}, info, PULL_OFF_RESULTS)  # replaces an earlier run's
             _remove_stale(out / "pull_off.png")
-        r = approach_retract(model, solver, -2.0 * law.range, dz_max, end, args.steps, on_state=on_state)
+        r = run_pull_off(case, model, solver, steps=args.steps, retract_to=args.retract_to, on_state=on_state)
     except KeyboardInterrupt as e:
         interrupts.stopping(e)  # first: a second signal does not cut what follows
         progress.close()
         return _interrupted(out, {"curve": curve}, info, PULL_OFF_RESULTS, e)
     finally:
         progress.close()
-    R, w = case.sphere.radius, law.work_of_adhesion
-    result = {
-        **r, "work_of_adhesion": w, "tabor_parameter": tabor_parameter(case.pair, R, w, law.range),
-        "dmt_pull_off": -2 * math.pi * R * w, "jkr_pull_off": -1.5 * math.pi * R * w, "interrupted": False, **info,
-    }
-    result = withhold_if_unconverged(result, PULL_OFF_RESULTS)
+    R, w = case.sphere.radius, r["work_of_adhesion"]
+    result = {**r, "interrupted": False, **info}
     with interrupts.deferred(raise_after=False):  # the plot first: complete = every output written
         try:
             _plot_pull_off(r, out / "pull_off.png", result)
@@ -440,6 +428,7 @@ def cmd_table2(args) -> int:
                     raise InputError(name, f"{v!r} is not a cell of Table 2; choose from {known}")
             selected = [c for c in selected if any(math.isclose(c[column], v, rel_tol=1e-9) for v in values)]
     todo = [(n, k, dz, adh) for adh in columns for n in args.n for k, dz in selected]
+    _table2_resolution(todo, args.size_in_a, law)
     settings_key = (args.size_in_a, args.device or "cpu", args.dtype or "float64", args.fft or "auto")
     law_key = tuple(sorted(law.items()))
 
@@ -532,6 +521,33 @@ def cmd_table2(args) -> int:
         print(f"{interrupts.describe()}: {len(records)} cell(s) written to {out}; rerun to finish", file=sys.stderr)
         return interrupts.exit_status()
     return 0 if all(r["converged"] for r in records) else EXIT_NOT_CONVERGED
+
+
+def _table2_resolution(todo, size_in_a: float, law: dict) -> None:
+    """One warning when a Table 2 cell's grid is too coarse by the rule of every command
+    (guards.resolution_advice), judged before the run on each cell's Hertz contact radius
+    a = sqrt(R delta_z) and, in the adhesive columns, the adhesive zone that the Hertz gap
+    leaves within the law's range delta_n (the DMT side's width, an upper bound)."""
+    import warnings
+
+    from .guards import CoarseGridWarning, adhesive_zone_estimate, resolution_advice, resolution_needs
+    from .table2 import RADIUS
+
+    worst = None
+    for n, _, dz_um, adh in todo:
+        a = math.sqrt(RADIUS * dz_um * 1e-6)
+        widths = {"contact_radius": a}
+        if adh:
+            widths["adhesive_zone"] = adhesive_zone_estimate(a, RADIUS, law["delta_n"])
+        needs = resolution_needs(n, size_in_a * a, **widths)
+        if needs and (worst is None or max(x[-1] for x in needs) > worst[0]):
+            worst = (max(x[-1] for x in needs), n, dz_um, widths)
+    if worst is not None:
+        need, n, dz_um, widths = worst
+        text = resolution_advice(n, size_in_a * math.sqrt(RADIUS * dz_um * 1e-6), f"at delta_z = {dz_um:g} um",
+                                 **widths)
+        warnings.warn(f"table2 --n {n}: {text.split(' on the ')[0]}: results carry a large discretisation error; "
+                      f"--n {need} would do", CoarseGridWarning, stacklevel=2)
 
 
 def _turns_hint(states, case) -> str:

@@ -1,4 +1,11 @@
-"""Checks that a solved state can be trusted: the contact must fit in the domain and be resolved."""
+"""Checks that a solved state can be trusted: the contact must fit in the domain and be resolved,
+and the pressure should stay under the bodies' yield strengths.
+
+The resolution rule is one, in :func:`resolution_needs`, used by every command that solves
+(through :class:`RunChecks`, which warns at most once per run and names the grid that would do):
+cells across the contact radius, across the slip annulus at gross slip and across the adhesive
+zone.
+"""
 
 from __future__ import annotations
 
@@ -29,6 +36,10 @@ DOMAIN_MARGIN = 1.1
 
 class CoarseGridWarning(UserWarning):
     """The contact spans too few cells for the discretisation error to be small."""
+
+
+class YieldWarning(UserWarning):
+    """The contact pressure passes a body's yield strength: a real contact yields there."""
 
 
 class AdhesionAtEdgeWarning(UserWarning):
@@ -65,6 +76,151 @@ def warn_if_coarse(state):
             CoarseGridWarning,
             stacklevel=3,
         )
+
+
+#: cells across the slip annulus at gross slip (the contact radius less the stick radius at
+#: delta_x_max) under which the friction coefficient is called too coarse
+MIN_SLIP_ANNULUS_CELLS = 8
+#: cells across the adhesive zone (the ring of A_adh around the contact, or the disc of A_adh
+#: without contact) under which the adhesive force is called too coarse
+MIN_ADHESIVE_ZONE_CELLS = 3
+#: grids suggested are multiples of this many cells
+GRID_STEP = 16
+
+
+def hertz_gap(r: float, a: float, radius: float) -> float:
+    """Gap [m] at radius r >= a [m] outside a Hertz contact of radius a [m] on a sphere of
+    ``radius`` [m] (Johnson 1985, eq. 3.42b): r^2 / 2R - a^2 / R plus the surface displacement
+    (a^2 / pi R) ((2 - rho^2) asin(1 / rho) + sqrt(rho^2 - 1)), rho = r / a."""
+    rho = r / a
+    u = a * a / (math.pi * radius) * ((2.0 - rho * rho) * math.asin(min(1.0, 1.0 / rho)) + math.sqrt(rho * rho - 1.0))
+    return r * r / (2.0 * radius) - a * a / radius + u
+
+
+def adhesive_zone_estimate(a: float, radius: float, law_range: float) -> float:
+    """Width [m] of the ring outside a contact of radius a [m] where the Hertz gap stays under the
+    law's range [m]: the adhesive zone of the DMT side (a JKR-side zone is narrower)."""
+    lo, hi = a, a + math.sqrt(2.0 * radius * law_range) + a
+    while hertz_gap(hi, a, radius) < law_range:
+        hi *= 2.0
+    for _ in range(60):
+        mid = 0.5 * (lo + hi)
+        lo, hi = (mid, hi) if hertz_gap(mid, a, radius) < law_range else (lo, mid)
+    return lo - a
+
+
+def resolution_needs(n: int, size: float, contact_radius: float | None = None, slip_annulus: float | None = None,
+                     adhesive_zone: float | None = None) -> list:
+    """The one resolution rule: which widths [m] span too few cells of an n-cell grid of side
+    ``size`` [m]. Returns (what, width [m], cells across it, cells needed, smallest grid.n that
+    gives them) for each width under its minimum (MIN_CONTACT_RADIUS_CELLS,
+    MIN_SLIP_ANNULUS_CELLS, MIN_ADHESIVE_ZONE_CELLS); [] when every width is resolved. A width of
+    None or <= 0 is not judged."""
+    dx = size / n
+    out = []
+    for what, width, minimum in (("the contact radius", contact_radius, MIN_CONTACT_RADIUS_CELLS),
+                                 ("the slip annulus at gross slip", slip_annulus, MIN_SLIP_ANNULUS_CELLS),
+                                 ("the adhesive zone", adhesive_zone, MIN_ADHESIVE_ZONE_CELLS)):
+        if width is None or not width > 0.0:
+            continue
+        cells = width / dx
+        if cells < minimum:
+            need = GRID_STEP * math.ceil(n * minimum / cells / GRID_STEP)
+            out.append((what, width, cells, minimum, need))
+    return out
+
+
+def resolution_advice(n: int, size: float, where: str, **widths) -> str | None:
+    """One sentence naming every width that is under-resolved (see :func:`resolution_needs`) and
+    the grid that resolves them all, or None when the grid is fine. ``where``: the state judged,
+    e.g. "at delta_z = 1e-10 m"."""
+    needs = resolution_needs(n, size, **widths)
+    if not needs:
+        return None
+    parts = [f"{what} ({width:.3g} m) spans {cells:.1f} cells (under {minimum})" for what, width, cells, minimum, _ in needs]
+    need = max(nd[-1] for nd in needs)
+    return (f"{' and '.join(parts)} {where} on the {n}-cell grid: results carry a large discretisation error; "
+            f"use grid.n >= {need} (cells of {size / need:.3g} m) for grid.size = {size:.4g} m")
+
+
+class RunChecks:
+    """The checks of a run that need solved states, each warned about at most once per run.
+
+    - resolution (:func:`resolution_advice`), judged on the states that carry the run's results:
+      the deepest normal approach of the path (``observe(..., decisive=True)``) and, for a
+      gross-slip search, the slip annulus at delta_x_max (:meth:`gross_slip`);
+    - yield: the contact pressure passes a body's yield strength (judged on every state).
+
+    Args:
+        case: the run's :class:`~warpcontact.case.Case`.
+    """
+
+    def __init__(self, case):
+        self.case = case
+        self.resolution_warned = False
+        self.yield_warned = False
+
+    def _adhesive_zone(self, s: dict, contact_radius: float):
+        ad = self.case.adhesion
+        if ad is None:
+            return None
+        if s.get("adhesive_area", 0.0) > 0.0:
+            return math.sqrt((s["adhesive_area"] + s["contact_area"]) / math.pi) - contact_radius
+        if contact_radius > 0.0:  # no adhesive cell: the zone is narrower than a cell; estimate it
+            law_range = ad.delta_n if ad.law == "smc" else getattr(ad, "h_0", None)
+            if law_range:
+                return adhesive_zone_estimate(contact_radius, self.case.sphere.radius, law_range)
+        return None
+
+    def _where(self, s: dict) -> str:
+        d = s["delta"]
+        return f"at delta_z = {d['z']:.4g} m" + (f", delta_x = {d['x']:.4g} m" if d["x"] else "")
+
+    def observe(self, s: dict, decisive: bool = False) -> None:
+        """After each solved state (its summary ``s``): the yield check; with ``decisive`` (the
+        deepest normal approach) the resolution of the contact radius and the adhesive zone."""
+        self._check_yield(s)
+        if decisive and not self.resolution_warned:
+            a = s.get("contact_radius", 0.0)
+            self._warn(resolution_advice(self.case.grid.n, self.case.grid.size, self._where(s), contact_radius=a,
+                                         adhesive_zone=self._adhesive_zone(s, a)))
+
+    def gross_slip(self, r: dict) -> None:
+        """After a gross-slip search (its result ``r``): the slip annulus at delta_x_max (the
+        contact radius less the stick radius there)."""
+        if self.resolution_warned or r.get("contact_area") is None:
+            return
+        a = math.sqrt(r["contact_area"] / math.pi)
+        annulus = a - math.sqrt((r.get("stick_area") or 0.0) / math.pi)
+        where = f"at delta_x_max = {r['delta_x_max']:.4g} m" if r.get("delta_x_max") else "at gross slip"
+        self._warn(resolution_advice(self.case.grid.n, self.case.grid.size, where, slip_annulus=annulus))
+
+    def decisive(self, s: dict) -> bool:
+        """True for a state at the path's deepest normal approach (the contact is largest there)."""
+        dz_max = self.case.load.delta_z_max
+        return s["delta"]["z"] >= dz_max - 1e-9 * abs(dz_max)
+
+    def _warn(self, text):
+        if text:
+            self.resolution_warned = True
+            warnings.warn(text, CoarseGridWarning, stacklevel=4)
+
+    def _check_yield(self, s: dict) -> None:
+        if self.yield_warned:
+            return
+        p = s.get("max_pressure", 0.0)
+        pair, fr = self.case.pair, self.case.friction
+        over = [m for m in (pair.sphere, pair.flat) if p > m.yield_strength]
+        if not over:
+            return
+        self.yield_warned = True
+        names = " and ".join(f"{m.name}.yield_strength = {m.yield_strength:.4g} Pa" for m in over)
+        why = ""
+        if fr is not None and fr.law == "tabor" and pair.softer in over:
+            why = (f"; the Tabor law's von Mises limit k_vm sqrt(S_Y^2 - p^2) of the softer body is zero where p >= "
+                   f"S_Y, so that zone carries no shear and lowers mu")
+        warnings.warn(f"the contact pressure reaches {p:.4g} Pa {self._where(s)}, above {names}: a real contact "
+                      f"yields there (this model stays elastic){why}", YieldWarning, stacklevel=3)
 
 
 def adhesion_tail(adhesion) -> float:

@@ -70,9 +70,22 @@ def state_summary(state, adhesion=None) -> dict:
     return out
 
 
-def state_fields(state, adhesion=None) -> dict:
-    """Fields of a state for an NPZ file: SI float64 arrays and the masks, numpy only."""
+def shear_limit_si(state, friction=None) -> np.ndarray:
+    """q_max of each cell [Pa], float64 (n, n): the friction law's shear limit at the state's
+    contact pressure (what the tangential solve bounds |q| by); zeros for a frictionless contact."""
+    if friction is None:
+        return np.zeros(state.model.grid.shape, dtype=np.float64)
+    m = state.model
+    out = m.field()
+    friction.shear_limit(m, state.pressure.flatten(), out.flatten())
+    return out.numpy().astype(np.float64) * m.traction_scale
+
+
+def state_fields(state, adhesion=None, friction=None) -> dict:
+    """Fields of a state for an NPZ file: SI float64 arrays and the masks, numpy only;
+    ``shear_limit`` [Pa] is the friction law's q_max of each cell (zeros without friction)."""
     f = state.to_numpy_si()
+    f["shear_limit"] = shear_limit_si(state, friction)
     status = state.status.numpy()
     f["contact_mask"] = f["pressure"] > 0
     f["adhesive_mask"] = adhesive_mask(f, adhesion)

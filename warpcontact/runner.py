@@ -9,7 +9,7 @@ from dataclasses import dataclass, field
 from . import __version__
 from .adhesion import SMC, Dugdale
 from .friction import Coulomb, TaborVonMises
-from .guards import warn_if_adhesion_at_edge, warn_if_coarse
+from .guards import RunChecks, warn_if_adhesion_at_edge
 from .resources import check_fits
 from .model import ContactModel
 from .results import state_fields, state_summary
@@ -139,8 +139,9 @@ def run_path(case, on_state=None, keep_fields: bool = True, fields: str = "all",
     state counted, and is raised after it. ``fields``: whose fields to keep, "all" states', the
     last finished state's ("last") or "none" (``keep_fields=False`` is "none"). A stop (Ctrl-C,
     SIGTERM, SIGHUP) ends the path: the states finished are kept and ``interrupted`` is set; a
-    stop during the model's set-up propagates (nothing is solved). Warns (guards: a coarse
-    contact; the adhesive tail cut by the domain, once per path). ``model``: as :func:`build`'s.
+    stop during the model's set-up propagates (nothing is solved). Warns once per path each
+    (guards): a coarse grid at the deepest approach (:class:`~warpcontact.guards.RunChecks`), the
+    pressure above a yield strength, the adhesive tail cut by the domain. ``model``: as :func:`build`'s.
     """
     from . import interrupts
 
@@ -153,17 +154,18 @@ def run_path(case, on_state=None, keep_fields: bool = True, fields: str = "all",
     result = PathResult(case=case, model=model)
     path = case.load.path()
     edge_warned = False  # the adhesive tail cut by the domain: one warning per path
+    checks = RunChecks(case)  # resolution and yield: one warning each per path
     try:
         if on_start is not None:
             with interrupts.deferred():
                 on_start(result)
         for k, approach in enumerate(path):
             solver.step(state, approach)
-            warn_if_coarse(state)
             if not edge_warned:
                 edge_warned = warn_if_adhesion_at_edge(state, solver.adhesion, case.load.delta_z_max)
             summary = state_summary(state, solver.adhesion)
-            kept = state_fields(state, solver.adhesion) if fields != "none" else None
+            checks.observe(summary, decisive=checks.decisive(summary))
+            kept = state_fields(state, solver.adhesion, solver.friction) if fields != "none" else None
             with interrupts.deferred():  # the lists, and what on_state writes, stay in step
                 result.states.append(summary)
                 if kept is not None:

@@ -60,7 +60,6 @@ from . import __version__, interrupts
 from .case import (ADHESION_KEYS, FLAT_KEYS, GRID_KEYS, LOAD_KEYS, SOLVER_KEYS, SPHERE_KEYS, Case,
                    case_from_dict, load_case)
 from .errors import ConvergenceError, InputError, NonFiniteError, OutputError
-from .guards import GROSS_SLIP_RESULTS, withhold_if_unconverged
 
 #: Tables of a sweep file.
 SWEEP_TABLES = ("base", "sweep", "run")
@@ -470,13 +469,14 @@ def finished_record(out: str | PathLike, sweep: Sweep, sc: SweepCase) -> dict | 
 
 
 def _gross_slip_summary(r: dict) -> dict:
-    s = {k: r[k] for k in ("delta_x_max", "delta_x_gross", "mu", "force", "converged", "stick_area", "contact_area")}
-    s["n_states"] = len(r["states"])
-    # as `warpcontact gross-slip`: no values from an unconverged path
-    return withhold_if_unconverged(s, GROSS_SLIP_RESULTS)
+    """A gross-slip or pull-off case's row: the command's result.json keys less the lists of states
+    (``api.result_row``; the results already withheld when a state did not converge)."""
+    from .api import result_row
+
+    return result_row(r)
 
 
-def _run_case(sweep: Sweep, sc: SweepCase, on_state) -> dict:
+def _run_case(task: str, rel_tol: float, case: Case, on_state, model=None) -> dict:
     """Solve one case; returns its summary. ``on_state(index, total or None, summary)`` follows
     its states. KeyboardInterrupt propagates (nothing is recorded)."""
     from . import api
