@@ -1,0 +1,267 @@
+"""Kernels of the subsurface stress: influence coefficients at a depth, their spectra combined
+into the stress spectra of one body, and the derived fields (von Mises, maximum shear, principal
+stresses, hydrostatic) with their maxima.
+
+The orchestration, the formulas' derivation and their references are in ``warpcontact/stress.py``.
+Lengths are in cells (x, y, z divided by the cell size dx); tractions and stresses in the model's
+scaled units (divided by E*).
+
+Basis functions. The stress of a uniform traction on a cell is a combination (``stress.py``,
+``STRESS_TABLE``) of 14 functions ``corner_term(b, x, y, z)``, each an antiderivative in x and y
+of a derivative of Love's potential Omega = z ln(rho + z) - rho; the integral over a cell is their
+sum over its four corners with signs (+ - - +). ``basis_quadrant`` evaluates one of them for the
+offsets (0..n-1) x (0..n-1) of the cells, weighted for the spectral reconstruction of the whole
+padded kernel from this quadrant (``stress_spectra``): each basis kernel is even or odd in x and
+in y (``BASIS_PARITY``), so the quadrant holds all of it.
+"""
+
+from typing import Any
+
+import warp as wp
+
+# no adjoints: nothing differentiates these kernels, and compiling them doubles the build
+wp.set_module_options({"enable_backward": False})
+
+#: basis functions (``corner_term``)
+N_BASIS = wp.constant(14)
+#: stress components, in the order xx, yy, zz, xy, xz, yz
+N_COMPONENTS = wp.constant(6)
+#: traction components, in the order p, q_x, q_y
+N_LOADS = wp.constant(3)
+#: derived fields, in the order von Mises, maximum shear, principal 1 >= 2 >= 3, hydrostatic
+N_DERIVED = wp.constant(6)
+
+
+@wp.func
+def corner_term(basis: int, x: wp.float64, y: wp.float64, z: wp.float64) -> wp.float64:
+    """Basis function ``basis`` at the corner offset (x, y) and depth z > 0 (cells), float64.
+
+    rho = sqrt(x^2 + y^2 + z^2). The functions (d^2 / dx dy of each is the derivative of Omega
+    named in ``stress.BASIS``):
+    0 ln(rho + z), 1 -y/(rho + z), 2 -x/(rho + z), 3 y/(rho (rho + z)), 4 x/(rho (rho + z)),
+    5 1/rho, 6 atan(y/x) - atan(z y/(x rho)), 7 atan(x/y) - atan(z x/(y rho)),
+    8 -x y/(rho (x^2 + z^2)), 9 -x y/(rho (y^2 + z^2)), 10 ln(rho + y), 11 ln(rho + x),
+    12 z/(rho (rho + y)), 13 z/(rho (rho + x)).
+    Corners lie at half-integer x and y (never 0); the quadrant's corners have x, y >= -1/2, so
+    rho + x and rho + y stay away from cancellation.
+    """
+    rho = wp.sqrt(x * x + y * y + z * z)
+    rz = rho + z
+    one = wp.float64(1.0)
+    v = wp.float64(0.0)
+    if basis == 0:
+        v = wp.log(rz)
+    elif basis == 1:
+        v = -y / rz
+    elif basis == 2:
+        v = -x / rz
+    elif basis == 3:
+        v = y / (rho * rz)
+    elif basis == 4:
+        v = x / (rho * rz)
+    elif basis == 5:
+        v = one / rho
+    elif basis == 6:
+        v = wp.atan(y / x) - wp.atan(z * y / (x * rho))
+    elif basis == 7:
+        v = wp.atan(x / y) - wp.atan(z * x / (y * rho))
+    elif basis == 8:
+        v = -x * y / (rho * (x * x + z * z))
+    elif basis == 9:
+        v = -x * y / (rho * (y * y + z * z))
+    elif basis == 10:
+        v = wp.log(rho + y)
+    elif basis == 11:
+        v = wp.log(rho + x)
+    elif basis == 12:
+        v = z / (rho * (rho + y))
+    else:
+        v = z / (rho * (rho + x))
+    return v
+
+
+@wp.func
+def cell_integral(basis: int, x: wp.float64, y: wp.float64, z: wp.float64) -> wp.float64:
+    """The basis kernel integrated over the cell [x - 1/2, x + 1/2] x [y - 1/2, y + 1/2] (cells)."""
+    h = wp.float64(0.5)
+    return (corner_term(basis, x + h, y + h, z) - corner_term(basis, x + h, y - h, z)
+            - corner_term(basis, x - h, y + h, z) + corner_term(basis, x - h, y - h, z))
+
+
+@wp.kernel
+def basis_quadrant(basis: int, depth: wp.float64, weighted: int, out: wp.array2d(dtype=Any)):
+    """out[i, j] <- the cell integral of basis kernel ``basis`` at offset (x, y) = (j, i) cells and
+    ``depth`` (cells), in float64 and then cast to out's type. With ``weighted``: times w(i) w(j),
+    w(0) = 1 and 2 elsewhere (each offset off an axis stands for its mirror images too:
+    ``stress_spectra``)."""
+    i, j = wp.tid()
+    v = cell_integral(basis, wp.float64(j), wp.float64(i), depth)
+    if weighted != 0:
+        if i > 0:
+            v = v * wp.float64(2.0)
+        if j > 0:
+            v = v * wp.float64(2.0)
+    out[i, j] = out.dtype(v)
+
+
+@wp.func
+def times_i(a: Any):
+    """i a, for a complex number held as a 2-vector (re, im)."""
+    return type(a)(-a[1], a[0])
+
+
+@wp.kernel
+def stress_spectra(
+    basis_spectra: wp.array3d(dtype=Any),
+    traction_spectra: wp.array3d(dtype=Any),
+    coefficients: wp.array3d(dtype=Any),
+    parity: wp.array(dtype=int),
+    half_axis: int,
+    stress: wp.array3d(dtype=Any),
+):
+    """The spectra of the six stress components of one body at one depth, from the spectra of
+    the weighted basis quadrants (``basis_quadrant``) and of the three tractions acting on it.
+
+    For basis b with spectrum F of its weighted quadrant, the spectrum of the whole kernel on the
+    padded grid (offsets -(n-1)..n-1 each way) is, with Fm = F at (kx, -ky) (the full axis of the
+    real transform's layout is y; ``half_axis`` is x's axis in the array):
+    even/even 1/2 Re(F + Fm); odd in x 1/2 i Im(F + Fm); odd in y 1/2 i Im(F - Fm);
+    odd/odd 1/2 Re(F - Fm) (``parity`` 0, 1, 2, 3). Then stress[c] = sum over loads l and bases b
+    of coefficients[c, l, b] K_b t_l (a DC-FFT product, Liu, Wang & Liu 2000)."""
+    i, j = wp.tid()
+    mi = i
+    mj = j
+    if half_axis == 1:
+        rows = basis_spectra.shape[1]
+        mi = (rows - i) % rows
+    else:
+        cols = basis_spectra.shape[2]
+        mj = (cols - j) % cols
+    t0 = traction_spectra[0, i, j]
+    half = type(t0[0])(0.5)
+    s0 = t0 - t0
+    s1 = s0
+    s2 = s0
+    s3 = s0
+    s4 = s0
+    s5 = s0
+    for b in range(basis_spectra.shape[0]):
+        f = basis_spectra[b, i, j]
+        fm = basis_spectra[b, mi, mj]
+        kind = parity[b]
+        kappa = half * (f[0] + fm[0])
+        if kind == 1:
+            kappa = half * (f[1] + fm[1])
+        elif kind == 2:
+            kappa = half * (f[1] - fm[1])
+        elif kind == 3:
+            kappa = half * (f[0] - fm[0])
+        for l in range(3):
+            kt = kappa * traction_spectra[l, i, j]
+            if kind == 1 or kind == 2:
+                kt = times_i(kt)
+            s0 += coefficients[0, l, b] * kt
+            s1 += coefficients[1, l, b] * kt
+            s2 += coefficients[2, l, b] * kt
+            s3 += coefficients[3, l, b] * kt
+            s4 += coefficients[4, l, b] * kt
+            s5 += coefficients[5, l, b] * kt
+    stress[0, i, j] = s0
+    stress[1, i, j] = s1
+    stress[2, i, j] = s2
+    stress[3, i, j] = s3
+    stress[4, i, j] = s4
+    stress[5, i, j] = s5
+
+
+@wp.func
+def principal_stresses(sxx: Any, syy: Any, szz: Any, sxy: Any, sxz: Any, syz: Any):
+    """(s1, s2, s3), s1 >= s2 >= s3: the eigenvalues of the symmetric stress tensor by the
+    trigonometric form of the cubic's roots (Smith 1961): with mean stress m, deviator s,
+    J2 = s:s / 2, J3 = det s and cos(3 theta) = (3 sqrt(3) / 2) J3 / J2^(3/2) (clamped to
+    [-1, 1]), s_k = m + 2 sqrt(J2 / 3) cos(theta - 2 pi k / 3)."""
+    third = type(sxx)(1.0 / 3.0)
+    zero = sxx - sxx
+    m = (sxx + syy + szz) * third
+    dx = sxx - m
+    dy = syy - m
+    dz = szz - m
+    j2 = type(sxx)(0.5) * (dx * dx + dy * dy + dz * dz) + sxy * sxy + sxz * sxz + syz * syz
+    j3 = dx * (dy * dz - syz * syz) - sxy * (sxy * dz - syz * sxz) + sxz * (sxy * syz - dy * sxz)
+    s1 = m
+    s2 = m
+    s3 = m
+    if j2 > zero:
+        r = wp.sqrt(j2 * third)
+        c = type(sxx)(1.5) * wp.sqrt(type(sxx)(3.0)) * j3 / (j2 * wp.sqrt(j2))
+        c = wp.clamp(c, type(sxx)(-1.0), type(sxx)(1.0))
+        theta = wp.acos(c) * third
+        two_pi_3 = type(sxx)(2.0943951023931953)
+        s1 = m + type(sxx)(2.0) * r * wp.cos(theta)
+        s3 = m + type(sxx)(2.0) * r * wp.cos(theta + two_pi_3)
+        s2 = type(sxx)(3.0) * m - s1 - s3
+    return wp.vector(s1, s2, s3)
+
+
+@wp.kernel
+def derived_fields(stress: wp.array3d(dtype=Any), derived: wp.array3d(dtype=Any)):
+    """derived[:, i, j] <- von Mises sqrt(3 J2), maximum shear (s1 - s3) / 2, principal stresses
+    s1 >= s2 >= s3, hydrostatic (sxx + syy + szz) / 3, from stress[0..5, i, j] (xx, yy, zz, xy,
+    xz, yz)."""
+    i, j = wp.tid()
+    sxx = stress[0, i, j]
+    syy = stress[1, i, j]
+    szz = stress[2, i, j]
+    sxy = stress[3, i, j]
+    sxz = stress[4, i, j]
+    syz = stress[5, i, j]
+    half = type(sxx)(0.5)
+    normal = (sxx - syy) * (sxx - syy) + (syy - szz) * (syy - szz) + (szz - sxx) * (szz - sxx)
+    j2 = half * normal * type(sxx)(1.0 / 3.0) + sxy * sxy + sxz * sxz + syz * syz
+    p = principal_stresses(sxx, syy, szz, sxy, sxz, syz)
+    derived[0, i, j] = wp.sqrt(type(sxx)(3.0) * j2)
+    derived[1, i, j] = half * (p[0] - p[2])
+    derived[2, i, j] = p[0]
+    derived[3, i, j] = p[1]
+    derived[4, i, j] = p[2]
+    derived[5, i, j] = (sxx + syy + szz) * type(sxx)(1.0 / 3.0)
+
+
+@wp.kernel
+def row_maxima(fields: wp.array3d(dtype=Any), field: int, values: wp.array(dtype=Any),
+               columns: wp.array(dtype=int)):
+    """values[i], columns[i] <- the largest entry of row i of fields[field] and its column (the
+    first where several tie): one thread per row; the host takes the largest of the rows."""
+    i = wp.tid()
+    best = fields[field, i, 0]
+    col = int(0)
+    for j in range(1, fields.shape[2]):
+        v = fields[field, i, j]
+        if v > best:
+            best = v
+            col = j
+    values[i] = best
+    columns[i] = col
+
+
+@wp.kernel
+def take_line(fields: wp.array3d(dtype=Any), index: int, along_x: int, out: wp.array2d(dtype=Any)):
+    """out[f, k] <- fields[f] along the row ``index`` (``along_x`` = 1: fields[f, index, k]) or the
+    column ``index`` (0: fields[f, k, index]): a section through the grid, for every field f."""
+    f, k = wp.tid()
+    if along_x != 0:
+        out[f, k] = fields[f, index, k]
+    else:
+        out[f, k] = fields[f, k, index]
+
+
+for _r, _v in ((wp.float32, wp.vec2f), (wp.float64, wp.vec2d)):
+    wp.overload(basis_quadrant, {"basis": int, "depth": wp.float64, "weighted": int, "out": wp.array2d(dtype=_r)})
+    wp.overload(stress_spectra, {"basis_spectra": wp.array3d(dtype=_v), "traction_spectra": wp.array3d(dtype=_v),
+                                 "coefficients": wp.array3d(dtype=_r), "parity": wp.array(dtype=int),
+                                 "half_axis": int, "stress": wp.array3d(dtype=_v)})
+    wp.overload(derived_fields, {"stress": wp.array3d(dtype=_r), "derived": wp.array3d(dtype=_r)})
+    wp.overload(row_maxima, {"fields": wp.array3d(dtype=_r), "field": int, "values": wp.array(dtype=_r),
+                             "columns": wp.array(dtype=int)})
+    wp.overload(take_line, {"fields": wp.array3d(dtype=_r), "index": int, "along_x": int,
+                            "out": wp.array2d(dtype=_r)})
