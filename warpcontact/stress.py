@@ -108,6 +108,24 @@ def stress_table(nu: float, z: float) -> np.ndarray:
     return t / (2.0 * np.pi)
 
 
+def cell_kernels(nu: float, z_cells: float, size: int, device="cpu") -> np.ndarray:
+    """K[c, l, i, j]: stress component c per unit traction l (p, q_x, q_y) on one cell, at the
+    offset (x, y) = (j, i) cells (0 <= i, j < ``size``) from it and depth ``z_cells`` [cells],
+    float64 (the basis integrals of ``kernels/stress.py`` combined by ``stress_table``; negative
+    offsets follow from BASIS_PARITY). For tests and direct sums."""
+    import warp as wp
+
+    from .kernels import stress as ks
+
+    basis = np.empty((len(BASIS), size, size))
+    out = wp.zeros((size, size), dtype=wp.float64, device=device)
+    for b in range(len(BASIS)):
+        wp.launch(ks.basis_quadrant, dim=(size, size), inputs=[b, wp.float64(z_cells), 0], outputs=[out],
+                  device=device)
+        basis[b] = out.numpy()
+    return np.einsum("clb,bij->clij", stress_table(nu, z_cells), basis)
+
+
 # ---------------------------------------------------------------------------------------------
 # Closed forms: the references of the tests.
 
@@ -307,6 +325,12 @@ class StressResult:
     device: str = ""
     dtype: str = ""
     fft: str = ""
+    #: the state of the path (``subsurface_stress``): its index, approach {x, y, z} [m], convergence
+    state_index: int | None = None
+    delta: dict | None = None
+    converged: bool = True
+    #: per body, ``first_yield``'s answer over the states up to this one (empty when not asked)
+    first_yield: dict = field(default_factory=dict)
 
     def summary(self) -> dict:
         """stress.json's per-body part: von_mises_max and tresca_max (value [Pa], x, y, z [m], z the
@@ -323,6 +347,8 @@ class StressResult:
                 "yielded": bool(math.isfinite(sy) and vm["value"] >= sy),
                 "margin": sy / vm["value"] if math.isfinite(sy) and vm["value"] > 0 else None,
             }
+            if name in self.first_yield:
+                out[name]["first_yield"] = self.first_yield[name]
         return out
 
     def arrays(self) -> dict:
@@ -526,3 +552,89 @@ def sliding_axis(delta) -> str:
 def contact_radius(fields: dict, cell_area: float) -> float:
     """sqrt(A_c / pi) [m] of one state's fields (A_c: cells with elastic pressure > 0)."""
     return math.sqrt(float(np.count_nonzero(np.asarray(fields["pressure"]) > 0)) * cell_area / math.pi)
+
+
+# ---------------------------------------------------------------------------------------------
+# From a case: solve, evaluate, first yield.
+
+
+def first_yield(maxima: list, deltas: list, yield_strength: float) -> dict | None:
+    """The first state of a path at which a body's largest von Mises stress reaches its yield
+    strength. ``maxima``: the largest von Mises stress [Pa] at each state in path order;
+    ``deltas``: each state's approach {"x", "y", "z"} [m]. Returns None without a finite yield
+    strength, else ``reached`` (bool), ``state`` (the first state at or above it, or None),
+    ``delta`` (that state's approach) and ``delta_interpolated``: the approach where the ratio von
+    Mises / S_Y, interpolated linearly between that state and the one before it (the unloaded
+    body, ratio 0 at zero approach, before the first state), crosses 1 [m] (linear in the path's
+    steps: refine the steps to narrow it)."""
+    if not math.isfinite(yield_strength):
+        return None
+    prev_ratio, prev_delta = 0.0, {"x": 0.0, "y": 0.0, "z": 0.0}
+    for k, (vm, d) in enumerate(zip(maxima, deltas)):
+        ratio = vm / yield_strength
+        if ratio >= 1.0:
+            w = (1.0 - prev_ratio) / (ratio - prev_ratio) if ratio > prev_ratio else 1.0
+            return {"reached": True, "state": k, "delta": dict(d),
+                    "delta_interpolated": {c: prev_delta[c] + w * (d[c] - prev_delta[c]) for c in "xyz"},
+                    "von_mises_max": vm}
+        prev_ratio, prev_delta = ratio, d
+    return {"reached": False, "state": None, "delta": None, "delta_interpolated": None,
+            "von_mises_max": maxima[-1] if maxima else None}
+
+
+def _pick_state(n_states: int, state: int) -> int:
+    if isinstance(state, bool) or not isinstance(state, (int, np.integer)):
+        raise InputError("state", f"must be an integer, got {state!r}")
+    k = state + n_states if state < 0 else state
+    if not 0 <= k < n_states:
+        raise InputError("state", f"the path has {n_states} state(s) (0 to {n_states - 1}, or -1 for the last); "
+                                  f"got {state}")
+    return k
+
+
+def subsurface_stress(case, state: int = -1, depths=None, layers: int = DEFAULT_LAYERS, max_depth=None,
+                      device=None, dtype=None, fft=None, volume: bool = False, with_first_yield: bool = True,
+                      path_result=None):
+    """Solve the case's load path (or take ``path_result``, a ``runner.PathResult`` with every
+    state's fields) and evaluate the stress in both bodies at state ``state`` (negative: from the
+    end). ``depths`` [m] (default: ``layers`` depths down to ``max_depth``, ``default_depths``).
+    ``with_first_yield``: also the largest von Mises stress of every state up to ``state``, and
+    each body's first yield on the path (``first_yield``). Returns a :class:`StressResult` with
+    ``state_index``, ``delta`` and ``first_yield`` set (``summary`` includes them)."""
+    from .api import _prepare
+    from .runner import run_path
+
+    case = _prepare(case, device, dtype, fft)
+    if path_result is None:
+        n_states = len(case.load.path())
+        k = _pick_state(n_states, state)  # before the solve: a wrong index costs nothing
+        path_result = run_path(case, fields="all")
+        if path_result.interrupted:
+            raise KeyboardInterrupt
+    states = path_result.states
+    k = _pick_state(len(states), state)
+    if len(path_result.fields) != len(states):
+        raise InputError("path_result", "needs every state's fields (run_path with fields='all')")
+    fields = path_result.fields[k]
+    grid = case.grid
+    if depths is None:
+        depths = default_depths(contact_radius(fields, grid.cell_area), grid.dx, layers, max_depth)
+    s = case.solver
+    evaluator = SubsurfaceStress(case.pair, grid, depths, device=s.device, dtype=s.dtype, fft=s.fft, volume=volume)
+    delta = states[k]["delta"]
+    result = evaluator.evaluate(*tractions(fields), section_axis=sliding_axis(delta))
+    result.state_index, result.delta = k, dict(delta)
+    result.converged = bool(states[k]["converged"])
+    result.first_yield = {}
+    if with_first_yield:
+        maxima = {name: [] for name in BODIES}
+        light = SubsurfaceStress(case.pair, grid, result.depths, device=s.device, dtype=s.dtype, fft=s.fft) \
+            if volume else evaluator
+        for j in range(k + 1):
+            r = result if j == k else light.evaluate(*tractions(path_result.fields[j]))
+            for name in BODIES:
+                maxima[name].append(r.bodies[name].maximum("von_mises", r.depths)["value"])
+        deltas = [states[j]["delta"] for j in range(k + 1)]
+        for name in BODIES:
+            result.first_yield[name] = first_yield(maxima[name], deltas, result.bodies[name].yield_strength)
+    return result
