@@ -305,3 +305,100 @@ def test_pull_off_summary_keys_are_the_same_in_the_cli_and_the_api(capsys, tmp_p
         assert api[key] == pytest.approx(cli[key], rel=1e-12), key
     assert api["work_of_adhesion"] == pytest.approx(math.e * 122.6e6 * 0.3e-9, rel=1e-12)
     assert api["dmt_pull_off"] == pytest.approx(-2 * math.pi * 20e-9 * api["work_of_adhesion"], rel=1e-12)
+
+
+# --- row 6: a stop before the first state -------------------------------------------------------------
+
+
+@pytest.fixture
+def stop_at_first_step(monkeypatch):
+    """The first load step raises SIGTERM's Stop, as a signal arriving inside it does."""
+    import signal
+
+    from warpcontact import interrupts
+    from warpcontact.solvers import contact
+
+    def stopped(self, *a, **kw):
+        raise interrupts.Stop(signal.SIGTERM)
+
+    monkeypatch.setattr(contact.ContactSolver, "step", stopped)
+    yield
+    interrupts.reset()
+
+
+@pytest.mark.parametrize("command", ["solve", "gross-slip", "pull-off"])
+def test_a_stop_before_the_first_state_writes_nothing_and_says_so(capsys, tmp_path, stop_at_first_step, command):
+    d = afm_dict(16, adhesion=command == "pull-off", friction=command != "pull-off")
+    out = tmp_path / "new" / "out"
+    rc = main([command, str(write(tmp_path, d)), "--out", str(out), "--quiet"])
+    err = capsys.readouterr().err
+    assert rc == 143, err
+    assert "interrupted (SIGTERM): stopped before the first state finished; nothing was written" in err, err
+    assert not (tmp_path / "new").exists()
+
+
+@pytest.mark.parametrize("command", ["solve", "gross-slip"])
+def test_a_stop_before_the_first_state_over_an_earlier_run_records_the_stop(capsys, tmp_path, stop_at_first_step,
+                                                                           command):
+    out = tmp_path / "out"
+    out.mkdir()
+    (out / "result.json").write_text(json.dumps({"complete": True, "states": [{}]}))  # an earlier run's
+    rc = main([command, str(write(tmp_path, afm_dict(16))), "--out", str(out), "--quiet"])
+    err = capsys.readouterr().err
+    assert rc == 143 and "records the stop and holds no state" in err, err
+    res = json.loads((out / "result.json").read_text())
+    assert res["complete"] is False and res["interrupted"] is True and res.get("states", res.get("curve")) == []
+
+
+# --- row 9: small things --------------------------------------------------------------------------------
+
+
+def test_version_and_help_texts(capsys):
+    from warpcontact import __version__
+
+    with pytest.raises(SystemExit) as e:
+        main(["--version"])
+    assert e.value.code == 0 and capsys.readouterr().out.strip() == f"warpcontact {__version__}"
+    with pytest.raises(SystemExit):
+        main(["gross-slip", "--help"])
+    text = capsys.readouterr().out
+    assert "bisect to 1 %." in text and "%%" not in text
+
+
+# --- row 8: plots -------------------------------------------------------------------------------------
+
+
+def test_figure_draws_a_gross_slip_and_a_pull_off_output(capsys, tmp_path):
+    """figure on gross-slip's folder: the state at gross slip, solved again along the search's
+    history (its force is the result's to the last digit); on pull-off's: the force-approach curve."""
+    from warpcontact.cli_figure import gross_slip_fields
+
+    d = afm_dict(16, adhesion=False)
+    rc, err = run_cli(capsys, tmp_path, d, "gross-slip")
+    assert rc == 0, err
+    res = json.loads((tmp_path / "out" / "result.json").read_text())
+    f = gross_slip_fields(res)
+    assert f["_summary"]["force"] == res["force"] and f["_summary"]["delta"]["x"] == res["delta_x_max"]
+    assert f["stick_mask"][0].any() and "shear_limit" in f
+    assert main(["figure", str(tmp_path / "out"), "--out", str(tmp_path / "fig"), "--quiet"]) == 0
+    assert sorted(p.name for p in (tmp_path / "fig").iterdir()) == ["area_map.png", "fields.png", "profile.png"]
+
+    po = tmp_path / "po"
+    po.mkdir()
+    d = afm_dict(16, friction=False)
+    d["load"] = {"delta_z": 0.1e-9}
+    rc = main(["pull-off", str(write(po, d)), "--out", str(po / "out"), "--quiet", "--steps", "2"])
+    assert rc in (0, 3), capsys.readouterr().err
+    assert main(["figure", str(po / "out"), "--out", str(po / "fig"), "--quiet"]) == 0
+    assert (po / "fig" / "pull_off.png").read_bytes()[:4] == b"\x89PNG"
+
+
+def test_fields_npz_holds_the_shear_limit(capsys, tmp_path):
+    rc, err = run_cli(capsys, tmp_path, afm_dict(32, adhesion=False), "solve")
+    assert rc == 0, err
+    with np.load(tmp_path / "out" / "fields.npz") as f:
+        q, p = f["shear_limit"][-1], f["pressure"][-1]
+    # Tabor k_tau = 0.6 (mu_b = k_vm / sqrt(k_tau^-2 - 1) = 0.433) capped by von Mises on the 4 GPa flat
+    k_vm = 1 / math.sqrt(3)
+    law = np.minimum(k_vm / math.sqrt(0.6**-2 - 1) * p, k_vm * np.sqrt(np.maximum(4e9**2 - p**2, 0.0)))
+    assert np.allclose(q, law, rtol=1e-9, atol=1e-3) and (q[p > 4e9] == 0).all() and (p > 4e9).any()

@@ -110,7 +110,16 @@ def test_area_map_legend_names_the_areas_in_nm2(fields):
     dA = (fields["x"][1] - fields["x"][0]) * (fields["y"][1] - fields["y"][0]) * 1e18
     stick_nm2 = fields["stick_mask"][-1].sum() * dA
     stick = [t for t in texts if "stick" in t]
-    assert stick and f"{stick_nm2:,.0f} nm" in stick[0], texts
+    assert stick and float(stick[0].split(": ")[1].split(" nm")[0].replace(",", "")) == pytest.approx(stick_nm2, rel=1e-3)
+    # the areas add up as printed: contact = stick + slip to the last printed figure (issue 32: 2 + 0.293 = 2)
+    import re
+
+    contact = [t for t in texts if "A_c" in t][0]
+    a_c, slip = (float(v.replace(",", "")) for v in re.findall(r"([\d,]+\.?\d*) nm", contact))
+    a_st = float(re.findall(r"([\d,]+\.?\d*) nm", stick[0])[0].replace(",", ""))
+    decimals = len(re.findall(r"[\d,]+\.?(\d*) nm", contact)[0])
+    assert abs(a_st + slip - a_c) <= 1.01 * 10.0**-decimals, texts
+    assert a_st >= 100 * 10.0**-decimals or a_st == 0  # 3 significant figures at least
     assert any("A_c" in t and "contact" in t for t in texts)
     assert any("A_{adh}" in t and "no adhesion" in t for t in texts)  # absent: the legend says so
     ax = fig.axes[0]
@@ -186,19 +195,42 @@ def test_field_maps_has_four_panels_with_unit_colour_bars(fields):
     assert _orange(_rgb(fig)).any() and _blue(_rgb(fig)).any()
 
 
-def test_profile_in_mpa_and_nm_with_optional_shear_limit(fields):
+def test_profile_in_mpa_and_nm_with_the_shear_limit_of_the_file(fields):
     ax = plots.profile(fields).axes[0]
-    assert ax.get_xlabel() == "x [nm]" and "MPa" in ax.get_ylabel()
+    assert ax.get_xlabel() == "x [nm]" and "MPa" in ax.get_ylabel()  # p0 of about 110 MPa: MPa
     peak = max(np.nanmax(np.asarray(line.get_ydata(), dtype=float)) for line in ax.get_lines())
     assert peak == pytest.approx(fields["pressure"][-1].max() * 1e-6, rel=0.05)  # the centre row carries ~p0
-    assert not any("limit" in line.get_label() for line in ax.get_lines())
-    # with a shear limit (Tabor + von Mises, MODEL.md section 5), it is drawn
+    # fields.npz holds the law's q_max (Tabor + von Mises, MODEL.md section 5): drawn, and the title has no excuse
     p = fields["pressure"]
     k_vm, s_y, k_tau = 1 / np.sqrt(3), 200e6, 0.80
     mu_b = k_vm / np.sqrt(k_tau**-2 - 1)
-    f = dict(fields, shear_limit=np.minimum(mu_b * p, k_vm * np.sqrt(np.maximum(s_y**2 - p**2, 0))))
-    ax = plots.profile(f).axes[0]
+    law = np.minimum(mu_b * p, k_vm * np.sqrt(np.maximum(s_y**2 - p**2, 0)))
+    assert np.allclose(fields["shear_limit"], law, rtol=1e-9, atol=1e-9 * s_y)
     assert any("limit" in line.get_label() for line in ax.get_lines())
+    assert "no shear limit" not in ax.get_title()
+    # a file written before shear_limit was kept: the title says so
+    ax = plots.profile({k: v for k, v in fields.items() if k != "shear_limit"}).axes[0]
+    assert not any("limit" in line.get_label() for line in ax.get_lines()) and "no shear limit" in ax.get_title()
+
+
+def test_state_title_in_the_axes_unit(fields):
+    """One unit system per figure: the displacements in the title in nm, as the axes."""
+    title = plots.area_map(fields).axes[0].get_title()
+    dz, dx = fields["delta"][-1][2], fields["delta"][-1][0]
+    assert f"= {dz * 1e9:.4g} nm" in title and f"= {dx * 1e9:.4g} nm" in title and "µm" not in title, title
+
+
+def test_pull_off_curve_in_the_scale_of_its_data():
+    """An nN curve (the AFM tip of issue 32) is drawn in nN, its approach in nm."""
+    curve = [{"branch": b, "delta": {"z": z}, "force": {"z": f}} for b, z, f in (
+        ("approach", -0.6e-9, -1e-10), ("approach", 0.1e-9, 9e-9), ("retract", -0.3e-9, -3.8e-8))]
+    result = {"curve": curve, "pull_off_force": -3.8e-8, "pull_off_delta_z": -0.3e-9, "dmt_pull_off": -1.26e-8,
+              "jkr_pull_off": -9.4e-9, "tabor_parameter": 0.09}
+    ax = plots.pull_off_curve(result).axes[0]
+    assert "[nN]" in ax.get_ylabel() and "[nm]" in ax.get_xlabel(), (ax.get_xlabel(), ax.get_ylabel())
+    ys = np.concatenate([np.asarray(line.get_ydata(), dtype=float) for line in ax.get_lines()])
+    assert np.nanmin(ys) == pytest.approx(-38.0)
+    assert plots.si_scale([2e3], "Pa") == (1e3, "kPa") and plots.si_scale([4.4e9], "Pa") == (1e9, "GPa")
 
 
 def test_state_index_out_of_range(fields):

@@ -54,6 +54,9 @@ def _parser():
         prog="warpcontact",
         description="Sphere-on-flat contact with friction and adhesion (DC-FFT, conjugate gradients, NVIDIA Warp).",
     )
+    from . import __version__
+
+    parser.add_argument("--version", action="version", version=f"warpcontact {__version__}")
     sub = parser.add_subparsers(dest="command", required=True)
     p = sub.add_parser(
         "solve",
@@ -72,7 +75,7 @@ def _parser():
         "gross-slip",
         help="find delta_x at gross slip and the static friction coefficient",
         description="Load the case's delta_z in [load] steps with friction active, then raise delta_x until no "
-        "cell sticks; bisect to 1 %%. The case needs a [friction] table; its delta_x, delta_y are not used.",
+        "cell sticks; bisect to 1 %. The case needs a [friction] table; its delta_x, delta_y are not used.",
         epilog="example:\n  warpcontact gross-slip examples/table2_k080_dz5e-5.toml --out out/gs\n\n"
         "writes OUT/result.json with delta_x_max [m], mu, the force at delta_x_max [N] and every state of the path.",
         formatter_class=argparse.RawDescriptionHelpFormatter,
@@ -143,11 +146,15 @@ def cmd_solve(args) -> int:
     result_path, fields_path = out / "result.json", out / "fields.npz"
     progress = Progress("solve", total=len(case.load.path()), quiet=args.quiet)
 
+    earlier = _earlier_run(out, ("result.json", "fields.npz"))
+
     def on_start(result):
-        """The first write: this run's result.json (complete: false, no state yet) replaces an earlier
-        run's, whose fields.npz goes with it (it would not match)."""
-        atomic_write_json(result_path, result.summary(complete=False))
-        _remove_stale(fields_path)
+        """Where an earlier run left its files, the first write: this run's result.json (complete:
+        false, no state yet) replaces the earlier one, whose fields.npz goes with it (it would not
+        match). Elsewhere nothing is written before the first state finishes."""
+        if earlier:
+            atomic_write_json(result_path, result.summary(complete=False))
+            _remove_stale(fields_path)
 
     def on_state(k, total, summary, result):
         progress.update(k + 1, summary["iterations"], summary["residual"], f"F_z {summary['force']['z']:.3e} N")
@@ -159,8 +166,15 @@ def cmd_solve(args) -> int:
             interrupts.stopping()  # a second signal does not cut the last writes
     finally:
         progress.close()
+    if result.interrupted and not result.states and not earlier:
+        print(f"{interrupts.describe()}: stopped before the first state finished; nothing was written", file=sys.stderr)
+        return interrupts.exit_status()
     with interrupts.deferred(raise_after=False):  # the last writes are not cut by a second signal
         _write_solve_outputs(result, out, fields, atomic_write_json, atomic_write_npz)
+    if result.interrupted and not result.states:
+        print(f"{interrupts.describe()}: stopped before the first state finished; {result_path} (which replaced "
+              "the earlier run's) records the stop and holds no state", file=sys.stderr)
+        return interrupts.exit_status()
     if result.interrupted:
         print(f"{interrupts.describe()}: {len(result.states)} of {len(case.load.path())} state(s) finished and "
               f"written to {out}", file=sys.stderr)
@@ -256,14 +270,16 @@ def cmd_gross_slip(args) -> int:
         progress.update(k + 1, s["iterations"], s["residual"],
                         f"{s['kind']} delta_x {s['delta']['x']:.4e} m, {s['stick_cells']} stick cells")
 
+    earlier = _earlier_run(out, ("result.json",))
     try:
-        with interrupts.deferred():
-            _write_partial(out, {"states": states}, info, GROSS_SLIP_RESULTS)  # replaces an earlier run's
+        if earlier:  # replaced at once; elsewhere nothing is written before the first state finishes
+            with interrupts.deferred():
+                _write_partial(out, {"states": states}, info, GROSS_SLIP_RESULTS)
         r = run_gross_slip(case, model, solver, on_state=on_state)
     except KeyboardInterrupt as e:
         interrupts.stopping(e)  # first: a second signal does not cut what follows
         progress.close()
-        return _interrupted(out, {"states": states}, info, GROSS_SLIP_RESULTS, e)
+        return _interrupted(out, {"states": states}, info, GROSS_SLIP_RESULTS, e, earlier)
     finally:
         progress.close()
     result = {**r, "complete": True, "interrupted": False, **info}
@@ -307,15 +323,17 @@ def cmd_pull_off(args) -> int:
         progress.update(k + 1, s["iterations"], s["residual"],
                         f"delta_z {s['delta']['z']:+.3e} m, F_z {s['force']['z']:+.3e} N, {s['outer_iterations']} turns")
 
+    earlier = _earlier_run(out, ("result.json", "pull_off.png"))
     try:
-        with interrupts.deferred():
-            _write_partial(out, {"curve": curve}, info, PULL_OFF_RESULTS)  # replaces an earlier run's
-            _remove_stale(out / "pull_off.png")
+        if earlier:  # replaced at once; elsewhere nothing is written before the first state finishes
+            with interrupts.deferred():
+                _write_partial(out, {"curve": curve}, info, PULL_OFF_RESULTS)
+                _remove_stale(out / "pull_off.png")
         r = run_pull_off(case, model, solver, steps=args.steps, retract_to=args.retract_to, on_state=on_state)
     except KeyboardInterrupt as e:
         interrupts.stopping(e)  # first: a second signal does not cut what follows
         progress.close()
-        return _interrupted(out, {"curve": curve}, info, PULL_OFF_RESULTS, e)
+        return _interrupted(out, {"curve": curve}, info, PULL_OFF_RESULTS, e, earlier)
     finally:
         progress.close()
     R, w = case.sphere.radius, r["work_of_adhesion"]
@@ -366,36 +384,36 @@ def _write_partial(out: Path, finished: dict, info: dict, keys, stop: BaseExcept
     atomic_write_json(out / "result.json", record)
 
 
-def _interrupted(out: Path, finished: dict, info: dict, keys, stop: BaseException | None = None) -> int:
+def _interrupted(out: Path, finished: dict, info: dict, keys, stop: BaseException | None = None,
+                 earlier: bool = True) -> int:
     """After a stop (Ctrl-C, SIGTERM, SIGHUP): OUT/result.json with what finished, marked interrupted
-    and not converged (:func:`_write_partial`); one line on stderr. Returns the exit status (130,
-    143, 129)."""
+    and not converged (:func:`_write_partial`); one line on stderr. Before the first state finished
+    nothing is written, unless an earlier run's result.json was replaced (``earlier``): then the
+    file records the stop. Returns the exit status (130, 143, 129)."""
     (name, states), = finished.items()
+    if not states and not earlier:
+        print(f"{interrupts.describe(stop)}: stopped before the first state finished; nothing was written",
+              file=sys.stderr)
+        return interrupts.exit_status(stop)
     with interrupts.deferred(raise_after=False):
         _write_partial(out, finished, info, keys, stop if stop is not None else KeyboardInterrupt())
-    print(f"{interrupts.describe(stop)}: {len(states)} state(s) finished and written to {out}", file=sys.stderr)
+    if not states:
+        print(f"{interrupts.describe(stop)}: stopped before the first state finished; {out / 'result.json'} "
+              "(which replaced the earlier run's) records the stop and holds no state", file=sys.stderr)
+    else:
+        print(f"{interrupts.describe(stop)}: {len(states)} state(s) finished and written to {out}", file=sys.stderr)
     return interrupts.exit_status(stop)
 
 
+def _earlier_run(out: Path, names) -> bool:
+    """True when OUT holds one of ``names``, an earlier run's files that this run replaces first."""
+    return any((out / name).exists() for name in names)
+
+
 def _plot_pull_off(r, path, result):
-    from matplotlib.figure import Figure
+    from .plots import pull_off_curve, save
 
-    from .plots import save
-
-    fig = Figure(figsize=(6, 4.2))
-    ax = fig.add_subplot()
-    for branch, style in (("approach", "-o"), ("retract", "-s")):
-        pts = [(c["delta"]["z"] * 1e9, c["force"]["z"] * 1e6) for c in r["curve"] if c["branch"] == branch]
-        if pts:
-            x, y = zip(*pts)
-            ax.plot(x, y, style, ms=3, label=branch)
-    ax.axhline(result["dmt_pull_off"] * 1e6, color="0.5", ls="--", lw=0.8, label="DMT 2 pi R w")
-    ax.axhline(result["jkr_pull_off"] * 1e6, color="0.5", ls=":", lw=0.8, label="JKR 1.5 pi R w")
-    ax.set_xlabel("delta_z [nm]")
-    ax.set_ylabel("F_z [uN] (total, adhesive part included)")
-    ax.legend(fontsize=8)
-    ax.grid(alpha=0.3)
-    save(fig, path)
+    save(pull_off_curve(result), path)
 
 
 def cmd_table2(args) -> int:

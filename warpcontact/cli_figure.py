@@ -34,7 +34,13 @@ writes OUTDIR/area_map.png (elastic contact A_c blue, stick A_st orange, adhesiv
 yellow; axes in nm, areas in nm^2 in the legend), OUTDIR/fields.png (pressure and shear magnitude
 [MPa], gap [nm], area map) and OUTDIR/profile.png (pressure, shear_x and the shear limit when the
 file has it, MPa against x in nm, through the centre row). --state counts from 0; negative values
-count from the end (-1, the default, is the last state)."""
+count from the end (-1, the default, is the last state).
+
+  warpcontact gross-slip CASE.toml --out out/gs && warpcontact figure out/gs --out out/gs/fig
+  warpcontact pull-off CASE.toml --out out/po && warpcontact figure out/po --out out/po/fig
+
+draw the state at gross slip (the case solved again along the search's history, up to
+delta_x_max) and the force-approach curve (OUTDIR/pull_off.png)."""
 
 #: Arrays a file must hold for the figures (masks are rebuilt from pressure/status when missing).
 REQUIRED = ("pressure", "shear_x", "shear_y", "gap", "x", "y")
@@ -53,7 +59,8 @@ def add_parser(sub):
     )
     p.add_argument("fields", metavar="CASE_OR_DIR_OR_NPZ",
                    help="a case file (.toml: solved first, into --out), a solve's output folder (holding "
-                   "fields.npz) or an NPZ file")
+                   "fields.npz), an NPZ file, or the output folder of gross-slip (the state at gross slip, solved "
+                   "again along the search's history) or pull-off (the force-approach curve)")
     p.add_argument("--out", required=True, help="output folder for the PNG files (created if needed)")
     p.add_argument("--device", help="with a case file: override [solver] device: cpu, cuda, cuda:N")
     p.add_argument("--dtype", choices=("float64", "float32"), help="with a case file: override [solver] dtype")
@@ -173,9 +180,87 @@ def case_caption(npz: Path) -> str:
     return ";  ".join(parts)
 
 
+def _result_of(arg) -> dict | None:
+    """The result.json of a command's output folder (or the file itself), or None."""
+    import json
+
+    p = Path(arg)
+    p = p / "result.json" if p.is_dir() else p
+    if p.name != "result.json" or not p.is_file():
+        return None
+    try:
+        res = json.loads(p.read_text())
+    except (OSError, ValueError):
+        return None
+    return res if isinstance(res, dict) else None
+
+
+def gross_slip_fields(result: dict) -> dict:
+    """The fields (as ``fields.npz`` holds them, one state) of the state at gross slip of a
+    gross-slip result: the case is solved again along the chain the search kept (the normal
+    states, then every state with stick cells, each from the one before: the search's history),
+    up to the last state with stick cells, delta_x_max. Deterministic: the same forces as the
+    result's to the last digit on the same device."""
+    from .case import case_from_dict
+    from .results import state_fields, state_summary
+    from .runner import build
+
+    states = result.get("states") or []
+    chain = [s for s in states if s.get("kind") == "normal" or s.get("stick_cells", 0) > 0]
+    if not chain or result.get("delta_x_max") is None:
+        raise InputError("figure", "the gross-slip result holds no converged state at gross slip to draw")
+    case = case_from_dict(result["case"])
+    model, solver, state = build(case)
+    for s in chain:
+        solver.step(state, (s["delta"]["x"], s["delta"]["y"], s["delta"]["z"]))
+    f = state_fields(state, solver.adhesion, solver.friction)
+    out = {k: v[None] for k, v in f.items()}
+    out["x"], out["y"] = model.grid.x, model.grid.y
+    out["delta"] = np.array([state.approach], dtype=np.float64)
+    out["state_index"] = np.array([states.index(chain[-1])], dtype=np.int64)
+    out["_summary"] = state_summary(state, solver.adhesion)
+    return out
+
+
+def _figure_of_result(args, res: dict) -> int | None:
+    """``figure`` on a gross-slip or pull-off output: the state at gross slip (three figures) or
+    the force-approach curve (pull_off.png). None for a solve's output (its fields.npz is drawn)."""
+    from . import plots
+
+    out = Path(args.out)
+    dpi = getattr(args, "dpi", 150)
+    quiet = getattr(args, "quiet", False)
+    if "curve" in res and "pull_off_force" in res:
+        path = out / "pull_off.png"
+        plots.save(plots.pull_off_curve(res), path, dpi=dpi)
+        if not quiet:
+            print(f"figure: the force-approach curve -> {path}", file=sys.stderr)
+        return 0
+    if "delta_x_max" in res and "states" in res:
+        fields = gross_slip_fields(res)
+        fields.pop("_summary")
+        title = f"at gross slip: $\\delta_x$ = {res['delta_x_max'] * 1e9:.4g} nm (delta_x_max), mu = " + (
+            f"{res['mu']:.4f}" if res.get("mu") is not None else "undefined")
+        written = []
+        for name, draw in (("area_map.png", lambda f: plots.area_map(f, 0, title=title)),
+                           ("fields.png", lambda f: plots.field_maps(f, 0)),
+                           ("profile.png", lambda f: plots.profile(f, 0))):
+            plots.save(draw(fields), out / name, dpi=dpi)
+            written.append(out / name)
+        if not quiet:
+            print("figure: the state at gross slip -> " + ", ".join(str(p) for p in written), file=sys.stderr)
+        return 0
+    return None
+
+
 def cmd_figure(args) -> int:
     from . import plots
 
+    res = None if str(args.fields).lower().endswith(".toml") else _result_of(args.fields)
+    if res is not None and not (Path(args.fields) / "fields.npz").exists():
+        status = _figure_of_result(args, res)
+        if status is not None:
+            return status
     if str(args.fields).lower().endswith(".toml"):  # a case: solve it into --out first, as 'solve' does
         from .cli import cmd_solve
 

@@ -137,7 +137,8 @@ def resolution_advice(n: int, size: float, where: str, **widths) -> str | None:
     needs = resolution_needs(n, size, **widths)
     if not needs:
         return None
-    parts = [f"{what} ({width:.3g} m) spans {cells:.1f} cells (under {minimum})" for what, width, cells, minimum, _ in needs]
+    parts = [f"{what} ({width:.3g} m) spans {cells:.1f} cells (under {minimum})"
+             for what, width, cells, minimum, _ in needs]
     need = max(nd[-1] for nd in needs)
     return (f"{' and '.join(parts)} {where} on the {n}-cell grid: results carry a large discretisation error; "
             f"use grid.n >= {need} (cells of {size / need:.3g} m) for grid.size = {size:.4g} m")

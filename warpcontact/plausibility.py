@@ -115,7 +115,8 @@ def check_moduli(bodies: dict) -> None:
         E = bodies[name][0]
         other_E = bodies[names[1 - names.index(name)]][0] if len(names) == 2 else 1e11
         if E > MAX_MODULUS:
-            f = _closest(E, DOWN, other_E if other_E <= MAX_MODULUS else 1e11, lambda v: MIN_MODULUS <= v <= MAX_MODULUS)
+            target = other_E if other_E <= MAX_MODULUS else 1e11
+            f = _closest(E, DOWN, target, lambda v: MIN_MODULUS <= v <= MAX_MODULUS)
             hint = f"; did you mean {_num(E * f)} Pa?" if f else ""
             raise InputError(f"{name}.E", f"= {_num(E)} Pa is stiffer than any solid (diamond: 1.2e12 Pa); "
                                           f"expected {_num(MIN_MODULUS)} to {_num(MAX_MODULUS)} Pa{hint}")
@@ -139,7 +140,8 @@ def check_moduli(bodies: dict) -> None:
                                               f"between {_num(strength / THEORETICAL_STRENGTH)} and "
                                               f"{_num(MAX_MODULUS)} Pa; did you mean {_meant(E, f, 'Pa')}?")
             g = _closest(strength, DOWN, 3e-3 * E, lambda v: 1e-5 * E <= v <= THEORETICAL_STRENGTH * E)
-            hint = f"; did you mean {_num(strength * g)} Pa?" if g else f"; expected below {_num(E * THEORETICAL_STRENGTH)} Pa"
+            hint = (f"; did you mean {_num(strength * g)} Pa?" if g
+                    else f"; expected below {_num(E * THEORETICAL_STRENGTH)} Pa")
             raise InputError(f"{name}.{key}", why + hint)
 
 
@@ -177,9 +179,9 @@ def check_adhesion(adhesion, E_star: float, bodies: dict) -> None:
                                                 f"elasticity; expected at most {_num(THEORETICAL_STRENGTH * E_star)} "
                                                 f"Pa (E* / 10, the theoretical strength){hint}")
         if stress > THEORETICAL_STRENGTH * E_star:
-            unusual.append(f"adhesion.{key} = {_num(stress)} Pa is above E* / 10 = {_num(THEORETICAL_STRENGTH * E_star)}"
-                          f" Pa, the theoretical strength of the solids: the cohesive zone opens the surfaces by "
-                          f"strains near 1, at the edge of linear elasticity")
+            unusual.append(f"adhesion.{key} = {_num(stress)} Pa is above E* / 10 = "
+                          f"{_num(THEORETICAL_STRENGTH * E_star)} Pa, the theoretical strength of the solids: the "
+                          f"cohesive zone opens the surfaces by strains near 1, at the edge of linear elasticity")
     w = adhesion.work_of_adhesion
     if w > MAX_WORK_OF_ADHESION:
         length = getattr(adhesion, length_key)

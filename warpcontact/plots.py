@@ -165,21 +165,28 @@ def _zoom_window(fields, k):
     return clamp(cx, lo_x, hi_x), clamp(cy, lo_y, hi_y)
 
 
+def area_formatter(areas_m2):
+    """A formatter of areas [m^2] in nm^2 with one number of decimals for all of ``areas_m2``, enough
+    to give the smallest non-zero one 3 significant figures (at most 4 decimals), so that the areas
+    of one legend add up as printed (stick 2.000 + slip 0.293 = contact 2.293 nm^2)."""
+    nonzero = [abs(a) * NM * NM for a in areas_m2 if a]
+    smallest = min(nonzero) if nonzero else 1.0
+    decimals = int(min(4, max(0, 2 - math.floor(math.log10(smallest)))))
+
+    def fmt(a_m2: float) -> str:
+        return f"{a_m2 * NM * NM:,.{decimals}f} nm$^2$"
+
+    return fmt
+
+
 def _fmt_area(a_m2: float) -> str:
-    nm2 = a_m2 * NM * NM
-    if nm2 == 0:
-        return "0 nm$^2$"
-    if 1 <= nm2 < 1e6:
-        return f"{nm2:,.0f} nm$^2$"
-    return f"{nm2:.3g} nm$^2$"
+    """One area [m^2] in nm^2 with 3 significant figures or more."""
+    return area_formatter([a_m2])(a_m2)
 
 
-def _um(v: float) -> str:
-    """A length in um the way the paper writes it (5.0e-5 um)."""
-    if v == 0:
-        return "0"
-    mant, exp = f"{v * 1e6:.1e}".split("e")
-    return f"{mant}e{int(exp)}"
+def _nm(v: float) -> str:
+    """A length [m] in nm, 4 significant figures (0.05, 22.36)."""
+    return f"{v * NM:.4g}"
 
 
 def _state_title(fields, k) -> str:
@@ -189,9 +196,9 @@ def _state_title(fields, k) -> str:
         d = np.asarray(fields["delta"])
         if d.ndim == 2 and d.shape[0] == n and d.shape[1] >= 3:
             dx, dy, dz = (float(v) for v in d[k, :3])
-            s += f":  $\\delta_z$ = {_um(dz)} µm,  $\\delta_x$ = {_um(dx)} µm"
+            s += f":  $\\delta_z$ = {_nm(dz)} nm,  $\\delta_x$ = {_nm(dx)} nm"
             if dy:
-                s += f",  $\\delta_y$ = {_um(dy)} µm"
+                s += f",  $\\delta_y$ = {_nm(dy)} nm"
     return s
 
 
@@ -224,14 +231,16 @@ def _draw_area_map(ax, fields, k, legend_loc="outside"):
 
     dA = _cell_area(fields)
     a_c, a_st = contact.sum() * dA, stick.sum() * dA
+    a_adh = adh.sum() * dA if adh is not None else 0.0
+    fmt = area_formatter([a_c, a_st, a_c - a_st, a_adh])  # one number of decimals: the areas add up
     handles = [
         Patch(facecolor=CONTACT_COLOR, edgecolor="none",
-              label=f"$A_c$ elastic contact: {_fmt_area(a_c)}  (blue: slip, {_fmt_area(a_c - a_st)})"),
-        Patch(facecolor=STICK_COLOR, edgecolor="none", label=f"$A_{{st}}$ stick area: {_fmt_area(a_st)}"),
+              label=f"$A_c$ elastic contact: {fmt(a_c)}  (blue: slip, {fmt(a_c - a_st)})"),
+        Patch(facecolor=STICK_COLOR, edgecolor="none", label=f"$A_{{st}}$ stick area: {fmt(a_st)}"),
     ]
     if adh is not None:
         handles.append(Patch(facecolor=ADHESIVE_COLOR, edgecolor="none",
-                             label=f"$A_{{adh}}$ adhesive contact: {_fmt_area(adh.sum() * dA)}"))
+                             label=f"$A_{{adh}}$ adhesive contact: {fmt(a_adh)}"))
     else:
         handles.append(Patch(facecolor="none", edgecolor="0.6", linestyle="--",
                              label="$A_{adh}$ adhesive contact: none (no adhesion in this file)"))
@@ -256,7 +265,7 @@ def area_map(fields: dict, index: int = -1, title=None) -> Figure:
     """The paper-style map of one state: A_c blue (its slip cells), A_st orange, A_adh yellow.
 
     Axes in nm with equal aspect, zoomed to the contact plus a 15 % margin; the legend gives each
-    area in nm^2. ``title`` defaults to the state and its rigid displacements in um.
+    area in nm^2. ``title`` defaults to the state and its rigid displacements in nm.
     """
     k = _state_index(fields, index)
     # fixed margins: the constrained layout misplaces an equal-aspect axes above a figure legend
@@ -325,7 +334,8 @@ def profile(fields: dict, index: int = -1) -> Figure:
     """Pressure, shear_x and (when the file has it) the shear limit along x through the centre row.
 
     The centre row is the row nearest y = 0 (the sphere's axis). Stick cells of the row are shaded
-    orange. MPa against x in nm, over the zoomed window of the area map.
+    orange. Tractions in the data's own scale (kPa, MPa, GPa: :func:`si_scale`) against x in nm,
+    over the zoomed window of the area map.
     """
     k = _state_index(fields, index)
     fig = _figure((7.0, 4.4))
@@ -341,30 +351,85 @@ def profile(fields: dict, index: int = -1) -> Figure:
                    label="stick cells ($A_{st}$)" if first else None)
         first = False
 
-    p = _state(fields, "pressure", k)[row] * MPA
+    tractions = [_state(fields, key, k)[row] for key in ("pressure", "shear_x", "adhesive_pressure")
+                 if key in fields]
+    scale, unit = si_scale([float(np.abs(t).max()) for t in tractions], "Pa")  # GPa for an AFM tip, kPa for a gel
+    p = _state(fields, "pressure", k)[row] / scale
     ax.plot(xc, p, "-", color="black", lw=1.6, label="contact pressure $p_c$")
-    ax.plot(xc, _state(fields, "shear_x", k)[row] * MPA, "-", color=CONTACT_COLOR, lw=1.6,
+    ax.plot(xc, _state(fields, "shear_x", k)[row] / scale, "-", color=CONTACT_COLOR, lw=1.6,
             label="contact shear $q_x$")
     qmax = _state(fields, "shear_limit", k)
     if qmax is not None:
-        qm = np.where(contact[row], qmax[row], np.nan) * MPA
-        ax.plot(xc, qm, "--", color=STICK_COLOR, lw=1.4, label="shear limit $q_{max}(p)$")
+        qm = np.where(contact[row], qmax[row], np.nan) / scale
+        frictionless = not np.any(np.asarray(fields["shear_limit"]) != 0)
+        ax.plot(xc, qm, "--", color=STICK_COLOR, lw=1.4,
+                label="shear limit $q_{max}(p)$" + (" (frictionless: 0)" if frictionless else ""))
     if has_adhesion(fields):
         padh = _state(fields, "adhesive_pressure", k)
         if padh is not None:
-            ax.plot(xc, padh[row] * MPA, ":", color=ADHESIVE_COLOR, lw=1.8, label="adhesive pressure $p_{adh}$")
+            ax.plot(xc, padh[row] / scale, ":", color=ADHESIVE_COLOR, lw=1.8, label="adhesive pressure $p_{adh}$")
         qadh = _state(fields, "adhesive_shear_x", k)
         if qadh is not None:
-            ax.plot(xc, qadh[row] * MPA, "-.", color=ADHESIVE_COLOR, lw=1.4, label="adhesive shear $q_{adh,x}$")
+            ax.plot(xc, qadh[row] / scale, "-.", color=ADHESIVE_COLOR, lw=1.4, label="adhesive shear $q_{adh,x}$")
     ax.axhline(0.0, color="0.6", lw=0.6)
     (x0, x1), _ = _zoom_window(fields, k)
     ax.set_xlim(x0, x1)
     ax.set_xlabel("x [nm]")
-    ax.set_ylabel("traction [MPa]")
+    ax.set_ylabel(f"traction [{unit}]")
     ax.grid(True, color="0.9", linewidth=0.5)
-    note = "" if qmax is not None else "  (no shear limit in this file)"
+    note = "" if qmax is not None else "  (no shear limit in this file: written before it was kept)"
     ax.set_title(f"{_state_title(fields, k)}\nprofile along x at y = {yc[row]:.2f} nm{note}", fontsize="medium")
     ax.legend(fontsize="small", loc="best")
+    return fig
+
+
+#: SI prefixes for an axis in the data's own scale: factor -> prefix.
+_PREFIXES = ((1e9, "G"), (1e6, "M"), (1e3, "k"), (1.0, ""), (1e-3, "m"), (1e-6, "u"), (1e-9, "n"), (1e-12, "p"),
+             (1e-15, "f"))
+
+
+def si_scale(values, unit: str):
+    """(factor, label) putting ``values`` [unit] in the prefix where the largest |value| lies in
+    [0.5, 500): an nN curve in nN, a 0.6 nm approach in nm, 4.4 GPa in GPa (``value / factor`` is
+    drawn)."""
+    peak = max((abs(float(v)) for v in values if v is not None and math.isfinite(float(v))), default=0.0)
+    for factor, prefix in _PREFIXES:
+        if peak >= 0.5 * factor:
+            return factor, prefix + unit
+    return _PREFIXES[-1][0], _PREFIXES[-1][1] + unit
+
+
+def pull_off_curve(result: dict) -> Figure:
+    """The force-approach curve of a pull-off result (``warpcontact pull-off``'s result.json, or
+    ``wc.pull_off``'s dict): total F_z against delta_z on the approach and retract branches, the
+    pull-off point, and the DMT (2 pi R w) and JKR (1.5 pi R w) pull-off forces when the result
+    has them. Both axes in the data's own scale (an nN curve in nN)."""
+    curve = result["curve"]
+    forces = [c["force"]["z"] for c in curve] + [result.get("dmt_pull_off"), result.get("jkr_pull_off")]
+    f_scale, f_unit = si_scale(forces, "N")
+    z_scale, z_unit = si_scale([c["delta"]["z"] for c in curve], "m")
+    fig = _figure((6.4, 4.4))
+    ax = fig.add_subplot()
+    for branch, style in (("approach", "-o"), ("retract", "-s")):
+        pts = [(c["delta"]["z"] / z_scale, c["force"]["z"] / f_scale) for c in curve if c.get("branch") == branch]
+        if pts:
+            x, y = zip(*pts)
+            ax.plot(x, y, style, ms=3, label=branch)
+    if result.get("pull_off_force") is not None:
+        ax.plot([result["pull_off_delta_z"] / z_scale], [result["pull_off_force"] / f_scale], "k*", ms=9,
+                label=f"pull-off {result['pull_off_force'] / f_scale:.4g} {f_unit}")
+    for key, ls, name in (("dmt_pull_off", "--", "DMT $-2\\pi R w$"), ("jkr_pull_off", ":", "JKR $-1.5\\pi R w$")):
+        if result.get(key) is not None:
+            ax.axhline(result[key] / f_scale, color="0.5", ls=ls, lw=0.8,
+                       label=f"{name} = {result[key] / f_scale:.4g} {f_unit}")
+    ax.axhline(0.0, color="0.8", lw=0.6)
+    ax.set_xlabel(f"approach $\\delta_z$ [{z_unit}]")
+    ax.set_ylabel(f"$F_z$ [{f_unit}] (total: contact and adhesion; tension < 0)")
+    tabor = result.get("tabor_parameter")
+    ax.set_title("approach and retraction" + (f", Tabor parameter {tabor:.3g}" if tabor is not None else ""),
+                 fontsize="medium")
+    ax.legend(fontsize="small")
+    ax.grid(alpha=0.3)
     return fig
 
 
@@ -388,4 +453,5 @@ def save(fig: Figure, path, dpi=None) -> None:
         raise
 
 
-__all__ = ["area_map", "field_maps", "profile", "save", "has_adhesion", "CONTACT_COLOR", "STICK_COLOR", "ADHESIVE_COLOR"]
+__all__ = ["area_map", "area_formatter", "field_maps", "profile", "pull_off_curve", "save", "si_scale", "has_adhesion",
+           "CONTACT_COLOR", "STICK_COLOR", "ADHESIVE_COLOR"]
