@@ -240,7 +240,8 @@ def test_sweep_disk_full_keeps_the_finished_cases_and_a_rerun_resumes(tmp_path, 
         return len(records) == 2 and path.parent.name == "cases"
 
     fail_writes(monkeypatch, errno.ENOSPC, second_case)
-    assert main(["sweep", str(sweep), "--out", str(out), "--quiet"]) == 74
+    # --workers 1: the cases in this process, one after another (the second case's record is the one that fails)
+    assert main(["sweep", str(sweep), "--out", str(out), "--quiet", "--workers", "1"]) == 74
     line = error_line(capsys)
     assert f"cannot write {records[1]}: no space left on device (the file needs about " in line, line
     assert line.endswith(f"; 1 of 2 case(s) finished and kept in {out}: free space and run the same command again "
@@ -267,7 +268,7 @@ def test_sweep_disk_full_keeps_the_finished_cases_and_a_rerun_resumes(tmp_path, 
 def fake_cell(calls):
     """table2_cell without the solve (the write path is what is tried here): a whole record."""
 
-    def cell(k_tau, delta_z_um, settings, on_state=None, adhesion=False):
+    def cell(k_tau, delta_z_um, settings, on_state=None, adhesion=False, model=None):
         calls.append((k_tau, delta_z_um))
         return {"k_tau": k_tau, "delta_z_um": delta_z_um, "adhesion": adhesion, "n": settings.n,
                 "delta_x_max_um": 1e-5, "paper_delta_x_max_um": 1e-5, "rel_diff_delta_x_max": 0.0, "mu": 0.5,

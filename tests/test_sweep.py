@@ -128,7 +128,8 @@ def test_ctrl_c_keeps_what_finished(tmp_path, monkeypatch, capsys):
     monkeypatch.setattr(api, "solve", solve_then_interrupt)
     sweep = write_sweep(tmp_path, f'base = "{HERTZ_CASE.as_posix()}"\n[sweep]\n"grid.n" = [24, 32]\n')
     out = tmp_path / "out"
-    assert cmd_sweep(parse("sweep", sweep, "--out", out, "--quiet")) == 130
+    # --workers 1: the cases in this process, where the patched api.solve is
+    assert cmd_sweep(parse("sweep", sweep, "--out", out, "--quiet", "--workers", "1")) == 130
     assert "interrupted" in capsys.readouterr().err
     assert len(list((out / "cases").glob("*.json"))) == 1 and len(read_csv(out / "sweep.csv")) == 1
     monkeypatch.setattr(api, "solve", real)

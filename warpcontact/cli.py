@@ -106,10 +106,9 @@ def _parser():
     t.add_argument("--delta-t", type=float, default=_T2.delta_t, help=f"SMC tangential length [m] (default {_T2.delta_t:g})")
     t.add_argument("--n", type=int, nargs="+", default=[128], help="cells per side; several values give a grid study")
     t.add_argument("--size-in-a", type=float, default=3.0, help="domain side in Hertz radii a = sqrt(R delta_z)")
-    t.add_argument("--workers", type=int, default=1,
-                   help="cells computed at once, each in a process of its own on the same device (default 1). A GPU "
-                   "runs several 256 x 256 cells at once faster than one after another: one cell keeps a CPU core "
-                   "busy and the GPU mostly idle. Use at most the CPU cores there are.")
+    from .cli_sweep import add_batch_options
+
+    add_batch_options(t, "1", default=1)  # warpcontact.batch
     po = sub.add_parser(
         "pull-off",
         help="approach and retract the sphere: force-displacement curve and pull-off force",
@@ -421,7 +420,9 @@ def cmd_table2(args) -> int:
     import math
 
     from .results import atomic_write_bytes, atomic_write_json
-    from .table2 import Table2Settings, cells, markdown, table2_cell
+    from .batch import Task, run_tasks
+    from .cli_sweep import placement_from
+    from .table2 import Table2Settings, cell_model_key, cells, markdown, run_cell
 
     for n in args.n:
         if n < 8:
@@ -459,8 +460,7 @@ def cmd_table2(args) -> int:
 
     done = {key(r["n"], r["k_tau"], r["delta_z_um"], r.get("adhesion", False), r.get("size_in_a", 3.0),
                 r.get("device", "cpu"), r.get("dtype", "float64"), r.get("fft", "auto"), record_law(r)) for r in records}
-    if args.workers < 1:
-        raise InputError("--workers", f"must be at least 1, got {args.workers}")
+    placement = placement_from(args)
     interrupted = False
     write_error = None  # an OutputError that stopped the run
     kept = len(records)  # cells in table2.json on disk
@@ -508,20 +508,20 @@ def cmd_table2(args) -> int:
     try:
         with interrupts.deferred():
             write()  # this run's marker (complete: false) replaces the last run's before any cell
-        if args.workers == 1 or len(pending) <= 1:
-            for i, (n, k, dz, adh) in pending:
-                settings = settings_for(n)
-                cell = label(n, k, dz, adh)
-                progress.status(finished, extra=cell)
+        tasks = []
+        for i, (n, k, dz, adh) in pending:  # one task of the batch engine per cell
+            settings = settings_for(n)
+            tasks.append(Task(str(i), label(n, k, dz, adh), run_cell, (k, dz, settings, adh),
+                              cell_model_key(dz, settings, adh)))
 
-                def on_state(j, s, cell=cell):  # the current cell's states, on a terminal
-                    progress.status(finished, s["iterations"], s["residual"], f"{cell}: state {j + 1} ({s['kind']})")
+        def on_result(task, rec):
+            return finish(int(task.key), task.label, rec, task.args[2])
 
-                rec = table2_cell(k, dz, settings, on_state=on_state, adhesion=adh)
-                if not finish(i, cell, rec, settings):
-                    break
-        else:
-            _table2_in_workers(args.workers, pending, settings_for, label, finish, progress)
+        def on_state(task, j, s):  # the states of a cell computed in this process, on a terminal
+            progress.status(finished, s["iterations"], s["residual"], f"{task.label}: state {j + 1} ({s['kind']})")
+
+        run_tasks(tasks, on_result, placement, progress=progress, failed=lambda rec: not rec["converged"],
+                  on_state=on_state, before=finished)
     except KeyboardInterrupt as e:
         interrupts.stopping(e)  # a second signal does not cut the last writes
         interrupted = True
@@ -575,49 +575,6 @@ def _turns_hint(states, case) -> str:
         return (f" (a load step used all solver.max_turns = {limit} turns without the tractions settling: raise it "
                 "in [solver]; the adhesive fixed point converges slowly at large Tabor parameters)")
     return ""
-
-
-def _table2_in_workers(workers, pending, settings_for, label, finish, progress):
-    """The pending cells on ``workers`` spawned processes, each finished cell kept at once by
-    ``finish`` (the run ends when it returns False). A cell's error stops the run (the cells
-    finished so far are written) and is raised as in a run without workers; a stop
-    (KeyboardInterrupt: Ctrl-C, SIGTERM, SIGHUP) ends the workers' cells at once and is raised."""
-    import multiprocessing
-    from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
-    from concurrent.futures.process import BrokenProcessPool
-
-    from .table2 import table2_cell_in_worker
-
-    pool = ProcessPoolExecutor(max_workers=min(workers, len(pending)), mp_context=multiprocessing.get_context("spawn"))
-    running = {}
-    stopped = True  # until the loop ends by itself
-    try:
-        for i, (n, k, dz, adh) in pending:
-            settings = settings_for(n)
-            running[pool.submit(table2_cell_in_worker, k, dz, settings, adh)] = (i, label(n, k, dz, adh), settings)
-        progress.status(progress.start, extra=f"{len(running)} cells on {min(workers, len(pending))} workers")
-        while running:
-            done_now, _ = wait(running, return_when=FIRST_COMPLETED)
-            for fut in done_now:
-                i, cell, settings = running.pop(fut)
-                try:
-                    rec = fut.result()
-                except BrokenProcessPool:
-                    # workers ended by a stop sent to the whole process group; the stop reaches us too
-                    if interrupts.received() is not None:
-                        raise interrupts.Stop(interrupts.received()) from None
-                    raise
-                if not finish(i, cell, rec, settings):
-                    return
-        stopped = False
-    finally:
-        if stopped:  # the workers' cells are not waited for: their processes end now
-            for proc in list((getattr(pool, "_processes", None) or {}).values()):
-                try:
-                    proc.terminate()
-                except (OSError, ValueError, AttributeError):
-                    pass
-        pool.shutdown(wait=False, cancel_futures=True)
 
 
 def _table2_result(rec) -> str:

@@ -38,6 +38,7 @@ file), the swept case keys with their values, and the task:
   "load.delta_z" = [1e-11, 5e-11]
   [run]
   task = "gross-slip"               # or "solve"; default gross-slip when the base has [friction]
+  # scheduler = "tcp://host:8786"   # run on a dask cluster started by hand (docs/scaling.md)
 
 writes OUT/cases/<id>.json for each case as soon as it finishes (the swept values, the summary:
 delta_x_max [m], mu, force [N] for gross-slip, the last state's forces and areas for solve;
@@ -62,8 +63,33 @@ def add_parser(sub):
     p.add_argument("--dtype", choices=("float64", "float32"), help="override [solver] dtype of every case")
     p.add_argument("--fft", choices=FFT_BACKENDS, help="override [solver] fft of every case")
     p.add_argument("--quiet", action="store_true", help="no progress lines (warnings and errors are still printed)")
+    add_batch_options(p, default_workers="one per GPU for CUDA cases, else one per CPU core")
     p.set_defaults(func=cmd_sweep)
     return p
+
+
+def add_batch_options(p, default_workers: str, default: int | None = None):
+    """``--workers`` (``default``: None sizes a local cluster to the machine) and ``--scheduler`` of a
+    command of many cases (:mod:`warpcontact.batch`); ``default_workers`` says the default in words."""
+    p.add_argument("--workers", type=int, metavar="N", default=default,
+                   help="cases computed at once: 1 computes them in this process, one after another; N > 1 in N "
+                   f"worker processes of a local cluster (default: {default_workers}). On CUDA the workers take "
+                   "the GPUs in turn; several may share one GPU (small grids leave a GPU mostly idle)")
+    p.add_argument("--scheduler", metavar="ADDRESS",
+                   help="run the cases on the workers of a running dask scheduler (tcp://host:8786) instead of a "
+                   "local cluster; see docs/scaling.md")
+
+
+def placement_from(args, scheduler=None):
+    """The :class:`warpcontact.batch.Placement` of ``--workers`` / ``--scheduler`` (``scheduler``: a
+    file's ``[run] scheduler``, which the option overrides). InputError for workers < 1."""
+    from .batch import Placement
+    from .errors import InputError
+
+    if args.workers is not None and args.workers < 1:
+        raise InputError("--workers", f"must be at least 1, got {args.workers}")
+    return Placement(scheduler=args.scheduler or scheduler, workers=args.workers,
+                     device=getattr(args, "device", None) or "cpu")
 
 
 def cmd_sweep(args) -> int:
@@ -75,7 +101,8 @@ def cmd_sweep(args) -> int:
     from .sweep import load_sweep, run_sweep
 
     sweep = load_sweep(args.sweep, device=args.device, dtype=args.dtype, fft=args.fft)
-    report = run_sweep(sweep, args.out, quiet=args.quiet)  # its writes after a stop are guarded (deferred)
+    placement = placement_from(args, sweep.scheduler)
+    report = run_sweep(sweep, args.out, quiet=args.quiet, placement=placement)  # writes after a stop: deferred
     out = args.out
     if report.write_error is not None:
         raise report.write_error.with_hint(

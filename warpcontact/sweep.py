@@ -64,7 +64,7 @@ from .errors import ConvergenceError, InputError, NonFiniteError, OutputError
 #: Tables of a sweep file.
 SWEEP_TABLES = ("base", "sweep", "run")
 #: Keys of the ``[run]`` table.
-RUN_KEYS = ("task", "rel_tol")
+RUN_KEYS = ("task", "rel_tol", "scheduler")
 #: What each case runs: ``api.solve`` (the case's load path) or ``api.gross_slip``.
 TASKS = ("solve", "gross-slip")
 #: Default bisection bracket of delta_x_max (relative), as in ``warpcontact gross-slip``.
@@ -123,6 +123,8 @@ class Sweep:
         rel_tol: bisection bracket of delta_x_max (gross-slip).
         cases: every combination, in order.
         source: the sweep file, or None.
+        scheduler: ``[run] scheduler``, the address of a dask scheduler to run the cases on
+            (docs/scaling.md), or None.
     """
 
     base: Case
@@ -132,6 +134,7 @@ class Sweep:
     rel_tol: float
     cases: tuple
     source: str | None = None
+    scheduler: str | None = None
 
 
 def _jsonable(x):
@@ -264,6 +267,16 @@ def _run_settings(data: Mapping, base: Case) -> tuple[str, float]:
     return task, float(rel_tol)
 
 
+def _run_scheduler(data: Mapping) -> str | None:
+    """``[run] scheduler``: a dask scheduler's address (``tcp://host:8786``), or None."""
+    v = data.get("run", {}).get("scheduler")
+    if v is None:
+        return None
+    if not isinstance(v, str) or not v.strip():
+        raise InputError("run.scheduler", f"must be a scheduler's address such as 'tcp://host:8786', got {v!r}")
+    return v.strip()
+
+
 def _substitute(base: dict, params: Mapping) -> dict:
     """The base case dict with the swept values put in (an explicit load.path replaces the default
     path's keys, and the reverse)."""
@@ -371,7 +384,7 @@ def sweep_from_dict(data: Mapping, source: str | PathLike | None = None, device:
         _check_task(sc, task)
         cases.append(sc)
     return Sweep(base=base, keys=tuple(keys), values=tuple(values), task=task, rel_tol=rel_tol, cases=tuple(cases),
-                 source=str(src) if src is not None else None)
+                 source=str(src) if src is not None else None, scheduler=_run_scheduler(data))
 
 
 def load_sweep(path: str | PathLike, device: str | None = None, dtype: str | None = None,
@@ -418,6 +431,7 @@ class SweepReport:
         stop_signal: "SIGINT", "SIGTERM", "SIGHUP" when interrupted, else None.
         write_error: the :class:`~warpcontact.errors.OutputError` that ended the run (a full disk,
             a read-only file system, ...), or None; the cases finished before it are on disk.
+        batch: the batch engine's times (:class:`warpcontact.batch.BatchStats`), or None.
     """
 
     records: list = field(default_factory=list)
@@ -428,6 +442,7 @@ class SweepReport:
     total: int = 0
     stop_signal: str | None = None
     write_error: Exception | None = None
+    batch: object = None
 
     @property
     def errors(self) -> list:
@@ -481,16 +496,53 @@ def _run_case(task: str, rel_tol: float, case: Case, on_state, model=None) -> di
     its states. KeyboardInterrupt propagates (nothing is recorded)."""
     from . import api
 
-    if sweep.task == "gross-slip":
-        r = api.gross_slip(sc.case, rel_tol=sweep.rel_tol, on_state=lambda k, s: on_state(k, None, s))
+    if task == "gross-slip":
+        r = api.gross_slip(case, rel_tol=rel_tol, on_state=lambda k, s: on_state(k, None, s), model=model)
         return _gross_slip_summary(r)
-    result = api.solve(sc.case, on_state=lambda k, total, s, res: on_state(k, total, s))
+    result = api.solve(case, on_state=lambda k, total, s, res: on_state(k, total, s), model=model)
     if result.interrupted:  # run_path keeps what finished; a sweep records whole cases only
         raise KeyboardInterrupt
     summary = dict(result.states[-1])
     summary["converged"] = result.converged
     summary["n_states"] = len(result.states)
     return summary
+
+
+def run_case(task: str, rel_tol: float, case: Case, on_state=None) -> dict:
+    """One case of a sweep where the batch engine runs it (a worker, or this process): its outcome,
+    ``summary`` or ``error`` (a case that raised InputError, NonFiniteError or ConvergenceError),
+    ``warnings`` (their messages) and ``elapsed_s`` [s]. The model comes from the process's cache
+    (:func:`warpcontact.batch.cached_model`): a case of the last case's grid reuses it. On a worker
+    pinned to a GPU a CUDA case runs on that GPU. ``on_state(index, total or None, summary)``
+    follows its states. An InputError about the machine (device, FFT, dtype) is raised: it stops
+    the sweep; KeyboardInterrupt propagates (nothing is recorded)."""
+    from .batch import cached_model, model_key, worker_device
+    from .runner import build_model
+
+    device = worker_device(case.solver.device)
+    if device != case.solver.device:
+        case = case.with_overrides(device=device)
+    t0 = time.perf_counter()
+    summary = error = None
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        try:
+            s = case.solver
+            model = cached_model(model_key(case.pair, case.sphere, case.grid, s.device, s.dtype, s.fft),
+                                 lambda: build_model(case))
+            summary = _run_case(task, rel_tol, case, on_state or (lambda *a: None), model)
+        except InputError as e:
+            if e.key in _SETUP_KEYS:
+                raise
+            error = str(e)
+        except (NonFiniteError, ConvergenceError) as e:
+            error = f"{type(e).__name__}: {e}"
+    outcome = {"elapsed_s": time.perf_counter() - t0, "warnings": list(dict.fromkeys(str(w.message) for w in caught))}
+    if error:
+        outcome["error"] = error
+    else:
+        outcome["summary"] = summary
+    return outcome
 
 
 def _csv_cell(v):
@@ -578,22 +630,32 @@ def _result_text(task: str, summary: dict) -> str:
     return text if summary["converged"] else text + " (not converged)"
 
 
-def run_sweep(sweep: Sweep, out: str | PathLike, quiet: bool = False, log=None) -> SweepReport:
+def _placement_device(sweep: Sweep) -> str:
+    """The device that sizes a local cluster: CUDA when any case runs there."""
+    devices = [sc.case.solver.device for sc in sweep.cases]
+    return next((d for d in devices if str(d).startswith("cuda")), devices[0] if devices else "cpu")
+
+
+def run_sweep(sweep: Sweep, out: str | PathLike, quiet: bool = False, log=None, placement=None) -> SweepReport:
     """Run every case of ``sweep`` not finished before in ``out``; write each at once.
 
-    After each case: ``out/cases/<id>.json`` (params, label, task, status "ok" / "not converged"
-    / "error", converged, summary, elapsed_s [s], warnings, the case dict) and ``out/sweep.csv``
-    (every finished case of this sweep), both atomically. A case that raises InputError (not a
-    device or FFT problem, which stops the sweep), NonFiniteError or ConvergenceError is recorded
-    with ``error`` and the sweep continues. Ctrl-C stops the run; what finished is written and the
-    report says ``interrupted`` (SIGTERM and SIGHUP likewise, where the command line handles them:
-    :mod:`warpcontact.interrupts`). A write that fails (no space left, read-only file system, ...)
-    ends the run with ``report.write_error`` set: the cases finished before are on disk and a rerun
-    resumes. ``out/sweep.json`` says whether the sweep is complete (:func:`_write_status`). Unless
-    quiet, a result line per case goes to ``log`` (stderr),
-    under a progress bar on a terminal (:mod:`warpcontact.progress`); warnings and errors are
-    printed either way.
+    The cases run where ``placement`` (:class:`warpcontact.batch.Placement`) says: in this process
+    (the default), on a local cluster of worker processes, or on a cluster given by its scheduler's
+    address (:mod:`warpcontact.batch`). As each case finishes, in this process:
+    ``out/cases/<id>.json`` (params, label, task, status "ok" / "not converged" / "error",
+    converged, summary, elapsed_s [s], warnings, the case dict) and ``out/sweep.csv`` (every
+    finished case of this sweep), both atomically. A case that raises InputError (not a device or
+    FFT problem, which stops the sweep), NonFiniteError or ConvergenceError is recorded with
+    ``error`` and the sweep continues; so is a case whose workers died every time it was tried.
+    Ctrl-C stops the run; what finished is written and the report says ``interrupted`` (SIGTERM
+    and SIGHUP likewise, where the command line handles them: :mod:`warpcontact.interrupts`). A
+    write that fails (no space left, read-only file system, ...) ends the run with
+    ``report.write_error`` set: the cases finished before are on disk and a rerun resumes.
+    ``out/sweep.json`` says whether the sweep is complete (:func:`_write_status`). Unless quiet, a
+    result line per case goes to ``log`` (stderr), under a progress bar on a terminal (cases done,
+    running, failed; :mod:`warpcontact.progress`); warnings and errors are printed either way.
     """
+    from .batch import LostTask, Placement, Task, model_key, run_tasks
     from .progress import Progress
     from .results import atomic_write_json, output_error
 
@@ -604,6 +666,7 @@ def run_sweep(sweep: Sweep, out: str | PathLike, quiet: bool = False, log=None) 
     n = len(sweep.cases)
     width = len(str(n))
     records: dict[str, dict] = {}
+    by_id = {sc.id: sc for sc in sweep.cases}
 
     def ordered():
         return [records[sc.id] for sc in sweep.cases if sc.id in records]
@@ -618,6 +681,60 @@ def run_sweep(sweep: Sweep, out: str | PathLike, quiet: bool = False, log=None) 
 
     # a bar over the cases on a terminal, redrawn with the running case's states; a log gets a line per case
     progress = Progress("sweep", total=n, quiet=quiet, stream=log, start=len(records))
+
+    def on_state(task, k, total, s):
+        where = f"state {k + 1}/{total}" if total else f"state {k + 1} ({s.get('kind', '')})"
+        progress.status(len(records), s["iterations"], s["residual"], f"{task.label}: {where}")
+
+    def on_result(task, outcome):
+        sc = by_id[task.key]
+        error = outcome.get("error")
+        summary = outcome.get("summary")
+        rec = {
+            "id": sc.id,
+            "label": sc.label,
+            "index": sc.index,
+            **_identity(sweep, sc),
+            "status": "error" if error else ("ok" if summary["converged"] else "not converged"),
+            "converged": False if error else bool(summary["converged"]),
+        }
+        if error:
+            rec["error"] = error
+        else:
+            rec["summary"] = summary
+        rec.update(elapsed_s=outcome["elapsed_s"], warnings=outcome["warnings"],
+                   software={"warpcontact": __version__})
+        case = rec.pop("case")
+        rec["case"] = case  # the long case dict last, for reading
+        with interrupts.deferred():  # the record, the CSV and the status agree; a stop comes after
+            atomic_write_json(_record_path(out, sc), rec)
+            records[sc.id] = rec
+            report.computed.append(sc.id)
+            _write_csv(out, sweep, ordered())
+            _write_status(out, sweep, report, ordered(), complete=False)
+        what = f"error: {error}" if error else _result_text(sweep.task, summary)
+        progress.write(f"sweep [{sc.index + 1:>{width}}/{n}] {sc.label}: {what} ({rec['elapsed_s']:.1f} s)")
+        if quiet and error:
+            progress.write(f"warpcontact: sweep case {sc.label}: error: {error} (recorded; the sweep goes on)",
+                           always=True)
+        for m in outcome["warnings"]:
+            progress.write(f"warpcontact: warning: {sc.label}: {m}", always=True)
+        return True
+
+    def on_error(task, e):
+        if isinstance(e, LostTask):  # recorded as a case's error; the others go on
+            return on_result(task, {"error": str(e), "warnings": [], "elapsed_s": 0.0})
+        raise e
+
+    def group(case):
+        s = case.solver
+        return model_key(case.pair, case.sphere, case.grid, s.device, s.dtype, s.fft)
+
+    tasks = [Task(sc.id, sc.label, run_case, (sweep.task, sweep.rel_tol, sc.case), group(sc.case))
+             for sc in sweep.cases if sc.id not in records]
+    placement = placement or Placement(workers=1)
+    if placement.device == "cpu" and placement.scheduler is None:
+        placement = Placement(placement.scheduler, placement.workers, _placement_device(sweep))
     try:
         try:
             out.mkdir(parents=True, exist_ok=True)
@@ -626,59 +743,9 @@ def run_sweep(sweep: Sweep, out: str | PathLike, quiet: bool = False, log=None) 
         with interrupts.deferred():
             _write_csv(out, sweep, ordered())
             _write_status(out, sweep, report, ordered(), complete=False)
-        for sc in sweep.cases:
-            if sc.id in records:
-                continue
-            head = f"sweep [{sc.index + 1:>{width}}/{n}] {sc.label}"
-            progress.status(len(records), extra=sc.label)
-
-            def on_state(k, total, s, label=sc.label):
-                where = f"state {k + 1}/{total}" if total else f"state {k + 1} ({s.get('kind', '')})"
-                progress.status(len(records), s["iterations"], s["residual"], f"{label}: {where}")
-
-            t1 = time.perf_counter()
-            error = None
-            with warnings.catch_warnings(record=True) as caught:
-                warnings.simplefilter("always")
-                try:
-                    summary = _run_case(sweep, sc, on_state)
-                except InputError as e:
-                    if e.key in _SETUP_KEYS:
-                        raise
-                    error = str(e)
-                except (NonFiniteError, ConvergenceError) as e:
-                    error = f"{type(e).__name__}: {e}"
-            messages = list(dict.fromkeys(str(w.message) for w in caught))
-            rec = {
-                "id": sc.id,
-                "label": sc.label,
-                "index": sc.index,
-                **_identity(sweep, sc),
-                "status": "error" if error else ("ok" if summary["converged"] else "not converged"),
-                "converged": False if error else bool(summary["converged"]),
-            }
-            if error:
-                rec["error"] = error
-            else:
-                rec["summary"] = summary
-            rec.update(elapsed_s=time.perf_counter() - t1, warnings=messages,
-                       software={"warpcontact": __version__})
-            case = rec.pop("case")
-            rec["case"] = case  # the long case dict last, for reading
-            with interrupts.deferred():  # the record, the CSV and the status agree; a stop comes after
-                atomic_write_json(_record_path(out, sc), rec)
-                records[sc.id] = rec
-                report.computed.append(sc.id)
-                _write_csv(out, sweep, ordered())
-                _write_status(out, sweep, report, ordered(), complete=False)
-            what = f"error: {error}" if error else _result_text(sweep.task, summary)
-            progress.write(f"{head}: {what} ({rec['elapsed_s']:.1f} s)")
-            if quiet and error:
-                progress.write(f"warpcontact: sweep case {sc.label}: error: {error} (recorded; the sweep goes on)",
-                               always=True)
-            for m in messages:
-                progress.write(f"warpcontact: warning: {sc.label}: {m}", always=True)
-            progress.status(len(records))
+        report.batch = run_tasks(tasks, on_result, placement, progress=progress, before=len(records),
+                                 failed=lambda o: "error" in o or not o["summary"]["converged"],
+                                 on_error=on_error, on_state=on_state)
         with interrupts.deferred(raise_after=False):
             _write_status(out, sweep, report, ordered(), complete=len(records) == n)
     except KeyboardInterrupt as e:
@@ -712,6 +779,7 @@ __all__ = [
     "csv_text",
     "finished_record",
     "load_sweep",
+    "run_case",
     "run_sweep",
     "sweep_from_dict",
 ]

@@ -128,17 +128,20 @@ def cell_grid(delta_z: float, settings: Table2Settings, adhesion=None) -> Grid:
     return Grid(n, size)
 
 
-def table2_cell(k_tau: float, delta_z_um: float, settings: Table2Settings, on_state=None, adhesion: bool = False) -> dict:
+def table2_cell(k_tau: float, delta_z_um: float, settings: Table2Settings, on_state=None, adhesion: bool = False,
+                model=None) -> dict:
     """One cell: delta_x_max, mu and the paper's values, with relative differences.
 
     With ``adhesion`` the SMC law of ``settings`` acts; mu = F_x / F_z with the total F_z
     (adhesive part included, MODEL.md section 7), and mu_elastic = F_x / F_z of the contact
-    pressure alone is reported beside it.
+    pressure alone is reported beside it. ``model``: the cell's model to reuse (a
+    :class:`~warpcontact.model.ContactModel` of :func:`cell_model_key`), else one is built.
     """
     dz = delta_z_um * UM
     adhesive = settings.adhesion_law() if adhesion else None
-    model = ContactModel(PAPER_PAIR, Sphere(RADIUS), cell_grid(dz, settings, adhesive),
-                         device=settings.device, dtype=settings.dtype, fft=settings.fft)
+    if model is None:
+        model = ContactModel(PAPER_PAIR, Sphere(RADIUS), cell_grid(dz, settings, adhesive),
+                             device=settings.device, dtype=settings.dtype, fft=settings.fft)
     law = TaborVonMises(k_tau, PAPER_PAIR.softer.yield_strength)
     t0 = time.perf_counter()
     r = find_gross_slip(model, ContactSolver(model, law, adhesion=adhesive), dz, rel_tol=settings.rel_tol,
@@ -176,13 +179,31 @@ def table2_cell(k_tau: float, delta_z_um: float, settings: Table2Settings, on_st
     return withhold_if_unconverged(record, TABLE2_RESULTS)
 
 
-def table2_cell_in_worker(k_tau: float, delta_z_um: float, settings: Table2Settings, adhesion: bool) -> dict:
-    """:func:`table2_cell` in a worker process of ``warpcontact table2 --workers`` (spawned, not
-    forked: a CUDA context does not survive a fork)."""
-    import warp as wp
+def cell_model_key(delta_z_um: float, settings: Table2Settings, adhesion: bool) -> tuple:
+    """What the model of a cell depends on (:func:`warpcontact.batch.model_key`): cells of one
+    delta_z, column and grid share it, whatever their k_tau."""
+    from .batch import model_key
 
-    wp.config.quiet = True
-    return table2_cell(k_tau, delta_z_um, settings, adhesion=adhesion)
+    grid = cell_grid(delta_z_um * UM, settings, settings.adhesion_law() if adhesion else None)
+    return model_key(PAPER_PAIR, Sphere(RADIUS), grid, settings.device, settings.dtype, settings.fft)
+
+
+def run_cell(k_tau: float, delta_z_um: float, settings: Table2Settings, adhesion: bool, on_state=None) -> dict:
+    """:func:`table2_cell` where the batch engine runs it (a worker of ``warpcontact table2
+    --workers``, or this process): the model from the process's cache (a cell of the last cell's
+    grid reuses it; :func:`warpcontact.batch.cached_model`); on a worker pinned to a GPU a CUDA
+    cell runs on that GPU."""
+    import dataclasses
+
+    from .batch import cached_model, worker_device
+
+    device = worker_device(settings.device)
+    if device != settings.device:
+        settings = dataclasses.replace(settings, device=device)
+    key = cell_model_key(delta_z_um, settings, adhesion)
+    model = cached_model(key, lambda: ContactModel(key[0], key[1], key[2], device=settings.device,
+                                                   dtype=settings.dtype, fft=settings.fft))
+    return table2_cell(k_tau, delta_z_um, settings, on_state=on_state, adhesion=adhesion, model=model)
 
 
 def cells():

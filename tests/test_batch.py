@@ -1,0 +1,296 @@
+"""The batch engine (warpcontact.batch): cases as tasks on dask.distributed.
+
+A worker killed mid-sweep loses nothing finished and its case is computed again; the per-worker
+model cache gives the numbers of a fresh model; errors cross the process boundary whole; local
+clusters are sized to the machine and pinned to GPUs; a sweep runs on a scheduler given by address.
+
+Every test that starts a cluster uses at most 2 worker processes (CI has 2 CPU cores), small
+grids, and an alarm that ends it (the cluster closed) instead of letting it hang.
+"""
+
+import json
+import os
+import pickle
+import signal
+import sys
+import threading
+import time
+from pathlib import Path
+
+import pytest
+
+from warpcontact import batch
+from warpcontact.batch import Placement, Task, run_tasks
+from warpcontact.errors import InputError
+
+ROOT = Path(__file__).resolve().parents[1]
+HERTZ_CASE = ROOT / "examples" / "hertz.toml"
+#: seconds a test that starts a cluster may take before the alarm ends it
+ALARM_S = 240
+
+
+@pytest.fixture
+def alarm():
+    """SIGALRM after ALARM_S seconds raises in the test (run_tasks closes its cluster on the way out)."""
+
+    def ring(signum, frame):
+        raise TimeoutError(f"the batch test took more than {ALARM_S} s")
+
+    previous = signal.signal(signal.SIGALRM, ring)
+    signal.alarm(ALARM_S)
+    yield
+    signal.alarm(0)
+    signal.signal(signal.SIGALRM, previous)
+
+
+@pytest.fixture
+def by_value():
+    """This module's functions travel to the workers by value (the workers need not import it)."""
+    import cloudpickle
+
+    module = sys.modules[__name__]
+    cloudpickle.register_pickle_by_value(module)
+    yield
+    cloudpickle.unregister_pickle_by_value(module)
+
+
+def marked_task(folder: str, key: str, seconds: float) -> dict:
+    """A case for the engine's own tests: writes ``started-<key>-<pid>`` in ``folder``, waits
+    ``seconds`` and returns which process computed it."""
+    Path(folder, f"started-{key}-{os.getpid()}").write_text("")
+    time.sleep(seconds)
+    return {"key": key, "pid": os.getpid()}
+
+
+def raise_input_error(key: str, problem: str):
+    raise InputError(key, problem)
+
+
+def _starts(folder: Path) -> dict:
+    """key -> pids of the processes that started it."""
+    out = {}
+    for p in folder.glob("started-*"):
+        _, key, pid = p.name.split("-")
+        out.setdefault(key, []).append(int(pid))
+    return out
+
+
+def _children(pid: int) -> list[int]:
+    """Processes whose parent is ``pid`` (Linux /proc)."""
+    kids = []
+    for entry in Path("/proc").iterdir():
+        if entry.name.isdigit():
+            try:
+                stat = (entry / "stat").read_text()
+            except OSError:
+                continue
+            if int(stat.rsplit(")", 1)[1].split()[1]) == pid:
+                kids.append(int(entry.name))
+    return kids
+
+
+def _kill_when(condition, pick_pid, timeout=120):
+    """A thread that waits for ``condition()`` and SIGKILLs ``pick_pid()``; returns (thread, killed)."""
+    killed = []
+
+    def watch():
+        t0 = time.monotonic()
+        while time.monotonic() - t0 < timeout:
+            if condition():
+                pid = pick_pid()
+                if pid is not None:
+                    os.kill(pid, signal.SIGKILL)
+                    killed.append(pid)
+                    return
+            time.sleep(0.05)
+
+    thread = threading.Thread(target=watch, daemon=True)
+    thread.start()
+    return thread, killed
+
+
+@pytest.mark.skipif(not Path("/proc").exists(), reason="finds the worker processes through /proc")
+def test_a_worker_killed_mid_run_loses_nothing_and_its_case_is_rerun(tmp_path, alarm, by_value):
+    """Six 1.5 s cases on 2 workers; once two cases are handed back, the worker computing a third
+    is killed (SIGKILL). Every case is handed back exactly once, the two finished before the kill
+    among them, and the killed worker's case was started again by another process."""
+    folder = tmp_path / "marks"
+    folder.mkdir()
+    tasks = [Task(f"c{i}", f"case {i}", marked_task, (str(folder), f"c{i}", 1.5)) for i in range(6)]
+    results = {}
+
+    def running_elsewhere():
+        """A case started and not handed back, on a process that is not running another's end."""
+        if len(results) < 2:
+            return None
+        for key, pids in _starts(folder).items():
+            if key not in results and len(pids) == 1:
+                return pids[0]
+        return None
+
+    watcher, killed = _kill_when(lambda: running_elsewhere() is not None, running_elsewhere)
+    before_kill = {}
+
+    def on_result(task, value):
+        results[task.key] = value
+        if not killed:
+            before_kill[task.key] = value
+
+    stats = run_tasks(tasks, on_result, Placement(workers=2))
+    watcher.join(timeout=5)
+    assert killed, "no worker was killed: the cases ended before the watcher saw one running"
+    assert sorted(results) == [t.key for t in tasks]  # each case handed back, once (a dict keyed by case)
+    assert all(results[k] == v for k, v in before_kill.items()) and len(before_kill) >= 2
+    starts = _starts(folder)
+    victim = [k for k, pids in starts.items() if killed[0] in pids and k not in before_kill]  # its running case
+    assert len(victim) == 1, starts
+    (key,) = victim
+    assert len(starts[key]) == 2 and results[key]["pid"] != killed[0], starts  # computed again, elsewhere
+    assert stats.workers == 2 and len(stats.task_times) == 6
+
+
+@pytest.mark.skipif(not Path("/proc").exists(), reason="finds the worker processes through /proc")
+def test_a_sweep_whose_worker_is_killed_finishes_with_every_case_written(tmp_path, alarm):
+    """A real sweep (frictionless Hertz solves, 5 grids) on 2 local workers; a worker is killed
+    (SIGKILL) once the first case is written. The sweep completes: every case written once, the
+    first case's file unchanged, sweep.json complete."""
+    from warpcontact.sweep import load_sweep, run_sweep
+
+    (tmp_path / "sweep.toml").write_text(f'base = "{HERTZ_CASE.as_posix()}"\n[sweep]\n'
+                                         '"load.steps" = [3, 4, 5, 6, 7]\n[run]\ntask = "solve"\n')
+    sweep = load_sweep(tmp_path / "sweep.toml")
+    out = tmp_path / "out"
+    first = {}
+
+    def written():
+        files = sorted((out / "cases").glob("*.json")) if (out / "cases").exists() else []
+        if files and not first:
+            first.update(path=files[0], data=files[0].read_bytes())
+        return bool(files)
+
+    def a_worker():
+        workers = [p for p in _children(os.getpid()) if "spawn" in Path(f"/proc/{p}/cmdline").read_text()]
+        return workers[0] if workers else None
+
+    watcher, killed = _kill_when(written, a_worker)
+    report = run_sweep(sweep, out, quiet=True, placement=Placement(workers=2))
+    watcher.join(timeout=5)
+    assert killed, "no worker was killed"
+    assert not report.interrupted and report.write_error is None
+    assert len(report.records) == 5 and all(r["converged"] for r in report.records), report.records
+    assert sorted(p.stem for p in (out / "cases").glob("*.json")) == sorted(sc.id for sc in sweep.cases)
+    assert first["path"].read_bytes() == first["data"]  # finished before the kill: kept as written
+    status = json.loads((out / "sweep.json").read_text())
+    assert status["complete"] is True and status["finished"] == 5
+
+
+def test_the_model_cache_reuses_the_model_and_gives_a_fresh_models_numbers():
+    """Two cases of one grid in one process: the second reuses the first's model (built once) and
+    its forces equal those of a case solved with a model of its own, to the bit (same operations)."""
+    from warpcontact import api
+    from warpcontact.case import load_case
+    from warpcontact.sweep import run_case
+
+    case = load_case(HERTZ_CASE)  # the example's n = 128, one state
+    batch.clear_models()
+    built = batch._cache_stats["built"]
+    reused = batch._cache_stats["reused"]
+    one = run_case("solve", 0.01, case)
+    two = run_case("solve", 0.01, case)
+    assert batch._cache_stats["built"] - built == 1 and batch._cache_stats["reused"] - reused == 1
+    fresh = api.solve(case).states[-1]
+    for r in (one, two):
+        assert r["summary"]["force"] == fresh["force"] and r["summary"]["iterations"] == fresh["iterations"]
+    other = case.with_overrides(dtype="float32")  # another model key: built, the last one dropped
+    run_case("solve", 0.01, other)
+    assert batch._cache_stats["built"] - built == 2 and len(batch._models) == 1
+    batch.clear_models()
+
+
+def test_errors_of_warpcontact_cross_the_process_boundary_whole():
+    """InputError's two arguments do not survive pickling as an exception: call_task carries them."""
+    carried = batch.call_task(raise_input_error, ("grid.n", "must be at least 8, got 4"))
+    back = pickle.loads(pickle.dumps(carried)).error()
+    assert isinstance(back, InputError) and back.key == "grid.n" and back.problem == "must be at least 8, got 4"
+    done = batch.call_task(lambda x: x + 1, (1,))
+    assert done.value == 2 and done.seconds >= 0
+
+
+def test_in_process_errors_go_to_on_error_and_the_run_goes_on():
+    seen, errors = [], []
+    tasks = [Task("a", "a", raise_input_error, ("k", "bad")), Task("b", "b", lambda: 2)]
+    stats = run_tasks(tasks, lambda t, v: seen.append((t.key, v)), Placement(workers=1),
+                      on_error=lambda t, e: errors.append((t.key, e.key)))
+    assert seen == [("b", 2)] and errors == [("a", "k")] and stats.workers == 1
+    with pytest.raises(InputError):  # without on_error the error ends the run
+        run_tasks(tasks, lambda t, v: None, Placement(workers=1))
+
+
+def test_local_clusters_are_sized_to_the_machine_and_pinned_to_gpus(monkeypatch):
+    monkeypatch.setattr(batch, "cpu_cores", lambda: 16)
+    assert len(batch.worker_environments(Placement(), pending=100)) == 16  # one per core
+    assert len(batch.worker_environments(Placement(), pending=3)) == 3  # never more than the cases
+    assert batch.worker_environments(Placement(workers=2), pending=100) == [{}, {}]
+    monkeypatch.setattr(batch, "gpu_ordinals", lambda device: [0, 1] if device == "cuda" else [1])
+    envs = batch.worker_environments(Placement(device="cuda"), pending=100)
+    assert [e["CUDA_VISIBLE_DEVICES"] for e in envs] == ["0", "1"]  # one per GPU
+    envs = batch.worker_environments(Placement(device="cuda", workers=3), pending=100)
+    assert [e["CUDA_VISIBLE_DEVICES"] for e in envs] == ["0", "1", "0"]  # in turn
+    envs = batch.worker_environments(Placement(device="cuda:1"), pending=100)
+    assert [e["CUDA_VISIBLE_DEVICES"] for e in envs] == ["1"]
+
+
+def test_a_pinned_worker_runs_any_cuda_device_on_its_gpu(monkeypatch):
+    monkeypatch.delenv(batch.PINNED_GPU_ENV, raising=False)
+    assert batch.worker_device("cuda:1") == "cuda:1" and batch.worker_device("cpu") == "cpu"
+    monkeypatch.setenv(batch.PINNED_GPU_ENV, "3")
+    assert batch.worker_device("cuda:1") == "cuda:0" and batch.worker_device("cuda") == "cuda:0"
+    assert batch.worker_device("cpu") == "cpu"
+
+
+def test_tasks_of_one_model_are_submitted_together():
+    tasks = [Task(str(i), str(i), None, (), group=g) for i, g in enumerate("abab")]
+    assert [t.key for t in batch._grouped(tasks)] == ["0", "2", "1", "3"]
+
+
+def test_in_process_placement():
+    assert Placement(workers=1).in_process(10) and Placement().in_process(1)
+    assert not Placement().in_process(2) and not Placement(scheduler="tcp://h:1", workers=1).in_process(1)
+
+
+def test_a_sweep_runs_on_a_scheduler_given_by_address(tmp_path, alarm):
+    """The cluster of another process (here a LocalCluster of one worker process started by the
+    test, as `dask scheduler` and `dask worker` would be): [run] scheduler sends the cases there;
+    the cluster keeps running after the sweep."""
+    from distributed import LocalCluster
+
+    from warpcontact.sweep import load_sweep, run_sweep
+
+    with LocalCluster(n_workers=1, threads_per_worker=1, processes=True, dashboard_address=None,
+                      host="127.0.0.1") as cluster:
+        (tmp_path / "sweep.toml").write_text(
+            f'base = "{HERTZ_CASE.as_posix()}"\n[sweep]\n"grid.n" = [32, 48]\n'
+            f'[run]\ntask = "solve"\nscheduler = "{cluster.scheduler_address}"\n')
+        sweep = load_sweep(tmp_path / "sweep.toml")
+        assert sweep.scheduler == cluster.scheduler_address
+        report = run_sweep(sweep, tmp_path / "out", quiet=True, placement=Placement(scheduler=sweep.scheduler))
+        assert len(report.records) == 2 and all(r["converged"] for r in report.records)
+        assert report.batch.where == f"the cluster at {cluster.scheduler_address}"
+        assert len(cluster.scheduler.workers) == 1  # still there
+
+
+def test_an_unreachable_scheduler_is_an_input_error(tmp_path, monkeypatch):
+    monkeypatch.setattr(batch, "CONNECT_TIMEOUT_S", 1)
+    with pytest.raises(InputError) as e:
+        run_tasks([Task("a", "a", int, ())], lambda t, v: None, Placement(scheduler="tcp://127.0.0.1:9"))
+    assert e.value.key == "--scheduler"
+
+
+def test_bad_run_scheduler_names_the_key(tmp_path):
+    from warpcontact.sweep import load_sweep
+
+    (tmp_path / "sweep.toml").write_text(f'base = "{HERTZ_CASE.as_posix()}"\n[sweep]\n"grid.n" = [32]\n'
+                                         "[run]\nscheduler = 8786\n")
+    with pytest.raises(InputError) as e:
+        load_sweep(tmp_path / "sweep.toml")
+    assert e.value.key == "run.scheduler"

@@ -1,0 +1,463 @@
+"""The batch engine: many cases as tasks on dask.distributed, each result handed back as it arrives.
+
+Every command of many cases (``sweep``, ``table2``) gives its cases to :func:`run_tasks`, which
+runs them where :class:`Placement` says and calls ``on_result`` in this process for each finished
+case, in the order they finish: the command writes it there (atomically), so nothing finished is
+lost whatever happens to the run or its workers afterwards, and a rerun skips it.
+
+Where the cases run:
+
+- ``workers=1`` and no scheduler: in this process, one after another; no cluster is started and
+  the states of the running case are shown on a terminal.
+- ``workers=N`` (N > 1), or ``workers=None`` (sized to the machine: one worker per GPU when the
+  cases run on CUDA, one per CPU core otherwise): a local cluster of N worker processes started
+  for the run and closed at its end (dask.distributed's ``SpecCluster`` of ``Nanny`` workers, as
+  ``LocalCluster`` builds it, with one thread per worker). On CUDA each worker is pinned to one GPU
+  (``CUDA_VISIBLE_DEVICES``; the workers take the GPUs in turn when there are more workers than
+  GPUs) and a case's ``cuda`` or ``cuda:N`` runs on its worker's GPU.
+- ``scheduler="tcp://host:8786"``: the workers of a cluster started by hand (``dask scheduler``,
+  ``dask worker``; several GPUs, several hosts: docs/scaling.md).
+
+A worker that dies while computing a case (killed, out of memory, its host lost) has its case
+computed again by another worker (dask's scheduler does it; a case whose workers die
+``distributed.scheduler.allowed-failures`` + 1 times, 4 by default, is given up and reported as
+:class:`LostTask`). The cases finished before are on disk already.
+
+Each worker process keeps the model of its last case (:func:`cached_model`: influence spectra, FFT
+plans and buffers, recorded launches; the compiled kernels are the process's anyway), keyed by
+materials, sphere, grid, device, float type and FFT backend, so a run of cases of one grid builds
+it once per worker and the per-case cost is the solve. Tasks are submitted grouped by that key.
+"""
+
+from __future__ import annotations
+
+import os
+import socket
+import time
+from collections import OrderedDict
+from dataclasses import dataclass, field
+from typing import Callable
+
+#: seconds to wait for a scheduler given by address, or for a local cluster's workers, to answer
+CONNECT_TIMEOUT_S = 60
+#: seconds the closing of a local cluster may take before its worker processes are killed
+CLOSE_TIMEOUT_S = 3
+#: set in the environment of a local cluster's GPU workers: the case's CUDA device is the worker's
+PINNED_GPU_ENV = "WARPCONTACT_WORKER_GPU"
+
+
+# ---------------------------------------------------------------------------------------------
+# Tasks and where they run.
+
+
+@dataclass(frozen=True)
+class Task:
+    """One case of a batch.
+
+    Attributes:
+        key: unique within the run (a case id); names the task on the cluster.
+        label: readable name for progress lines and messages.
+        fn: a module-level function (picklable by reference), called as ``fn(*args)`` on a worker
+            or ``fn(*args, on_state=callback)`` in this process; returns a picklable value.
+        args: its arguments (picklable).
+        group: tasks of one group share a model (:func:`model_key`); they are submitted together.
+    """
+
+    key: str
+    label: str
+    fn: Callable
+    args: tuple = ()
+    group: tuple | None = None
+
+
+@dataclass(frozen=True)
+class Placement:
+    """Where a batch runs: ``scheduler`` (an address, or None for a cluster of our own), ``workers``
+    (None: sized to the machine; 1 without a scheduler: this process) and ``device`` (the cases'
+    device: "cpu", "cuda", "cuda:N"; it sizes and pins a local cluster)."""
+
+    scheduler: str | None = None
+    workers: int | None = None
+    device: str = "cpu"
+
+    def in_process(self, pending: int) -> bool:
+        """Whether the cases run in this process: one worker asked for, or a single case (a cluster
+        for one case would only add its start-up), and no scheduler given."""
+        return self.scheduler is None and (self.workers == 1 or pending <= 1)
+
+
+class LostTask(RuntimeError):
+    """A case whose workers died every time it was tried (killed, out of memory)."""
+
+
+@dataclass
+class Tally:
+    """Cases of a run: ``total``, ``before`` (finished by an earlier run), ``done`` (finished now),
+    ``failed`` (of those, the ones the command counts as failed), ``running`` (on workers now)."""
+
+    total: int
+    before: int = 0
+    done: int = 0
+    failed: int = 0
+    running: int = 0
+
+    def text(self) -> str:
+        return f"{self.running} running, {self.failed} failed"
+
+
+@dataclass
+class BatchStats:
+    """Times of a run [s]: ``wall_s`` from the first submission to the last result handed back;
+    ``start_s`` starting (or reaching) the cluster; ``task_s`` the sum over cases of the time
+    inside their functions (on the workers); ``workers`` the workers used (1 in this process)."""
+
+    wall_s: float = 0.0
+    start_s: float = 0.0
+    task_s: float = 0.0
+    tasks: int = 0
+    workers: int = 1
+    where: str = "this process"
+    models_built: int = 0
+    task_times: list = field(default_factory=list)
+
+
+# ---------------------------------------------------------------------------------------------
+# Worker side: the model cache, the device, the call.
+
+
+_models: OrderedDict = OrderedDict()  # this process's models by model_key: the last one
+_cache_stats = {"built": 0, "reused": 0}
+
+
+def model_key(pair, sphere, grid, device: str, dtype: str, fft: str) -> tuple:
+    """What a model depends on: materials, sphere (the initial gap), grid, device, float type, FFT
+    backend."""
+    return (pair, sphere, grid, str(device), str(dtype), str(fft))
+
+
+def cached_model(key: tuple, build: Callable):
+    """The model of ``key`` (:func:`model_key`) this process built last, or ``build()``'s when it
+    holds another: that one is dropped first, so the memory check of the new one sees it freed."""
+    model = _models.get(key)
+    if model is not None:
+        _cache_stats["reused"] += 1
+        return model
+    _models.clear()
+    model = build()
+    _models[key] = model
+    _cache_stats["built"] += 1
+    return model
+
+
+def clear_models() -> None:
+    """Drop the models this process keeps (the end of a run in this process)."""
+    _models.clear()
+
+
+def worker_device(device: str) -> str:
+    """The device a case asking for ``device`` runs on here: on a worker pinned to a GPU
+    (``CUDA_VISIBLE_DEVICES`` set to one GPU, which Warp calls cuda:0) any CUDA device is that GPU."""
+    if str(device).startswith("cuda") and os.environ.get(PINNED_GPU_ENV) is not None:
+        return "cuda:0"
+    return str(device)
+
+
+@dataclass(frozen=True)
+class _Raised:
+    """An error of warpcontact's raised by a task on a worker, carried back whole (InputError's
+    two arguments do not survive pickling as an exception)."""
+
+    kind: str
+    args: tuple
+
+    def error(self) -> BaseException:
+        from . import errors
+
+        return getattr(errors, self.kind)(*self.args)
+
+
+@dataclass(frozen=True)
+class _Done:
+    value: object
+    seconds: float
+    worker: str
+
+
+def _worker_name() -> str:
+    gpu = os.environ.get(PINNED_GPU_ENV)
+    return f"{socket.gethostname()}:{os.getpid()}" + (f" GPU {gpu}" if gpu is not None else "")
+
+
+def call_task(fn: Callable, args: tuple) -> _Done | _Raised:
+    """Run ``fn(*args)`` on a worker: its value and time, or an error of warpcontact's carried back."""
+    from .errors import ConvergenceError, InputError, NonFiniteError
+
+    t0 = time.perf_counter()
+    try:
+        value = fn(*args)
+    except InputError as e:
+        return _Raised("InputError", (e.key, e.problem))
+    except (ConvergenceError, NonFiniteError) as e:
+        return _Raised(type(e).__name__, e.args)
+    return _Done(value, time.perf_counter() - t0, _worker_name())
+
+
+# ---------------------------------------------------------------------------------------------
+# The cluster.
+
+
+def cpu_cores() -> int:
+    """CPU cores this process may use."""
+    try:
+        return len(os.sched_getaffinity(0))
+    except AttributeError:  # not Linux
+        return os.cpu_count() or 1
+
+
+def gpu_ordinals(device: str) -> list[int]:
+    """The GPUs a local cluster uses for cases on ``device``: every CUDA device for "cuda", the
+    one named for "cuda:N"; [] on the CPU. InputError (solver.device) when there is none."""
+    device = str(device)
+    if not device.startswith("cuda"):
+        return []
+    from .device import resolve_device
+
+    resolve_device(device)  # InputError when absent
+    import warp as wp
+
+    return [int(device.split(":")[1])] if ":" in device else list(range(wp.get_cuda_device_count()))
+
+
+def worker_environments(placement: Placement, pending: int) -> list[dict]:
+    """The environment of each worker of a local cluster for ``pending`` cases (one dict each):
+    GPU workers pinned to their GPU in turn; as many workers as asked for (default: one per GPU,
+    or one per CPU core), never more than the cases."""
+    gpus = gpu_ordinals(placement.device)
+    count = placement.workers or (len(gpus) if gpus else cpu_cores())
+    count = max(1, min(count, pending))
+    if not gpus:
+        return [{} for _ in range(count)]
+    return [{"CUDA_VISIBLE_DEVICES": str(gpus[i % len(gpus)]), PINNED_GPU_ENV: str(gpus[i % len(gpus)])}
+            for i in range(count)]
+
+
+class _Cluster:
+    """A dask client on a scheduler given by address, or on a local cluster started here."""
+
+    def __init__(self, placement: Placement, pending: int):
+        import logging
+
+        import dask
+        from distributed import Client, Nanny, Scheduler, SpecCluster
+
+        self.cluster = None
+        # a worker takes one case at a time (its thread count) and the rest wait at the scheduler:
+        # a worker that dies takes only its running case with it
+        dask.config.set({"distributed.scheduler.worker-saturation": 1.0})
+        if placement.scheduler is not None:
+            try:
+                self.client = Client(placement.scheduler, timeout=f"{CONNECT_TIMEOUT_S}s")
+            except (OSError, TimeoutError, ValueError) as e:
+                from .errors import InputError
+
+                raise InputError("--scheduler", f"cannot reach the scheduler at {placement.scheduler!r}: "
+                                                f"{e}") from None
+            self.where = f"the cluster at {placement.scheduler}"
+            return
+        envs = worker_environments(placement, pending)
+        quiet = logging.ERROR
+        workers = {
+            f"warpcontact-{i}": {"cls": Nanny, "options": {
+                "nthreads": 1, "env": env, "host": "127.0.0.1", "dashboard": False, "memory_limit": 0,
+                "silence_logs": quiet, "death_timeout": CONNECT_TIMEOUT_S}}
+            for i, env in enumerate(envs)
+        }
+        scheduler = {"cls": Scheduler, "options": {"dashboard_address": None, "host": "127.0.0.1"}}
+        self.cluster = SpecCluster(scheduler=scheduler, workers=workers, silence_logs=quiet,
+                                   name="warpcontact")
+        try:
+            self.client = Client(self.cluster, timeout=f"{CONNECT_TIMEOUT_S}s")
+        except BaseException:
+            self.cluster.close(timeout=CLOSE_TIMEOUT_S)
+            raise
+        gpus = sorted({env[PINNED_GPU_ENV] for env in envs if env})
+        self.where = (f"{len(envs)} local worker(s)" + (f" on GPU {', '.join(gpus)}" if gpus else " on the CPU"))
+
+    def threads(self) -> int:
+        return max(1, sum(self.client.nthreads().values()))
+
+    def running(self, pending: int) -> int:
+        """Cases on workers now (the scheduler's tasks in processing), at most ``pending``."""
+        try:
+            return min(pending, sum(len(keys) for keys in self.client.processing().values()))
+        except Exception:  # a progress count: never a reason to fail the run
+            return min(pending, self.threads())
+
+    def close(self, futures=()) -> None:
+        """Cancel what is left and close: a local cluster's workers end now (their cases are
+        abandoned); a cluster given by address keeps its workers."""
+        try:
+            if futures:
+                self.client.cancel(list(futures), force=True)
+        except Exception:
+            pass
+        try:
+            self.client.close(timeout=CLOSE_TIMEOUT_S)
+        except Exception:
+            pass
+        if self.cluster is not None:
+            try:
+                self.cluster.close(timeout=CLOSE_TIMEOUT_S)
+            except Exception:
+                pass
+
+
+def _grouped(tasks: list) -> list:
+    """``tasks`` with those of one group together (in the order each group first appears)."""
+    order: dict = {}
+    for t in tasks:
+        order.setdefault(t.group, len(order))
+    return sorted(tasks, key=lambda t: order[t.group])
+
+
+# ---------------------------------------------------------------------------------------------
+# Running a batch.
+
+
+def run_tasks(tasks, on_result: Callable, placement: Placement | None = None, progress=None,
+              failed: Callable | None = None, on_error: Callable | None = None,
+              on_state: Callable | None = None, before: int = 0) -> BatchStats:
+    """Run ``tasks`` (:class:`Task`) where ``placement`` says; hand each value back as it arrives.
+
+    Args:
+        tasks: the cases to compute (those finished by an earlier run left out by the caller).
+        on_result: ``on_result(task, value)`` in this process, as each case finishes (in the order
+            they finish): the caller writes it. Returning False ends the run (the cases still
+            running are abandoned).
+        placement: where (default: this process).
+        progress: a :class:`~warpcontact.progress.Progress` over all the cases; its line is redrawn
+            with the cases done, running and failed.
+        failed: ``failed(value)``: whether a finished case counts as failed in the progress line.
+        on_error: ``on_error(task, error)`` for a case that raised (an error of warpcontact's, or
+            :class:`LostTask`); returning False ends the run. By default the error is raised and
+            the run ends (the cases finished are written).
+        on_state: ``on_state(task, *state_args)`` for the states of a case run in this process
+            (passed to its function as ``on_state``).
+        before: cases finished by an earlier run (counted in the progress line).
+
+    Returns:
+        :class:`BatchStats`.
+
+    A stop (KeyboardInterrupt: Ctrl-C, SIGTERM, SIGHUP) ends the run at once: a local cluster's
+    workers end with it, and the stop is raised after them.
+    """
+    placement = placement or Placement(workers=1)
+    tasks = _grouped(list(tasks))
+    tally = Tally(total=before + len(tasks), before=before)
+    stats = BatchStats(tasks=len(tasks))
+    if not tasks:
+        return stats
+    failed = failed or (lambda value: False)
+
+    def show(extra=""):
+        if progress is not None:
+            progress.status(tally.before + tally.done, extra=f"{tally.text()}{'  ' + extra if extra else ''}")
+
+    def error(task, e) -> bool:
+        tally.failed += 1
+        if on_error is None:
+            raise e
+        return on_error(task, e) is not False
+
+    def hand_back(task, value) -> bool:
+        tally.done += 1
+        if failed(value):
+            tally.failed += 1
+        return on_result(task, value) is not False
+
+    if placement.in_process(len(tasks)):
+        t0 = time.perf_counter()
+        built = _cache_stats["built"]
+        try:
+            for task in tasks:
+                tally.running = 1
+                show(task.label)
+                kwargs = {} if on_state is None else {"on_state": lambda *a, task=task: on_state(task, *a)}
+                t1 = time.perf_counter()
+                try:
+                    value = task.fn(*task.args, **kwargs)
+                except Exception as e:
+                    from .errors import ConvergenceError, InputError, NonFiniteError
+
+                    if not isinstance(e, (InputError, ConvergenceError, NonFiniteError)):
+                        raise
+                    tally.running = 0
+                    if not error(task, e):
+                        break
+                    continue
+                stats.task_times.append(time.perf_counter() - t1)
+                tally.running = 0
+                if not hand_back(task, value):
+                    break
+                show()
+        finally:
+            stats.models_built = _cache_stats["built"] - built
+            clear_models()
+        stats.wall_s = time.perf_counter() - t0
+        stats.task_s = sum(stats.task_times)
+        return stats
+
+    from distributed import as_completed
+    from distributed.client import FutureCancelledError
+
+    try:
+        from distributed.scheduler import KilledWorker
+    except ImportError:  # pragma: no cover - older distributed
+        from distributed import KilledWorker
+
+    t0 = time.perf_counter()
+    show("starting the workers")
+    cluster = _Cluster(placement, len(tasks))
+    futures: dict = {}
+    try:
+        stats.start_s = time.perf_counter() - t0
+        stats.workers = cluster.threads()
+        stats.where = cluster.where
+        t0 = time.perf_counter()
+        token = os.urandom(4).hex()  # a rerun's tasks are new tasks on a long-lived cluster
+        for task in tasks:
+            fut = cluster.client.submit(call_task, task.fn, task.args, key=f"warpcontact-{task.key}-{token}",
+                                        pure=False)
+            futures[fut] = task
+        tally.running = min(len(futures), stats.workers)
+        show(f"on {cluster.where}")
+        for fut in as_completed(list(futures)):
+            task = futures.pop(fut)
+            try:
+                outcome = fut.result()
+            except KilledWorker as e:
+                if not error(task, LostTask(f"the case {task.label} was given up: the workers computing it died "
+                                            f"({e})")):
+                    break
+                continue
+            except FutureCancelledError:
+                continue
+            if isinstance(outcome, _Raised):
+                if not error(task, outcome.error()):
+                    break
+                continue
+            stats.task_times.append(outcome.seconds)
+            tally.running = cluster.running(len(futures)) if progress is not None and progress.live \
+                else min(len(futures), stats.workers)
+            if not hand_back(task, outcome.value):
+                break
+            show()
+    finally:
+        stats.wall_s = time.perf_counter() - t0
+        cluster.close(futures)
+    stats.task_s = sum(stats.task_times)
+    return stats
+
+
+__all__ = ["BatchStats", "LostTask", "Placement", "Task", "Tally", "cached_model", "call_task", "clear_models",
+           "model_key", "run_tasks", "worker_device", "worker_environments"]
