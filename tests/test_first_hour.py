@@ -402,3 +402,32 @@ def test_fields_npz_holds_the_shear_limit(capsys, tmp_path):
     k_vm = 1 / math.sqrt(3)
     law = np.minimum(k_vm / math.sqrt(0.6**-2 - 1) * p, k_vm * np.sqrt(np.maximum(4e9**2 - p**2, 0.0)))
     assert np.allclose(q, law, rtol=1e-9, atol=1e-3) and (q[p > 4e9] == 0).all() and (p > 4e9).any()
+
+
+def test_sweep_rows_carry_the_summary_keys_and_pull_off_is_a_task(tmp_path):
+    """A gross-slip sweep's rows have mu_elastic and force_elastic (docs/sweeps.md names them); a
+    pull-off sweep runs and its rows have the pull-off keys."""
+    import csv
+
+    from warpcontact.sweep import run_sweep, sweep_from_dict
+
+    base = afm_dict(16, adhesion=False)
+    sw = sweep_from_dict({"base": base, "sweep": {"friction.k_tau": [0.6]}, "run": {"task": "gross-slip"}})
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        report = run_sweep(sw, tmp_path / "gs", quiet=True)
+    assert report.all_converged, report.records
+    rows = list(csv.DictReader((tmp_path / "gs" / "sweep.csv").open()))
+    assert {"mu", "mu_elastic", "force_elastic_z", "delta_x_gross", "n_states"} <= set(rows[0]), rows[0].keys()
+
+    base = afm_dict(16, friction=False)
+    base["load"] = {"delta_z": 0.1e-9}
+    with pytest.raises(InputError, match="'pull-off' needs an \\[adhesion\\] table"):
+        sweep_from_dict({"base": afm_dict(16, adhesion=False), "sweep": {"grid.n": [16]}, "run": {"task": "pull-off"}})
+    sw = sweep_from_dict({"base": base, "sweep": {"adhesion.sigma_max": [122.6e6]}, "run": {"task": "pull-off"}})
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        report = run_sweep(sw, tmp_path / "po", quiet=True)
+    summary = report.records[0]["summary"]
+    assert {"pull_off_force", "tabor_parameter", "work_of_adhesion", "dmt_pull_off", "jkr_pull_off"} <= set(summary)
+    assert summary["n_states"] == 41 and "curve" not in summary  # 20 steps each way and the turning point

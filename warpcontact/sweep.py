@@ -65,8 +65,8 @@ from .errors import ConvergenceError, InputError, NonFiniteError, OutputError
 SWEEP_TABLES = ("base", "sweep", "run")
 #: Keys of the ``[run]`` table.
 RUN_KEYS = ("task", "rel_tol", "scheduler")
-#: What each case runs: ``api.solve`` (the case's load path) or ``api.gross_slip``.
-TASKS = ("solve", "gross-slip")
+#: What each case runs: ``api.solve`` (the case's load path), ``api.gross_slip`` or ``api.pull_off``.
+TASKS = ("solve", "gross-slip", "pull-off")
 #: Default bisection bracket of delta_x_max (relative), as in ``warpcontact gross-slip``.
 DEFAULT_REL_TOL = 0.01
 #: The case keys a sweep may vary: table -> keys (the case-file schema, docs/case-files.md).
@@ -321,6 +321,8 @@ def _check_task(sc: SweepCase, task: str) -> None:
             key = "sweep.load.delta_z" if "load.delta_z" in sc.params else "load.delta_z"
             raise InputError(key, f"gross-slip needs a positive normal approach; the deepest state of the path is "
                                   f"delta_z = {dz!r} m{where}")
+    if task == "pull-off" and sc.case.adhesion is None:
+        raise InputError("run.task", f"'pull-off' needs an [adhesion] table in the base case{where}")
     try:  # the laws check what the case checks do not (Tabor needs a finite yield strength)
         friction_law(sc.case)
         adhesion_law(sc.case)
@@ -499,6 +501,9 @@ def _run_case(task: str, rel_tol: float, case: Case, on_state, model=None) -> di
     if task == "gross-slip":
         r = api.gross_slip(case, rel_tol=rel_tol, on_state=lambda k, s: on_state(k, None, s), model=model)
         return _gross_slip_summary(r)
+    if task == "pull-off":
+        r = api.pull_off(case, on_state=lambda k, total, s: on_state(k, total, s), model=model)
+        return _gross_slip_summary(r)
     result = api.solve(case, on_state=lambda k, total, s, res: on_state(k, total, s), model=model)
     if result.interrupted:  # run_path keeps what finished; a sweep records whole cases only
         raise KeyboardInterrupt
@@ -625,6 +630,10 @@ def _result_text(task: str, summary: dict) -> str:
             return "not converged"
         mu = "undefined (F_z <= 0)" if summary["mu"] is None else f"{summary['mu']:.4f}"
         return f"delta_x_max {summary['delta_x_max']:.4e} m, mu {mu}"
+    if task == "pull-off":
+        if summary["pull_off_force"] is None:
+            return "not converged"
+        return f"pull-off force {summary['pull_off_force']:.4e} N (Tabor parameter {summary['tabor_parameter']:.3g})"
     f = summary["force"]
     text = f"F_z {f['z']:.4e} N, F_x {f['x']:.4e} N, contact radius {summary['contact_radius']:.4e} m"
     return text if summary["converged"] else text + " (not converged)"
