@@ -176,31 +176,13 @@ def stress_spectra(
 
 @wp.func
 def principal_stresses(sxx: Any, syy: Any, szz: Any, sxy: Any, sxz: Any, syz: Any):
-    """(s1, s2, s3), s1 >= s2 >= s3: the eigenvalues of the symmetric stress tensor by the
-    trigonometric form of the cubic's roots (Smith 1961): with mean stress m, deviator s,
-    J2 = s:s / 2, J3 = det s and cos(3 theta) = (3 sqrt(3) / 2) J3 / J2^(3/2) (clamped to
-    [-1, 1]), s_k = m + 2 sqrt(J2 / 3) cos(theta - 2 pi k / 3)."""
-    third = type(sxx)(1.0 / 3.0)
-    zero = sxx - sxx
-    m = (sxx + syy + szz) * third
-    dx = sxx - m
-    dy = syy - m
-    dz = szz - m
-    j2 = type(sxx)(0.5) * (dx * dx + dy * dy + dz * dz) + sxy * sxy + sxz * sxz + syz * syz
-    j3 = dx * (dy * dz - syz * syz) - sxy * (sxy * dz - syz * sxz) + sxz * (sxy * syz - dy * sxz)
-    s1 = m
-    s2 = m
-    s3 = m
-    if j2 > zero:
-        r = wp.sqrt(j2 * third)
-        c = type(sxx)(1.5) * wp.sqrt(type(sxx)(3.0)) * j3 / (j2 * wp.sqrt(j2))
-        c = wp.clamp(c, type(sxx)(-1.0), type(sxx)(1.0))
-        theta = wp.acos(c) * third
-        two_pi_3 = type(sxx)(2.0943951023931953)
-        s1 = m + type(sxx)(2.0) * r * wp.cos(theta)
-        s3 = m + type(sxx)(2.0) * r * wp.cos(theta + two_pi_3)
-        s2 = type(sxx)(3.0) * m - s1 - s3
-    return wp.vector(s1, s2, s3)
+    """(s1, s2, s3), s1 >= s2 >= s3: the eigenvalues of the symmetric stress tensor by Warp's
+    ``eig3`` (Jacobi rotations: accurate where two coincide, as on the Hertz axis, where the
+    cubic's trigonometric solution loses half the digits), sorted."""
+    vectors, d = wp.eig3(wp.matrix(sxx, sxy, sxz, sxy, syy, syz, sxz, syz, szz, shape=(3, 3)))
+    hi = wp.max(d[0], wp.max(d[1], d[2]))
+    lo = wp.min(d[0], wp.min(d[1], d[2]))
+    return wp.vector(hi, d[0] + d[1] + d[2] - hi - lo, lo)
 
 
 @wp.kernel
@@ -217,14 +199,15 @@ def derived_fields(stress: wp.array3d(dtype=Any), derived: wp.array3d(dtype=Any)
     syz = stress[5, i, j]
     half = type(sxx)(0.5)
     normal = (sxx - syy) * (sxx - syy) + (syy - szz) * (syy - szz) + (szz - sxx) * (szz - sxx)
-    j2 = half * normal * type(sxx)(1.0 / 3.0) + sxy * sxy + sxz * sxz + syz * syz
+    third = type(sxx)(1.0) / type(sxx)(3.0)
+    j2 = half * normal * third + sxy * sxy + sxz * sxz + syz * syz
     p = principal_stresses(sxx, syy, szz, sxy, sxz, syz)
     derived[0, i, j] = wp.sqrt(type(sxx)(3.0) * j2)
     derived[1, i, j] = half * (p[0] - p[2])
     derived[2, i, j] = p[0]
     derived[3, i, j] = p[1]
     derived[4, i, j] = p[2]
-    derived[5, i, j] = (sxx + syy + szz) * type(sxx)(1.0 / 3.0)
+    derived[5, i, j] = (sxx + syy + szz) * third
 
 
 @wp.kernel
