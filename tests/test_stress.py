@@ -53,7 +53,7 @@ def test_cell_integrals_equal_quadrature_of_the_point_force_solutions(z_cells):
             for c, name in enumerate(st.COMPONENTS):
                 exact, _ = dblquad(lambda ys, xs: float(ref(j - xs, i - ys, z_cells, nu)[name]),
                                    -0.5, 0.5, -0.5, 0.5, epsabs=1e-12, epsrel=1e-10)
-                assert abs(K[c, load, i, j] - exact) <= 1e-9 * scale, (z_cells, i, j, load, name, K[c, load, i, j], exact)
+                assert abs(K[c, load, i, j] - exact) <= 1e-9 * scale, (z_cells, i, j, load, name)
 
 
 def test_cell_integrals_tend_to_the_point_force_far_away():
@@ -299,6 +299,51 @@ def test_sphere_carries_minus_the_shear():
     assert np.abs(s["sigma_zz"] - f["sigma_zz"][:, :, ::-1]).max() <= tol
     assert np.abs(s["sigma_xz"] + f["sigma_xz"][:, :, ::-1]).max() <= tol
     assert np.abs(s["von_mises"] - f["von_mises"]).max() > 1e3 * tol  # the shear makes them differ
+
+
+def _hertz_traction_quadrature(x, y, z, a, p0, mu, nu, nt=64, nth=256):
+    """The stress at (x, y, z) of the continuous Hertz pressure p0 sqrt(1 - r^2/a^2) with the
+    shear mu p along +x (full sliding): the point-force solutions (Boussinesq, Cerruti)
+    integrated over the disc, r = a sin t (the edge's square root made smooth), Gauss-Legendre
+    in t and the trapezoidal rule in the angle (exact for a periodic integrand): about 1e-7 p0."""
+    t, wt = np.polynomial.legendre.leggauss(nt)
+    t, wt = (t + 1) * np.pi / 4, wt * np.pi / 4
+    th = np.arange(nth) * 2 * np.pi / nth
+    T, TH = np.meshgrid(t, th, indexing="ij")
+    r = a * np.sin(T)
+    xi, eta = r * np.cos(TH), r * np.sin(TH)
+    w = wt[:, None] * (2 * np.pi / nth) * r * a * np.cos(T) * p0 * np.cos(T)
+    b = st.boussinesq_point_stress(x - xi, y - eta, z, nu)
+    c = st.cerruti_point_stress(x - xi, y - eta, z, nu)
+    return {k: float(np.sum(w * (b[k] + mu * c[k]))) for k in st.COMPONENTS}
+
+
+@pytest.mark.parametrize("mu", [0.25, 0.5])
+def test_sliding_hertz_against_quadrature(mu):
+    """Hertz pressure with the sliding shear mu p (Hamilton 1983's problem; his closed form is
+    not implemented here: the reference is the quadrature of the point-force solutions over the
+    continuous tractions, ``_hertz_traction_quadrature``). At n = 49 (a = 16.3 cells) every stress
+    component at points of the x-z section within 1 % of p0 (the sampled tractions' error, as in
+    the frictionless test; measured 3e-4 at n = 65). The largest von Mises stress lies below the
+    surface at mu = 0.25 (0.647 p0 at 0.44 a, n = 65) and at the surface at mu = 0.5 (0.88 p0 at
+    x = -0.42 a): Hamilton's finding that it reaches the surface above mu ~ 0.3."""
+    mat = Material(E=100e9, nu=0.3)
+    a, p0, n = 1e-6, 1e9, 49
+    grid = Grid(n, 3 * a)
+    p = _hertz_pressure(grid, a, p0)
+    z = np.linspace(0.03, 1.0, 30) * a
+    res = st.SubsurfaceStress(MaterialPair(mat, mat), grid, z).evaluate(p, mu * p, 0 * p)
+    b = res.bodies["flat"]
+    for xa, za in ((-0.5, 0.2), (0.0, 0.5), (0.3, 0.3), (0.6, 0.1), (-0.2, 0.8)):
+        j, k = int(np.argmin(abs(grid.x - xa * a))), int(np.argmin(abs(z - za * a)))
+        ref = _hertz_traction_quadrature(grid.x[j], grid.y[n // 2], z[k], a, p0, mu, 0.3)
+        for comp in st.COMPONENTS:
+            assert abs(b.section[comp][k, j] - ref[comp]) < 0.01 * p0, (mu, xa, za, comp)
+    vm = b.maximum("von_mises", res.depths)
+    if mu == 0.25:
+        assert 0.3 * a < vm["z"] < 0.6 * a and vm["value"] == pytest.approx(0.647 * p0, rel=0.02)
+    else:
+        assert vm["z_on_grid"] == z[0] and vm["value"] == pytest.approx(0.88 * p0, rel=0.03)
 
 
 # --- from a case: the solved Hertz contact of two materials, first yield, memory, CLI ----------
