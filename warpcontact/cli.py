@@ -128,6 +128,9 @@ def _parser():
 
     add_figure_parser(sub)
     add_sweep_parser(sub)
+    from .cli_stress import add_parser as add_stress_parser
+
+    add_stress_parser(sub)
     t.add_argument("--k-tau", type=float, nargs="+", help="only these k_tau columns (0.50, 0.80, 0.95)")
     t.add_argument("--delta-z-um", type=float, nargs="+", help="only these delta_z rows in um (1e-5, 5e-5, 1e-4, 1.5e-4)")
     _common(t)
@@ -630,9 +633,10 @@ def main(argv=None) -> int:
     try:
         from .cli_figure import cmd_figure
         from .cli_sweep import cmd_sweep
+        from .cli_stress import cmd_stress
 
         commands = {"solve": cmd_solve, "gross-slip": cmd_gross_slip, "table2": cmd_table2, "figure": cmd_figure,
-                    "pull-off": cmd_pull_off, "sweep": cmd_sweep}
+                    "pull-off": cmd_pull_off, "sweep": cmd_sweep, "stress": cmd_stress}
         return commands[args.command](args)
     except InputError as e:
         end_line()  # of a progress bar being drawn
