@@ -431,3 +431,19 @@ def test_sweep_rows_carry_the_summary_keys_and_pull_off_is_a_task(tmp_path):
     summary = report.records[0]["summary"]
     assert {"pull_off_force", "tabor_parameter", "work_of_adhesion", "dmt_pull_off", "jkr_pull_off"} <= set(summary)
     assert summary["n_states"] == 41 and "curve" not in summary  # 20 steps each way and the turning point
+
+
+@pytest.mark.parametrize("call", ["solve", "path", "gross_slip"])
+def test_the_python_api_warns_once_as_the_command_line_does(call):
+    import warpcontact as wc
+    from warpcontact.guards import CoarseGridWarning, YieldWarning
+
+    case = case_from_dict(afm_dict(32, adhesion=False))
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")  # every warning counted, none folded by the registry
+        if call == "path":
+            list(wc.path(case))
+        else:
+            getattr(wc, call)(case)
+    kinds = [w.category for w in caught]
+    assert kinds.count(CoarseGridWarning) == 1 and kinds.count(YieldWarning) == 1, [str(w.message) for w in caught]

@@ -49,15 +49,20 @@ def solve(case: Case, device=None, dtype=None, fft=None, on_state=None, model=No
 
 def path(case: Case, device=None, dtype=None, fft=None):
     """Iterate over the solved states of the load path: yields one summary dict per state (as in
-    :func:`solve`), each as soon as it is solved; the slip history is carried along."""
+    :func:`solve`), each as soon as it is solved; the slip history is carried along. Warns as
+    :func:`solve` does (a coarse grid, a pressure above a yield strength: once each)."""
+    from .guards import RunChecks
     from .results import state_summary
     from .runner import build
 
     case = _prepare(case, device, dtype, fft)
     _, solver, state = build(case)
+    checks = RunChecks(case)
     for approach in case.load.path():
         solver.step(state, approach)
-        yield state_summary(state, solver.adhesion)
+        summary = state_summary(state, solver.adhesion)
+        checks.observe(summary, decisive=checks.decisive(summary))
+        yield summary
 
 
 def gross_slip(case: Case, device=None, dtype=None, fft=None, rel_tol: float = 0.01, on_state=None,

@@ -124,7 +124,7 @@ def resolution_needs(n: int, size: float, contact_radius: float | None = None, s
         if width is None or not width > 0.0:
             continue
         cells = width / dx
-        if cells < minimum:
+        if cells < minimum * (1.0 - 1e-9):  # 24 cells over 3 a: 8 cells, not 7.999999
             need = GRID_STEP * math.ceil(n * minimum / cells / GRID_STEP)
             out.append((what, width, cells, minimum, need))
     return out
