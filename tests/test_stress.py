@@ -473,3 +473,21 @@ def test_cuda_matches_cpu(device):
             ref = cpu.bodies[name].section[f]
             scale = np.abs(cpu.bodies[name].section["von_mises"]).max()
             assert np.abs(gpu.bodies[name].section[f] - ref).max() <= 1e-10 * scale, (name, f)
+
+
+@pytest.mark.parametrize("sphere_yield, yielded", [(50e6, True), (200e6, False)])
+def test_every_solve_result_says_whether_a_body_yielded(sphere_yield, yielded):
+    """run_path's summary (result.json of solve) carries ``yielded``, ``yield_margin`` (the
+    smaller yield strength / von Mises maximum of the bodies) and the per-body check: the
+    two-material Hertz contact's sphere reaches 55.4 MPa below the surface (0.606 p0)."""
+    from warpcontact.runner import run_path
+
+    case, a = _hertz_case(n=33, steps=1, sphere_yield=sphere_yield)
+    s = run_path(case, fields="none").summary(complete=True)
+    assert s["yielded"] is yielded
+    check = s["yield_check"]
+    assert check["sphere"]["von_mises_max"] == pytest.approx(55.4e6, rel=0.02)
+    assert check["flat"]["yielded"] is False
+    assert s["yield_margin"] == pytest.approx(min(sphere_yield / check["sphere"]["von_mises_max"],
+                                                  345e6 / check["flat"]["von_mises_max"]))
+    json.dumps(s)  # JSON-ready

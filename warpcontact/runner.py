@@ -80,6 +80,8 @@ class PathResult:
     elapsed_s: float = 0.0
     interrupted: bool = False
     stop_signal: str | None = None
+    #: the elastic assumption checked at the last state (``stress.yield_check``); None until then
+    yield_check: dict | None = None
 
     @property
     def converged(self) -> bool:
@@ -112,6 +114,10 @@ class PathResult:
         }
         if self.interrupted:
             out["stop_signal"] = self.stop_signal
+        if self.yield_check is not None:  # a body's von Mises maximum against its yield strength
+            margins = [b["margin"] for b in self.yield_check.values() if isinstance(b, dict) and b.get("margin")]
+            out.update(yielded=self.yield_check["yielded"], yield_margin=min(margins) if margins else None,
+                       yield_check=self.yield_check)
         return out
 
     def stacked_fields(self) -> dict:
@@ -177,6 +183,11 @@ def run_path(case, on_state=None, keep_fields: bool = True, fields: str = "all",
                 result.elapsed_s = time.perf_counter() - t0
                 if on_state is not None:
                     on_state(k, len(path), summary, result)
+        if result.states:  # the last state against the bodies' yield strengths (below the surface)
+            from .stress import yield_check
+
+            result.yield_check = yield_check(case.pair, case.grid, state.to_numpy_si(), model.device,
+                                             model.dtype_name, case.solver.fft)
     except KeyboardInterrupt as e:
         result.interrupted = True
         result.stop_signal = interrupts.signal_name(interrupts.stop_signal(e))

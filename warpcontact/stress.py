@@ -638,3 +638,41 @@ def subsurface_stress(case, state: int = -1, depths=None, layers: int = DEFAULT_
         for name in BODIES:
             result.first_yield[name] = first_yield(maxima[name], deltas, result.bodies[name].yield_strength)
     return result
+
+
+# ---------------------------------------------------------------------------------------------
+# The check of the elastic assumption on every result.
+
+#: depths of ``yield_check`` in contact radii: two near the surface (where the maximum lies under
+#: sliding friction above mu ~ 0.3), then 14 down to 2 a (Hertz's maximum lies at 0.45-0.5 a)
+YIELD_CHECK_DEPTHS_IN_A = (0.02, 0.06) + tuple(np.linspace(0.1, 2.0, 14))
+
+
+def yield_check(pair, grid, fields: dict, device="cpu", dtype="float64", fft="auto") -> dict:
+    """Whether a solved state has left the elastic range in which its results hold: the largest
+    von Mises stress in each body (``SubsurfaceStress`` at ``YIELD_CHECK_DEPTHS_IN_A`` contact
+    radii, or 16 cells without contact; refined between depths) against its yield strength.
+
+    Returns ``yielded`` (True when a body's maximum reaches its yield strength, False when neither
+    does, None when no body has a finite yield strength or the check could not run), and per body
+    ``von_mises_max`` [Pa], its depth ``z`` [m], ``yield_strength`` [Pa] or None, ``yielded``
+    and ``margin`` = yield strength / von Mises max (> 1: elastic). The coarse depths put the
+    maximum within about 1 % (``reason`` says why the check did not run, when it did not)."""
+    radius = contact_radius(fields, grid.cell_area)
+    a = radius if radius > 0 else 16.0 * grid.dx / 2.0
+    depths = np.array(YIELD_CHECK_DEPTHS_IN_A) * a
+    finite = [m for m in (pair.sphere, pair.flat) if math.isfinite(m.yield_strength)]
+    if not finite:
+        return {"yielded": None, "reason": "no yield_strength given"}
+    try:
+        res = SubsurfaceStress(pair, grid, depths, device=device, dtype=dtype, fft=fft).evaluate(*tractions(fields))
+    except InputError as e:  # the evaluation does not fit beside the solve: say so, do not fail the run
+        return {"yielded": None, "reason": str(e)}
+    out = {}
+    for name, body in res.summary().items():
+        vm = body["von_mises_max"]
+        out[name] = {"von_mises_max": vm["value"], "z": vm["z"], "yield_strength": body["yield_strength"],
+                     "yielded": body["yielded"] if body["yield_strength"] is not None else None,
+                     "margin": body["margin"]}
+    out["yielded"] = any(out[b]["yielded"] for b in BODIES)
+    return out
