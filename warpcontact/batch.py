@@ -32,6 +32,7 @@ it once per worker and the per-case cost is the solve. Tasks are submitted group
 from __future__ import annotations
 
 import os
+import signal
 import socket
 import time
 from collections import OrderedDict
@@ -251,9 +252,6 @@ class _Cluster:
         from distributed import Client, Nanny, Scheduler, SpecCluster
 
         self.cluster = None
-        # a worker takes one case at a time (its thread count) and the rest wait at the scheduler:
-        # a worker that dies takes only its running case with it
-        dask.config.set({"distributed.scheduler.worker-saturation": 1.0})
         if placement.scheduler is not None:
             try:
                 self.client = Client(placement.scheduler, timeout=f"{CONNECT_TIMEOUT_S}s")
@@ -269,16 +267,21 @@ class _Cluster:
         workers = {
             f"warpcontact-{i}": {"cls": Nanny, "options": {
                 "nthreads": 1, "env": env, "host": "127.0.0.1", "dashboard": False, "memory_limit": 0,
-                "silence_logs": quiet, "death_timeout": CONNECT_TIMEOUT_S}}
+                "silence_logs": quiet, "death_timeout": CONNECT_TIMEOUT_S, "preload": ["warpcontact.batch"]}}
             for i, env in enumerate(envs)
         }
         scheduler = {"cls": Scheduler, "options": {"dashboard_address": None, "host": "127.0.0.1"}}
-        self.cluster = SpecCluster(scheduler=scheduler, workers=workers, silence_logs=quiet,
-                                   name="warpcontact")
+        started = set(SpecCluster._instances)
         try:
+            # a worker takes one case at a time (its thread count) and the rest wait at the scheduler:
+            # a worker that dies takes only its running case with it
+            with dask.config.set({"distributed.scheduler.worker-saturation": 1.0}):
+                self.cluster = SpecCluster(scheduler=scheduler, workers=workers, silence_logs=quiet,
+                                           name="warpcontact")
             self.client = Client(self.cluster, timeout=f"{CONNECT_TIMEOUT_S}s")
-        except BaseException:
-            self.cluster.close(timeout=CLOSE_TIMEOUT_S)
+        except BaseException:  # an error while the workers start: they end now
+            for cluster in set(SpecCluster._instances) - started:
+                _abandon(cluster)
             raise
         gpus = sorted({env[PINNED_GPU_ENV] for env in envs if env})
         self.where = (f"{len(envs)} local worker(s)" + (f" on GPU {', '.join(gpus)}" if gpus else " on the CPU"))
@@ -293,23 +296,64 @@ class _Cluster:
         except Exception:  # a progress count: never a reason to fail the run
             return min(pending, self.threads())
 
-    def close(self, futures=()) -> None:
-        """Cancel what is left and close: a local cluster's workers end now (their cases are
-        abandoned); a cluster given by address keeps its workers."""
-        try:
-            if futures:
+    def close(self, futures=(), finished: bool = True) -> None:
+        """Close the client. A local cluster is closed in order when the run ``finished``; otherwise
+        (a stop, an error) its worker processes are killed at once, their cases abandoned. A cluster
+        given by address keeps its workers; the cases left are cancelled there."""
+        if futures:
+            try:
                 self.client.cancel(list(futures), force=True)
-        except Exception:
-            pass
+            except Exception:
+                pass
+        if self.cluster is not None and not finished:
+            _abandon(self.cluster)
         try:
             self.client.close(timeout=CLOSE_TIMEOUT_S)
         except Exception:
             pass
-        if self.cluster is not None:
+        if self.cluster is not None and finished:
             try:
                 self.cluster.close(timeout=CLOSE_TIMEOUT_S)
             except Exception:
+                _abandon(self.cluster)
+
+
+def _abandon(cluster) -> None:
+    """End a local cluster's worker processes now (SIGKILL) and keep distributed from closing it
+    again at exit (which would wait for them and print a traceback about workers still starting).
+    A worker process missed here (being started) ends with this process: it watches its parent."""
+    from distributed.deploy.spec import SpecCluster
+
+    for nanny in list(getattr(cluster, "workers", {}).values()):
+        process = getattr(getattr(nanny, "process", None), "process", None)
+        pid = getattr(process, "pid", None)
+        if pid:
+            try:
+                os.kill(pid, signal.SIGKILL)
+            except OSError:
                 pass
+    cluster.shutdown_on_close = False
+    SpecCluster._instances.discard(cluster)
+    import logging
+
+    # the start of a worker whose process was killed fails in a task nobody awaits: asyncio would log
+    # it with its traceback at exit
+    logging.getLogger("asyncio").addFilter(_quiet_abandoned_workers)
+
+
+def _quiet_abandoned_workers(record) -> bool:
+    """A logging filter: False (drop) for asyncio's reports of a local worker that failed to start."""
+    return "Nanny failed to start" not in record.getMessage()
+
+
+def dask_setup(worker) -> None:
+    """Run by each worker of a local cluster once it has started (Nanny's ``preload``): Ctrl-C at a
+    terminal reaches every process of the job, and the run's own process ends its workers, so they
+    ignore it (a worker still importing when it comes prints a traceback as it ends)."""
+    import threading
+
+    if threading.current_thread() is threading.main_thread():
+        signal.signal(signal.SIGINT, signal.SIG_IGN)
 
 
 def _grouped(tasks: list) -> list:
@@ -419,6 +463,7 @@ def run_tasks(tasks, on_result: Callable, placement: Placement | None = None, pr
     show("starting the workers")
     cluster = _Cluster(placement, len(tasks))
     futures: dict = {}
+    finished = False
     try:
         stats.start_s = time.perf_counter() - t0
         stats.workers = cluster.threads()
@@ -452,9 +497,10 @@ def run_tasks(tasks, on_result: Callable, placement: Placement | None = None, pr
             if not hand_back(task, outcome.value):
                 break
             show()
+        finished = not futures
     finally:
         stats.wall_s = time.perf_counter() - t0
-        cluster.close(futures)
+        cluster.close(futures, finished)
     stats.task_s = sum(stats.task_times)
     return stats
 
