@@ -447,3 +447,10 @@ def test_the_python_api_warns_once_as_the_command_line_does(call):
             getattr(wc, call)(case)
     kinds = [w.category for w in caught]
     assert kinds.count(CoarseGridWarning) == 1 and kinds.count(YieldWarning) == 1, [str(w.message) for w in caught]
+
+
+def test_table2_adhesion_options_are_judged_for_plausibility(capsys, tmp_path):
+    rc = main(["table2", "--delta-n", "5e-3", "--out", str(tmp_path / "t2"), "--quiet"])  # 5 mm: w = 1.4e4 J/m^2
+    err = capsys.readouterr().err
+    assert rc == 2 and err.count("\n") == 1 and err.startswith("warpcontact: error: --delta-n: = 0.005 m"), err
+    assert not (tmp_path / "t2").exists()

@@ -435,6 +435,14 @@ def cmd_table2(args) -> int:
     law = dict(sigma_max=args.sigma_max, tau_max=args.tau_max, delta_n=args.delta_n, delta_t=args.delta_t)
     try:
         Table2Settings(**law).adhesion_law()
+        if not args.no_adhesion:  # a length in nm written as m, ...: the plausibility of every case
+            from .case import AdhesionSpec
+            from .materials import PAPER_PAIR
+            from .plausibility import check_adhesion
+
+            bodies = {k: (m.E, m.nu, m.yield_strength, m.hardness)
+                      for k, m in (("sphere", PAPER_PAIR.sphere), ("flat", PAPER_PAIR.flat))}
+            check_adhesion(AdhesionSpec("smc", **law), PAPER_PAIR.E_star, bodies)
     except InputError as e:  # name the option, not the case-file key
         raise InputError("--" + e.key.split(".")[-1].replace("_", "-"), e.problem) from None
     columns = (False,) if args.no_adhesion else (True,) if args.adhesion_only else (False, True)

@@ -61,23 +61,6 @@ def check_contact_fits(state):
         )
 
 
-def warn_if_coarse(state):
-    """CoarseGridWarning if the contact radius is under MIN_CONTACT_RADIUS_CELLS cells."""
-    g = state.model.grid
-    cells = int(np.count_nonzero(state.pressure.numpy() > 0))
-    if cells == 0:
-        return
-    radius_cells = math.sqrt(cells / math.pi)
-    if radius_cells < MIN_CONTACT_RADIUS_CELLS:
-        need = math.ceil(g.n * MIN_CONTACT_RADIUS_CELLS / radius_cells)
-        warnings.warn(
-            f"the contact radius spans only {radius_cells:.1f} cells (under {MIN_CONTACT_RADIUS_CELLS}): "
-            f"results carry a large discretisation error; use grid.n >= {need} for this domain",
-            CoarseGridWarning,
-            stacklevel=3,
-        )
-
-
 #: cells across the slip annulus at gross slip (the contact radius less the stick radius at
 #: delta_x_max) under which the friction coefficient is called too coarse
 MIN_SLIP_ANNULUS_CELLS = 8
