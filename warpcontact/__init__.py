@@ -7,16 +7,42 @@ See MODEL.md-level details in docs/ and the README.
 
 __version__ = "0.1.0"
 
-import warp as _wp  # noqa: E402
+# The names below are imported when first used (PEP 562), so that `warpcontact --help` and the
+# command line's argument parsing do not import Warp, SciPy and the solvers (a second or so).
+_LAZY = {
+    "ConvergenceError": "errors", "InputError": "errors", "NonFiniteError": "errors",
+    "Grid": "geometry", "Sphere": "geometry",
+    "COPPER": "materials", "HARDENED_STEEL": "materials", "PAPER_PAIR": "materials", "Material": "materials",
+    "MaterialPair": "materials",
+    "Case": "case", "case_from_dict": "case", "load_case": "case",
+    "gross_slip": "api", "path": "api", "pull_off": "api", "solve": "api",
+}
 
-_wp.config.quiet = True
-_wp.config.log_level = _wp.LOG_WARNING  # no banner or per-module compile lines (Warp 1.19 reads log_level)
 
-from .errors import ConvergenceError, InputError, NonFiniteError  # noqa: E402
-from .geometry import Grid, Sphere  # noqa: E402
-from .materials import COPPER, HARDENED_STEEL, PAPER_PAIR, Material, MaterialPair  # noqa: E402
-from .case import Case, case_from_dict, load_case  # noqa: E402
-from .api import gross_slip, path, pull_off, solve  # noqa: E402
+def quiet_warp():
+    """Warp without its banner and per-module compile lines (Warp 1.19 reads log_level); called
+    before Warp is initialised (device.init_warp, and on the first use of the names above)."""
+    import warp as wp
+
+    wp.config.quiet = True
+    wp.config.log_level = wp.LOG_WARNING
+
+
+def __getattr__(name):
+    module = _LAZY.get(name)
+    if module is None:
+        raise AttributeError(f"module 'warpcontact' has no attribute {name!r}")
+    import importlib
+
+    quiet_warp()
+    value = getattr(importlib.import_module(f".{module}", __name__), name)
+    globals()[name] = value
+    return value
+
+
+def __dir__():
+    return sorted([*globals(), *_LAZY])
+
 
 __all__ = [
     "__version__",

@@ -14,14 +14,12 @@ import time
 from dataclasses import dataclass
 from pathlib import Path
 
-from .adhesion import SMC
-from .friction import TaborVonMises
 from .geometry import Grid, Sphere
 from .guards import suggested_adhesive_size, withhold_if_unconverged
-from .slip_search import find_gross_slip
 from .materials import PAPER_PAIR
-from .model import ContactModel
-from .solvers.contact import ContactSolver
+
+# the solvers (Warp, SciPy) are imported where a cell is computed: the command line's parser reads
+# Table2Settings' defaults without them
 
 RADIUS = 10e-6
 K_TAU = (0.50, 0.80, 0.95)
@@ -103,7 +101,10 @@ class Table2Settings:
     delta_n: float = DELTA_N
     delta_t: float = DELTA_T
 
-    def adhesion_law(self) -> SMC:
+    def adhesion_law(self):
+        """The SMC law of these parameters (:class:`warpcontact.adhesion.SMC`)."""
+        from .adhesion import SMC
+
         return SMC(self.sigma_max, self.tau_max, self.delta_n, self.delta_t)
 
 
@@ -137,6 +138,11 @@ def table2_cell(k_tau: float, delta_z_um: float, settings: Table2Settings, on_st
     pressure alone is reported beside it. ``model``: the cell's model to reuse (a
     :class:`~warpcontact.model.ContactModel` of :func:`cell_model_key`), else one is built.
     """
+    from .friction import TaborVonMises
+    from .model import ContactModel
+    from .slip_search import find_gross_slip
+    from .solvers.contact import ContactSolver
+
     dz = delta_z_um * UM
     adhesive = settings.adhesion_law() if adhesion else None
     if model is None:
@@ -196,6 +202,7 @@ def run_cell(k_tau: float, delta_z_um: float, settings: Table2Settings, adhesion
     import dataclasses
 
     from .batch import cached_model, worker_device
+    from .model import ContactModel
 
     device = worker_device(settings.device)
     if device != settings.device:
