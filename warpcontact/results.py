@@ -155,9 +155,20 @@ def atomic_write_json(path, obj):
     atomic_write_bytes(path, (json.dumps(obj, indent=2, allow_nan=True) + "\n").encode())
 
 
-def atomic_write_npz(path, arrays: dict):
+#: arrays of this many bytes and more are written to an NPZ file uncompressed: zlib runs at about
+#: 30-200 MB/s on one core (64 MiB of fields: 0.34 s for smooth contact fields, 2.0 s for noise,
+#: against 0.08 s uncompressed, on this project's 2-core machine), far below a disk's speed
+NPZ_COMPRESS_BELOW_BYTES = 32 * 2**20
+
+
+def atomic_write_npz(path, arrays: dict, compress: bool | None = None):
+    """Write ``arrays`` to the NPZ file ``path`` atomically (:func:`atomic_write_bytes`); NumPy reads
+    it with ``np.load`` either way. ``compress``: zlib (smaller files); default: only when the arrays
+    hold fewer than :data:`NPZ_COMPRESS_BELOW_BYTES` bytes, so large grids are written at disk speed."""
     import io
 
+    if compress is None:
+        compress = sum(np.asarray(a).nbytes for a in arrays.values()) < NPZ_COMPRESS_BELOW_BYTES
     buf = io.BytesIO()
-    np.savez_compressed(buf, **arrays)
+    (np.savez_compressed if compress else np.savez)(buf, **arrays)
     atomic_write_bytes(path, buf.getvalue())

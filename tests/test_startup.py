@@ -1,0 +1,43 @@
+"""The time to a first answer: the command line's parser imports no solver; large fields are written
+uncompressed."""
+
+import subprocess
+import sys
+
+import numpy as np
+
+from warpcontact import results
+
+
+def test_the_parser_imports_neither_warp_nor_scipy():
+    """`warpcontact --help` and argument parsing load no Warp, SciPy, dask or solver module (they
+    cost about a second; bench/batch_overhead.py times --help)."""
+    code = ("import sys; from warpcontact.cli import _parser; _parser()\n"
+            "heavy = [m for m in ('warp', 'scipy', 'distributed', 'matplotlib', 'warpcontact.model', "
+            "'warpcontact.solvers', 'warpcontact.kernels') if m in sys.modules]\n"
+            "print(','.join(heavy))")
+    r = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
+    assert r.returncode == 0, r.stderr
+    assert r.stdout.strip() == "", f"imported by the parser: {r.stdout.strip()}"
+
+
+def test_the_package_names_load_on_first_use():
+    import warpcontact as wc
+
+    assert wc.load_case.__module__ == "warpcontact.case" and wc.PAPER_PAIR.E_star > 0
+    assert {"solve", "gross_slip", "InputError"} <= set(dir(wc))
+
+
+def test_large_fields_are_written_uncompressed_small_ones_compressed(tmp_path, monkeypatch):
+    monkeypatch.setattr(results, "NPZ_COMPRESS_BELOW_BYTES", 8 * 64 * 64)  # one 64 x 64 float64 field
+    small = {"p": np.zeros((32, 32))}
+    large = {"p": np.zeros((64, 64)), "q": np.ones((64, 64))}
+    results.atomic_write_npz(tmp_path / "small.npz", small)
+    results.atomic_write_npz(tmp_path / "large.npz", large)
+    # zeros compress to almost nothing; uncompressed the file holds every byte
+    assert (tmp_path / "small.npz").stat().st_size < small["p"].nbytes / 4
+    assert (tmp_path / "large.npz").stat().st_size > sum(a.nbytes for a in large.values())
+    with np.load(tmp_path / "large.npz") as f:
+        assert np.array_equal(f["q"], large["q"])
+    results.atomic_write_npz(tmp_path / "forced.npz", large, compress=True)
+    assert (tmp_path / "forced.npz").stat().st_size < large["p"].nbytes / 4
