@@ -1,8 +1,8 @@
 """Maugis-Dugdale approach-retraction curve with the adhesive minimisation, against the reference.
 
-    python bench/adhesive_curve.py LAMBDA N [float64|float32]
+    python bench/adhesive_curve.py LAMBDA N [float64|float32] [SMOOTHING]
 
-Dugdale law (R = 1 um, w = 0.5 J/m^2, ramps of 0.05 h_0), domain 5 a0, 12 steps each way; prints
+Dugdale law (R = 1 um, w = 0.5 J/m^2, ramps of SMOOTHING h_0, default 0.05), domain 5 a0, 12 steps each way; prints
 each state's iterations, residual and force, then the pull-off against Maugis-Dugdale.
 """
 import math
@@ -18,10 +18,11 @@ from warpcontact.state import ContactState
 from warpcontact.solvers.adhesive import AdhesiveNormalSolver
 from warpcontact.reference import maugis_dugdale_pull_off
 lam, n = float(sys.argv[1]), int(sys.argv[2]); dtype = sys.argv[3] if len(sys.argv) > 3 else "float64"
+smoothing = float(sys.argv[4]) if len(sys.argv) > 4 else 0.05
 R, w = 1e-6, 0.5
 Es = PAPER_PAIR.E_star
 sigma0 = lam / (9 * R / (2 * math.pi * w * Es**2)) ** (1 / 3)
-law = Dugdale(sigma_0=sigma0, h_0=w / sigma0, smoothing=0.05)
+law = Dugdale(sigma_0=sigma0, h_0=w / sigma0, smoothing=smoothing)
 a0 = (9 * math.pi * w * R**2 / (2 * Es)) ** (1 / 3)
 model = ContactModel(PAPER_PAIR, Sphere(R), Grid(n, 5 * a0), dtype=dtype)
 solver = AdhesiveNormalSolver(model, law)

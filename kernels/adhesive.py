@@ -426,11 +426,17 @@ def adhesive_offset(
 
 
 @wp.kernel
-def project_to_bound(u: wp.array(dtype=Any), offset: wp.array(dtype=Any), n_side: int):
-    """u <- max(u, -offset) on the physical cells (one thread per physical cell)."""
+def project_to_bound(u: wp.array(dtype=Any), offset: wp.array(dtype=Any), contact_pressure: wp.array(dtype=Any),
+                     n_side: int):
+    """u <- max(u, -offset) on the physical cells (one thread per physical cell), and u <- -offset
+    (h = 0 exactly) where the contact pressure of the start is positive: a touching cell stays at
+    the bound rather than a rounding error above it (where it would count as out of contact)."""
     j = wp.tid()
     i = padded_entry(j, n_side)
-    u[i] = wp.max(u[i], -offset[j])
+    if contact_pressure[j] > contact_pressure[j] - contact_pressure[j]:
+        u[i] = -offset[j]
+    else:
+        u[i] = wp.max(u[i], -offset[j])
 
 
 @wp.kernel

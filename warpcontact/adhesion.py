@@ -4,8 +4,9 @@ The adhesive normal problem is one energy minimisation (``warpcontact.solvers.ad
 gives its potential, tension and stiffness as a function of the gap in ``kernels/adhesive.py``
 (``law_values``, one branch per law), selected by ``normal_law(model)``. To add a law: its branch
 there and a small class here with ``normal_law``, ``tangential_opening`` (zero unless the law
-couples the opening to the slip), ``range``, ``work_of_adhesion``, ``peak_tension`` and
-``describe``; a law with an adhesive shear (SMC) also has ``tractions`` (kernels/adhesion.py).
+couples the opening to the slip), ``range``, ``work_of_adhesion``, ``peak_tension``,
+``has_shear`` and ``describe``; a law with an adhesive shear (SMC) also has ``tractions``
+(kernels/adhesion.py).
 """
 
 from __future__ import annotations
@@ -25,6 +26,42 @@ from .errors import InputError
 #: h = 0 values by under 1e-2 sigma_max; cells there otherwise flip in and out of contact from one
 #: turn to the next (measured: the fixed point cycled forever on such cells).
 TOUCHING = 1e-2
+
+
+#: cell_softening above which pull-off warns of lattice trapping (measured, Dugdale, n = 192:
+#: lambda = 1 at 1.1: pull-off -0.5 % from Maugis-Dugdale; lambda = 2 at 4.4: +8 %, approach and
+#: retraction 0.1 pi R w apart; lambda = 2 at 0.74 (smoothing 0.3): +1.5 %)
+TRAPPING_SOFTENING = 2.0
+
+
+def cell_softening(law, model) -> float:
+    """How much faster the law's tension can fall with the gap than one cell's elastic stiffness
+    E* / (c0 dx) lets the cell follow (c0: a cell's self-compliance in units of dx / E*):
+    steepest_softening c0 dx / E* [-]. Above 1 a cell alone has two stable gaps at one load, so
+    the discrete contact edge snaps cell by cell and sticks between snaps (lattice trapping:
+    approach and retraction part where the continuum has one curve, and the pull-off is too
+    tensile). It falls as the grid is refined (dx) or the law made smoother."""
+    c0 = model.operator.self_coefficient("zz")
+    return law.steepest_softening * c0 * model.grid.dx / model.traction_scale
+
+
+def trapping_warning(law, model) -> str | None:
+    """A warning where ``cell_softening`` passes ``TRAPPING_SOFTENING``, naming the grid that
+    brings it to 1 (the same domain) and, for Dugdale, the smoothing that would."""
+    kappa = cell_softening(law, model)
+    if not kappa > TRAPPING_SOFTENING:
+        return None
+    if not math.isfinite(kappa):
+        return ("adhesion: the sharp Dugdale law (smoothing 0) softens infinitely fast: on a grid the contact "
+                "edge sticks between cells (lattice trapping); give adhesion.smoothing >= 0.05")
+    n = model.grid.n
+    hint = f"n >= {math.ceil(n * kappa)} over the same domain"
+    if isinstance(law, Dugdale):
+        hint += f", or adhesion.smoothing >= {min(0.95, law.smoothing * kappa):.2g}"
+    return (f"adhesion: the law's tension falls {kappa:.1f} times faster than one cell's elastic stiffness "
+            f"(cell_softening): cells snap one by one and the contact edge sticks between them (lattice "
+            f"trapping: approach and retraction apart, pull-off too tensile; Dugdale lambda = 2 at 4.4: +8 %); "
+            f"for 1: {hint}")
 
 
 def _no_opening(model, state, out):
@@ -58,6 +95,9 @@ class SMC:
     delta_n: float
     delta_t: float
 
+    #: the law has an adhesive shear (``tractions`` gives it from the gap and the slip)
+    has_shear = True
+
     def __post_init__(self):
         for k in ("sigma_max", "tau_max", "delta_n", "delta_t"):
             _positive(f"adhesion.{k}", getattr(self, k))
@@ -76,6 +116,12 @@ class SMC:
     def peak_tension(self) -> float:
         """Largest normal tension [Pa] (pure opening)."""
         return self.sigma_max
+
+    @property
+    def steepest_softening(self) -> float:
+        """Largest fall of the normal tension with the gap, -dt/dh [Pa/m] (pure opening, at
+        h = 2 delta_n): sigma_max / (e delta_n)."""
+        return self.sigma_max / (math.e * self.delta_n)
 
     def normal_law(self, model):
         """(law id, scaled parameters, scaled length) for the adhesive normal solve."""
@@ -129,6 +175,8 @@ class Dugdale:
     h_0: float
     smoothing: float = 0.05
 
+    has_shear = False
+
     def __post_init__(self):
         _positive("adhesion.sigma_0", self.sigma_0)
         _positive("adhesion.h_0", self.h_0)
@@ -146,6 +194,11 @@ class Dugdale:
     @property
     def peak_tension(self) -> float:
         return self.sigma_0
+
+    @property
+    def steepest_softening(self) -> float:
+        """-dt/dh on the falling ramp [Pa/m]: sigma_0 / (smoothing h_0); infinite for the sharp law."""
+        return self.sigma_0 / (self.smoothing * self.h_0) if self.smoothing > 0 else math.inf
 
     def normal_law(self, model):
         L = model.length_scale
@@ -190,6 +243,8 @@ class Exponential:
     work_of_adhesion: float
     rho: float
 
+    has_shear = False
+
     def __post_init__(self):
         _positive("adhesion.work_of_adhesion", self.work_of_adhesion)
         _positive("adhesion.rho", self.rho)
@@ -202,6 +257,11 @@ class Exponential:
     @property
     def peak_tension(self) -> float:
         return self.work_of_adhesion / self.rho
+
+    @property
+    def steepest_softening(self) -> float:
+        """-dt/dh at contact [Pa/m]: w / rho^2."""
+        return self.work_of_adhesion / self.rho**2
 
     def normal_law(self, model):
         L = model.length_scale
@@ -231,6 +291,8 @@ class LennardJones93:
     work_of_adhesion: float
     z0: float
 
+    has_shear = False
+
     def __post_init__(self):
         _positive("adhesion.work_of_adhesion", self.work_of_adhesion)
         _positive("adhesion.z0", self.z0)
@@ -243,6 +305,12 @@ class LennardJones93:
     @property
     def peak_tension(self) -> float:
         return 16.0 * self.work_of_adhesion / (9.0 * math.sqrt(3.0) * self.z0)
+
+    @property
+    def steepest_softening(self) -> float:
+        """Largest -dt/dh [Pa/m]: (8 w / 3 z0^2) max_r (3 r^4 - 9 r^10), r = z0 / z, reached at
+        r^6 = 2/15: 1.8 (2/15)^(2/3) (8 / 3) w / z0^2."""
+        return 1.8 * (2.0 / 15.0) ** (2.0 / 3.0) * 8.0 / 3.0 * self.work_of_adhesion / self.z0**2
 
     def normal_law(self, model):
         L = model.length_scale

@@ -151,8 +151,9 @@ def run_pull_off(case: Case, model, solver, steps: int = 20, retract_to: float |
     """The approach-retract curve of ``case`` on a built model and solver, with the run's checks,
     as a summary: the curve, pull_off_force [N], pull_off_delta_z [m], work_of_adhesion [J/m^2],
     tabor_parameter [-] (with the law's range), dmt_pull_off = -2 pi R w and jkr_pull_off =
-    -1.5 pi R w [N]; the results withheld when a state did not converge. The one builder of a
-    pull-off summary."""
+    -1.5 pi R w [N], cell_softening [-] (``warpcontact.adhesion.cell_softening``: above 2 a
+    warning of lattice trapping); the results withheld when a state did not converge. The one
+    builder of a pull-off summary."""
     import math
 
     from .approach_retract import approach_retract, tabor_parameter
@@ -171,11 +172,19 @@ def run_pull_off(case: Case, model, solver, steps: int = 20, retract_to: float |
         if on_state is not None:
             on_state(k, total, s)
 
+    from .adhesion import cell_softening, trapping_warning
+
+    trapping = trapping_warning(law, model)
+    if trapping:
+        import warnings
+
+        warnings.warn(trapping, stacklevel=2)
     end = -4.0 * law.range if retract_to is None else float(retract_to)
     r = approach_retract(model, solver, -2.0 * law.range, dz_max, end, int(steps), on_state=observe)
     R, w = case.sphere.radius, law.work_of_adhesion
     result = {**r, "work_of_adhesion": w, "tabor_parameter": tabor_parameter(case.pair, R, w, law.range),
-              "dmt_pull_off": -2.0 * math.pi * R * w, "jkr_pull_off": -1.5 * math.pi * R * w}
+              "dmt_pull_off": -2.0 * math.pi * R * w, "jkr_pull_off": -1.5 * math.pi * R * w,
+              "cell_softening": cell_softening(law, model)}
     return withhold_if_unconverged(result, PULL_OFF_RESULTS)
 
 

@@ -213,7 +213,8 @@ class AdhesiveNormalSolver:
 
     # -- the solve ---------------------------------------------------------------------------
 
-    def solve(self, state, approach_z: float, known_displacement: wp.array | None = None, tol=None) -> SolveInfo:
+    def solve(self, state, approach_z: float, known_displacement: wp.array | None = None, tol=None,
+              warm: bool = False) -> SolveInfo:
         """Solve for the total normal traction of ``state`` at the rigid approach ``approach_z`` [m].
 
         Starts from the state's tractions (pressure + adhesive_pressure: their displacement C p)
@@ -221,7 +222,9 @@ class AdhesiveNormalSolver:
         (-t(h)), ``state.gap`` and ``state.disp_z`` (the displacement of the total normal
         traction). ``known_displacement`` (scaled) is a normal displacement of other tractions
         held fixed (the shear's coupling). The SMC law's tangential opening comes from the state's
-        slip."""
+        slip. ``warm``: start from this solver's last displacement instead (the state's tractions
+        are the ones its last solve wrote: the turns of a coupled step), which saves a transform
+        pair."""
         m = self.model
         n = m.grid.n
         tol = self.tol if tol is None else float(tol)
@@ -230,12 +233,14 @@ class AdhesiveNormalSolver:
                      [m.initial_gap.flatten(), known.flatten(), m.scalar(approach_z / m.length_scale)],
                      [self.offset.flatten()])
         self.law.tangential_opening(m, state, self.opening_t)
-        # start: u = C (p_c + p_adh) of the state, projected onto the bound
-        self.work.zero_()
-        self._launch(ak.adhesive_start, m.n_cells, [state.pressure.flatten(), state.adhesive_pressure.flatten(), n],
-                     [self.work])
-        self.convolution.apply(self.work, self.displacement)
-        self._launch(ak.project_to_bound, m.n_cells, [self.displacement, self.offset.flatten(), n])
+        # start: u = C (p_c + p_adh) of the state (or the last solve's u), projected onto the bound
+        if not warm:
+            self.work.zero_()
+            self._launch(ak.adhesive_start, m.n_cells,
+                         [state.pressure.flatten(), state.adhesive_pressure.flatten(), n], [self.work])
+            self.convolution.apply(self.work, self.displacement)
+        self._launch(ak.project_to_bound, m.n_cells, [self.displacement, self.offset.flatten(),
+                                                       state.pressure.flatten(), n])
         self.convolution.apply(self.displacement, self.traction, inverse=True)
         eps_max = 5e-3 * self.law_length
         eps = eps_max
