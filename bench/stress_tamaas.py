@@ -14,8 +14,8 @@ nu = 0.3, on an n x n grid of side ``--size-in-a`` a, at ``--layers`` depths equ
 Printed per n: times [s]; the largest difference of the six stress components and of von Mises
 between the two codes below the contact (|x|, |y| <= a, depths >= 0.25 a, away from the
 domain's edges, where a periodic code's images weigh as much as the load) [p0]; each code's
-largest error on the axis against Johnson's closed form (eq. 3.45) [p0]; each code's von Mises maximum [p0] and its depth [a]
-against Hertz's (0.620 at 0.481 a). The periodic images of Tamaas's domain (``--size-in-a`` a
+largest error on the axis against Johnson's closed form (eq. 3.45) [p0]; each code's von Mises
+maximum [p0] and its depth [a] against Hertz's (0.620 at 0.481 a). The periodic images of Tamaas's domain (``--size-in-a`` a
 wide) account for most of its difference from the closed form; run with a larger
 ``--size-in-a`` to see them shrink.
 
