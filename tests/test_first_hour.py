@@ -454,3 +454,13 @@ def test_table2_adhesion_options_are_judged_for_plausibility(capsys, tmp_path):
     err = capsys.readouterr().err
     assert rc == 2 and err.count("\n") == 1 and err.startswith("warpcontact: error: --delta-n: = 0.005 m"), err
     assert not (tmp_path / "t2").exists()
+
+
+def test_a_domain_suggested_beyond_the_sphere_asks_for_the_paraboloid():
+    """Row 1: the grid.size suggestion must not break the sqrt(2) R rule without saying so."""
+    d = {"sphere": {"radius": 20e-9, "E": 310e9, "nu": 0.27}, "flat": {"E": 130e9, "nu": 0.28},
+         "grid": {"n": 64, "size": 20e-9}, "load": {"delta_z": 8e-9}}  # 2.5 a = 31.6 nm > sqrt(2) R = 28.3 nm
+    with pytest.raises(InputError) as e:
+        case_from_dict(d)
+    assert e.value.key == "grid.size" and "use at least 3.162e-08 m" in str(e.value)
+    assert "sphere.profile = 'paraboloid'" in str(e.value), e.value

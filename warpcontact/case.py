@@ -38,6 +38,7 @@ except ModuleNotFoundError:  # Python < 3.11
 
 from .errors import InputError
 from .geometry import MIN_CELLS, Grid, Sphere
+from .guards import profile_note
 from .materials import Material, MaterialPair
 from .plausibility import check_case
 
@@ -606,7 +607,8 @@ class Case:
                     "grid.size",
                     f"must exceed 2 a = {2.0 * a:.4g} m, the Hertz contact diameter at the largest delta_z = {dz:.4g} m "
                     f"(a = sqrt(R delta_z) = {a:.4g} m), got {size:.4g} m; use at least "
-                    f"{SUGGESTED_SIZE_IN_A * a:.4g} m ({SUGGESTED_SIZE_IN_A:g} a), more with adhesion",
+                    f"{SUGGESTED_SIZE_IN_A * a:.4g} m ({SUGGESTED_SIZE_IN_A:g} a), more with adhesion"
+                    f"{profile_note(SUGGESTED_SIZE_IN_A * a, self.sphere)}",
                 )
         if self.sphere.profile == "sphere":
             corner = math.sqrt(2.0) * 0.5 * (self.grid.n - 1) * self.grid.dx

@@ -46,6 +46,16 @@ class AdhesionAtEdgeWarning(UserWarning):
     """The adhesive law still pulls hard on the domain's edge: the domain cuts off the law's tail."""
 
 
+def profile_note(size: float, sphere) -> str:
+    """What a suggested domain side [m] needs of the profile: "" when it fits the sphere's profile,
+    else a clause asking for the paraboloid (the exact sphere's gap exists only within r < R, so
+    its domain stays below sqrt(2) R)."""
+    if getattr(sphere, "profile", "sphere") != "sphere" or size < math.sqrt(2.0) * sphere.radius:
+        return ""
+    return (f" with sphere.profile = 'paraboloid' (a domain of that side reaches beyond the sphere's radius "
+            f"R = {sphere.radius:.4g} m)")
+
+
 def check_contact_fits(state):
     """InputError (key ``grid.size``) if contact cells touch the edge of the domain: the domain is
     too small for the load, and the DC-FFT solution would miss the contact beyond it."""
@@ -57,7 +67,8 @@ def check_contact_fits(state):
         raise InputError(
             "grid.size",
             f"the contact reaches the edge of the {g.size:.4g} m domain at delta = ({dx:.4g}, {dy:.4g}, {dz:.4g}) m; "
-            f"use at least {1.5 * g.size:.4g} m (and more cells to keep the resolution)",
+            f"use at least {1.5 * g.size:.4g} m{profile_note(1.5 * g.size, state.model.sphere)} (and more cells to "
+            f"keep the resolution)",
         )
 
 
@@ -248,7 +259,7 @@ def warn_if_adhesion_at_edge(state, adhesion, delta_z: float | None = None) -> b
     warnings.warn(
         f"the adhesive tension on the edge of the {m.grid.size:.4g} m domain is {100 * edge / peak:.0f} % of its "
         f"peak at delta_z = {state.approach[2]:.4g} m: the domain cuts off the adhesive law's tail, which changes "
-        f"the total adhesive force; use grid.size >= {need:.4g} m "
+        f"the total adhesive force; use grid.size >= {need:.4g} m{profile_note(need, m.sphere)} "
         f"(and grid.n to match, to keep the resolution)",
         AdhesionAtEdgeWarning,
         stacklevel=3,
