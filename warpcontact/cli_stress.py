@@ -120,10 +120,16 @@ def section_figure(result):
         if math.isfinite(sy) and float(np.max(data)) >= sy / 1e6:
             ax.contour(coord / scale, sign * depths / scale, data, levels=[sy / 1e6], colors="r", linewidths=1.2)
         m = summary[name]["von_mises_max"]
-        ax.plot([(m["x"] if axis == "x" else m["y"]) / scale], [sign * m["z"] / scale], "wx", ms=8, mew=2)
+        other_name = "y" if axis == "x" else "x"
+        off = m[other_name] - (result.y if axis == "x" else result.x)[result.section_index]
+        where = ""
+        if abs(off) <= (result.x[1] - result.x[0]):  # in this section: marked
+            ax.plot([m[axis] / scale], [sign * m["z"] / scale], "wx", ms=8, mew=2)
+        else:
+            where = f", off this section at {other_name} = {m[other_name] / scale:.3g} {unit}"
         yl = f", yield strength {sy / 1e6:.4g} MPa (red where reached)" if math.isfinite(sy) else ""
-        ax.set_title(f"{name} (nu = {b.nu:g}{yl})\nvon Mises max {m['value'] / 1e6:.4g} MPa (x) at depth "
-                     f"{m['z'] / scale:.4g} {unit}", fontsize="medium")
+        ax.set_title(f"{name} (nu = {b.nu:g}{yl})\nvon Mises max {m['value'] / 1e6:.4g} MPa at depth "
+                     f"{m['z'] / scale:.4g} {unit}{where}", fontsize="medium")
         ax.set_ylabel(f"{'height above' if sign > 0 else 'depth below'} the interface [{unit}]")
         ax.set_aspect("equal", adjustable="box")
     other = "y" if axis == "x" else "x"
