@@ -7,6 +7,15 @@ See MODEL.md-level details in docs/ and the README.
 
 __version__ = "0.1.0"
 
+from typing import TYPE_CHECKING
+
+if TYPE_CHECKING:  # for readers, type checkers and the documentation's static analysis
+    from .api import gross_slip, path, pull_off, solve
+    from .case import Case, case_from_dict, load_case
+    from .errors import ConvergenceError, InputError, NonFiniteError
+    from .geometry import Grid, Sphere
+    from .materials import COPPER, HARDENED_STEEL, PAPER_PAIR, Material, MaterialPair
+
 # The names below are imported when first used (PEP 562), so that `warpcontact --help` and the
 # command line's argument parsing do not import Warp, SciPy and the solvers (a second or so).
 _LAZY = {
