@@ -125,7 +125,11 @@ class AdhesiveNormalSolver:
     tractions are p + step C^-1 d without another transform unless a trial step meets the bound.
 
     Convergence: the projected gradient's 2-norm (the traction misfit p + t(h) on free cells)
-    relative to the 2-norm of the traction on the physical cells falls under ``tol``.
+    relative to the 2-norm of the traction on the physical cells falls under ``tol``; that norm
+    counts as at least one cell at the law's peak tension, so that a state out of contact (a
+    traction far below the law's, whose relative misfit the energy's round-off stops near 1e-7)
+    is held to a misfit of ``tol`` times one cell's peak tension, not ``tol`` of its own
+    vanishing traction.
 
     Args:
         model: the contact model.
@@ -158,6 +162,8 @@ class AdhesiveNormalSolver:
         self._reduction = ReductionLaunch.for_cells(self.n_padded, model.device)
         self._self_compliance = model.scalar(model.operator.self_coefficient("zz"))
         self.law_id, params, self.law_length = law.normal_law(model)
+        #: the residual's smallest traction scale: one cell at the law's peak tension (scaled)
+        self.traction_floor = law.peak_tension / model.traction_scale
         self._params = [model.scalar(v) for v in params]
 
     # -- device work -------------------------------------------------------------------------
@@ -252,8 +258,8 @@ class AdhesiveNormalSolver:
         it = 0
         transforms = 3
         while True:
-            scale = math.sqrt(sums[ak.S_TRACTION])
-            residual = math.sqrt(sums[ak.S_PG]) / scale if scale > 0 else (0.0 if sums[ak.S_PG] == 0 else 1.0)
+            scale = max(math.sqrt(sums[ak.S_TRACTION]), self.traction_floor)
+            residual = math.sqrt(sums[ak.S_PG]) / scale
             if not math.isfinite(residual):
                 from ..errors import NonFiniteError
 
