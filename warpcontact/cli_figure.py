@@ -175,6 +175,10 @@ def case_caption(npz: Path) -> str:
     elif adhesion.get("law") == "smc":
         parts.append(f"SMC adhesion: $\\sigma_{{max}}$ = {adhesion['sigma_max']:.3g} Pa, "
                      f"$\\delta_n$ = {adhesion['delta_n']:.3g} m")
+    elif adhesion.get("law") == "exponential":
+        parts.append(f"exponential adhesion: w = {adhesion['w']:.3g} J/m$^2$, $\\rho$ = {adhesion['rho']:.3g} m")
+    elif adhesion.get("law") == "lj93":
+        parts.append(f"LJ 9-3 adhesion: w = {adhesion['w']:.3g} J/m$^2$, $z_0$ = {adhesion['z0']:.3g} m")
     else:
         parts.append(f"Dugdale adhesion: $\\sigma_0$ = {adhesion['sigma_0']:.3g} Pa, $h_0$ = {adhesion['h_0']:.3g} m")
     return ";  ".join(parts)
@@ -262,7 +266,7 @@ def cmd_figure(args) -> int:
         if status is not None:
             return status
     if str(args.fields).lower().endswith(".toml"):  # a case: solve it into --out first, as 'solve' does
-        from .cli import cmd_solve
+        from .cli_solve import cmd_solve
 
         solve_args = argparse.Namespace(case=args.fields, out=args.out, device=getattr(args, "device", None),
                                         dtype=getattr(args, "dtype", None), fft=getattr(args, "fft", None),
