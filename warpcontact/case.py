@@ -53,7 +53,14 @@ GRID_KEYS = ("n", "size")
 LOAD_KEYS = ("delta_z", "delta_x", "delta_y", "steps", "path")
 SOLVER_KEYS = ("device", "dtype", "tol", "max_iter", "max_turns", "fft")
 FRICTION_KEYS = {"coulomb": ("law", "mu"), "tabor": ("law", "k_tau", "k_vm", "hardness_cap")}
-ADHESION_KEYS = {"smc": ("law", "sigma_max", "tau_max", "delta_n", "delta_t"), "dugdale": ("law", "sigma_0", "h_0")}
+ADHESION_KEYS = {"smc": ("law", "sigma_max", "tau_max", "delta_n", "delta_t"),
+                 "dugdale": ("law", "sigma_0", "h_0", "smoothing"),
+                 "exponential": ("law", "w", "rho"),
+                 "lj93": ("law", "w", "z0")}
+#: Keys a law may leave out (its default then holds): Dugdale's ramp width over h_0.
+ADHESION_OPTIONAL = {"dugdale": ("smoothing",)}
+#: Every key an [adhesion] table may hold.
+ADHESION_ALL_KEYS = tuple(dict.fromkeys(k for keys in ADHESION_KEYS.values() for k in keys))
 
 PROFILES = ("sphere", "paraboloid")
 DTYPES = ("float64", "float32")
@@ -507,13 +514,18 @@ class AdhesionSpec:
     """The ``[adhesion]`` table: the traction-separation law (MODEL.md section 6).
 
     Attributes:
-        law: "smc" (McGarry et al. 2014) or "dugdale".
+        law: "smc" (McGarry et al. 2014), "dugdale", "exponential" or "lj93" (the laws of
+            ``warpcontact.adhesion``; exponential and lj93 are normal-only, for the JKR side).
         sigma_max: peak normal traction [Pa] (smc).
         tau_max: peak shear traction [Pa] (smc).
         delta_n: normal characteristic length [m] (smc).
         delta_t: tangential characteristic length [m] (smc).
         sigma_0: constant attraction [Pa] (dugdale).
         h_0: range of the attraction [m] (dugdale).
+        smoothing: ramp width over h_0 [-] (dugdale, optional, default 0.05; in [0, 1)).
+        w: work of adhesion [J/m^2] (exponential, lj93).
+        rho: decay length of t = (w / rho) exp(-h / rho) [m] (exponential).
+        z0: equilibrium distance of the Lennard-Jones 9-3 potential [m] (lj93).
     """
 
     law: str
@@ -523,13 +535,19 @@ class AdhesionSpec:
     delta_t: float | None = None
     sigma_0: float | None = None
     h_0: float | None = None
+    smoothing: float | None = None
+    w: float | None = None
+    rho: float | None = None
+    z0: float | None = None
 
-    _UNITS = {"sigma_max": "Pa", "tau_max": "Pa", "delta_n": "m", "delta_t": "m", "sigma_0": "Pa", "h_0": "m"}
+    _UNITS = {"sigma_max": "Pa", "tau_max": "Pa", "delta_n": "m", "delta_t": "m", "sigma_0": "Pa", "h_0": "m",
+              "w": "J/m^2", "rho": "m", "z0": "m"}
 
     def __post_init__(self):
         law = _choice("adhesion.law", self.law, tuple(ADHESION_KEYS))
         used = ADHESION_KEYS[law][1:]
-        for name, unit in self._UNITS.items():
+        optional = ADHESION_OPTIONAL.get(law, ())
+        for name in ADHESION_ALL_KEYS[1:]:
             v = getattr(self, name)
             if name not in used:
                 if v is not None:
@@ -538,18 +556,45 @@ class AdhesionSpec:
                     )
                 continue
             if v is None:
+                if name in optional:
+                    continue
                 raise InputError(f"adhesion.{name}", f"is required for law {law!r}")
-            _set(self, name, _positive(f"adhesion.{name}", v, unit))
+            if name == "smoothing":
+                if isinstance(v, bool) or not isinstance(v, (int, float)) or not 0.0 <= v < 1.0:
+                    raise InputError("adhesion.smoothing", f"must be a number in [0, 1) (the ramp width over h_0), "
+                                                           f"got {v!r}")
+                _set(self, name, float(v))
+                continue
+            _set(self, name, _positive(f"adhesion.{name}", v, self._UNITS[name]))
 
     @property
     def work_of_adhesion(self) -> float:
-        """w [J/m^2]: e sigma_max delta_n (smc, pure opening) or sigma_0 h_0 (dugdale)."""
+        """w [J/m^2]: e sigma_max delta_n (smc, pure opening), sigma_0 h_0 (dugdale), w (others)."""
         if self.law == "smc":
             return math.e * self.sigma_max * self.delta_n
-        return self.sigma_0 * self.h_0
+        if self.law == "dugdale":
+            return self.sigma_0 * self.h_0
+        return self.w
+
+    @property
+    def length(self) -> float:
+        """The law's length [m]: delta_n (smc), h_0 (dugdale), rho (exponential), z0 (lj93)."""
+        return {"smc": self.delta_n, "dugdale": self.h_0, "exponential": self.rho, "lj93": self.z0}[self.law]
+
+    @property
+    def peak_tension(self) -> float:
+        """The law's largest normal tension [Pa]: sigma_max, sigma_0, w / rho, 16 w / (9 sqrt(3) z0)."""
+        if self.law == "smc":
+            return self.sigma_max
+        if self.law == "dugdale":
+            return self.sigma_0
+        if self.law == "exponential":
+            return self.w / self.rho
+        return 16.0 * self.w / (9.0 * math.sqrt(3.0) * self.z0)
 
     def to_dict(self) -> dict:
-        return {"law": self.law, **{k: getattr(self, k) for k in ADHESION_KEYS[self.law][1:]}}
+        return {"law": self.law, **{k: getattr(self, k) for k in ADHESION_KEYS[self.law][1:]
+                                    if getattr(self, k) is not None}}
 
 
 # ---------------------------------------------------------------------------------------------
@@ -710,11 +755,12 @@ def case_from_dict(d: Mapping) -> Case:
     adhesion = None
     if "adhesion" in tables:
         ad = tables["adhesion"]
-        _check_keys("adhesion", ad, ("law", "sigma_max", "tau_max", "delta_n", "delta_t", "sigma_0", "h_0"))
+        _check_keys("adhesion", ad, ADHESION_ALL_KEYS)
         _require("adhesion", ad, ("law",), f"; one of {_list(tuple(ADHESION_KEYS))}")
         law = _choice("adhesion.law", ad["law"], tuple(ADHESION_KEYS))
         _check_keys("adhesion", ad, ADHESION_KEYS[law], why=f"is not used by law {law!r}")
-        _require("adhesion", ad, ADHESION_KEYS[law], f" for law {law!r}")
+        _require("adhesion", ad, tuple(k for k in ADHESION_KEYS[law] if k not in ADHESION_OPTIONAL.get(law, ())),
+                 f" for law {law!r}")
         adhesion = AdhesionSpec(**ad)
 
     # values no solid or contact can have (a unit slip, mostly), before the domain checks of Case

@@ -162,7 +162,7 @@ class RunChecks:
         if s.get("adhesive_area", 0.0) > 0.0:
             return math.sqrt((s["adhesive_area"] + s["contact_area"]) / math.pi) - contact_radius
         if contact_radius > 0.0:  # no adhesive cell: the zone is narrower than a cell; estimate it
-            law_range = ad.delta_n if ad.law == "smc" else getattr(ad, "h_0", None)
+            law_range = ad.length
             if law_range:
                 return adhesive_zone_estimate(contact_radius, self.case.sphere.radius, law_range)
         return None

@@ -60,6 +60,8 @@ DOWN = (1e-3, 1e-6, 1e-9, 1e-12)
 
 #: The adhesion laws' keys: peak normal stress, peak shear stress (or None), length.
 ADHESION_STRESS_KEYS = {"smc": ("sigma_max", "tau_max", "delta_n"), "dugdale": ("sigma_0", None, "h_0")}
+#: The laws given by their work of adhesion and length: the length's key (the peak tension follows).
+ADHESION_LENGTH_KEYS = {"exponential": "rho", "lj93": "z0"}
 
 
 class PlausibilityWarning(UserWarning):
@@ -151,6 +153,9 @@ def check_adhesion(adhesion, E_star: float, bodies: dict) -> None:
     ``adhesion``: the case's AdhesionSpec (``law``, its keys, ``work_of_adhesion``); ``bodies`` as
     in :func:`check_moduli`, to tell a modulus written in the wrong unit from a stress.
     """
+    if adhesion.law in ADHESION_LENGTH_KEYS:
+        _check_work_and_length(adhesion, E_star)
+        return
     keys = ADHESION_STRESS_KEYS.get(adhesion.law)
     if keys is None:  # a law this module does not know: nothing to judge
         return
@@ -201,6 +206,29 @@ def check_adhesion(adhesion, E_star: float, bodies: dict) -> None:
         raise InputError(f"adhesion.{length_key}", f"= {_num(length)} m {what}{hint}")
     for text in unusual:
         warnings.warn(text, PlausibilityWarning, stacklevel=4)
+
+
+def _check_work_and_length(adhesion, E_star: float) -> None:
+    """A law given by w and a length (exponential, lj93): w within what solids have, and the
+    peak tension it implies (w over the length) below E*."""
+    key = ADHESION_LENGTH_KEYS[adhesion.law]
+    w, length, peak = adhesion.w, getattr(adhesion, key), adhesion.peak_tension
+    if w > MAX_WORK_OF_ADHESION:
+        g = _closest(w, DOWN, TYPICAL_WORK_OF_ADHESION, lambda v: v <= MAX_WORK_OF_ADHESION)
+        hint = f"; did you mean {_num(w * g)} J/m^2?" if g else ""
+        raise InputError("adhesion.w", f"= {_num(w)} J/m^2 is above any pair of solids (at most about "
+                                       f"{_num(MAX_WORK_OF_ADHESION)} J/m^2; van der Waals and capillary contacts "
+                                       f"have 0.01 to 1 J/m^2){hint}")
+    if peak > E_star:
+        g = _closest(length, UP, w / (THEORETICAL_STRENGTH * E_star), lambda v: w / v <= THEORETICAL_STRENGTH * E_star)
+        hint = f"; did you mean {_meant(length, g, 'm')}?" if g else ""
+        raise InputError(f"adhesion.{key}", f"= {_num(length)} m with w = {_num(w)} J/m^2 gives a peak tension of "
+                                            f"{_num(peak)} Pa, above E* = {_num(E_star)} Pa: the attraction would "
+                                            f"open the surfaces by strains above 1, outside linear elasticity{hint}")
+    if peak > THEORETICAL_STRENGTH * E_star:
+        warnings.warn(f"adhesion.{key} = {_num(length)} m with w = {_num(w)} J/m^2 gives a peak tension of "
+                      f"{_num(peak)} Pa, above E* / 10 = {_num(THEORETICAL_STRENGTH * E_star)} Pa, the theoretical "
+                      f"strength of the solids", PlausibilityWarning, stacklevel=4)
 
 
 def check_contact_scale(radius: float, profile: str, size: float, delta_z_max: float, delta_z_key: str) -> None:

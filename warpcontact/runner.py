@@ -7,7 +7,7 @@ import time
 from dataclasses import dataclass, field
 
 from . import __version__
-from .adhesion import SMC, Dugdale
+from .adhesion import SMC, Dugdale, Exponential, LennardJones93
 from .friction import Coulomb, TaborVonMises
 from .guards import RunChecks, warn_if_adhesion_at_edge
 from .resources import check_fits
@@ -35,7 +35,13 @@ def adhesion_law(case):
         return None
     if ad.law == "smc":
         return SMC(ad.sigma_max, ad.tau_max, ad.delta_n, ad.delta_t)
-    return Dugdale(ad.sigma_0, ad.h_0)
+    if ad.law == "exponential":
+        return Exponential(ad.w, ad.rho)
+    if ad.law == "lj93":
+        return LennardJones93(ad.w, ad.z0)
+    if ad.smoothing is None:
+        return Dugdale(ad.sigma_0, ad.h_0)
+    return Dugdale(ad.sigma_0, ad.h_0, smoothing=ad.smoothing)
 
 
 def build_model(case) -> ContactModel:

@@ -24,6 +24,13 @@ MEMORY = 5
 ARMIJO = 1e-4
 #: halvings of a trial step before the iteration gives up on its direction
 MAX_HALVINGS = 40
+#: Hager & Zhang's approximate Wolfe conditions (CG_DESCENT, SIAM J. Optim. 2005), used where the
+#: energy can no longer tell a decrease (a change within APPROX_ENERGY of |E|: near the solution an
+#: energy change ~ |g|^2 falls below the energy's round-off at a relative gradient of ~sqrt(eps)):
+#: the slope at the trial point decides, sigma phi'(0) <= phi'(a) <= (2 delta - 1) phi'(0).
+APPROX_ENERGY = 1e-6
+WOLFE_DELTA = 0.1
+WOLFE_SIGMA = 0.9
 #: fields of the padded grid besides the L-BFGS pairs: displacement, traction, gradient,
 #: direction, its traction, work, and the trial point's three
 PADDED_FIELDS = 9
@@ -289,6 +296,8 @@ class AdhesiveNormalSolver:
             transforms += 2
             step = 1.0
             accepted = False
+            trial_sums = None
+            energy_noise = APPROX_ENERGY * abs(sums[ak.S_ENERGY])
             for _ in range(MAX_HALVINGS):
                 self.sums.zero_()
                 self._reduce(ak.adhesive_trial,
@@ -306,13 +315,23 @@ class AdhesiveNormalSolver:
                 if change <= ARMIJO * t[ak.S_SLOPE] or (change <= 0 and step < 1e-6):
                     accepted = True
                     break
+                if abs(change) <= energy_noise and t[ak.S_SLOPE] < 0:  # the energy cannot tell: the slope
+                    trial_sums = self._evaluate(self.trial_displacement, self.trial_traction, self.trial_gradient, eps)
+                    self._launch(ak.difference, self.n_padded, [self.trial_displacement, self.displacement],
+                                 [self.work])
+                    trial_slope = self._dot(self.trial_gradient, self.work)
+                    if WOLFE_SIGMA * t[ak.S_SLOPE] <= trial_slope <= (2.0 * WOLFE_DELTA - 1.0) * t[ak.S_SLOPE]:
+                        accepted = True
+                        break
+                    trial_sums = None
                 step *= 0.5
             if not accepted:
                 pairs.clear()
                 if len(history) > 1 and step < 1e-9:
                     break
                 continue
-            trial_sums = self._evaluate(self.trial_displacement, self.trial_traction, self.trial_gradient, eps)
+            if trial_sums is None:
+                trial_sums = self._evaluate(self.trial_displacement, self.trial_traction, self.trial_gradient, eps)
             # the new pair (s, y) in the oldest slot
             slot = self.steps[it % self.memory], self.gradient_changes[it % self.memory]
             self._launch(ak.difference, self.n_padded, [self.trial_displacement, self.displacement], [slot[0]])

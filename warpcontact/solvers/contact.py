@@ -188,9 +188,9 @@ class ContactSolver:
             for a in (state.shear_x, state.shear_y, state.adhesive_shear_x, state.adhesive_shear_y):
                 a.zero_()
             info = self.adhesive.solve(state, dz)
-            if info.converged:
+            if info.converged or not hasattr(self.adhesion, "tractions"):  # a law with no fixed point to fall to
                 state.approach = (dx, dy, dz)
-                info = SolveInfo(converged=True, iterations=info.iterations, residual=info.residual,
+                info = SolveInfo(converged=info.converged, iterations=info.iterations, residual=info.residual,
                                  outer_iterations=1, history=info.history)
                 state.info = info
                 check_contact_fits(state)
