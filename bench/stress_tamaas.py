@@ -35,11 +35,9 @@ from pathlib import Path
 
 import numpy as np
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
-
-from warpcontact import stress as st  # noqa: E402
-from warpcontact.geometry import Grid  # noqa: E402
-from warpcontact.materials import Material, MaterialPair  # noqa: E402
+from warpcontact import stress as st
+from warpcontact.geometry import Grid
+from warpcontact.materials import Material, MaterialPair
 
 A, P0, NU = 1e-6, 1e9, 0.3
 DEPTH_IN_A = 1.5
