@@ -81,6 +81,9 @@ class ProjectedCG:
             raise ValueError("use_graphs: the solver's graphs need a CUDA device with conditional graph nodes "
                              "(CUDA toolkit and driver 12.4+)")
         self._graphs: OrderedDict = OrderedDict()
+        #: the parts of an iteration (the code of a loop body) that have run eagerly: their kernels
+        #: are loaded for this float type; a capture waits until they have (see _launch)
+        self._ran_eagerly: set = set()
 
     def _stage(self, slot: int, value: float):
         """settings[slot] <- value on the host; :meth:`_upload` sends them."""
@@ -99,10 +102,17 @@ class ProjectedCG:
         self._stage(P_CHUNK, max(1, int(self.iterations_per_launch)))
         self._upload()
 
-    def _launch(self, key, work):
+    def _launch(self, key, work, needs=()):
         """Run ``work()``: eagerly, or from the CUDA graph captured for ``key`` (the arrays it
         touches and its variant) the first time, when it runs eagerly (loading its kernels and
-        FFT plans) and is then captured, which does not run it again."""
+        FFT plans) and is then captured, which does not run it again.
+
+        ``needs``: the conditional parts of ``work`` (names in ``_ran_eagerly``) whose kernels must
+        be loaded before a capture. A loop that converged at its start (zero iterations) never ran
+        its body eagerly, and a generic kernel's overload for this float type made for the first
+        time inside a capture is a module load there, which fails the capture (CUDA error 901: a
+        float32 tangential solve starting from its solution). Until every part has run, ``work``
+        runs eagerly and nothing is captured."""
         if not self.use_graphs:
             work()
             return
@@ -112,6 +122,8 @@ class ProjectedCG:
             wp.capture_launch(graph)
             return
         work()
+        if not set(needs) <= self._ran_eagerly:
+            return
         with wp.ScopedCapture(device=self.model.device, force_module_load=False) as capture:
             work()
         self._graphs[key] = capture.graph
@@ -143,6 +155,22 @@ class ProjectedCG:
         stops or the flag is raised), the outer loop runs ``step()`` if the flag is raised and
         enters the inner loop again. The iterations are the same either way."""
         tol = self.active_tol
+        ran = self._ran_eagerly
+
+        def part(f):  # a part of the iteration by its code: the same kernels on every solve
+            return getattr(f, "__code__", f)
+
+        def marked(f):
+            def run():
+                ran.add(part(f))
+                f()
+
+            return run
+
+        # the loop body must have run eagerly before a capture; the prelude and the refresh launch
+        # the kernels of ``exact`` (both solvers), which the start runs
+        needs = (part(body),)
+        body = marked(body)
 
         def iterations():
             if prelude is None:
@@ -172,7 +200,7 @@ class ProjectedCG:
             iterations()
             wp.capture_if(self.refresh, on_true=refresh)
 
-        self._launch(("first", *key), lambda: work(True))
+        self._launch(("first", *key), lambda: work(True), needs)
         last = -1
         while True:
             scalars = self.scalars.numpy()
@@ -188,7 +216,7 @@ class ProjectedCG:
                     on_disagreement()
                 last = it
             interrupts.check()
-            self._launch(("again", *key), lambda: work(False))
+            self._launch(("again", *key), lambda: work(False), needs)
         hist = self.history.numpy()[:it].astype(np.float64)
         return SolveInfo(converged=bool(residual < tol), iterations=it, residual=residual, history=hist.tolist())
 
