@@ -134,6 +134,16 @@ def _parser():
     t.add_argument("--k-tau", type=float, nargs="+", help="only these k_tau columns (0.50, 0.80, 0.95)")
     t.add_argument("--delta-z-um", type=float, nargs="+", help="only these delta_z rows in um (1e-5, 5e-5, 1e-4, 1.5e-4)")
     _common(t)
+    sc = sub.add_parser(
+        "schema",
+        help="print the JSON Schema of a case file (for editors that complete and check TOML)",
+        description="Print the JSON Schema (draft 2020-12) of a case file, built from the checks that every command "
+        "makes: tables, keys, types, ranges, choices, defaults and descriptions. Point an editor at it to complete "
+        "and check case files as they are typed (docs/case-files.md).",
+        epilog="example:\n  warpcontact schema --out case.schema.json\n  warpcontact schema | python3 -m json.tool",
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
+    sc.add_argument("--out", metavar="FILE", help="write the schema to FILE (whole or not at all) instead of printing it")
     return parser
 
 
@@ -492,6 +502,20 @@ def _write_table2(out, records, status, atomic_write_json, atomic_write_bytes, m
     atomic_write_bytes(out / "table2.csv", buf.getvalue().encode())
 
 
+def cmd_schema(args) -> int:
+    from .schema import schema_json
+
+    text = schema_json()
+    if args.out is None:
+        sys.stdout.write(text)
+        return 0
+    from .results import atomic_write_bytes
+
+    atomic_write_bytes(Path(args.out), text.encode())
+    print(f"schema -> {args.out}", file=sys.stderr)
+    return 0
+
+
 def _show_warning(message, category, filename, lineno, file=None, line=None):
     write_above(f"warpcontact: warning: {message}")  # above a progress bar being drawn
 
@@ -518,7 +542,8 @@ def main(argv=None) -> int:
         from .cli_stress import cmd_stress
 
         commands = {"solve": cmd_solve, "gross-slip": cmd_gross_slip, "table2": cmd_table2, "figure": cmd_figure,
-                    "pull-off": cmd_pull_off, "sweep": cmd_sweep, "stress": cmd_stress}
+                    "pull-off": cmd_pull_off, "sweep": cmd_sweep, "stress": cmd_stress,
+                    "schema": cmd_schema}
         return commands[args.command](args)
     except InputError as e:
         end_line()  # of a progress bar being drawn
