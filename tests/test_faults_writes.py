@@ -360,5 +360,7 @@ def test_a_real_full_disk_then_read_only(small_tmpfs, tmp_path):
     subprocess.run(["mount", "-o", "remount,ro", str(small_tmpfs)], check=True)
     before = (out / "result.json").read_bytes()
     r = solve()
-    assert r.returncode == 74 and f"cannot write {out / 'result.json'}: read-only file system" in r.stderr, r.stderr
+    # refused before the solve (--out is checked first, tests/test_out_refusal.py); a file system that
+    # turns read-only during a run is the injected EROFS above (exit 74)
+    assert r.returncode == 2 and f"--out: cannot write in {out} (read-only file system)" in r.stderr, r.stderr
     assert (out / "result.json").read_bytes() == before

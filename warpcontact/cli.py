@@ -144,6 +144,7 @@ def _parser():
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
     sc.add_argument("--out", metavar="FILE", help="write the schema to FILE (whole or not at all) instead of printing it")
+    sc.set_defaults(out_is_file=True)  # every other command's --out is a folder
     return parser
 
 
@@ -516,6 +517,36 @@ def cmd_schema(args) -> int:
     return 0
 
 
+def check_out(out, is_file: bool = False) -> None:
+    """Refuse ``--out`` before anything runs (InputError, exit 2) where the outputs could not be
+    written: a folder option naming an existing file (a file option: an existing folder), or a
+    folder that cannot be made or written in. Judged on the nearest folder that exists, by making
+    and removing a temporary file there (what permissions, read-only file systems and ACLs
+    allow), so nothing is left behind and no folder is made before the run needs it."""
+    path = Path(out)
+    try:
+        if is_file and path.is_dir():
+            raise InputError("--out", f"{path} is a folder: name the file to write")
+        if not is_file and path.exists() and not path.is_dir():
+            raise InputError("--out", f"{path} is a file, not a folder: name a new or existing folder for the outputs")
+        folder = path.parent if is_file else path
+        existing = folder
+        while not existing.exists() and existing != existing.parent:
+            existing = existing.parent
+        if not existing.is_dir():
+            raise InputError("--out", f"{existing} is a file, so the folder {folder} cannot be made")
+    except OSError as e:  # a path that cannot even be looked at (a folder without search permission)
+        raise InputError("--out", f"cannot reach {path} ({(e.strerror or str(e)).lower()})") from None
+    import tempfile
+
+    try:
+        with tempfile.NamedTemporaryFile(dir=existing, prefix=".warpcontact-", suffix=".probe"):
+            pass
+    except OSError as e:
+        raise InputError("--out", f"cannot write in {existing} ({(e.strerror or str(e)).lower()}): name a folder "
+                                  "you can write to") from None
+
+
 def _show_warning(message, category, filename, lineno, file=None, line=None):
     write_above(f"warpcontact: warning: {message}")  # above a progress bar being drawn
 
@@ -541,6 +572,8 @@ def main(argv=None) -> int:
         from .cli_sweep import cmd_sweep
         from .cli_stress import cmd_stress
 
+        if getattr(args, "out", None) is not None:  # before any command starts: nothing is solved in vain
+            check_out(args.out, getattr(args, "out_is_file", False))
         commands = {"solve": cmd_solve, "gross-slip": cmd_gross_slip, "table2": cmd_table2, "figure": cmd_figure,
                     "pull-off": cmd_pull_off, "sweep": cmd_sweep, "stress": cmd_stress,
                     "schema": cmd_schema}
