@@ -12,6 +12,7 @@ from .friction import Coulomb, TaborVonMises
 from .guards import RunChecks, warn_if_adhesion_at_edge
 from .resources import check_fits
 from .model import ContactModel
+from .progress import show_turn
 from .results import state_fields, state_summary
 from .solvers.contact import ContactSolver
 from .state import ContactState
@@ -62,6 +63,7 @@ def build(case, model=None):
     cap = case.pair.softer.hardness if case.friction is not None and case.friction.hardness_cap else math.inf
     solver = ContactSolver(model, friction_law(case), tol=s.tol, max_iter=s.max_iter, max_outer=s.max_turns,
                            pressure_cap=cap, adhesion=adhesion_law(case))
+    solver.on_turn = show_turn  # a long step's turns on the progress line open now (solve, gross-slip, pull-off)
     return model, solver, ContactState(model)
 
 

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 
 import numpy as np
 import warp as wp
@@ -11,7 +12,7 @@ from warpcontact.kernels import adhesion as ak
 from warpcontact.kernels import coupling as ck
 
 from .. import interrupts
-from ..guards import check_contact_fits
+from ..guards import EDGE_SHARE_AT_FIRST_TURN, check_contact_fits
 from ..state import SolveInfo
 from .adhesive import AdhesiveNormalSolver
 from .fixed_point import AndersonMixing
@@ -106,6 +107,11 @@ class ContactSolver:
         self.outer_tol = 100 * self.tol if outer_tol is None else float(outer_tol)
         self.max_outer = int(max_outer)
         self.relax = float(relax)
+        #: called after each turn of a step as ``on_turn(turn, change)``: the turn (from 1 in each
+        #: run of the turns: a retry or a fallback counts afresh) and its relative change [-], the
+        #: number the turns stop on; the progress line shows them during a long step. None: nothing
+        #: is called. Made from what each turn reads already (no extra read from the device).
+        self.on_turn: Callable[[int, float], None] | None = None
         f = model.field
         self.known_z, self.known_x, self.known_y = f(), f(), f()
         self.adhesive_z, self.adhesive_x, self.adhesive_y = f(), f(), f()
@@ -271,6 +277,8 @@ class ContactSolver:
             normal_info = self.normal.solve(state, dz, self.known_z if self.iterative else None, tol=turn_tol,
                                             displacement_current=outer > 1)
             iterations += normal_info.iterations
+            if outer == 1 and self.iterative:  # a contact far past the domain's edge: stop now, not at max_outer
+                check_contact_fits(state, (dx, dy, dz), EDGE_SHARE_AT_FIRST_TURN)
             if self.friction is not None:
                 self.friction.shear_limit(m, state.pressure.flatten(), self.shear_limit.flatten())
                 if self.iterative:
@@ -287,6 +295,8 @@ class ContactSolver:
             if not self.iterative:
                 break
             change = max(self._relative_change(state), adhesive_change)
+            if self.on_turn is not None:
+                self.on_turn(outer, change)
             if change < self.outer_tol and turn_tol == self.tol:
                 converged_turns = True
                 break
@@ -323,6 +333,8 @@ class ContactSolver:
             turn_tol = max(self.tol, min(TURN_TOL_CAP, TURN_TOL_FACTOR * change))
             normal_info = self._adhesive_normal(state, dz, x, max(self.adhesive.tol, turn_tol), warm=outer > 1)
             iterations += normal_info.iterations
+            if outer == 1:  # a contact far past the domain's edge: stop now, not at max_outer
+                check_contact_fits(state, (dx, dy, dz), EDGE_SHARE_AT_FIRST_TURN)
             self.friction.shear_limit(m, state.pressure.flatten(), self.shear_limit.flatten())
             # the total normal traction, and (slots 0, 1) its change since the last turn
             wp.copy(self.total_pressure, state.pressure)
@@ -348,6 +360,8 @@ class ContactSolver:
             scale = max(sums[3], sums[1])
             shear_change = math.sqrt(sums[2] / scale) if scale > 0 else 0.0
             change = max(pressure_change, shear_change)
+            if self.on_turn is not None:
+                self.on_turn(outer, change)
             if change < self.outer_tol and turn_tol == self.tol and normal_info.converged:
                 converged = tangential_info.converged
                 break
