@@ -3,10 +3,12 @@
 (a lazy import is still a dependency), except under ``if TYPE_CHECKING:`` (never run).
 
 Run as a script it prints the graph: ``python3 tests/test_imports.py`` (one line per module: what
-it imports), ``--cycles`` (the strongly connected components of more than one module).
+it imports), ``--cycles`` (the strongly connected components of more than one module),
+``--architecture`` (the module tables of docs/architecture.md, by role).
 """
 
 import ast
+import re
 import sys
 from pathlib import Path
 
@@ -22,6 +24,41 @@ PACKAGES = {"warpcontact": ROOT / "warpcontact", "warpcontact.kernels": ROOT / "
 KNOWN_CYCLES = [
     {"warpcontact.api", "warpcontact.runner", "warpcontact.stress"},
 ]
+
+
+#: Each module's role (docs/architecture.md), by its name below warpcontact (a package's name stands
+#: for its modules). The roles, in the order in which they may import: a module imports only from
+#: its own role and those above it in this list, except KNOWN_UPWARD.
+ROLES = {
+    "kernels and shared": ("kernels", "errors", "interrupts"),
+    "physics": ("materials", "geometry", "adhesion", "friction", "influence", "reference"),
+    "numerics": ("launch", "device", "fft", "operator", "model", "state", "solvers", "resources"),
+    "front door: records and checks": ("case", "plausibility", "guards", "results", "progress"),
+    "studies": ("runner", "slip_search", "approach_retract", "table2", "sweep", "batch", "stress"),
+    "front door: entry points": ("", "api", "schema", "plots", "cli", "cli_solve", "cli_figure", "cli_sweep",
+                                 "cli_stress"),
+}
+
+#: imports against the order of ROLES, known and not yet removed (importer, imported); a new one
+#: fails the test, and so does a known one that is gone
+KNOWN_UPWARD = {
+    ("warpcontact.fft", "warpcontact.case"),  # FFT_BACKENDS, the names of the backends
+    ("warpcontact.fft.fftw_backend", "warpcontact.results"),  # atomic_write_bytes of FFTW's wisdom
+    ("warpcontact.solvers.contact", "warpcontact.guards"),  # the domain-edge check after a turn
+    ("warpcontact.stress", "warpcontact.api"),  # api._prepare in subsurface_stress
+    ("warpcontact.sweep", "warpcontact.api"),  # a case's task through the Python API
+    ("warpcontact.runner", "warpcontact"),  # __version__ for result.json
+    ("warpcontact.sweep", "warpcontact"),  # __version__
+}
+
+
+def role_of(name: str) -> tuple[int, str]:
+    """(rank in ROLES, role) of a module's dotted name."""
+    short = name.removeprefix("warpcontact").lstrip(".")
+    for rank, (role, members) in enumerate(ROLES.items()):
+        if short.split(".")[0] in members:
+            return rank, role
+    raise KeyError(f"{name} has no role in tests/test_imports.py ROLES (and docs/architecture.md)")
 
 
 def modules() -> dict:
@@ -142,9 +179,54 @@ def test_no_cycle_beyond_the_known_ones():
     assert not gone, f"known cycle(s) no longer there, remove them from KNOWN_CYCLES: {gone}"
 
 
+def test_every_module_has_a_role_and_imports_go_one_way():
+    g = graph()
+    upward = {(m, t) for m, targets in g.items() for t in targets if role_of(t)[0] > role_of(m)[0]}
+    assert not upward - KNOWN_UPWARD, f"imports against the order of ROLES: {sorted(upward - KNOWN_UPWARD)}"
+    assert not KNOWN_UPWARD - upward, f"gone, remove from KNOWN_UPWARD: {sorted(KNOWN_UPWARD - upward)}"
+
+
+def test_the_architecture_page_names_every_module_under_its_role():
+    text = (ROOT / "docs" / "architecture.md").read_text()
+    sections = dict(re.findall(r"(?ms)^### (.+?)\n(.*?)(?=^### |^## |\Z)", text))
+    for name in graph():
+        role = role_of(name)[1]
+        assert role in sections, f"docs/architecture.md has no section '### {role}'"
+        assert f"`{name}`" in sections[role], f"docs/architecture.md: {name} is not listed under '{role}'"
+
+
+def summary(path: Path, limit: int = 120) -> str:
+    """The first sentence of a module's docstring, as plain text for a table cell."""
+    doc = ast.get_docstring(ast.parse(path.read_text())) or ""
+    first = " ".join(doc.split("\n\n")[0].split())
+    first = re.sub(r":\w+:`([^`]*)`", r"\1", first).replace("``", "").replace("|", "&#124;")
+    m = re.match(r"(.+?\.)(\s|$)", first)
+    text = m.group(1) if m else first
+    if len(text) > limit:
+        text = text[:limit - 3].rsplit(" ", 1)[0].rstrip(",;:") + "..."
+    return text
+
+
+def architecture_tables() -> str:
+    """The module tables of docs/architecture.md, one per role (python3 tests/test_imports.py --architecture)."""
+    g, known = graph(), modules()
+    out = []
+    for rank, role in enumerate(ROLES):
+        rows = [n for n in sorted(known) if role_of(n)[1] == role]
+        out += [f"### {role}", "", "| module | file | what it is | imports from |", "|---|---|---|---|"]
+        for n in rows:
+            roles = sorted({role_of(t) for t in g[n]} - {(rank, role)})
+            names = ", ".join(r for _, r in roles) or "-"
+            out.append(f"| `{n}` | `{known[n].relative_to(ROOT)}` | {summary(known[n])} | {names} |")
+        out.append("")
+    return "\n".join(out)
+
+
 if __name__ == "__main__":
     g = graph()
-    if "--cycles" in sys.argv:
+    if "--architecture" in sys.argv:
+        print(architecture_tables())
+    elif "--cycles" in sys.argv:
         for c in cycles(g):
             print(" <-> ".join(sorted(c)))
     else:
