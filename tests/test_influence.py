@@ -392,3 +392,196 @@ def test_spectral_energy_of_a_grid_with_several_entries_per_thread(fft, device, 
     column) the kernel carries from one to the next instead of dividing (``spectral_normal_energy``);
     on the CPU the launch is split by rows over the threads."""
     test_normal_energy_in_fourier_space_is_the_real_space_sum(fft, device, pruned, "float64", 300, inverse)
+
+
+# --- the device path (kernels/influence.py, influence.device_coefficients) ---------------------
+
+#: rounding allowance of one cell's four-corner difference, in units of eps times the sum over its
+#: corners of the magnitudes of the antiderivative's terms (``_corner_magnitudes``). Each side
+#: evaluates a term to a few ulp (numpy's libm asinh, atan, log: <= 1 ulp; the kernels' asinh,
+#: log1p by Goldberg's compensation: <= 3 ulp; the argument's division and the product with x or
+#: y: 1 ulp more), <= 4 eps per side and term, 8 for the two; the three subtractions of the
+#: difference round on each side to <= eps / 2 of the running sum: 3 more. 16 leaves a margin
+#: over these 11; measured on the CPU: 1.22 at most (0.076 of the bound; n = 8 ... 256, square and
+#: non-square cells). A far cell's integral is about (2 n)^2 times smaller than these magnitudes
+#: (the antiderivatives grow like r, the cell integral falls like 1/r), so relative to the largest
+#: coefficient the differences are 1.4e-15 (n = 8) to 4.2e-14 (n = 64), 3.4e-13 (n = 256).
+CORNER_ROUNDING_ULPS = 16
+
+
+def _corner_magnitudes(x, y) -> dict:
+    """Per elementary kernel, the sum of the magnitudes of its antiderivative's terms at the
+    corners (x, y) (``_corner_terms``' formulas without their signs and cancellations)."""
+    from warpcontact.influence import _xasinh
+
+    xa, ya = np.abs(_xasinh(x, y)), np.abs(_xasinh(y, x))
+    r2 = x * x + y * y
+    safe_r2, safe_x, safe_y = np.where(r2 > 0, r2, 1.0), np.where(x != 0, x, 1.0), np.where(y != 0, y, 1.0)
+    half_log = np.where(r2 > 0, 0.5 * np.abs(np.log(safe_r2)), 0.0)
+    x_atan = np.where(x != 0, np.abs(x * np.arctan(y / safe_x)), 0.0)
+    y_atan = np.where(y != 0, np.abs(y * np.arctan(x / safe_y)), 0.0)
+    return {"inv_r": xa + ya, "xx_r3": ya, "yy_r3": xa, "xy_r3": np.sqrt(r2),
+            "x_r2": x_atan + np.abs(y) * half_log, "y_r2": y_atan + np.abs(x) * half_log}
+
+
+def _rounding_bound(pair, ny, nx, dx, dy, padded=True) -> dict:
+    """Per kernel, the allowed |device - host| of each coefficient (CORNER_ROUNDING_ULPS eps times
+    sum_terms |c| sum_corners magnitudes), in the coefficients' layout."""
+    from warpcontact.influence import _layout
+
+    first_y, first_x, count_y, count_x = _layout(ny, nx, padded)
+    cy = (np.arange(count_y + 1, dtype=np.float64) - first_y - 0.5) * dy
+    cx = (np.arange(count_x + 1, dtype=np.float64) - first_x - 0.5) * dx
+    mags = _corner_magnitudes(cx[None, :], cy[:, None])
+    cells = {e: m[1:, 1:] + m[:-1, 1:] + m[1:, :-1] + m[:-1, :-1] for e, m in mags.items()}
+    eps = np.finfo(np.float64).eps
+    out = {}
+    for name, terms in point_kernels(pair).items():
+        bound = CORNER_ROUNDING_ULPS * eps * sum(abs(c) * cells[e] for c, e in terms)
+        out[name] = np.roll(bound, (-first_y, -first_x), axis=(0, 1)) if padded else bound
+    return out
+
+
+#: (n, dx, dy): even and odd n, square and non-square cells
+DEVICE_SHAPES = [(8, 1.3e-9, 1.3e-9), (9, 1.3e-9, 0.7e-9), (13, 1e-8, 1e-8), (64, 1e-8, 1e-8), (64, 0.6e-9, 1.1e-9)]
+
+
+@pytest.mark.parametrize("padded", [True, False])
+@pytest.mark.parametrize("n,dx,dy", DEVICE_SHAPES)
+def test_device_coefficients_are_the_numpy_ones(n, dx, dy, padded, device):
+    """The Warp kernels' coefficients (kernels/influence.py) are the numpy path's, cell by cell,
+    within the rounding of the four-corner difference (CORNER_ROUNDING_ULPS: the bound is per
+    cell, from the magnitudes of its corners' terms), float64, in the same layout (the padded
+    wrap-around order with its zero middle row and column, or natural order)."""
+    import warp as wp
+
+    from warpcontact.influence import influence_coefficients_device
+
+    host = influence_coefficients(PAPER_PAIR, n, n, dx, dy, padded=padded)
+    got = influence_coefficients_device(PAPER_PAIR, n, n, dx, dy, device, padded=padded)
+    bound = _rounding_bound(PAPER_PAIR, n, n, dx, dy, padded)
+    assert list(got) == list(KERNELS)
+    for k in KERNELS:
+        assert got[k].dtype == wp.float64 and got[k].device == wp.get_device(device), k
+        d = got[k].numpy()
+        assert d.shape == host[k].shape, k
+        err = np.abs(d - host[k])
+        assert np.all(err <= bound[k]), (k, float((err / bound[k]).max()))
+        if padded:
+            assert np.all(d[n, :] == 0.0) and np.all(d[:, n] == 0.0), k
+
+
+def test_device_coefficients_scale_and_order():
+    """``scale`` multiplies the sum of the terms (as the operator's ``a *= scale``, rounded the
+    same way), and the generator yields KERNELS in order, each made when asked for."""
+    from warpcontact.influence import device_coefficients, influence_coefficients_device
+
+    n, dx = 9, 1.3e-9
+    scale = PAPER_PAIR.E_star / dx
+    plain = influence_coefficients_device(PAPER_PAIR, n, n, dx, dx, "cpu")
+    scaled = dict(device_coefficients(PAPER_PAIR, n, n, dx, dx, "cpu", scale=scale))
+    for k in KERNELS:
+        np.testing.assert_array_equal(scaled[k].numpy(), plain[k].numpy() * scale, err_msg=k)
+    gen = device_coefficients(PAPER_PAIR, n, n, dx, dx, "cpu")
+    assert next(gen)[0] == KERNELS[0]
+    assert [k for k, _ in gen] == list(KERNELS[1:])
+
+
+def _influence_backends():
+    """(fft name, device) of every backend on this machine, the CUDA ones marked gpu."""
+    import warp as wp
+
+    from warpcontact.fft import cupy_backend
+
+    out = [pytest.param("fftw", "cpu", marks=NEEDS_FFTW), ("scipy", "cpu"), ("warp", "cpu")]
+    for i in range(wp.get_cuda_device_count()):
+        out.append(pytest.param("warp", f"cuda:{i}", marks=pytest.mark.gpu))
+        if cupy_backend.available():
+            out.append(pytest.param("cupy", f"cuda:{i}", marks=pytest.mark.gpu))
+    return out
+
+
+@pytest.mark.parametrize("dtype", ["float64", "float32"])
+@pytest.mark.parametrize("n", [8, 9, 13, 64])
+@pytest.mark.parametrize("fft,device", _influence_backends())
+def test_operator_spectra_from_device_coefficients(fft, device, n, dtype):
+    """ElasticOperator with influence="device" keeps the spectra, self-coefficients and column
+    norms of influence="host", in every backend. The backends get float64 coefficients either
+    way, whatever the model's float type (as the host path hands them over); the cupy backend
+    gets Warp arrays on its device (no host copy), the others numpy arrays.
+
+    Tolerance per spectrum: the coefficients' own allowance summed over the cells (a DFT weight
+    has modulus 1), plus the two transforms' rounding, 2 x 2 log2(points) eps of sum |a| (the
+    usual bound of a radix-2 FFT, with a factor 2 of margin), plus the cast to the model's float
+    type of each side (eps of the largest entry). Measured on the CPU: 2.0e-14 of the largest
+    entry (float64, n = 64), 0 in float32."""
+    import warp as wp
+
+    wdtype = getattr(wp, dtype)
+    grid = Grid(n, n * 1.3e-9)
+    host = ElasticOperator(PAPER_PAIR, grid, device, wdtype, fft, influence="host")
+    received = []
+    original = type(host.fft).influence_spectra
+
+    def recording(self, arrays, parts, out, scratch):
+        def seen():
+            for a in arrays:
+                received.append((type(a), a.dtype, getattr(a, "device", None)))
+                yield a
+        return original(self, seen(), parts, out, scratch)
+
+    type(host.fft).influence_spectra = recording
+    try:
+        dev = ElasticOperator(PAPER_PAIR, grid, device, wdtype, fft, influence="device")
+    finally:
+        type(host.fft).influence_spectra = original
+    assert host.influence_path == "host" and dev.influence_path == "device"
+    assert len(received) == len(KERNELS)
+    for kind, dt, where in received:
+        if fft == "cupy":
+            assert kind is wp.array and dt == wp.float64 and where == wp.get_device(device)
+        else:
+            assert kind is np.ndarray and dt == np.float64
+    scale = PAPER_PAIR.E_star / grid.dx
+    coeffs = influence_coefficients(PAPER_PAIR, n, n, grid.dx, grid.dy)
+    bound = _rounding_bound(PAPER_PAIR, n, n, grid.dx, grid.dy)
+    points = 4 * n * n
+    eps = float(np.finfo(np.float64 if dtype == "float64" else np.float32).eps)
+    want, got = host.influence.numpy().astype(np.float64), dev.influence.numpy().astype(np.float64)
+    for i, k in enumerate(KERNELS):
+        total = scale * np.abs(coeffs[k]).sum()
+        tol = scale * bound[k].sum() + 4 * np.log2(points) * eps * total + eps * np.abs(want[i]).max()
+        err = np.abs(got[i] - want[i]).max()
+        assert err <= tol, (k, err, tol)
+        assert dev.self_coefficient(k) == pytest.approx(host.self_coefficient(k), rel=1e-14, abs=1e-300), k
+        assert dev.column_norm(k) == pytest.approx(host.column_norm(k), rel=1e-13), k
+
+
+def test_influence_path_default_and_refusal():
+    """"auto" is the host (numpy) on the CPU; a wrong name is an InputError naming ``influence``."""
+    import warp as wp
+
+    from warpcontact.errors import InputError
+
+    assert ElasticOperator(PAPER_PAIR, Grid(8, 1e-8), "cpu", wp.float64, "scipy").influence_path == "host"
+    with pytest.raises(InputError, match="^influence: unknown path 'gpu'"):
+        ElasticOperator(PAPER_PAIR, Grid(8, 1e-8), "cpu", wp.float64, "scipy", influence="gpu")
+
+
+@pytest.mark.parametrize("dtype", ["float64", "float32"])
+def test_cupy_backend_loads_device_coefficients_by_a_cast(dtype):
+    """The cupy backend's input load (``cupy_backend._load``) casts a float64 Warp array on its
+    device into the buffer's float type, row halves as views, as numpy casts a host array: the
+    same values (round to nearest both). Checked with CPU arrays (the function is device-blind)."""
+    import warp as wp
+
+    from warpcontact.fft.cupy_backend import CupyFFT, _load
+
+    rng = np.random.default_rng(1)
+    values = rng.standard_normal((6, 10)) * 1e-3
+    src = wp.array(values, dtype=wp.float64, device="cpu")
+    for rows in (slice(0, 3), slice(3, 6), slice(0, 6)):
+        dst = wp.zeros((rows.stop - rows.start, 10), dtype=getattr(wp, dtype), device="cpu")
+        _load(dst, src[rows])
+        np.testing.assert_array_equal(dst.numpy(), values[rows].astype(dtype))
+    assert CupyFFT.takes_device_coefficients

@@ -94,6 +94,14 @@ def point_kernels(pair: MaterialPair) -> dict:
     }
 
 
+def _layout(ny: int, nx: int, padded: bool) -> tuple[int, int, int, int]:
+    """(first_y, first_x, count_y, count_x): the cells' offsets in natural order are -first ...
+    count - first - 1 (-n ... n-1 padded, -(n-1) ... n-1 not), their corners between them."""
+    if padded:
+        return ny, nx, 2 * ny, 2 * nx
+    return ny - 1, nx - 1, 2 * ny - 1, 2 * nx - 1
+
+
 #: cell rows per block of ``influence_coefficients`` (each block's temporaries: about 15 arrays of
 #: (rows + 1) x (2 nx + 1) float64, ``resources.INFLUENCE_BLOCK_ARRAYS``)
 BLOCK_ROWS = 64
@@ -114,10 +122,7 @@ def influence_coefficients(pair: MaterialPair, ny: int, nx: int, dx: float, dy: 
     evaluations. n = 2048 on this project's 2-core machine: 5.0 s one antiderivative at a time on
     one thread (before), 3.15 s with the shared parts on one thread, 1.35 s on two.
     """
-    # Offsets in natural order, -n ... n-1 (padded) or -(n-1) ... n-1, and the cell corners
-    # between them.
-    first_y, first_x = (ny, nx) if padded else (ny - 1, nx - 1)
-    count_y, count_x = (2 * ny, 2 * nx) if padded else (2 * ny - 1, 2 * nx - 1)
+    first_y, first_x, count_y, count_x = _layout(ny, nx, padded)
     corner_y = (np.arange(count_y + 1, dtype=np.float64) - first_y - 0.5) * dy
     corner_x = (np.arange(count_x + 1, dtype=np.float64) - first_x - 0.5) * dx
     kernels = point_kernels(pair)
@@ -147,3 +152,71 @@ def influence_coefficients(pair: MaterialPair, ny: int, nx: int, dx: float, dy: 
             arr[ny, :] = 0.0
             arr[:, nx] = 0.0
     return out
+
+
+#: the device path's corner arrays (kernels/influence.py) for each elementary kernel: (group, pick).
+#: A group's corner terms are computed together (``corner_asinh_terms``: x asinh(y/|x|), y
+#: asinh(x/|y|); ``corner_radius``: r; ``corner_atan_log_terms``: the x/r^2 and y/r^2
+#: antiderivatives), and pick says which of its arrays (a, b) make the elementary antiderivative:
+#: a + b, a, b or -a (the kernels' PICK_SUM, PICK_A, PICK_B, PICK_MINUS_A). As ``_corner_terms``.
+ELEMENTARY_CORNERS = {
+    "inv_r": ("asinh", 0),
+    "xx_r3": ("asinh", 2),
+    "yy_r3": ("asinh", 1),
+    "xy_r3": ("radius", 3),
+    "x_r2": ("atan_log", 1),
+    "y_r2": ("atan_log", 2),
+}
+
+
+def device_coefficients(pair: MaterialPair, ny: int, nx: int, dx: float, dy: float, device, padded: bool = True,
+                        scale: float = 1.0):
+    """``influence_coefficients`` computed by Warp kernels on ``device`` (kernels/influence.py),
+    times ``scale``: yields (name, float64 ``wp.array2d``) in KERNELS order, each array made when
+    asked for, so a consumer that lets each go (the FFT backend's ``influence_spectra``) holds one
+    at a time. The corner terms of a group (ELEMENTARY_CORNERS) are computed once, before the
+    first kernel that needs them, and let go when the next group starts: at most two corner
+    arrays of (rows + 1) x (cols + 1) and one coefficient array at a time (beyond what the
+    consumer keeps). Same layout, formulas and order of operations as the numpy path; float64
+    whatever the model's float type. The coefficient table is ``point_kernels``."""
+    import warp as wp
+
+    from warpcontact.kernels import influence as kernels
+
+    device = wp.get_device(device)
+    first_y, first_x, count_y, count_x = _layout(ny, nx, padded)
+    corner_kernels = {"asinh": (kernels.corner_asinh_terms, 2), "radius": (kernels.corner_radius, 1),
+                      "atan_log": (kernels.corner_atan_log_terms, 2)}
+    shift_y, shift_x = (first_y, first_x) if padded else (0, 0)
+    zero_row, zero_col = (ny, nx) if padded else (-1, -1)
+    held_group, corners = None, None
+    table = point_kernels(pair)
+    for name in KERNELS:
+        terms = table[name]
+        groups = {ELEMENTARY_CORNERS[e][0] for _, e in terms}
+        if len(groups) != 1 or len(terms) > 2:  # the cell kernel takes two terms of one group
+            raise ValueError(f"influence kernel {name}: terms {terms} are not two of one corner group")
+        group = groups.pop()
+        if group != held_group:
+            held_group, corners = group, None  # the last group's arrays go before the next's come
+            kernel, count = corner_kernels[group]
+            corners = [wp.empty((count_y + 1, count_x + 1), dtype=wp.float64, device=device) for _ in range(count)]
+            wp.launch(kernel, dim=corners[0].shape, inputs=[first_y, first_x, float(dy), float(dx)], outputs=corners,
+                      device=device)
+        a, b = corners[0], corners[-1]  # (radius: one array, b unused)
+        (c0, e0), (c1, e1) = terms[0], terms[1] if len(terms) == 2 else (0.0, None)
+        pick1 = ELEMENTARY_CORNERS[e1][1] if e1 is not None else -1
+        out = wp.empty((count_y, count_x), dtype=wp.float64, device=device)
+        wp.launch(kernels.boussinesq_cerruti_cells, dim=out.shape,
+                  inputs=[a, b, float(c0), ELEMENTARY_CORNERS[e0][1], float(c1), pick1, float(scale), shift_y, shift_x,
+                          zero_row, zero_col],
+                  outputs=[out], device=device)
+        yield name, out
+        del out  # the consumer's copy is the only one while the next is made
+
+
+def influence_coefficients_device(pair: MaterialPair, ny: int, nx: int, dx: float, dy: float, device,
+                                  padded: bool = True, scale: float = 1.0) -> dict:
+    """``influence_coefficients`` on ``device``: a dict KERNELS -> float64 ``wp.array2d`` (all six
+    held; ``device_coefficients`` makes them one at a time)."""
+    return dict(device_coefficients(pair, ny, nx, dx, dy, device, padded, scale))

@@ -26,9 +26,12 @@ class ContactModel:
         device: "cpu", "cuda" or "cuda:N".
         dtype: "float64" or "float32".
         fft: FFT backend name ("auto" picks the fastest available on the device).
+        influence: where the influence coefficients are computed, "auto", "host" or "device"
+            (``ElasticOperator``; "auto": on the device on CUDA, numpy on the CPU).
     """
 
-    def __init__(self, pair: MaterialPair, sphere: Sphere, grid: Grid, device="cpu", dtype="float64", fft="auto"):
+    def __init__(self, pair: MaterialPair, sphere: Sphere, grid: Grid, device="cpu", dtype="float64", fft="auto",
+                 influence="auto"):
         self.pair, self.sphere, self.grid = pair, sphere, grid
         self.device = resolve_device(device)
         self.dtype = resolve_dtype(dtype)
@@ -42,7 +45,7 @@ class ContactModel:
         self.launches = LaunchCache(self.device)
         with wp.ScopedDevice(self.device):
             self.initial_gap = self.field(sphere.initial_gap(grid) / self.length_scale)
-            self.operator = ElasticOperator(pair, grid, self.device, self.dtype, fft)
+            self.operator = ElasticOperator(pair, grid, self.device, self.dtype, fft, influence)
 
     @property
     def dtype_name(self) -> str:

@@ -11,9 +11,13 @@ import warp as wp
 
 from warpcontact.kernels import spectral
 
+from .errors import InputError
 from .fft import make_fft
 from .launch import FirstRow, LaunchCache, ReductionLaunch, Rows, Sums
-from .influence import KERNELS, SPECTRUM_PARTS, influence_coefficients
+from .influence import KERNELS, SPECTRUM_PARTS, device_coefficients, influence_coefficients
+
+#: where the influence coefficients are computed (``ElasticOperator``'s ``influence``)
+INFLUENCE_PATHS = ("auto", "host", "device")
 
 
 class ElasticOperator:
@@ -24,13 +28,21 @@ class ElasticOperator:
         grid: the surface grid.
         device, dtype: where and in which float type the fields live.
         fft: FFT backend name ("auto", "scipy", "cupy", "warp").
+        influence: where the influence coefficients are computed: "host" (numpy,
+            ``influence_coefficients``), "device" (Warp kernels on the operator's device,
+            ``device_coefficients``) or "auto": the device on CUDA, the host on the CPU (numpy on
+            the CPU's threads is faster there than Warp's one-thread CPU kernels: docs/performance.md,
+            "Set-up").
 
     The spectra of the six influence kernels are computed once and kept on the device, each as
     its one non-zero part, real or imaginary (by the FFT backend: float64 on the host, then cast;
-    cuFFT on the device with the cupy backend); three spectral buffers are allocated once.
+    cuFFT on the device with the cupy backend); three spectral buffers are allocated once. The
+    coefficients are float64 whatever ``dtype``; on the device path the cupy backend transforms
+    them where they are (cast on the device as the host path casts on the host), the others get
+    a host copy (the warp backend on CUDA, whose spectra are made on the host).
     """
 
-    def __init__(self, pair, grid, device, dtype, fft: str = "auto"):
+    def __init__(self, pair, grid, device, dtype, fft: str = "auto", influence: str = "auto"):
         self.pair, self.grid = pair, grid
         self.device, self.dtype = device, dtype
         self.shape = grid.shape
@@ -44,16 +56,33 @@ class ElasticOperator:
         self._mirror = self.fft.spectral_shape[1 - self.fft.half_axis] if self.fft.device.is_cuda else 0
         self.coupled = pair.D != 0.0
         scale = pair.E_star / grid.dx  # scaled displacement per scaled traction
-        coeffs = influence_coefficients(pair, grid.n, grid.n, grid.dx, grid.dy)
-        self._self_coefficients = {k: float(coeffs[k][0, 0] * scale) for k in KERNELS}
-        # (np.linalg.norm: a dot product of the flattened view, no temporary array of the grid)
-        self._column_norms = {k: float(np.linalg.norm(coeffs[k]) * abs(scale)) for k in KERNELS}
+        if influence not in INFLUENCE_PATHS:
+            raise InputError("influence", f"unknown path {influence!r}; choose one of {', '.join(INFLUENCE_PATHS)}")
+        if influence == "auto":
+            influence = "device" if self.fft.device.is_cuda else "host"
+        #: where the influence coefficients were computed: "host" or "device"
+        self.influence_path = influence
+        if influence == "host":
+            coeffs = influence_coefficients(pair, grid.n, grid.n, grid.dx, grid.dy)
+            self._self_coefficients = {k: float(coeffs[k][0, 0] * scale) for k in KERNELS}
+            # (np.linalg.norm: a dot product of the flattened view, no temporary array of the grid)
+            self._column_norms = {k: float(np.linalg.norm(coeffs[k]) * abs(scale)) for k in KERNELS}
 
-        def scaled():  # each coefficient array scaled in place and let go once transformed
-            for k in KERNELS:
-                a = coeffs.pop(k)
-                a *= scale
-                yield a
+            def scaled():  # each coefficient array scaled in place and let go once transformed
+                for k in KERNELS:
+                    a = coeffs.pop(k)
+                    a *= scale
+                    yield a
+        else:
+            self._self_coefficients, self._column_norms = {}, {}
+            on_device = getattr(self.fft, "takes_device_coefficients", False)
+
+            def scaled():  # each array made scaled on the device (float64) and let go once transformed
+                for k, a in device_coefficients(pair, grid.n, grid.n, grid.dx, grid.dy, self.fft.device, scale=scale):
+                    self._self_coefficients[k] = float(a.flatten()[:1].numpy()[0])  # offset (0, 0)
+                    self._column_norms[k] = float(np.sqrt(wp.utils.array_inner(a, a)))
+                    yield a if on_device else a.numpy()
+                    del a  # (one array at a time: let go before the next is made)
 
         # three buffers, one array each: a stacked (3, ...) array's first stride (one spectrum)
         # would pass Warp's 32-bit strides at n = 8192 in float64 (resources.index_limit)

@@ -137,6 +137,15 @@ def _check(result: int, what: str):
         raise RuntimeError(f"fft: cupy backend: {what} failed with cufftResult {result}")
 
 
+def _load(dst: wp.array, src):
+    """``dst`` (an input buffer of the backend's float type) <- ``src``: a host array of that type,
+    or a Warp array on ``dst``'s device, cast on the device (as numpy casts on the host)."""
+    if isinstance(src, wp.array):
+        wp.utils.array_cast(src, dst)
+    else:
+        dst.assign(src)
+
+
 class CupyFFT(FFTBackend):
     """cuFFT plans on one CUDA device (see the module docstring).
 
@@ -230,9 +239,13 @@ class CupyFFT(FFTBackend):
         # ``influence_spectra``); scipy's threads (numpy's FFT has none)
         return scipy.fft.rfft2(np.asarray(padded, dtype=np.float64), workers=os.cpu_count() or 1)
 
+    #: ``influence_spectra`` takes the coefficients as float64 Warp arrays on this device too
+    takes_device_coefficients = True
+
     def influence_spectra(self, padded_arrays, parts, out, scratch):
         """``out[k]`` <- the real or imaginary part (``parts[k]``) of the spectrum of
-        ``padded_arrays[k]`` (real (2 ny, 2 nx) host arrays), transformed on the device by this
+        ``padded_arrays[k]`` (real (2 ny, 2 nx) host arrays, or float64 Warp arrays on this device,
+        cast here into the float type), transformed on the device by this
         backend's own plans into ``scratch``, in its float type: each array is copied (cast) into
         the forward pass's input buffer, a half at a time in the pruned layout (the row plan takes
         ny rows; its output goes to the top or bottom half of the spectrum), and the column plan
@@ -247,17 +260,20 @@ class CupyFFT(FFTBackend):
         bottom = ny * nxh * 2 * np.dtype(self.np_real).itemsize  # bytes to the spectrum's second half
         with wp.ScopedDevice(self.device):
             for k, (padded, part) in enumerate(zip(padded_arrays, parts)):
-                host = np.ascontiguousarray(padded, dtype=self.np_real)
+                if isinstance(padded, wp.array):  # float64 on this device (``device_coefficients``): cast here
+                    host = padded
+                else:
+                    host = np.ascontiguousarray(padded, dtype=self.np_real)
                 del padded
                 if self.pruned:
                     for half in range(2):
-                        self._rows_in.assign(host[half * ny:(half + 1) * ny])
+                        _load(self._rows_in, host[half * ny:(half + 1) * ny])
                         _check(self._real_to_complex(self._row_forward, self._rows_in.ptr, scratch.ptr + half * bottom),
                                "row transform")
                     _check(self._complex_to_complex(self._column_plan, scratch.ptr, scratch.ptr, _FORWARD),
                            "column transform")
                 else:
-                    self._padded_in.assign(host)
+                    _load(self._padded_in, host)
                     _check(self._real_to_complex(self._forward_plan, self._padded_in.ptr, scratch.ptr),
                            "forward transform")
                 del host
