@@ -1,13 +1,16 @@
 """Benchmark: the set-up of a ContactModel (influence coefficients, their spectra, the device copy).
 
-For each n: seconds for ``influence_coefficients`` alone and for the whole ContactModel (paper
-pair, Hertz sphere), after one small model has loaded the kernels. Where the FFT backend makes
-the six influence spectra its own way (cupy: cuFFT on the device), that step is timed side by side
-with the host path it replaced (scipy in float64, cast, copied to the device), on the same
-coefficients in the same run, with the largest difference between the two (ZZ and XZ spectra,
-relative to the largest entry).
+For each n and each place the influence coefficients are computed (``--influence host``: numpy on
+the CPU's threads, ``influence_coefficients``; ``device``: Warp kernels on ``--device``,
+``device_coefficients``; ``both``, the default: side by side in one run), seconds for the six
+coefficient arrays alone, for the FFT backend's six spectra made from them, and for the whole
+ContactModel (paper pair, Hertz sphere, ``ContactModel(..., influence=...)``), after one small
+model per path has loaded the kernels; with ``both``, the largest difference between the two
+paths' coefficients (relative to each kernel's largest). Where the FFT backend makes the spectra
+its own way (cupy: cuFFT on the device), a line per n also times that step against the host
+transform it replaced (scipy in float64, cast, copied to the device), on the same coefficients.
 
-    python bench/setup_time.py --device cuda:0 --sizes 2048 4096 8191
+    python bench/setup_time.py --device cuda:0 --sizes 1024 4096 --influence both
 """
 
 from __future__ import annotations
@@ -21,9 +24,12 @@ import warp as wp
 
 from warpcontact.fft.base import FFTBackend
 from warpcontact.geometry import Grid, Sphere
-from warpcontact.influence import KERNELS, SPECTRUM_PARTS, influence_coefficients
+from warpcontact.influence import KERNELS, SPECTRUM_PARTS, device_coefficients, influence_coefficients
 from warpcontact.materials import PAPER_PAIR
 from warpcontact.model import ContactModel
+
+
+PATHS = {"host": ["host"], "device": ["device"], "both": ["host", "device"]}
 
 
 def main():
@@ -31,28 +37,75 @@ def main():
     ap.add_argument("--device", default="cpu")
     ap.add_argument("--sizes", type=int, nargs="+", default=[1024, 2048])
     ap.add_argument("--dtype", default="float64")
+    ap.add_argument("--influence", choices=list(PATHS), default="both",
+                    help="where the influence coefficients are computed: host (numpy), device (Warp kernels), both")
     args = ap.parse_args()
     wp.config.quiet = True
     wp.init()
     sphere = Sphere(10e-6, "paraboloid")
-    ContactModel(PAPER_PAIR, sphere, Grid(64, 1e-7), device=args.device, dtype=args.dtype)
-    print(f"# model set-up, {args.dtype}, {args.device} ({wp.get_device(args.device).name}), {os.cpu_count()} CPUs, "
+    paths = PATHS[args.influence]
+    for path in paths:  # kernels loaded (and compiled) before anything is timed
+        ContactModel(PAPER_PAIR, sphere, Grid(64, 1e-7), device=args.device, dtype=args.dtype, influence=path)
+    device = wp.get_device(args.device)
+    print(f"# model set-up, {args.dtype}, {args.device} ({device.name}), {os.cpu_count()} CPUs, "
           f"{time.strftime('%Y-%m-%d')}")
+    print("| n | influence | coefficients | six spectra | whole model |" + (" device vs host |" if len(paths) > 1 else ""))
+    print("|---|---|---|---|---|" + ("---|" if len(paths) > 1 else ""), flush=True)
+    notes = []
     for n in args.sizes:
-        t0 = time.perf_counter()
-        coefficients = influence_coefficients(PAPER_PAIR, n, n, 1e-8, 1e-8)
-        t_influence = time.perf_counter() - t0
-        del coefficients
-        t0 = time.perf_counter()
-        model = ContactModel(PAPER_PAIR, sphere, Grid(n, 1e-7), device=args.device, dtype=args.dtype)
-        wp.synchronize_device(model.device)
-        t_model = time.perf_counter() - t0
-        line = f"n {n:>6}: influence_coefficients {t_influence:7.2f} s, whole model {t_model:7.2f} s"
-        fft = model.operator.fft
-        if type(fft).influence_spectra is not FFTBackend.influence_spectra:
-            line += spectra_side_by_side(model, n)
-        del model
-        print(line, flush=True)
+        dx = 1e-7 / n
+        for path in paths:
+            t_coefficients, t_spectra = coefficients_and_spectra(path, n, dx, args.device, args.dtype)
+            t0 = time.perf_counter()
+            model = ContactModel(PAPER_PAIR, sphere, Grid(n, 1e-7), device=args.device, dtype=args.dtype,
+                                 influence=path)
+            wp.synchronize_device(model.device)
+            t_model = time.perf_counter() - t0
+            line = (f"| {n} | {path} | {t_coefficients:.3f} s | {t_spectra:.3f} s ({model.fft_name}) | "
+                    f"{t_model:.3f} s |")
+            if len(paths) > 1:
+                line += f" {largest_difference(n, dx, device):.1e} |" if path == "device" else " |"
+            fft = model.operator.fft
+            if path == "host" and type(fft).influence_spectra is not FFTBackend.influence_spectra:
+                notes.append(f"n {n}:" + spectra_side_by_side(model, n))
+            del model
+            print(line, flush=True)
+    for note in notes:
+        print(note)
+
+
+def coefficients_and_spectra(path: str, n: int, dx: float, device, dtype) -> tuple[float, float]:
+    """Seconds for the six coefficient arrays on ``path`` and for the FFT backend's six spectra
+    made from them (a fresh backend of the model's kind; the arrays as the operator hands them)."""
+    from warpcontact.fft import make_fft
+
+    fft = make_fft("auto", n, n, device, getattr(wp, dtype))
+    out, scratch = fft.alloc_influence(len(KERNELS)), fft.alloc_spectra(1)[0]
+    wp.synchronize_device(fft.device)
+    t0 = time.perf_counter()
+    if path == "host":
+        table = influence_coefficients(PAPER_PAIR, n, n, dx, dx)
+        arrays = [table[k] for k in KERNELS]
+    else:
+        arrays = [a for _, a in device_coefficients(PAPER_PAIR, n, n, dx, dx, fft.device)]
+        if not getattr(fft, "takes_device_coefficients", False):
+            arrays = [a.numpy() for a in arrays]  # the operator's hand-over to a host transform
+        wp.synchronize_device(fft.device)
+    t_coefficients = time.perf_counter() - t0
+    t0 = time.perf_counter()
+    fft.influence_spectra(iter(arrays), [SPECTRUM_PARTS[k] for k in KERNELS], out, scratch)
+    wp.synchronize_device(fft.device)
+    return t_coefficients, time.perf_counter() - t0
+
+
+def largest_difference(n: int, dx: float, device) -> float:
+    """max over kernels of max |device - host| / max |host| of the six coefficient arrays."""
+    host = influence_coefficients(PAPER_PAIR, n, n, dx, dx)
+    worst = 0.0
+    for k, a in device_coefficients(PAPER_PAIR, n, n, dx, dx, device):
+        worst = max(worst, float(np.abs(a.numpy() - host[k]).max() / np.abs(host[k]).max()))
+        del host[k]
+    return worst
 
 
 def spectra_side_by_side(model, n) -> str:
@@ -70,8 +123,9 @@ def spectra_side_by_side(model, n) -> str:
         times[label] = time.perf_counter() - t0
         kept[label] = [out[i].numpy() for i in (0, 4)]
     diff = max(np.abs(a - b).max() / np.abs(b).max() for a, b in zip(kept["backend"], kept["host"]))
-    return (f"; six spectra: {fft.name} {times['backend']:6.2f} s, host float64 + copy {times['host']:6.2f} s "
+    return (f" six spectra from the host coefficients: {fft.name} {times['backend']:6.2f} s, host float64 + copy {times['host']:6.2f} s "
             f"({times['host'] / times['backend']:.1f}x), largest difference {diff:.1e} of the largest entry")
+
 
 if __name__ == "__main__":
     main()
