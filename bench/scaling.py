@@ -8,7 +8,11 @@ delta_z = 1e-10 m then delta_x = 2e-11 m, one step per leg. Rows:
 - ``coupled plain`` / ``coupled precond``: Tabor + von Mises (k_tau = 0.8), the step to delta_z
   from rest, then the step to delta_x; the tangential solver with ``preconditioned`` False (Chen &
   Wang's iteration: two applications of K_tt per iteration) or True (one application and the
-  block-circulant inverse on the stick cells, ``TangentialSolver``).
+  block-circulant inverse on the stick cells, ``TangentialSolver``): the solver's defaults
+  otherwise (the turns' normal solves preconditioned, their tolerance from the coupled residual);
+- ``coupled before``: the coupled step as it was before those two defaults (preconditioned
+  tangential solves; plain normal solves in the turns, their tolerance from the last turn's
+  change), side by side with ``coupled precond``.
 
 Columns: the inner iterations (normal and tangential solves together) and turns of each step,
 the tangential iterations among them, the best wall time of each step over ``--repeats`` runs
@@ -43,7 +47,17 @@ import time
 
 R, DZ, DX = 10e-6, 1.0e-10, 2.0e-11
 A = math.sqrt(R * DZ)
-ROWS = ("normal", "coupled-plain", "coupled-precond")
+ROWS = ("normal", "coupled-plain", "coupled-precond", "coupled-before")
+
+
+def configure(solver, row: str):
+    """Set the solver of a row (see the module docstring)."""
+    if getattr(solver, "tangential", None) is None:
+        return
+    solver.tangential.preconditioned = row != "coupled-plain"
+    if row == "coupled-before":
+        solver.normal.preconditioned = False
+        solver.turn_tolerance = "change"
 CPU_SIZES = [64, 128, 256, 512, 1024]
 GPU_SIZES = [256, 512, 1024, 2048, 4096, 8192]
 
@@ -95,8 +109,8 @@ def measure(config: dict) -> dict:
     solver = ContactSolver(model, friction)
     tangential = getattr(solver, "tangential", None)
     counts = {"tangential": 0}
+    configure(solver, row)
     if tangential is not None:
-        tangential.preconditioned = row == "coupled-precond"
         solve = tangential.solve
 
         def counted(*args, **kwargs):
@@ -138,8 +152,7 @@ def measure(config: dict) -> dict:
 
         def contact_solver(*args, **kwargs):  # the tangential solver of the row
             s = original(*args, **kwargs)
-            if getattr(s, "tangential", None) is not None:
-                s.tangential.preconditioned = row == "coupled-precond"
+            configure(s, row)
             return s
 
         runner.ContactSolver = contact_solver

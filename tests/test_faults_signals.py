@@ -31,8 +31,9 @@ TABLE2_CASE = (ROOT / "examples" / "table2_k080_dz5e-5.toml").read_text()
 PULL_OFF_CASE = (ROOT / "examples" / "pull_off_dmt.toml").read_text()
 #: the paper's k_tau = 0.80 case on 64 cells, loaded in 20 normal and 20 tangential steps: 40 states,
 #: about 0.15 s each on 2 CPU cores, so a path that runs for about 6 s after a start of 2-4 s
-LONG_PATH = TABLE2_CASE.replace("n = 96", "n = 64").replace("steps = 4 ", "steps = 20\ndelta_x = 3e-11 ")
-LONG_PATH_STATES = 40
+# 120 states, about 12 s on 2 CPU cores: long enough that a signal sent after a state lands in the run
+LONG_PATH = TABLE2_CASE.replace("n = 96", "n = 64").replace("steps = 4 ", "steps = 60\ndelta_x = 3e-11 ")
+LONG_PATH_STATES = 120
 START_LIMIT_S = 120  # the start (imports, a kernel cache that may be cold) and the first state or case
 
 
@@ -180,7 +181,7 @@ def test_solve_killed_leaves_a_file_that_says_partial_and_no_stale_fields(tmp_pa
 def test_solve_not_stopped_is_complete(tmp_path):
     """The control: the same kind of path, not stopped, ends with complete: true and exit 0."""
     out = tmp_path / "out"
-    r = subprocess.run(cli("solve", case_file(tmp_path, LONG_PATH.replace("steps = 20", "steps = 1")), "--out", out,
+    r = subprocess.run(cli("solve", case_file(tmp_path, LONG_PATH.replace("steps = 60", "steps = 1")), "--out", out,
                            "--quiet"), capture_output=True, text=True, timeout=300)
     assert r.returncode == 0, r.stderr
     res = read_json(out / "result.json")
@@ -376,7 +377,7 @@ def test_a_stop_during_the_set_up_writes_nothing(handlers, tmp_path, monkeypatch
     from warpcontact import runner
     from warpcontact.cli import main
 
-    def stopped(case):
+    def stopped(case, model=None):  # runner.build's signature
         raise handlers.Stop(signal.SIGTERM)
 
     monkeypatch.setattr(runner, "build", stopped)
@@ -394,7 +395,7 @@ def test_figure_stopped_while_drawing_keeps_the_figures_drawn(handlers, tmp_path
     from warpcontact.cli import main
 
     out = tmp_path / "run"
-    case = case_file(tmp_path, LONG_PATH.replace("steps = 20", "steps = 2").replace("n = 64", "n = 40"))
+    case = case_file(tmp_path, LONG_PATH.replace("steps = 60", "steps = 2").replace("n = 64", "n = 40"))
     from warpcontact.solvers import contact
 
     real_step, steps = contact.ContactSolver.step, []

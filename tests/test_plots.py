@@ -8,6 +8,7 @@ import pytest
 from matplotlib.figure import Figure
 
 from warpcontact import plots
+from warpcontact.adhesion import SMC
 from warpcontact.case import load_case
 from warpcontact.cli_figure import add_parser, cmd_figure
 from warpcontact.errors import InputError
@@ -354,7 +355,7 @@ def test_figure_examples_are_the_papers_states(fig, panel):
             table2.SIGMA_MAX, table2.TAU_MAX, table2.DELTA_N, table2.DELTA_T)
     other = load_case(ROOT / "examples" / f"figure{fig}{'b' if panel in 'ab' else 'd'}.toml")
     assert case.grid == other.grid
-    assert case.grid.size >= suggested_adhesive_size(table2.RADIUS, dz, table2.SMC(
+    assert case.grid.size >= suggested_adhesive_size(table2.RADIUS, dz, SMC(
         table2.SIGMA_MAX, table2.TAU_MAX, table2.DELTA_N, table2.DELTA_T))
 
 

@@ -66,6 +66,10 @@ N_SPECTRAL_BUFFERS = 3
 #: (n, n) fields of the solvers (counted in solvers/normal.py, contact.py, tangential.py)
 NORMAL_SOLVER_FIELDS = 4
 CONTACT_SOLVER_FIELDS = 9
+#: (n, n) fields of the minimised turns (adhesion with friction, solvers/contact.py): the coupling
+#: shear and the adhesive shear held in a turn (4 with the SMC law, 2 with a normal-only law),
+#: the total normal traction and a scratch field; counted for the SMC law (the larger)
+MINIMISED_TURN_FIELDS = 6
 TANGENTIAL_SOLVER_FIELDS = 7
 FRICTION_FIELDS = 5  # ContactSolver.target_x, target_y, shear_limit, scratch_x, scratch_y
 CONTACT_SOLVER_SCALARS = 6  # change
@@ -239,8 +243,8 @@ def breakdown(n: int, dtype="float64", device_kind="cpu", friction: bool = True,
     if adhesion:
         n_fields += (3 if friction else 1) * (3 + 2 * DEPTH)
         n_scalars += 2 + 3 * DEPTH
-    if adhesion and not friction:
-        n_fields += 4 * (PADDED_FIELDS + 2 * MEMORY) + 3
+    if adhesion:  # the adhesive minimisation (with friction: the normal solve of each turn)
+        n_fields += 4 * (PADDED_FIELDS + 2 * MEMORY) + 3 + (MINIMISED_TURN_FIELDS if friction else 0)
         n_scalars += ak.N_SUMS
     fields = n_fields * cells * real + states * cells * 4  # + int32 status per state
     scalars = n_scalars * real
@@ -252,7 +256,7 @@ def breakdown(n: int, dtype="float64", device_kind="cpu", friction: bool = True,
         fft_temporaries = int(math.ceil(allowance * spectrum))
     if fft == "warp" and kind == "cuda":
         fft_temporaries = cells * real
-    if adhesion and not friction:
+    if adhesion:
         fft_temporaries += ADHESIVE_TEMPORARY_SPECTRA * 2 * n * (n + 1) * cplx + ADHESIVE_TEMPORARY_FIELDS * cells * real
     host_temporaries = 0
     if kind == "cpu":
@@ -384,12 +388,26 @@ def memory_limit(device) -> tuple[int, str]:
                                                f"{CUDA_RESERVE_BYTES / GIB:.2f} GiB kept in reserve")
 
 
+#: float64 (2n + 1)^2 arrays the device path of the influence coefficients holds at once on CUDA
+#: (two corner arrays and one padded coefficient array; ``influence.device_coefficients``)
+DEVICE_INFLUENCE_ARRAYS = 3
+
+
+def setup_device_bytes(n: int, dtype="float64", fft: str = "cupy") -> int:
+    """Peak device memory while a CUDA model builds its spectra [bytes]: the spectra and FFT work
+    buffers (``breakdown``) and the device path's coefficient temporaries."""
+    parts = breakdown(n, dtype, "cuda", False, fft)
+    return parts["spectra"] + parts["fft_work"] + DEVICE_INFLUENCE_ARRAYS * (2 * int(n) + 1) ** 2 * 8
+
+
 def _required(n, dtype, kind, friction, fft, states, adhesion=False) -> int:
-    """Peak bytes in the memory of ``kind``: on the CPU also the set-up peak, which shares it."""
+    """Peak bytes in the memory of ``kind``: the solve's, or the set-up's where it is larger (on
+    the CPU the host set-up, which shares the memory; on CUDA the device path of the influence
+    coefficients)."""
     est = estimate_bytes(n, dtype, kind, friction, fft, states=states, adhesion=adhesion)
     if kind == "cpu":
         return max(est, setup_host_bytes(n, dtype, fft, kind))
-    return est
+    return max(est, setup_device_bytes(n, dtype, fft))
 
 
 def _bluestein_extra(n: int, dtype, fft: str) -> int:

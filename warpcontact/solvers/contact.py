@@ -33,6 +33,17 @@ TURN_TOL_CAP = 1e-4
 TURN_TOL_FACTOR = 1e-3
 
 
+def starting_residual(info) -> float:
+    """The relative residual a solve started from (its last residual if it made no iteration)."""
+    return info.history[0] if info.iterations > 0 and info.history else info.residual
+
+
+#: the turns' inner tolerance (``ContactSolver.turn_tolerance``): the first turn's, and the ratio
+#: to the measure it follows
+TURN_TOL_START = 1e-3
+TURN_TOL_RATIO = 0.01
+
+
 class ContactSolver:
     """Solves a state at given rigid shifts (delta_x, delta_y, delta_z) from the slip history.
 
@@ -69,15 +80,15 @@ class ContactSolver:
         relax: mixing of the adhesive fixed point (``AndersonMixing``'s beta). Its residual is
             |law(h, s) - t| / |law(h, s)|.
         use_graphs: replay the inner solvers' iterations as CUDA graphs (default: on CUDA).
-        preconditioned: precondition the normal solves (``NormalSolver.preconditioned``); default:
-            where a step is one normal solve (no turns: frictionless without adhesion, or
-            uncoupled materials). In the turns the normal solves start near their answer (0-8
-            iterations), and preconditioning moved the turns and the tangential iterations
-            either way: n = 128 on the CPU, Table 1 pair, Tabor + von Mises, tangential steps at
-            0.25-0.95 of delta_x_max: 0.42-1.28 s against 0.58-0.80 s (plain), 2 of 6 steps
-            slower; with the SMC law (2e7 Pa, 5e-12 m) 1.09-2.55 s against 1.14-2.20 s, and the
-            normal step at delta_z = 0.3 nm 96 -> 138 turns; H100, tangential steps at n = 1024
-            and 2048: 8 % and 14 % faster without adhesion, 13 % and 20 % slower with it.
+        preconditioned: precondition the normal solves (``NormalSolver.preconditioned``; default
+            True). In the turns the plain normal solves took most of a coupled step's iterations
+            and grew with the grid (warm-started, each cut its residual by about 0.8 per
+            iteration at n = 512-1024); preconditioned, with the residual-based turn tolerance
+            (``turn_tolerance``): Table 1 pair, Tabor + von Mises (k_tau 0.8), delta_z = 1e-10 m
+            then delta_x = 2e-11 m, R = 10 um, 2 CPU cores: n = 64: 34 and 56 inner iterations
+            against 125 and 159; n = 256: 53 and 76 against 163 and 230; n = 1024: 80 and 140
+            against 345 and 484 (9.8 s and 18.1 s against 26.0 s and 33.5 s), forces the same
+            to 1e-9 (``bench/scaling.py``, rows coupled-precond and coupled-before).
     """
 
     def __init__(self, model, friction=None, tol=None, outer_tol=None, max_iter: int = 2000, max_outer: int = 1000,
@@ -102,11 +113,18 @@ class ContactSolver:
                 self.adhesive = AdhesiveNormalSolver(model, adhesion,
                                                      max_iter=min(int(max_iter), ADHESIVE_MAX_ITER))
         self.normal = NormalSolver(model, tol, max_iter, pressure_cap=pressure_cap, use_graphs=use_graphs,
-                                   preconditioned=not self.iterative if preconditioned is None else preconditioned)
+                                   preconditioned=True if preconditioned is None else preconditioned)
         self.tol = self.normal.tol
         self.outer_tol = 100 * self.tol if outer_tol is None else float(outer_tol)
         self.max_outer = int(max_outer)
         self.relax = float(relax)
+        #: how the lagged turns set their inner tolerance: "residual" (TURN_TOL_RATIO x the coupled
+        #: residual of the last turn: the relative residual its normal solve started from, or its
+        #: tangential solve's start where the turn's change confirms it; never looser than the
+        #: turn before) or "change" (TURN_TOL_RATIO x the last turn's change, the schedule before:
+        #: a turn whose solves started converged measured no change, so the next one solved at
+        #: full tolerance; bench/scaling.py's row coupled-before)
+        self.turn_tolerance = "residual"
         #: called after each turn of a step as ``on_turn(turn, change)``: the turn (from 1 in each
         #: run of the turns: a retry or a fallback counts afresh) and its relative change [-], the
         #: number the turns stop on; the progress line shows them during a long step. None: nothing
@@ -263,13 +281,19 @@ class ContactSolver:
         for prev, cur in zip(self.previous, (state.pressure, state.shear_x, state.shear_y)):
             wp.copy(prev, cur)
         change = math.inf
+        coupled = math.inf  # the coupled residual (below)
         outer = 0
         converged_turns = not self.iterative
         while outer < self.max_outer:
             interrupts.check()
             outer += 1
             # inexact turns: early ones solve loosely, the last one at full tolerance
-            turn_tol = max(self.tol, min(1e-3, 0.01 * change)) if self.iterative else self.tol
+            if not self.iterative:
+                turn_tol = self.tol
+            elif self.turn_tolerance == "change":  # 1/100 of the last turn's change
+                turn_tol = max(self.tol, min(TURN_TOL_START, TURN_TOL_RATIO * change))
+            else:  # 1/100 of the coupled residual, never looser than the last turn's
+                turn_tol = max(self.tol, min(TURN_TOL_START if outer == 1 else turn_tol, TURN_TOL_RATIO * coupled))
             adhesive_change = self._update_adhesion(state, first=outer == 1) if self.adhesion is not None else 0.0
             if self.iterative:
                 self._known_displacements(state, tangential=False)
@@ -295,6 +319,12 @@ class ContactSolver:
             if not self.iterative:
                 break
             change = max(self._relative_change(state), adhesive_change)
+            # the coupled residual: where the normal solve started (how far the last tangential
+            # update moved its problem), and where the tangential one started, as far as the
+            # turn's change confirms it (the plain tangential solve reclassifies its slip cells
+            # at every start, which alone can make a start residual of 1e-2)
+            tangential_start = starting_residual(tangential_info) if tangential_info is not None else 0.0
+            coupled = max(starting_residual(normal_info), min(change, tangential_start))
             if self.on_turn is not None:
                 self.on_turn(outer, change)
             if change < self.outer_tol and turn_tol == self.tol:
