@@ -204,7 +204,7 @@ def summary(path: Path, limit: int = 120) -> str:
     text = m.group(1) if m else first
     if len(text) > limit:
         text = text[:limit - 3].rsplit(" ", 1)[0].rstrip(",;:") + "..."
-    return text
+    return text.replace("[", "\\[")  # "[a] [b]" would read as a reference link (mkdocs --strict)
 
 
 def architecture_tables() -> str:
