@@ -4,8 +4,9 @@
 
 For each adhesive Table 2 cell (k_tau:delta_z_um, the SMC law of ``Table2Settings``) runs the
 gross-slip search twice in one process: with the minimised turns (each normal solve the whole
-adhesive problem, Anderson mixing over the shear; ``ContactSolver``'s default) and with the lagged
-turns (the adhesive tractions a fixed point of their own, mixed across turns; the fallback).
+adhesive problem, plain turns over the shear; ``ContactSolver``'s default) and with the lagged
+turns (the adhesive tractions a fixed point of their own, Anderson-mixed across turns; the
+fallback). Both use the solver's inner solves and turn tolerance as they are.
 Prints per cell: states, turns per state (largest and total), inner iterations, time, and
 delta_x_max and mu from each, with their relative difference.
 """
