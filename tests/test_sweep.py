@@ -215,4 +215,7 @@ def test_progress_bar_over_cases_on_a_terminal(tmp_path):
     term = Terminal()
     run_sweep(load_sweep(write_sweep(tmp_path, 'base = "base.toml"\n[sweep]\n"friction.k_tau" = [0.95]\n')),
               tmp_path / "out", quiet=True, log=term)
-    assert term.getvalue() == ""
+    # quiet: no bar and no result line; warnings are printed either way (k_tau = 0.95 on this pair
+    # yields near the surface at delta_x_max, margin 0.95: the yield check's one line)
+    assert all(ln.startswith("warpcontact: warning: ") for ln in term.getvalue().splitlines())
+    assert "sweep [" not in term.getvalue()

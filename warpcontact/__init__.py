@@ -15,6 +15,7 @@ if TYPE_CHECKING:  # for readers, type checkers and the documentation's static a
     from .errors import ConvergenceError, InputError, NonFiniteError
     from .geometry import Grid, Sphere
     from .materials import COPPER, HARDENED_STEEL, PAPER_PAIR, Material, MaterialPair
+    from .stress import subsurface_stress
 
 # The names below are imported when first used (PEP 562), so that `warpcontact --help` and the
 # command line's argument parsing do not import Warp, SciPy and the solvers (a second or so).
@@ -25,6 +26,7 @@ _LAZY = {
     "MaterialPair": "materials",
     "Case": "case", "case_from_dict": "case", "load_case": "case",
     "gross_slip": "api", "path": "api", "pull_off": "api", "solve": "api",
+    "subsurface_stress": "stress",
 }
 
 
@@ -62,6 +64,7 @@ __all__ = [
     "path",
     "gross_slip",
     "pull_off",
+    "subsurface_stress",
     "InputError",
     "ConvergenceError",
     "NonFiniteError",

@@ -73,7 +73,8 @@ def gross_slip(case: Case, device=None, dtype=None, fft=None, rel_tol: float = 0
     delta_x rises until no cell sticks, and bisection narrows the bracket to ``rel_tol``.
     Returns the summary of :func:`run_gross_slip` (the keys of ``warpcontact gross-slip``'s
     result.json less the run's record): delta_x_max, delta_x_gross [m], mu, mu_elastic, force,
-    force_elastic [N], stick_area, contact_area [m^2], converged, states, elapsed_s [s].
+    force_elastic [N], stick_area, contact_area [m^2], converged, states, elapsed_s [s], and
+    whether a body yielded at delta_x_max: yielded, yield_margin, yield_check (``stress.yield_keys``).
     ``on_state(index, summary)`` is called after each state. ``model``: as :func:`solve`'s.
     """
     from .runner import build
@@ -133,6 +134,7 @@ def run_gross_slip(case: Case, model, solver, rel_tol: float = 0.01, on_state=No
     not converge. The one builder of a gross-slip summary."""
     from .guards import GROSS_SLIP_RESULTS, RunChecks, withhold_if_unconverged
     from .slip_search import find_gross_slip
+    from .stress import state_yield_keys
 
     checks = RunChecks(case)
 
@@ -142,8 +144,10 @@ def run_gross_slip(case: Case, model, solver, rel_tol: float = 0.01, on_state=No
             on_state(k, s)
 
     steps = case.load.steps if not case.load.explicit else 4
-    r = find_gross_slip(model, solver, case.load.delta_z_max, normal_steps=steps, rel_tol=rel_tol, on_state=observe)
+    r = find_gross_slip(model, solver, case.load.delta_z_max, normal_steps=steps, rel_tol=rel_tol, on_state=observe,
+                        at_max=state_yield_keys)
     checks.gross_slip(r)
+    checks.yielded(r.get("yield_check"), f"at delta_x_max = {r['delta_x_max']:.4g} m")
     return withhold_if_unconverged(r, GROSS_SLIP_RESULTS)
 
 
@@ -196,6 +200,8 @@ def result_row(result: dict) -> dict:
     """A summary as a sweep row: every key of :func:`run_gross_slip`'s, :func:`run_pull_off`'s or
     a solve's last state, less the lists of states (counted in ``n_states``) and the timing (the
     sweep records its own)."""
-    row = {k: v for k, v in result.items() if k not in STATE_LISTS and k != "elapsed_s"}
+    from .stress import yield_keys
+
+    row = {**yield_keys(None), **{k: v for k, v in result.items() if k not in STATE_LISTS and k != "elapsed_s"}}
     row["n_states"] = sum(len(result[k]) for k in STATE_LISTS if isinstance(result.get(k), list))
     return row

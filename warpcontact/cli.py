@@ -319,6 +319,7 @@ def cmd_table2(args) -> int:
     from .results import atomic_write_bytes, atomic_write_json
     from .batch import Task, run_tasks
     from .cli_sweep import placement_from
+    from .guards import RunChecks
     from .table2 import Table2Settings, cell_model_key, cells, markdown, run_cell
 
     for n in args.n:
@@ -407,6 +408,7 @@ def cmd_table2(args) -> int:
                 write_error = e
                 return False
         progress.write(f"table2 [{i + 1}/{len(todo)}] {cell}: {_table2_result(rec)}")
+        RunChecks(None).yielded(rec.get("yield_check"), f"in Table 2 cell {cell} (at delta_x_max)")  # each cell a run
         progress.status(finished)
         return True
 
@@ -496,7 +498,8 @@ def _write_table2(out, records, status, atomic_write_json, atomic_write_bytes, m
     buf = io.StringIO()
     law_keys = ["sigma_max", "tau_max", "delta_n", "delta_t"]
     keys = ["n", "k_tau", "delta_z_um", "adhesion", *law_keys, "delta_x_max_um", "paper_delta_x_max_um",
-            "rel_diff_delta_x_max", "mu", "paper_mu", "rel_diff_mu", "mu_elastic", "converged", "elapsed_s"]
+            "rel_diff_delta_x_max", "mu", "paper_mu", "rel_diff_mu", "mu_elastic", "converged", "yielded",
+            "yield_margin", "elapsed_s"]
     w = csv.DictWriter(buf, fieldnames=keys, extrasaction="ignore")
     w.writeheader()
     w.writerows({**r, **{k: (r.get("adhesion_law") or {}).get(k, "") for k in law_keys}} for r in records)

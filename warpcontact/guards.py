@@ -214,6 +214,18 @@ class RunChecks:
             self.resolution_warned = True
             warnings.warn(text, CoarseGridWarning, stacklevel=4)
 
+    def yielded(self, check: dict | None, where) -> None:
+        """After the stress check of a run's final state (``stress.yield_check``; ``where``: the
+        state's summary, or words naming it): the yield warning (:func:`yield_below_text`), unless
+        this run warned of yield already (the contact pressure above a yield strength): one warning
+        of yield per run."""
+        if self.yield_warned:
+            return
+        text = yield_below_text(check, self._where(where) if isinstance(where, dict) else where)
+        if text:
+            self.yield_warned = True
+            warnings.warn(text, YieldWarning, stacklevel=3)
+
     def _check_yield(self, s: dict) -> None:
         if self.yield_warned:
             return
@@ -230,6 +242,17 @@ class RunChecks:
                    f"S_Y, so that zone carries no shear and lowers mu")
         warnings.warn(f"the contact pressure reaches {p:.4g} Pa {self._where(s)}, above {names}: a real contact "
                       f"yields there (this model stays elastic){why}", YieldWarning, stacklevel=3)
+
+
+def yield_below_text(check: dict | None, where: str) -> str | None:
+    """One line naming each body whose largest von Mises stress (``stress.yield_check``) reaches its
+    yield strength at the state ``where`` names, or None when none does (or the check did not run)."""
+    if not check or not check.get("yielded"):
+        return None
+    parts = [f"the {name}'s von Mises stress reaches {b['von_mises_max']:.4g} Pa at depth {b['z']:.3g} m, "
+             f"above {name}.yield_strength = {b['yield_strength']:.4g} Pa (margin {b['margin']:.3g})"
+             for name in ("sphere", "flat") if isinstance(b := check.get(name), dict) and b.get("yielded")]
+    return f"{' and '.join(parts)} {where}: the body yields there (this model stays elastic)"
 
 
 def adhesion_tail(adhesion) -> float:

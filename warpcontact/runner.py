@@ -16,6 +16,7 @@ from .progress import show_turn
 from .results import state_fields, state_summary
 from .solvers.contact import ContactSolver
 from .state import ContactState
+from .stress import yield_keys
 
 
 def friction_law(case):
@@ -123,9 +124,7 @@ class PathResult:
         if self.interrupted:
             out["stop_signal"] = self.stop_signal
         if self.yield_check is not None:  # a body's von Mises maximum against its yield strength
-            margins = [b["margin"] for b in self.yield_check.values() if isinstance(b, dict) and b.get("margin")]
-            out.update(yielded=self.yield_check["yielded"], yield_margin=min(margins) if margins else None,
-                       yield_check=self.yield_check)
+            out.update(yield_keys(self.yield_check))
         return out
 
     def stacked_fields(self) -> dict:
@@ -196,6 +195,7 @@ def run_path(case, on_state=None, keep_fields: bool = True, fields: str = "all",
 
             result.yield_check = yield_check(case.pair, case.grid, state.to_numpy_si(), model.device,
                                              model.dtype_name, case.solver.fft)
+            checks.yielded(result.yield_check, result.states[-1])
     except KeyboardInterrupt as e:
         result.interrupted = True
         result.stop_signal = interrupts.signal_name(interrupts.stop_signal(e))

@@ -42,7 +42,7 @@ def friction_coefficient(force: dict):
 
 def find_gross_slip(
     model, solver, delta_z: float, normal_steps: int = 4, tangential_steps: int = 10, rel_tol: float = 0.01,
-    delta_y: float = 0.0, on_state=None,
+    delta_y: float = 0.0, on_state=None, at_max=None,
 ) -> dict:
     """Largest delta_x with stick cells left (delta_x_max) and mu = F_x / F_z there.
 
@@ -55,7 +55,9 @@ def find_gross_slip(
     end), mu (F_x / F_z, total forces; None with ``mu_note`` where F_z <= 0, see
     ``friction_coefficient``), mu_elastic (F_x / F_z of the contact pressure alone), force and
     force_elastic [N] at delta_x_max, converged (every state on the way converged), the states of
-    the path (summaries), and elapsed_s.
+    the path (summaries), elapsed_s, and with ``at_max`` the keys of the dict ``at_max(state)``
+    returns for the solved state at delta_x_max (the check of the elastic assumption there:
+    ``stress.state_yield_keys``).
     """
     if isinstance(rel_tol, bool) or not isinstance(rel_tol, (int, float)) or not 0.0 < rel_tol < 1.0:
         raise InputError("rel_tol", f"must lie in (0, 1), got {rel_tol!r}")
@@ -123,6 +125,7 @@ def find_gross_slip(
         "converged": bool(converged),
         "stick_area": lo_summary["stick_area"],
         "contact_area": lo_summary["contact_area"],
+        **(at_max(last_stick) if at_max is not None else {}),  # the state at delta_x_max
         "states": path,
         "elapsed_s": time.perf_counter() - t0,
     }

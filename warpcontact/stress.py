@@ -676,3 +676,21 @@ def yield_check(pair, grid, fields: dict, device="cpu", dtype="float64", fft="au
                      "margin": body["margin"]}
     out["yielded"] = any(out[b]["yielded"] for b in BODIES)
     return out
+
+
+def yield_keys(check: dict | None) -> dict:
+    """The keys a result carries from a :func:`yield_check` (the one place they are made: solve,
+    gross-slip, table2 and sweep results): ``yielded`` (True, False, or None when not checkable),
+    ``yield_margin`` (the smaller S_Y / von Mises max of the bodies with a yield strength, or None)
+    and ``yield_check`` (the per-body figures). ``check`` None (not run): both None."""
+    if check is None:
+        return {"yielded": None, "yield_margin": None}
+    margins = [b["margin"] for b in check.values() if isinstance(b, dict) and b.get("margin")]
+    return {"yielded": check["yielded"], "yield_margin": min(margins) if margins else None, "yield_check": check}
+
+
+def state_yield_keys(state) -> dict:
+    """:func:`yield_keys` of one solved ``ContactState`` on its model (pair, grid, device, float
+    type, FFT backend): the check a command makes once, on its final state."""
+    m = state.model
+    return yield_keys(yield_check(m.pair, m.grid, state.to_numpy_si(), m.device, m.dtype_name, m.fft_name))

@@ -507,9 +507,12 @@ def _run_case(task: str, rel_tol: float, case: Case, on_state, model=None) -> di
     result = api.solve(case, on_state=lambda k, total, s, res: on_state(k, total, s), model=model)
     if result.interrupted:  # run_path keeps what finished; a sweep records whole cases only
         raise KeyboardInterrupt
+    from .stress import yield_keys
+
     summary = dict(result.states[-1])
     summary["converged"] = result.converged
     summary["n_states"] = len(result.states)
+    summary.update(yield_keys(result.yield_check))  # the last state's check (run_path); None when not made
     return summary
 
 

@@ -142,6 +142,7 @@ def table2_cell(k_tau: float, delta_z_um: float, settings: Table2Settings, on_st
     from .model import ContactModel
     from .slip_search import find_gross_slip
     from .solvers.contact import ContactSolver
+    from .stress import state_yield_keys
 
     dz = delta_z_um * UM
     adhesive = settings.adhesion_law() if adhesion else None
@@ -151,7 +152,7 @@ def table2_cell(k_tau: float, delta_z_um: float, settings: Table2Settings, on_st
     law = TaborVonMises(k_tau, PAPER_PAIR.softer.yield_strength)
     t0 = time.perf_counter()
     r = find_gross_slip(model, ContactSolver(model, law, adhesion=adhesive), dz, rel_tol=settings.rel_tol,
-                        on_state=on_state)
+                        on_state=on_state, at_max=state_yield_keys)
     paper_dx, paper_mu = paper_table().get((k_tau, delta_z_um, bool(adhesion)), (math.nan, math.nan))
     dx_um = r["delta_x_max"] / UM
     record = {
@@ -177,6 +178,7 @@ def table2_cell(k_tau: float, delta_z_um: float, settings: Table2Settings, on_st
         "crossover_pressure_Pa": law.crossover_pressure,
         "elapsed_s": time.perf_counter() - t0,
         "states": len(r["states"]),
+        **{k: r.get(k) for k in ("yielded", "yield_margin", "yield_check")},  # at delta_x_max (find_gross_slip)
     }
     if "mu_note" in r:
         record["mu_note"] = r["mu_note"]
@@ -229,11 +231,21 @@ def _law_text(record) -> str:
             f"{law['delta_n']:g} / {law['delta_t']:g} m")
 
 
+def _elastic_text(record) -> str:
+    """The elastic column: "yes" or "no, yielded", with the margin S_Y / von Mises max; "-" when not
+    checked (a record of an earlier version, or no check)."""
+    y, m = record.get("yielded"), record.get("yield_margin")
+    if y is None:
+        return "-"
+    return f"{'no, yielded' if y else 'yes'} (margin {m:.3g})" if m is not None else ("no, yielded" if y else "yes")
+
+
 def markdown(records: list) -> str:
     """The table as Markdown: computed, paper, relative difference; unconverged cells marked."""
     lines = [
-        "| k_tau | delta_z (um) | adhesion | delta_x_max (um) | paper | diff | mu | paper | diff | n | converged |",
-        "|---|---|---|---|---|---|---|---|---|---|---|",
+        "| k_tau | delta_z (um) | adhesion | delta_x_max (um) | paper | diff | mu | paper | diff | n | converged "
+        "| elastic at delta_x_max |",
+        "|---|---|---|---|---|---|---|---|---|---|---|---|",
     ]
     for r in records:
         if r["converged"]:
@@ -246,6 +258,6 @@ def markdown(records: list) -> str:
             dx = mu = ddx = dmu = "not converged"
         lines.append(
             f"| {r['k_tau']:.2f} | {r['delta_z_um']:.1e} | {_law_text(r)} | {dx} | {r['paper_delta_x_max_um']:.1e} | {ddx} | "
-            f"{mu} | {r['paper_mu']:.3f} | {dmu} | {r['n']} | {r['converged']} |"
+            f"{mu} | {r['paper_mu']:.3f} | {dmu} | {r['n']} | {r['converged']} | {_elastic_text(r)} |"
         )
     return "\n".join(lines) + "\n"
