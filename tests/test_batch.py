@@ -294,3 +294,21 @@ def test_bad_run_scheduler_names_the_key(tmp_path):
     with pytest.raises(InputError) as e:
         load_sweep(tmp_path / "sweep.toml")
     assert e.value.key == "run.scheduler"
+
+
+@pytest.mark.parametrize("message", ["Failed to restart worker after its process exited",
+                                     "Nanny failed to start process"])
+def test_worker_start_failures_are_dropped_only_after_a_stop_signal(message, monkeypatch):
+    """A nanny's report that a worker could not start is a real failure before any stop signal and
+    passes; after one (the signal reached the workers too) it is the run closing, and is dropped."""
+    import logging
+
+    from warpcontact import interrupts
+
+    record = logging.LogRecord("distributed.nanny", logging.ERROR, __file__, 1, message, None, None)
+    interrupts.reset()
+    assert batch._quiet_restart_after_stop(record) is True
+    monkeypatch.setattr(interrupts, "_received", int(signal.SIGTERM))
+    assert batch._quiet_restart_after_stop(record) is False
+    other = logging.LogRecord("distributed.nanny", logging.ERROR, __file__, 1, "Worker process died", None, None)
+    assert batch._quiet_restart_after_stop(other) is True
