@@ -139,15 +139,37 @@ def test_minimiser_is_a_local_minimum_of_the_energy():
     solver.traction.assign(p0)
 
 
-def test_maugis_dugdale_pull_off_at_lambda_1():
+def maugis_dugdale_path(n: int) -> dict:
     """The Dugdale law at Maugis parameter lambda = 1 (R = 1 um, w = 0.5 J/m^2, ramps of 0.05
-    h_0, domain 5 a0, 12 steps each way, n = 64): every state converges and the pull-off lies
-    within 1.5 % of Maugis-Dugdale's -1.6007 pi R w (measured: -1.6078, +0.44 %; at n = 192
-    -1.5922, -0.53 %: the grid's and the ramps' share). The lagged fixed point it replaced gave
-    -1.687 at n = 96 with states unconverged."""
+    h_0, domain 5 a0, 12 steps each way) on n cells, the pull-off refined."""
     law = dugdale_at(1.0)
-    model = ContactModel(PAPER_PAIR, Sphere(R), Grid(64, 5 * A0))
-    r = approach_retract(model, ContactSolver(model, None, adhesion=law), -law.h_0, 2 * law.h_0, -3 * law.h_0, 12)
+    model = ContactModel(PAPER_PAIR, Sphere(R), Grid(n, 5 * A0))
+    return approach_retract(model, ContactSolver(model, None, adhesion=law), -law.h_0, 2 * law.h_0, -3 * law.h_0, 12)
+
+
+def test_maugis_dugdale_at_lambda_1_on_a_coarse_grid_says_it_is_jagged():
+    """n = 64 (a0 over 13 cells): every state converges, and the retraction's force is jagged (the
+    contact edge leaves one ring of cells at a time): the substeps around the pull-off lie 4 % of
+    it off a smooth curve (measured 0.068 pi R w), the pull-off -1.708 pi R w (+6.7 % from
+    Maugis-Dugdale's -1.6007; the parabola's -1.678, +4.8 %). The run reports the jaggedness (the
+    warning's threshold is 1 %), which is larger than the equal steps' scatter alone suggested: 12
+    steps gave -1.6078 (+0.44 %) by where they fell on the sawtooth."""
+    r = maugis_dugdale_path(64)
+    assert r["converged"], [c.get("iterations") for c in r["curve"]]
+    assert r["pull_off_scatter"] > 0.01 * abs(r["pull_off_force"])
+    reference = maugis_dugdale_pull_off(1.0) * math.pi * R * W
+    # the pull-off and the smooth curve's lie on the tensile side of Maugis-Dugdale, by less than
+    # the sawtooth's amplitude twice (what the grid's snapping can add)
+    for value in (r["pull_off_force"], r["pull_off_fit"]):
+        assert 0.0 < reference - value < 2 * r["pull_off_scatter"], (value, reference, r["pull_off_scatter"])
+
+
+@pytest.mark.slow
+def test_maugis_dugdale_pull_off_at_lambda_1():
+    """n = 192 (a0 over 38 cells; 2 CPU cores, about 2 minutes): every state converges and the
+    refined pull-off lies within 1.5 % of Maugis-Dugdale's -1.6007 pi R w (measured -1.6240,
+    +1.46 %; the smooth curve's -1.6275, the substeps' scatter 0.6 %)."""
+    r = maugis_dugdale_path(192)
     assert r["converged"], [c.get("iterations") for c in r["curve"]]
     ratio = r["pull_off_force"] / (math.pi * R * W)
     reference = maugis_dugdale_pull_off(1.0)

@@ -176,6 +176,9 @@ class Dugdale:
     smoothing: float = 0.05
 
     has_shear = False
+    #: the tension ends at a finite gap (range): surfaces beyond it do not interact at all, so the
+    #: adhesive zone's forming and breaking are events of the approach-retract path
+    finite_range = True
 
     def __post_init__(self):
         _positive("adhesion.sigma_0", self.sigma_0)

@@ -184,7 +184,11 @@ def run_pull_off(case: Case, model, solver, steps: int = 20, retract_to: float |
 
         warnings.warn(trapping, stacklevel=2)
     end = -4.0 * law.range if retract_to is None else float(retract_to)
-    r = approach_retract(model, solver, -2.0 * law.range, dz_max, end, int(steps), on_state=observe)
+    r = approach_retract(model, solver, -2.0 * law.range, dz_max, end, int(steps), on_state=observe,
+                         extend=retract_to is None)
+    from .guards import warn_if_jagged_pull_off
+
+    warn_if_jagged_pull_off(r, model.grid.n)
     R, w = case.sphere.radius, law.work_of_adhesion
     result = {**r, "work_of_adhesion": w, "tabor_parameter": tabor_parameter(case.pair, R, w, law.range),
               "dmt_pull_off": -2.0 * math.pi * R * w, "jkr_pull_off": -1.5 * math.pi * R * w,

@@ -215,26 +215,30 @@ def cmd_pull_off(args) -> int:
 
     info = _run_info(model, case)
     progress = Progress("pull-off", total=2 * args.steps + 1, quiet=args.quiet)
-    curve = []  # the finished states: written after each, and on a stop
+    curve, refined = [], []  # the finished states (path, refinement): written after each, and on a stop
+    finished = {"curve": curve, "refined": refined}
 
     def on_state(k, total, s):
-        with interrupts.deferred():  # the list and the file stay in step
-            curve.append(s)
-            _write_partial(out, {"curve": curve}, info, PULL_OFF_RESULTS)
+        with interrupts.deferred():  # the lists and the file stay in step
+            (refined if "purpose" in s else curve).append(s)
+            _write_partial(out, finished, info, PULL_OFF_RESULTS)
+        progress.total = total  # grows where the path finds a jump to locate or goes on in contact
+        what = f", {s['purpose']}" if "purpose" in s else ""
         progress.update(k + 1, s["iterations"], s["residual"],
-                        f"delta_z {s['delta']['z']:+.3e} m, F_z {s['force']['z']:+.3e} N, {s['outer_iterations']} turns")
+                        f"delta_z {s['delta']['z']:+.3e} m, F_z {s['force']['z']:+.3e} N, "
+                        f"{s['outer_iterations']} turns{what}")
 
     earlier = _earlier_run(out, ("result.json", "pull_off.png"))
     try:
         if earlier:  # replaced at once; elsewhere nothing is written before the first state finishes
             with interrupts.deferred():
-                _write_partial(out, {"curve": curve}, info, PULL_OFF_RESULTS)
+                _write_partial(out, finished, info, PULL_OFF_RESULTS)
                 _remove_stale(out / "pull_off.png")
         r = run_pull_off(case, model, solver, steps=args.steps, retract_to=args.retract_to, on_state=on_state)
     except KeyboardInterrupt as e:
         interrupts.stopping(e)  # first: a second signal does not cut what follows
         progress.close()
-        return _interrupted(out, {"curve": curve}, info, PULL_OFF_RESULTS, e, earlier)
+        return _interrupted(out, finished, info, PULL_OFF_RESULTS, e, earlier)
     finally:
         progress.close()
     R, w = case.sphere.radius, r["work_of_adhesion"]
@@ -254,9 +258,26 @@ def cmd_pull_off(args) -> int:
               f"see {out / 'result.json'}", file=sys.stderr)
         return EXIT_NOT_CONVERGED
     if not args.quiet:
+        for line in _contact_event_lines(r):
+            print(line, file=sys.stderr)
         print(f"pull-off force {r['pull_off_force']:.4e} N = {r['pull_off_force'] / (math.pi * R * w):.3f} pi R w "
               f"(Tabor parameter {result['tabor_parameter']:.3g}) -> {out}", file=sys.stderr)
     return 0
+
+
+def _contact_event_lines(r) -> list[str]:
+    """One line per place the contact formed or broke on the path, and one where it never left."""
+    lines = []
+    for e in r["contact_events"]:
+        how = "jumps" if e["jump"] else "changes continuously"
+        lines.append(f"{e['of']} {e['kind']} ({e['branch']}) between delta_z {e['delta_z_before']:+.4e} and "
+                     f"{e['delta_z_after']:+.4e} m: F_z {how} from {e['force_before']:+.4e} to {e['force_after']:+.4e} N, "
+                     f"contact radius {e['contact_radius_before']:.3e} -> {e['contact_radius_after']:.3e} m")
+    for where in r.get("in_contact_at", []):
+        lines.append(f"warning: the sphere is in contact at the path's {where} (delta_z "
+                     f"{r['delta_start' if where == 'start' else 'delta_end']:+.4e} m): the curve misses the jump "
+                     f"{'in' if where == 'start' else 'out'}" + (" (give --retract-to further out)" if where == "end" else ""))
+    return lines
 
 
 def _run_info(model, case) -> dict:
@@ -268,14 +289,15 @@ def _run_info(model, case) -> dict:
 
 
 def _write_partial(out: Path, finished: dict, info: dict, keys, stop: BaseException | None = None):
-    """OUT/result.json of a run not finished: the states so far (``finished``: one list of state
-    summaries, by its name) and ``info``, the results ``keys`` null, ``complete: false``; after a
-    stop (``stop``: the KeyboardInterrupt), ``interrupted: true`` and the signal."""
+    """OUT/result.json of a run not finished: the states so far (``finished``: lists of state
+    summaries by their names, the path's first) and ``info``, the results ``keys`` null,
+    ``complete: false``; after a stop (``stop``: the KeyboardInterrupt), ``interrupted: true`` and
+    the signal."""
     from .results import atomic_write_json
 
-    (name, states), = finished.items()
+    states = [s for group in finished.values() for s in group]
     record = {**{k: None for k in keys}, "converged": False, "complete": False, "interrupted": stop is not None,
-              name: states, **info}
+              **finished, **info}
     if stop is not None:
         signal_name = interrupts.signal_name(interrupts.stop_signal(stop))
         record["stop_signal"] = signal_name
@@ -291,7 +313,7 @@ def _interrupted(out: Path, finished: dict, info: dict, keys, stop: BaseExceptio
     and not converged (:func:`_write_partial`); one line on stderr. Before the first state finished
     nothing is written, unless an earlier run's result.json was replaced (``earlier``): then the
     file records the stop. Returns the exit status (130, 143, 129)."""
-    (name, states), = finished.items()
+    states = [s for group in finished.values() for s in group]
     if not states and not earlier:
         print(f"{interrupts.describe(stop)}: stopped before the first state finished; nothing was written",
               file=sys.stderr)

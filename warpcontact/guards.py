@@ -22,7 +22,7 @@ MIN_CONTACT_RADIUS_CELLS = 8
 #: the path did not converge (the bracket may then be anywhere).
 GROSS_SLIP_RESULTS = ("delta_x_max", "delta_x_gross", "mu", "mu_elastic", "force", "force_elastic")
 #: The results of an approach-retract curve: not reported when a state of the curve did not converge.
-PULL_OFF_RESULTS = ("pull_off_force", "pull_off_delta_z")
+PULL_OFF_RESULTS = ("pull_off_force", "pull_off_delta_z", "pull_off_fit", "pull_off_scatter")
 
 
 #: adhesive tension on the domain's edge, over the largest anywhere, above which a state warns [-]
@@ -45,6 +45,26 @@ EDGE_SHARE_AT_FIRST_TURN = 0.5
 
 class CoarseGridWarning(UserWarning):
     """The contact spans too few cells for the discretisation error to be small."""
+
+
+#: a pull-off whose refined states lie farther than this fraction of it from a smooth curve warns
+#: (``approach_retract.pull_off_fit``): the grid's jaggedness is then a visible part of the answer
+JAGGED_FRACTION = 0.01
+
+
+def warn_if_jagged_pull_off(result: dict, n: int) -> bool:
+    """Warn (:class:`CoarseGridWarning`) where the states around the pull-off scatter by more
+    than ``JAGGED_FRACTION`` of it; True where it warned."""
+    import warnings
+
+    force, scatter = result.get("pull_off_force"), result.get("pull_off_scatter")
+    if force is None or scatter is None or not math.isfinite(scatter) or not scatter > JAGGED_FRACTION * abs(force):
+        return False
+    warnings.warn(f"the retraction's force is jagged on the {n}-cell grid: states near the pull-off lie up to "
+                  f"{100 * scatter / abs(force):.1f} % of it off a smooth curve (the contact edge leaves one ring "
+                  f"of cells at a time); the pull-off carries that uncertainty (pull_off_fit: the smooth curve's "
+                  f"{result['pull_off_fit']:.4e} N); refine grid.n", CoarseGridWarning, stacklevel=3)
+    return True
 
 
 class YieldWarning(UserWarning):

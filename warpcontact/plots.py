@@ -402,6 +402,7 @@ def si_scale(values, unit: str):
 def pull_off_curve(result: dict) -> Figure:
     """The force-approach curve of a pull-off result (``warpcontact pull-off``'s result.json, or
     ``wc.pull_off``'s dict): total F_z against delta_z on the approach and retract branches, the
+    states that located the jumps and refined the pull-off, each jump as a dashed arrow, the
     pull-off point, and the DMT (2 pi R w) and JKR (1.5 pi R w) pull-off forces when the result
     has them. Both axes in the data's own scale (an nN curve in nN)."""
     curve = result["curve"]
@@ -415,6 +416,15 @@ def pull_off_curve(result: dict) -> Figure:
         if pts:
             x, y = zip(*pts)
             ax.plot(x, y, style, ms=3, label=branch)
+    refined = [c for c in result.get("refined") or [] if c.get("purpose") != "start in contact"]
+    if refined:  # the bisections that place the jumps and the substeps around the pull-off
+        ax.plot([c["delta"]["z"] / z_scale for c in refined], [c["force"]["z"] / f_scale for c in refined], ".",
+                color="0.45", ms=3, label="located / refined")
+    for e in result.get("contact_events") or []:
+        if e.get("jump"):  # the jump: from the last state before to the first after, dashed
+            z = e["delta_z_after"] / z_scale
+            ax.annotate("", xy=(z, e["force_after"] / f_scale), xytext=(z, e["force_before"] / f_scale),
+                        arrowprops={"arrowstyle": "->", "ls": "--", "color": "0.3", "lw": 0.8})
     if result.get("pull_off_force") is not None:
         ax.plot([result["pull_off_delta_z"] / z_scale], [result["pull_off_force"] / f_scale], "k*", ms=9,
                 label=f"pull-off {result['pull_off_force'] / f_scale:.4g} {f_unit}")
