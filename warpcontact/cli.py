@@ -131,6 +131,9 @@ def _parser():
     from .cli_stress import add_parser as add_stress_parser
 
     add_stress_parser(sub)
+    from .cli_fit import add_parser as add_fit_parser
+
+    add_fit_parser(sub)
     t.add_argument("--k-tau", type=float, nargs="+", help="only these k_tau columns (0.50, 0.80, 0.95)")
     t.add_argument("--delta-z-um", type=float, nargs="+", help="only these delta_z rows in um (1e-5, 5e-5, 1e-4, 1.5e-4)")
     _common(t)
@@ -596,11 +599,12 @@ def main(argv=None) -> int:
         from .cli_figure import cmd_figure
         from .cli_sweep import cmd_sweep
         from .cli_stress import cmd_stress
+        from .cli_fit import cmd_fit
 
         if getattr(args, "out", None) is not None:  # before any command starts: nothing is solved in vain
             check_out(args.out, getattr(args, "out_is_file", False))
         commands = {"solve": cmd_solve, "gross-slip": cmd_gross_slip, "table2": cmd_table2, "figure": cmd_figure,
-                    "pull-off": cmd_pull_off, "sweep": cmd_sweep, "stress": cmd_stress,
+                    "pull-off": cmd_pull_off, "sweep": cmd_sweep, "stress": cmd_stress, "fit": cmd_fit,
                     "schema": cmd_schema}
         return commands[args.command](args)
     except InputError as e:
