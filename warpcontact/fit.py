@@ -681,8 +681,9 @@ def evaluation_hash(ident: dict) -> str:
 class _Evaluator:
     """The model at parameter points: every row's case, from the cache or the batch engine."""
 
-    def __init__(self, fit: Fit, out: Path, placement, log, quiet: bool):
-        self.fit, self.out, self.placement, self.log, self.quiet = fit, out, placement, log, quiet
+    def __init__(self, fit: Fit, out: Path, placement, where: str | None = None):
+        self.fit, self.out, self.placement = fit, out, placement
+        self.where = where  # the words for a local cluster of the fit's own; else each batch's
         self.folder = out / "evaluations"
         self.memory: dict = {}  # hash -> outcome
         self.requested = self.computed = self.cached = 0
@@ -849,18 +850,19 @@ def _values(fit: Fit, u) -> dict:
 
 @contextlib.contextmanager
 def _engine(placement, pending: int):
-    """Where the fit's batches run. A local cluster is started once for the whole fit (run_tasks
-    would start one per batch: the workers' start and their models would be paid at every
-    optimiser step) and given to each batch by its address; it ends with the fit."""
+    """Where the fit's batches run, and the words for it (None: as each batch says). A local
+    cluster is started once for the whole fit (run_tasks would start one per batch: the workers'
+    start and their models would be paid at every optimiser step) and given to each batch by its
+    address; it ends with the fit."""
     from .batch import Placement, _Cluster
 
     if placement.scheduler is not None or placement.in_process(pending):
-        yield placement
+        yield placement, None
         return
     cluster = _Cluster(placement, pending)
     finished = False
     try:
-        yield Placement(scheduler=cluster.cluster.scheduler_address, device=placement.device)
+        yield Placement(scheduler=cluster.cluster.scheduler_address, device=placement.device), cluster.where
         finished = True
     finally:
         cluster.close(finished=finished)
@@ -952,8 +954,8 @@ def run_fit(fit: Fit, out: str | PathLike, quiet: bool = False, log=None, placem
 
     result = None
     try:
-        with _engine(placement, pending) as where:
-            ev = _Evaluator(fit, out, where, log, quiet)
+        with _engine(placement, pending) as (where, where_text):
+            ev = _Evaluator(fit, out, where, where_text)
             # the trust-region subproblem in a 2-D subspace (lsmr), the variables scaled by the Jacobian's
             # columns: where the data cannot see a parameter (a zero column), 'exact' shrank the trust
             # region at nearly every step (two-parameter test: 24 evaluations instead of 5) and x_scale=1
@@ -988,7 +990,7 @@ def run_fit(fit: Fit, out: str | PathLike, quiet: bool = False, log=None, placem
     report.evaluations = {"count": ev.requested if ev else 0, "cached": ev.cached if ev else 0,
                           "computed": ev.computed if ev else 0,
                           "residual_evaluations": len(state["trace"]), "iterations": state["iteration"],
-                          "where": ev.batches[-1].where if ev and ev.batches else None}
+                          "where": (ev.where or ev.batches[-1].where) if ev and ev.batches else None}
     if result is None:  # stopped: fit.json says so, with the best point met
         result = {"complete": False, "converged": False, "interrupted": report.interrupted,
                   "stop_signal": report.stop_signal, "error": report.error, "message": report.message,
@@ -1141,7 +1143,8 @@ def fitted_case(fit: Fit, values: Mapping) -> dict:
 
 
 def _write_outputs(fit: Fit, out: Path, result: dict) -> None:
-    from .plots import save
+    import io
+
     from .results import atomic_write_bytes
 
     values = {k: e["value"] for k, e in result["parameters"].items()}
@@ -1153,7 +1156,9 @@ def _write_outputs(fit: Fit, out: Path, result: dict) -> None:
                      + ("" if e["identified"] else "  (NOT fixed by the data)"))
     lines.append(f"# residual rms {result['residual_rms']:.4g}; converged: {str(result['converged']).lower()}")
     atomic_write_bytes(out / "fitted.toml", case_toml(d, "\n".join(lines)).encode())
-    save(fit_figure(fit, result), out / "fit.png")
+    buf = io.BytesIO()
+    fit_figure(fit, result).savefig(buf, format="png", dpi=110)
+    atomic_write_bytes(out / "fit.png", buf.getvalue())
 
 
 def fit_figure(fit: Fit, result: dict):
@@ -1177,7 +1182,8 @@ def fit_figure(fit: Fit, result: dict):
     fig = Figure(figsize=(4.2 * n, 3.4), layout="constrained")
     FigureCanvasAgg(fig)
     axes = fig.subplots(1, n, squeeze=False)[0]
-    shown = ", ".join(f"{k.split('.', 1)[1]} = {e['value']:.6g} ± {_fmt(e['stderr'])}"
+    shown = ", ".join(f"{k.split('.', 1)[1]} = {e['value']:.6g} ± "
+                      f"{'inf' if not math.isfinite(e['stderr']) else format(e['stderr'], '.2g')}"
                       for k, e in result["parameters"].items())
     for ax, o in zip(axes, fit.outputs):
         col = fit.columns[o]
