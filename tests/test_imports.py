@@ -34,9 +34,9 @@ ROLES = {
     "physics": ("materials", "geometry", "adhesion", "friction", "influence", "reference"),
     "numerics": ("launch", "device", "fft", "operator", "model", "state", "solvers", "resources"),
     "front door: records and checks": ("case", "plausibility", "guards", "results", "progress"),
-    "studies": ("runner", "slip_search", "approach_retract", "table2", "sweep", "batch", "stress"),
+    "studies": ("runner", "slip_search", "approach_retract", "table2", "sweep", "batch", "stress", "fit"),
     "front door: entry points": ("", "api", "schema", "plots", "cli", "cli_solve", "cli_figure", "cli_sweep",
-                                 "cli_stress"),
+                                 "cli_stress", "cli_fit"),
 }
 
 #: imports against the order of ROLES, known and not yet removed (importer, imported); a new one
@@ -49,6 +49,7 @@ KNOWN_UPWARD = {
     ("warpcontact.sweep", "warpcontact.api"),  # a case's task through the Python API
     ("warpcontact.runner", "warpcontact"),  # __version__ for result.json
     ("warpcontact.sweep", "warpcontact"),  # __version__
+    ("warpcontact.fit", "warpcontact"),  # __version__
 }
 
 

@@ -24,6 +24,7 @@ COMMANDS = {
     "figure": ["figure", EXAMPLES / "hertz.toml"],
     "sweep": ["sweep", EXAMPLES / "sweep_k_tau.toml", "--workers", "1"],
     "stress": ["stress", EXAMPLES / "hertz.toml"],
+    "fit": ["fit", EXAMPLES / "fit_k_tau.toml", "--workers", "1"],
     "schema": ["schema"],
 }
 FILE_OUT = {"schema"}  # --out names a file; the others' a folder

@@ -367,10 +367,10 @@ def test_load_takes_a_path_or_delta_z_never_both():
 
 
 def _example_cases():
-    """(name, case dict) of every case in examples/: the case files and a sweep file's [base]."""
+    """(name, case dict) of every case in examples/: the case files and a sweep or fit file's [base]."""
     for path in sorted(EXAMPLES.glob("*.toml")):
         d = tomllib.loads(path.read_text())
-        if "sweep" in d:
+        if "sweep" in d or "fit" in d:
             if isinstance(d.get("base"), dict):
                 yield f"{path.name} [base]", d["base"]
         else:
