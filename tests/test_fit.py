@@ -197,6 +197,33 @@ def test_a_parameter_the_data_cannot_fix_gets_a_warning_and_no_confident_stderr(
     assert "NOT fixed by the data" in (tmp_path / "out" / "fitted.toml").read_text()
 
 
+def test_two_parameters_recovered_from_two_outputs(tmp_path):
+    """E and the sphere's radius from F_z and the peak pressure at three depths (Hertz: F ~ E* R^1/2,
+    p_max ~ E* R^-1/2, so the pair fixes both), data made by the solver at E = 106 GPa, R = 10 um;
+    start 80 GPa, 8 um. Noise-free: both come back to 1e-4 (the solver's tol is 1e-10; the fit ends
+    on a step under 1e-6 of the unit parameters), each within 3 stderr, their correlation finite."""
+    base = load_case(HERTZ_CASE).to_dict()
+    rows = []
+    for dz in HERTZ_DZ:
+        d = json.loads(json.dumps(base))
+        d["grid"]["n"], d["grid"]["size"], d["load"]["delta_z"] = 32, 1.04e-7, dz
+        s = api.solve(case_from_dict(d)).states[-1]
+        rows.append([dz, repr(s["force"]["z"]), repr(s["max_pressure"])])
+    hertz_base(tmp_path)
+    write_csv(tmp_path / "data.csv", ["load.delta_z", "force_z", "max_pressure"], rows)
+    fit_file = write(tmp_path / "fit.toml", 'base = "hertz.toml"\n[data]\nfile = "data.csv"\n[fit]\n'
+                     '"sphere.E" = { min = 20e9, max = 400e9, start = 80e9, scale = "log" }\n'
+                     '"sphere.radius" = { min = 5e-6, max = 15e-6, start = 8e-6, scale = "log" }\n'
+                     '[run]\ntask = "solve"\n')
+    report = run_fit(load_fit(fit_file), tmp_path / "out", quiet=True)
+    assert report.converged and report.warnings == []
+    for key, true in (("sphere.E", E_TRUE), ("sphere.radius", 10e-6)):
+        p = report.parameters[key]
+        assert abs(p["value"] / true - 1) < 1e-4 and abs(p["value"] - true) <= 3 * p["stderr"] + 1e-12 * true, (key, p)
+    c = report.correlation[0][1]
+    assert c is not None and -1 < c < 1
+
+
 def test_covariance_of_a_known_jacobian():
     """(J^T J)^-1 times r.r / (m - p) with rescaling; a zero column is infinite, the other kept."""
     J = np.array([[1.0, 0.0], [2.0, 0.0], [0.0, 0.0]])
