@@ -211,6 +211,22 @@ def derived_fields(stress: wp.array3d(dtype=Any), derived: wp.array3d(dtype=Any)
 
 
 @wp.kernel
+def von_mises_field(stress: wp.array3d(dtype=Any), derived: wp.array3d(dtype=Any)):
+    """derived[0, i, j] <- von Mises sqrt(3 J2) of stress[0..5, i, j] (xx, yy, zz, xy, xz, yz):
+    ``derived_fields``' first field alone (no principal stresses), for the yield check."""
+    i, j = wp.tid()
+    sxx = stress[0, i, j]
+    syy = stress[1, i, j]
+    szz = stress[2, i, j]
+    sxy = stress[3, i, j]
+    sxz = stress[4, i, j]
+    syz = stress[5, i, j]
+    normal = (sxx - syy) * (sxx - syy) + (syy - szz) * (syy - szz) + (szz - sxx) * (szz - sxx)
+    j2 = normal / type(sxx)(6.0) + sxy * sxy + sxz * sxz + syz * syz
+    derived[0, i, j] = wp.sqrt(type(sxx)(3.0) * j2)
+
+
+@wp.kernel
 def row_maxima(fields: wp.array3d(dtype=Any), field: int, values: wp.array(dtype=Any),
                columns: wp.array(dtype=int)):
     """values[i], columns[i] <- the largest entry of row i of fields[field] and its column (the
@@ -244,6 +260,7 @@ for _r, _v in ((wp.float32, wp.vec2f), (wp.float64, wp.vec2d)):
                                  "coefficients": wp.array3d(dtype=_r), "parity": wp.array(dtype=int),
                                  "half_axis": int, "stress": wp.array3d(dtype=_v)})
     wp.overload(derived_fields, {"stress": wp.array3d(dtype=_r), "derived": wp.array3d(dtype=_r)})
+    wp.overload(von_mises_field, {"stress": wp.array3d(dtype=_r), "derived": wp.array3d(dtype=_r)})
     wp.overload(row_maxima, {"fields": wp.array3d(dtype=_r), "field": int, "values": wp.array(dtype=_r),
                              "columns": wp.array(dtype=int)})
     wp.overload(take_line, {"fields": wp.array3d(dtype=_r), "index": int, "along_x": int,

@@ -449,9 +449,10 @@ def test_cli_stress_writes_json_npz_and_plots(tmp_path, capsys):
         for key in ("von_mises_max", "tresca_max"):
             assert set(s[name][key]) >= {"value", "x", "y", "z"} and s[name][key]["z"] > 0
         assert "yielded" in s[name] and "margin" in s[name] and "first_yield" in s[name]
-    assert s["sphere"]["yielded"] is True and s["complete"] is True and len(s["depths"]) == 8
+    # 8 layers and the surface
+    assert s["sphere"]["yielded"] is True and s["complete"] is True and len(s["depths"]) == 9
     z = np.load(out / "stress.npz")
-    assert z["sphere_section_von_mises"].shape == (8, 24) and z["flat_axis_sigma_zz"].shape == (8,)
+    assert z["sphere_section_von_mises"].shape == (9, 24) and z["flat_axis_sigma_zz"].shape == (9,)
     assert (out / "stress_section.png").stat().st_size > 0 and (out / "stress_profiles.png").stat().st_size > 0
     rc = main(["stress", str(path), "--out", str(out), "--depths", "0"])
     assert rc == 2 and "depths" in capsys.readouterr().err

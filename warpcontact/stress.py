@@ -69,6 +69,11 @@ BASIS_PARITY = tuple((a % 2) + 2 * (b % 2) for a, b, _ in BASIS)
 #: default number of depths and the deepest one in contact radii (``default_depths``)
 DEFAULT_LAYERS = 32
 DEFAULT_MAX_DEPTH_IN_A = 2.0
+#: the depth that stands for the surface, in cells: the stress of cell-wise constant tractions at
+#: z -> 0 is finite at the cell centres, and rises steeply within the first cell's depth (under
+#: k_tau = 0.95 sliding, n = 64: von Mises 1.143e8 Pa at 0.43 dx, 1.272e8 at 0.21 dx, 1.5646e8 at
+#: 1e-5 dx); at 1e-3 dx it is within 0.12 % of the limit (1.5627e8), in float64 and float32 alike
+SURFACE_DEPTH_IN_CELLS = 1e-3
 
 
 def stress_table(nu: float, z: float) -> np.ndarray:
@@ -183,7 +188,7 @@ def hertz_von_mises_max(nu: float) -> tuple[float, float]:
     0.620 at 0.481 for nu = 0.3. Golden-section search on (0.05, 2) (one maximum there)."""
     lo, hi = 0.05, 2.0
     g = (math.sqrt(5.0) - 1.0) / 2.0
-    f = lambda s: float(hertz_axis_stress(s, nu)["von_mises"])  # noqa: E731
+    f = lambda s: float(hertz_axis_stress(s, nu)["von_mises"])
     for _ in range(200):
         a, b = hi - g * (hi - lo), lo + g * (hi - lo)
         if f(a) > f(b):
@@ -282,22 +287,29 @@ class BodyStress:
         ``x``, ``y``, ``z`` [m], z refined between depths by the parabola through the largest
         per-depth value and its two neighbours (``value_on_grid``, ``z_on_grid``: the largest
         value at a computed depth and that depth)."""
-        m = self.depth_max[name]
-        k = int(np.argmax(m[:, 0]))
-        out = {"value": float(m[k, 0]), "x": float(m[k, 1]), "y": float(m[k, 2]), "z": float(depths[k]),
-               "value_on_grid": float(m[k, 0]), "z_on_grid": float(depths[k])}
-        if 0 < k < len(depths) - 1:
-            z0, z1, z2 = depths[k - 1:k + 2]
-            v0, v1, v2 = m[k - 1:k + 2, 0]
-            # vertex of the parabola through the three points (Newton's divided differences)
-            d1, d2 = (v1 - v0) / (z1 - z0), (v2 - v1) / (z2 - z1)
-            curv = (d2 - d1) / (z2 - z0)
-            if curv < 0:
-                zv = 0.5 * (z0 + z1) - d1 / (2.0 * curv)
-                zv = min(max(zv, z0), z2)
-                out["z"] = float(zv)
-                out["value"] = float(v0 + d1 * (zv - z0) + curv * (zv - z0) * (zv - z1))
-        return out
+        return depth_maximum(self.depth_max[name], depths)
+
+
+def depth_maximum(m: np.ndarray, depths: np.ndarray) -> dict:
+    """The largest of per-depth maxima ``m`` ((n_depths, 3): value, x, y) over increasing
+    ``depths``: ``value`` and its ``x``, ``y``, ``z`` [m], z refined between depths by the parabola
+    through the largest per-depth value and its two neighbours (``value_on_grid``, ``z_on_grid``:
+    the largest value at a computed depth and that depth)."""
+    k = int(np.argmax(m[:, 0]))
+    out = {"value": float(m[k, 0]), "x": float(m[k, 1]), "y": float(m[k, 2]), "z": float(depths[k]),
+           "value_on_grid": float(m[k, 0]), "z_on_grid": float(depths[k])}
+    if 0 < k < len(depths) - 1:
+        z0, z1, z2 = depths[k - 1:k + 2]
+        v0, v1, v2 = m[k - 1:k + 2, 0]
+        # vertex of the parabola through the three points (Newton's divided differences)
+        d1, d2 = (v1 - v0) / (z1 - z0), (v2 - v1) / (z2 - z1)
+        curv = (d2 - d1) / (z2 - z0)
+        if curv < 0:
+            zv = 0.5 * (z0 + z1) - d1 / (2.0 * curv)
+            zv = min(max(zv, z0), z2)
+            out["z"] = float(zv)
+            out["value"] = float(v0 + d1 * (zv - z0) + curv * (zv - z0) * (zv - z1))
+    return out
 
 
 @dataclass
@@ -383,13 +395,15 @@ def check_depths(depths) -> np.ndarray:
 
 def default_depths(contact_radius: float, dx: float, layers: int = DEFAULT_LAYERS,
                    max_depth: float | None = None) -> np.ndarray:
-    """``layers`` equally spaced depths from max_depth/layers to ``max_depth`` (default
-    DEFAULT_MAX_DEPTH_IN_A contact radii, or 16 cells without contact) [m]."""
+    """The surface (``SURFACE_DEPTH_IN_CELLS`` cells: where the largest von Mises stress lies
+    under sliding friction) and ``layers`` equally spaced depths from max_depth/layers to
+    ``max_depth`` (default DEFAULT_MAX_DEPTH_IN_A contact radii, or 16 cells without contact) [m]."""
     if isinstance(layers, bool) or not isinstance(layers, (int, np.integer)) or layers < 1:
         raise InputError("layers", f"must be a positive integer, got {layers!r}")
     if max_depth is None:
         max_depth = DEFAULT_MAX_DEPTH_IN_A * contact_radius if contact_radius > 0 else 16.0 * dx
-    return check_depths(np.arange(1, layers + 1) * (float(max_depth) / layers))
+    return check_depths(np.concatenate([[SURFACE_DEPTH_IN_CELLS * dx],
+                                        np.arange(1, layers + 1) * (float(max_depth) / layers)]))
 
 
 class SubsurfaceStress:
@@ -453,6 +467,52 @@ class SubsurfaceStress:
             self._launch(ks.basis_quadrant, (n, n), [b, wp.float64(z_cells), 1], [self._field])
             self.fft.forward(self._field, self._basis[b])
 
+    def _load_tractions(self, pressure, shear_x, shear_y) -> None:
+        """The spectra of the tractions [Pa] ((n, n) arrays, numpy), scaled by E*."""
+        n = self.grid.n
+        for k, t in enumerate((pressure, shear_x, shear_y)):
+            t = np.asarray(t, dtype=np.float64)
+            if t.shape != (n, n):
+                raise InputError("tractions", f"expected arrays of shape {(n, n)}, got {t.shape}")
+            self._field.assign(np.ascontiguousarray(t / self.pair.E_star, dtype=self.np_dtype))
+            self.fft.forward(self._field, self._traction[k])
+
+    def _body_stress(self, name: str, nu: float, z_cells: float) -> None:
+        """The six stress components of body ``name`` (Poisson's ratio ``nu``) at depth
+        ``z_cells`` into ``self._stress`` (scaled by E*), from the loaded traction spectra and the
+        basis spectra of that depth (:meth:`_basis_spectra`)."""
+        from .kernels import stress as ks
+
+        table = stress_table(nu, z_cells)
+        if name == "sphere":  # the sphere carries -q
+            table[:, 1:, :] *= -1.0
+        self._coefficients.assign(table.astype(self.np_dtype))
+        self._launch(ks.stress_spectra, self.fft.spectral_shape,
+                     [self._basis, self._traction, self._coefficients, self._parity, self.fft.half_axis],
+                     [self._stress_spectra])
+        for c in range(6):
+            self.fft.inverse(self._stress_spectra[c], self._stress[c])
+
+    def von_mises_maxima(self, pressure, shear_x, shear_y, depths) -> dict:
+        """The largest von Mises stress of each body at each of ``depths`` [m] under the total
+        tractions [Pa]: {body: (len(depths), 3) array of value [Pa], x, y [m]}. The yield check's
+        lean pass: no principal stresses, sections or volume (:meth:`evaluate` has them)."""
+        from .kernels import stress as ks
+
+        n, dx = self.grid.n, self.grid.dx
+        self._load_tractions(pressure, shear_x, shear_y)
+        depths = check_depths(depths)
+        materials = {"sphere": self.pair.sphere, "flat": self.pair.flat}
+        out = {name: np.zeros((len(depths), 3)) for name in BODIES}
+        for k, z in enumerate(depths):
+            self._basis_spectra(z / dx)
+            for name in BODIES:
+                self._body_stress(name, materials[name].nu, z / dx)
+                self._launch(ks.von_mises_field, (n, n), [self._stress], [self._derived])
+                v, r, col = self._row_max(0)
+                out[name][k] = (v * self.pair.E_star, self.grid.x[col], self.grid.y[r])
+        return out
+
     def _row_max(self, which: int) -> tuple[float, int, int]:
         """(largest value of derived field ``which``, its row, its column) (scaled units)."""
         from .kernels import stress as ks
@@ -476,12 +536,7 @@ class SubsurfaceStress:
         t0 = time.perf_counter()
         n, dx = self.grid.n, self.grid.dx
         scale = self.pair.E_star
-        for k, t in enumerate((pressure, shear_x, shear_y)):
-            t = np.asarray(t, dtype=np.float64)
-            if t.shape != (n, n):
-                raise InputError("tractions", f"expected arrays of shape {(n, n)}, got {t.shape}")
-            self._field.assign(np.ascontiguousarray(t / scale, dtype=self.np_dtype))
-            self.fft.forward(self._field, self._traction[k])
+        self._load_tractions(pressure, shear_x, shear_y)
         centre = n // 2  # the cell centre nearest 0 (x = +dx/2 for even n)
         along_x = section_axis == "x"
         nz = len(self.depths)
@@ -494,21 +549,12 @@ class SubsurfaceStress:
                                       depth_max={"von_mises": np.zeros((nz, 3)), "tresca": np.zeros((nz, 3))},
                                       volume={f: np.zeros((nz, n, n)) for f in FIELDS} if self.volume else None)
         xs, ys = self.grid.x, self.grid.y
-        spec = self.fft.spectral_shape
         for k, z in enumerate(self.depths):
             z_cells = z / dx
             self._basis_spectra(z_cells)
             for name in BODIES:
                 body = bodies[name]
-                table = stress_table(body.nu, z_cells)
-                if name == "sphere":  # the sphere carries -q
-                    table[:, 1:, :] *= -1.0
-                self._coefficients.assign(table.astype(self.np_dtype))
-                self._launch(ks.stress_spectra, spec,
-                             [self._basis, self._traction, self._coefficients, self._parity, self.fft.half_axis],
-                             [self._stress_spectra])
-                for c in range(6):
-                    self.fft.inverse(self._stress_spectra[c], self._stress[c])
+                self._body_stress(name, body.nu, z_cells)
                 self._launch(ks.derived_fields, (n, n), [self._stress], [self._derived])
                 for which, key in ((0, "von_mises"), (1, "tresca")):
                     v, r, col = self._row_max(which)
@@ -643,37 +689,55 @@ def subsurface_stress(case, state: int = -1, depths=None, layers: int = DEFAULT_
 # ---------------------------------------------------------------------------------------------
 # The check of the elastic assumption on every result.
 
-#: depths of ``yield_check`` in contact radii: two near the surface (where the maximum lies under
-#: sliding friction above mu ~ 0.3), then 14 down to 2 a (Hertz's maximum lies at 0.45-0.5 a)
-YIELD_CHECK_DEPTHS_IN_A = (0.02, 0.06) + tuple(np.linspace(0.1, 2.0, 14))
+#: first depths of ``yield_check`` in contact radii, after the surface (where the maximum lies
+#: under sliding friction above mu ~ 0.3): two near it, then down to 2 a (Hertz's maximum lies at
+#: 0.45-0.5 a)
+YIELD_CHECK_DEPTHS_IN_A = (0.02, 0.06, 0.15, 0.3, 0.5, 0.75, 1.1, 1.5, 2.0)
 
 
 def yield_check(pair, grid, fields: dict, device="cpu", dtype="float64", fft="auto") -> dict:
     """Whether a solved state has left the elastic range in which its results hold: the largest
-    von Mises stress in each body (``SubsurfaceStress`` at ``YIELD_CHECK_DEPTHS_IN_A`` contact
-    radii, or 16 cells without contact; refined between depths) against its yield strength.
+    von Mises stress in each body against its yield strength. The von Mises maxima are taken at
+    ``YIELD_CHECK_DEPTHS_IN_A`` contact radii (16 cells without contact), then at the midpoints
+    on either side of each body's largest (``SubsurfaceStress.von_mises_maxima``: the stress and
+    von Mises alone), and the maximum refined between depths by a parabola (:func:`depth_maximum`).
 
     Returns ``yielded`` (True when a body's maximum reaches its yield strength, False when neither
     does, None when no body has a finite yield strength or the check could not run), and per body
     ``von_mises_max`` [Pa], its depth ``z`` [m], ``yield_strength`` [Pa] or None, ``yielded``
-    and ``margin`` = yield strength / von Mises max (> 1: elastic). The coarse depths put the
-    maximum within about 1 % (``reason`` says why the check did not run, when it did not)."""
+    and ``margin`` = yield strength / von Mises max (> 1: elastic). The depths put the maximum
+    within about 1 % (``reason`` says why the check did not run, when it did not). The surface
+    (``SURFACE_DEPTH_IN_CELLS``) is among the depths."""
     radius = contact_radius(fields, grid.cell_area)
     a = radius if radius > 0 else 16.0 * grid.dx / 2.0
-    depths = np.array(YIELD_CHECK_DEPTHS_IN_A) * a
-    finite = [m for m in (pair.sphere, pair.flat) if math.isfinite(m.yield_strength)]
-    if not finite:
+    depths = np.concatenate([[SURFACE_DEPTH_IN_CELLS * grid.dx], np.array(YIELD_CHECK_DEPTHS_IN_A) * a])
+    materials = {"sphere": pair.sphere, "flat": pair.flat}
+    if not any(math.isfinite(m.yield_strength) for m in materials.values()):
         return {"yielded": None, "reason": "no yield_strength given"}
     try:
-        res = SubsurfaceStress(pair, grid, depths, device=device, dtype=dtype, fft=fft).evaluate(*tractions(fields))
+        stress = SubsurfaceStress(pair, grid, depths, device=device, dtype=dtype, fft=fft)
+        p, qx, qy = tractions(fields)
+        maxima = stress.von_mises_maxima(p, qx, qy, depths)
+        extra = set()
+        for m in maxima.values():  # the midpoints around each body's largest
+            k = int(np.argmax(m[:, 0]))
+            extra.update(0.5 * (depths[j] + depths[j + 1]) for j in (k - 1, k) if 0 <= j < len(depths) - 1)
+        if extra:
+            more = np.array(sorted(extra))
+            more_maxima = stress.von_mises_maxima(p, qx, qy, more)
+            order = np.argsort(np.concatenate([depths, more]), kind="stable")
+            depths = np.concatenate([depths, more])[order]
+            maxima = {b: np.concatenate([maxima[b], more_maxima[b]])[order] for b in maxima}
     except InputError as e:  # the evaluation does not fit beside the solve: say so, do not fail the run
         return {"yielded": None, "reason": str(e)}
     out = {}
-    for name, body in res.summary().items():
-        vm = body["von_mises_max"]
-        out[name] = {"von_mises_max": vm["value"], "z": vm["z"], "yield_strength": body["yield_strength"],
-                     "yielded": body["yielded"] if body["yield_strength"] is not None else None,
-                     "margin": body["margin"]}
+    for name in BODIES:
+        vm = depth_maximum(maxima[name], depths)
+        sy = materials[name].yield_strength
+        finite = math.isfinite(sy)
+        out[name] = {"von_mises_max": vm["value"], "z": vm["z"], "yield_strength": sy if finite else None,
+                     "yielded": bool(vm["value"] >= sy) if finite else None,
+                     "margin": sy / vm["value"] if finite and vm["value"] > 0 else None}
     out["yielded"] = any(out[b]["yielded"] for b in BODIES)
     return out
 
