@@ -12,7 +12,10 @@ delta_z = 1e-10 m then delta_x = 2e-11 m, one step per leg. Rows:
   otherwise (the turns' normal solves preconditioned, their tolerance from the coupled residual);
 - ``coupled before``: the coupled step as it was before those two defaults (preconditioned
   tangential solves; plain normal solves in the turns, their tolerance from the last turn's
-  change), side by side with ``coupled precond``.
+  change), side by side with ``coupled precond``;
+- ``coupled nested``: ``coupled precond`` with the nested start (``ContactSolver.nested``: each
+  step solved first on the grids of n/2, n/4, ... down to 64 cells, its tractions and statuses
+  starting the step on n); the coarse grids' iterations are shown after a "+".
 
 Columns: the inner iterations (normal and tangential solves together) and turns of each step,
 the tangential iterations among them, the best wall time of each step over ``--repeats`` runs
@@ -47,7 +50,7 @@ import time
 
 R, DZ, DX = 10e-6, 1.0e-10, 2.0e-11
 A = math.sqrt(R * DZ)
-ROWS = ("normal", "coupled-plain", "coupled-precond", "coupled-before")
+ROWS = ("normal", "coupled-plain", "coupled-precond", "coupled-before", "coupled-nested")
 
 
 def configure(solver, row: str):
@@ -55,6 +58,7 @@ def configure(solver, row: str):
     if getattr(solver, "tangential", None) is None:
         return
     solver.tangential.preconditioned = row != "coupled-plain"
+    solver.nested = row == "coupled-nested"
     if row == "coupled-before":
         solver.normal.preconditioned = False
         solver.turn_tolerance = "change"
@@ -135,6 +139,7 @@ def measure(config: dict) -> dict:
             if repeat > 0:  # the first run loads the kernels and captures the graphs
                 best[k] = min(best[k], wall)
             records.append({"iterations": info.iterations, "turns": info.outer_iterations,
+                            "coarse_iterations": getattr(solver, "nested_iterations", 0),
                             "tangential_iterations": counts["tangential"], "converged": bool(info.converged)})
             if cuda:
                 samples.append(in_use() - base)
@@ -207,7 +212,8 @@ def table(results: list, cuda: bool) -> str:
             if k < len(r["steps"]):
                 s = r["steps"][k]
                 mark = "" if s["converged"] else " (not converged)"
-                cells += [f"{s['iterations']} ({s['turns']}) [{s['tangential_iterations']}]{mark}",
+                coarse = f" +{s['coarse_iterations']}" if s.get("coarse_iterations") else ""
+                cells += [f"{s['iterations']} ({s['turns']}) [{s['tangential_iterations']}]{coarse}{mark}",
                           f"{s['time_s']:.3f}"]
             else:
                 cells += ["", ""]

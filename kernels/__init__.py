@@ -12,5 +12,6 @@ Modules:
     tangential: bounded conjugate gradients for the shear traction (disk bound |q| <= q_max).
     laws: shear limits (Coulomb, Tabor + von Mises).
     coupling: stick targets, slip accumulation, relative changes between coupling turns.
+    grids: transfers between a grid and the grid of half its cells (the nested start of a step).
     fft: row transforms with ``tile_fft`` for the dependency-free FFT backend.
 """

@@ -42,6 +42,11 @@ def starting_residual(info) -> float:
 #: to the measure it follows
 TURN_TOL_START = 1e-3
 TURN_TOL_RATIO = 0.01
+#: the nested start (``ContactSolver.nested``): the coarsest grid solved (cells per side), and the
+#: tolerance of the coarse solves (their answer is a starting guess: it needs to be as good as the
+#: coarse grid's discretisation, not the fine tolerance)
+NESTED_MIN_N = 64
+NESTED_COARSE_TOL = 1e-6
 
 
 class ContactSolver:
@@ -130,6 +135,18 @@ class ContactSolver:
         #: number the turns stop on; the progress line shows them during a long step. None: nothing
         #: is called. Made from what each turn reads already (no extra read from the device).
         self.on_turn: Callable[[int, float], None] | None = None
+        #: the nested start of a step with friction and no adhesion: the step is solved first on
+        #: the grid of half the cells per side over the same domain (itself nested, down to
+        #: ``NESTED_MIN_N``), from the fine state's slip history and tractions restricted to it,
+        #: and its tractions and cell statuses start the fine step. The slip front then starts
+        #: within a coarse cell of its place: the projected tangential iteration moves it by
+        #: about one cell per iteration, so from the last state's front a step that moves it far
+        #: costs as many iterations as cells it moves (``bench/scaling.py``, row coupled-nested).
+        #: Needs an even n with n / 2 >= NESTED_MIN_N; otherwise the step starts as without.
+        self.nested = False
+        #: inner iterations of the coarse grids in the last nested start (0 without)
+        self.nested_iterations = 0
+        self._coarse = None  # (ContactSolver, ContactState) of the half grid, made when first needed
         f = model.field
         self.known_z, self.known_x, self.known_y = f(), f(), f()
         self.adhesive_z, self.adhesive_x, self.adhesive_y = f(), f(), f()
@@ -242,6 +259,9 @@ class ContactSolver:
                 return info
             # not converged: the lagged turns below from its iterate
             self.turn_fallbacks += 1
+        self.nested_iterations = 0
+        if self.nested and self.friction is not None and self.adhesion is None:
+            self._nested_start(state, (dx, dy, dz))
         normal_info, tangential_info, outer, converged_turns, iterations = self._turns(state, dx, dy, dz)
         if self.adhesion is not None and not converged_turns:
             # The warm start can sit where a solution no longer exists (the jump out of contact
@@ -271,6 +291,54 @@ class ContactSolver:
         state.info = info
         check_contact_fits(state)
         return info
+
+    def _coarse_pair(self):
+        """The solver and state of the half grid (``nested``), or None where n does not halve."""
+        m = self.model
+        n = m.grid.n
+        if n % 2 or n // 2 < NESTED_MIN_N:
+            return None
+        if self._coarse is None:
+            from ..geometry import Grid
+            from ..model import ContactModel
+            from ..state import ContactState
+
+            coarse_model = ContactModel(m.pair, m.sphere, Grid(n // 2, m.grid.size), device=m.device,
+                                        dtype=m.dtype_name, fft=m.fft_name)
+            tol = max(self.tol, NESTED_COARSE_TOL)
+            coarse = ContactSolver(coarse_model, self.friction, tol=tol, max_iter=self.normal.max_iter,
+                                   max_outer=self.max_outer, pressure_cap=self.normal.pressure_cap,
+                                   use_graphs=self.normal.use_graphs)
+            coarse.turn_tolerance = self.turn_tolerance
+            coarse.nested = True
+            self._coarse = (coarse, ContactState(coarse_model))
+        return self._coarse
+
+    def _nested_start(self, state, approach) -> None:
+        """Solve the step on the half grid from ``state`` restricted to it, and start ``state``'s
+        step from its tractions and statuses (``nested``). A coarse step that does not converge
+        leaves ``state`` as it was."""
+        from warpcontact.kernels import grids as gk
+
+        pair = self._coarse_pair()
+        if pair is None:
+            return
+        coarse, cstate = pair
+        m, cm = self.model, coarse.model
+        half = cm.grid.shape
+        for name, scale in (("slip_x", 0.5), ("slip_y", 0.5), ("pressure", 1.0), ("shear_x", 1.0), ("shear_y", 1.0)):
+            wp.launch(gk.restrict_mean, dim=half, inputs=[getattr(state, name), m.scalar(scale)],
+                      outputs=[getattr(cstate, name)], device=m.device)
+        wp.launch(gk.restrict_status, dim=half, inputs=[state.status], outputs=[cstate.status], device=m.device)
+        info = coarse.step(cstate, approach)
+        self.nested_iterations = info.iterations + coarse.nested_iterations
+        if not info.converged:
+            return
+        for name in ("pressure", "shear_x", "shear_y"):
+            wp.launch(gk.prolong_constant, dim=m.grid.shape, inputs=[getattr(cstate, name)],
+                      outputs=[getattr(state, name)], device=m.device)
+        wp.launch(gk.prolong_status, dim=m.grid.shape, inputs=[cstate.status], outputs=[state.status],
+                  device=m.device)
 
     def _turns(self, state, dx: float, dy: float, dz: float):
         """The turns of a step from the tractions in ``state``: (normal info, tangential info,

@@ -1,0 +1,77 @@
+"""The nested start of a step (ContactSolver.nested): the step solved first on the grid of half
+the cells per side, its tractions and statuses starting the fine step. The answer is the fine
+step's own (its tolerances decide it); only the start changes.
+
+The issue's problem (copper on steel, R = 10 um, Tabor k_tau = 0.8, delta_z = 1e-10 m then
+delta_x = 2e-11 m, domain 4 sqrt(R delta_z)) on 128 cells (2 CPU cores, a few seconds).
+"""
+
+import math
+
+import numpy as np
+import pytest
+
+from warpcontact.friction import TaborVonMises
+from warpcontact.geometry import Grid, Sphere
+from warpcontact.materials import PAPER_PAIR
+from warpcontact.model import ContactModel
+from warpcontact.solvers.contact import ContactSolver
+from warpcontact.state import ContactState
+
+R, DZ, DX = 10e-6, 1.0e-10, 2.0e-11
+STEPS = [(0.0, 0.0, DZ), (DX, 0.0, DZ)]
+
+
+def run(n, nested, dtype="float64"):
+    model = ContactModel(PAPER_PAIR, Sphere(R), Grid(n, 4 * math.sqrt(R * DZ)), dtype=dtype)
+    solver = ContactSolver(model, TaborVonMises(0.8, PAPER_PAIR.softer.yield_strength))
+    solver.nested = nested
+    state = ContactState(model)
+    infos, coarse = [], []
+    for approach in STEPS:
+        infos.append(solver.step(state, approach))
+        coarse.append(solver.nested_iterations)
+    return state.to_numpy_si(), infos, coarse, np.array(state.status.numpy())
+
+
+@pytest.fixture(scope="module")
+def both():
+    return run(128, False), run(128, True)
+
+
+def test_nested_start_gives_the_same_state(both):
+    """Tractions within 1e-7 of their largest value (the turns stop at a relative change of
+    1e-8 = 100 x the inner tolerance: two converged answers differ by that order), the same stick
+    and slip cells."""
+    (plain, _, _, st_plain), (nested, _, _, st_nested) = both
+    for name in ("pressure", "shear_x", "shear_y"):
+        scale = np.abs(plain[name]).max()
+        assert np.abs(nested[name] - plain[name]).max() < 1e-7 * scale, name
+    assert np.array_equal(st_plain, st_nested)
+
+
+def test_nested_start_takes_fewer_fine_iterations(both):
+    """Step 2 (the slip front moves through the annulus): 66 inner iterations on 128 cells without,
+    55 with (34 more on 64 cells, a quarter of the cost each); every step converges."""
+    (_, plain, coarse_plain, _), (_, nested, coarse_nested, _) = both
+    assert all(i.converged for i in plain + nested)
+    assert coarse_plain == [0, 0] and all(c > 0 for c in coarse_nested)
+    assert nested[1].iterations < plain[1].iterations
+
+
+def test_nested_start_needs_a_grid_that_halves():
+    """An odd n (or n / 2 under 64 cells) starts the step as without: no coarse iterations."""
+    _, infos, coarse, _ = run(101, True)
+    assert coarse == [0, 0] and all(i.converged for i in infos)
+
+
+def test_nested_start_in_float32():
+    """float32: the turns stop at a relative change of 1e-3 (100 x its tolerance 1e-5), so two
+    converged float32 answers differ by that order: with and without the nested start within
+    3e-3 of the largest traction (measured 0.7e-3 pressure, 1.3e-3 shear_x), as float32 against
+    float64 is (measured 0.5e-3, 0.9e-3)."""
+    a, infos_a, _, _ = run(128, False, "float32")
+    b, infos_b, coarse, _ = run(128, True, "float32")
+    assert all(i.converged for i in infos_a + infos_b) and all(c > 0 for c in coarse)
+    for name in ("pressure", "shear_x"):
+        assert np.abs(a[name] - b[name]).max() < 3e-3 * np.abs(a[name]).max(), name
