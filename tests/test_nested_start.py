@@ -75,3 +75,26 @@ def test_nested_start_in_float32():
     assert all(i.converged for i in infos_a + infos_b) and all(c > 0 for c in coarse)
     for name in ("pressure", "shear_x"):
         assert np.abs(a[name] - b[name]).max() < 3e-3 * np.abs(a[name]).max(), name
+
+
+def test_case_file_setting(tmp_path):
+    """[solver] nested = true reaches the solver through the case; a non-boolean is refused
+    naming the key."""
+    import tomllib
+    from pathlib import Path
+
+    from warpcontact.case import case_from_dict
+    from warpcontact.errors import InputError
+    from warpcontact.runner import build
+
+    data = tomllib.loads((Path(__file__).resolve().parents[1] / "examples" / "table2_k080_dz5e-5.toml").read_text())
+    data["grid"]["n"] = 128
+    data.setdefault("solver", {})["nested"] = True
+    case = case_from_dict(data)
+    assert case.solver.nested is True and case.to_dict()["solver"]["nested"] is True
+    _, solver, _ = build(case)
+    assert solver.nested is True
+    data["solver"]["nested"] = 1
+    with pytest.raises(InputError) as e:
+        case_from_dict(data)
+    assert e.value.key == "solver.nested"

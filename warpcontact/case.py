@@ -51,7 +51,7 @@ SPHERE_KEYS = ("radius", "E", "nu", "yield_strength", "hardness", "profile")
 FLAT_KEYS = ("E", "nu", "yield_strength", "hardness")
 GRID_KEYS = ("n", "size")
 LOAD_KEYS = ("delta_z", "delta_x", "delta_y", "steps", "path")
-SOLVER_KEYS = ("device", "dtype", "tol", "max_iter", "max_turns", "fft")
+SOLVER_KEYS = ("device", "dtype", "tol", "max_iter", "max_turns", "fft", "nested")
 FRICTION_KEYS = {"coulomb": ("law", "mu"), "tabor": ("law", "k_tau", "k_vm", "hardness_cap")}
 ADHESION_KEYS = {"smc": ("law", "sigma_max", "tau_max", "delta_n", "delta_t"),
                  "dugdale": ("law", "sigma_0", "h_0", "smoothing"),
@@ -395,6 +395,8 @@ class SolverSpec:
         max_turns: limit on the turns of a load step (normal and tangential solves in turns, the
             adhesive fixed point); a step that reaches it is reported as not converged.
         fft: "auto", "scipy" (CPU only), "cupy" (CUDA only) or "warp".
+        nested: start each step with friction (no adhesion) from its solution on the grid of half
+            the cells per side (``ContactSolver.nested``): fewer iterations on large grids.
         tol_default: True when ``tol`` came from the dtype's default; such a tol follows a dtype
             override (see :meth:`with_overrides`). Not compared, not written by ``to_dict``.
     """
@@ -405,6 +407,7 @@ class SolverSpec:
     max_iter: int = DEFAULT_MAX_ITER
     max_turns: int = DEFAULT_MAX_TURNS
     fft: str = "auto"
+    nested: bool = False
     tol_default: bool = field(default=False, compare=False, repr=False)
 
     def __post_init__(self):
@@ -423,6 +426,8 @@ class SolverSpec:
         _set(self, "max_iter", _integer("solver.max_iter", self.max_iter, 1))
         _set(self, "max_turns", _integer("solver.max_turns", self.max_turns, 1))
         _choice("solver.fft", self.fft, FFT_BACKENDS)
+        if not _is_bool(self.nested):
+            raise InputError("solver.nested", f"must be true or false, {_got(self.nested)}")
         kind = FFT_DEVICE_KIND.get(self.fft)
         if kind is not None and not self.device.startswith(kind):
             raise InputError(
@@ -447,7 +452,7 @@ class SolverSpec:
     def to_dict(self) -> dict:
         """All settings, the tol in effect included (so a record pins the run down)."""
         return {"device": self.device, "dtype": self.dtype, "tol": self.tol, "max_iter": self.max_iter,
-                "max_turns": self.max_turns, "fft": self.fft}
+                "max_turns": self.max_turns, "fft": self.fft, "nested": self.nested}
 
 
 @dataclass(frozen=True)
