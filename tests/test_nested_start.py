@@ -80,8 +80,9 @@ def test_nested_start_in_float32():
 def test_case_file_setting(tmp_path):
     """[solver] nested = true reaches the solver through the case; a non-boolean is refused
     naming the key."""
-    import tomllib
     from pathlib import Path
+
+    import tomllib
 
     from warpcontact.case import case_from_dict
     from warpcontact.errors import InputError
