@@ -798,12 +798,12 @@ def _load_from(ld: Mapping) -> LoadSpec:
     )
 
 
-def load_case(path: str | PathLike) -> Case:
-    """Read, parse and validate a TOML case file.
+def read_toml(path: str | PathLike, what: str = "case file") -> dict:
+    """The table of a TOML file (strict UTF-8; a leading byte-order mark is tolerated).
 
     Raises:
-        InputError: key = the file path when the file is missing, unreadable, not UTF-8 or not
-            TOML; otherwise the dotted case-file key of the first problem.
+        InputError: key = the file path when the file is missing, a directory (not a ``what``),
+            unreadable, not UTF-8 or not TOML.
     """
     key = str(path)
     try:
@@ -812,18 +812,27 @@ def load_case(path: str | PathLike) -> Case:
     except FileNotFoundError:
         raise InputError(key, "no such file") from None
     except IsADirectoryError:
-        raise InputError(key, "is a directory, not a case file") from None
+        raise InputError(key, f"is a directory, not a {what}") from None
     except OSError as e:
         raise InputError(key, f"cannot be read: {e.strerror or e}") from None
     try:
-        text = raw.decode("utf-8-sig")  # strict UTF-8; a leading byte-order mark is tolerated
+        text = raw.decode("utf-8-sig")
     except UnicodeDecodeError as e:
         raise InputError(key, f"is not UTF-8 text (byte 0x{raw[e.start]:02x} at offset {e.start})") from None
     try:
-        data = tomllib.loads(text)
+        return tomllib.loads(text)
     except tomllib.TOMLDecodeError as e:
         raise InputError(key, "is not valid TOML: " + " ".join(str(e).split())) from None
-    return case_from_dict(data)
+
+
+def load_case(path: str | PathLike) -> Case:
+    """Read, parse and validate a TOML case file.
+
+    Raises:
+        InputError: key = the file path when the file is missing, unreadable, not UTF-8 or not
+            TOML; otherwise the dotted case-file key of the first problem.
+    """
+    return case_from_dict(read_toml(path, "case file"))
 
 
 __all__ = [

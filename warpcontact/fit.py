@@ -56,13 +56,8 @@ from typing import Mapping
 
 import numpy as np
 
-try:
-    import tomllib
-except ModuleNotFoundError:  # Python < 3.11
-    import tomli as tomllib
-
 from . import __version__, interrupts
-from .case import Case, case_from_dict
+from .case import Case, case_from_dict, read_toml
 from .errors import InputError, OutputError
 from .sweep import CASE_SCHEMA, DOTTED_KEYS, TASKS, SweepCase, _base_from, _check_task, _flatten, _jsonable, \
     _short_float, _substitute
@@ -550,21 +545,7 @@ def load_fit(path: str | PathLike, device: str | None = None, dtype: str | None 
     Raises:
         InputError: key = the file path when it cannot be read or parsed, else as fit_from_dict.
     """
-    key = str(path)
-    try:
-        raw = Path(path).read_bytes()
-    except FileNotFoundError:
-        raise InputError(key, "no such file") from None
-    except IsADirectoryError:
-        raise InputError(key, "is a directory, not a fit file") from None
-    except OSError as e:
-        raise InputError(key, f"cannot be read: {e.strerror or e}") from None
-    try:
-        data = tomllib.loads(raw.decode("utf-8-sig"))
-    except UnicodeDecodeError as e:
-        raise InputError(key, f"is not UTF-8 text (byte 0x{raw[e.start]:02x} at offset {e.start})") from None
-    except tomllib.TOMLDecodeError as e:
-        raise InputError(key, "is not valid TOML: " + " ".join(str(e).split())) from None
+    data = read_toml(path, "fit file")
     return fit_from_dict(data, source=path, device=device, dtype=dtype, fft=fft)
 
 

@@ -51,14 +51,9 @@ from os import PathLike
 from pathlib import Path
 from typing import Mapping
 
-try:
-    import tomllib
-except ModuleNotFoundError:  # Python < 3.11
-    import tomli as tomllib
-
 from . import __version__, interrupts
 from .case import (ADHESION_KEYS, FLAT_KEYS, GRID_KEYS, LOAD_KEYS, SOLVER_KEYS, SPHERE_KEYS, Case,
-                   case_from_dict, load_case)
+                   case_from_dict, load_case, read_toml)
 from .errors import ConvergenceError, InputError, NonFiniteError, OutputError
 
 #: Tables of a sweep file.
@@ -396,21 +391,7 @@ def load_sweep(path: str | PathLike, device: str | None = None, dtype: str | Non
     Raises:
         InputError: key = the file path when it cannot be read or parsed, else as sweep_from_dict.
     """
-    key = str(path)
-    try:
-        raw = Path(path).read_bytes()
-    except FileNotFoundError:
-        raise InputError(key, "no such file") from None
-    except IsADirectoryError:
-        raise InputError(key, "is a directory, not a sweep file") from None
-    except OSError as e:
-        raise InputError(key, f"cannot be read: {e.strerror or e}") from None
-    try:
-        data = tomllib.loads(raw.decode("utf-8-sig"))
-    except UnicodeDecodeError as e:
-        raise InputError(key, f"is not UTF-8 text (byte 0x{raw[e.start]:02x} at offset {e.start})") from None
-    except tomllib.TOMLDecodeError as e:
-        raise InputError(key, "is not valid TOML: " + " ".join(str(e).split())) from None
+    data = read_toml(path, "sweep file")
     return sweep_from_dict(data, source=path, device=device, dtype=dtype, fft=fft)
 
 
