@@ -32,17 +32,11 @@ def restrict_status(fine: wp.array2d(dtype=wp.int32), coarse: wp.array2d(dtype=w
 
 @wp.kernel
 def prolong_constant(coarse: wp.array2d(dtype=Any), fine: wp.array2d(dtype=Any)):
-    """fine[i, j] <- coarse[i // 2, j // 2] (a traction, constant over the coarse cell)."""
-    i, j = wp.tid()
-    fine[i, j] = coarse[i // 2, j // 2]
-
-
-@wp.kernel
-def prolong_status(coarse: wp.array2d(dtype=wp.int32), fine: wp.array2d(dtype=wp.int32)):
-    """fine[i, j] <- coarse[i // 2, j // 2]."""
+    """fine[i, j] <- coarse[i // 2, j // 2]: a traction or a status, constant over the coarse cell."""
     i, j = wp.tid()
     fine[i, j] = coarse[i // 2, j // 2]
 
 
 for _k in (restrict_mean, prolong_constant):
     register_float_overloads(_k)
+wp.overload(prolong_constant, {"coarse": wp.array2d(dtype=wp.int32), "fine": wp.array2d(dtype=wp.int32)})

@@ -185,6 +185,14 @@ def principal_stresses(sxx: Any, syy: Any, szz: Any, sxy: Any, sxz: Any, syz: An
     return wp.vector(hi, d[0] + d[1] + d[2] - hi - lo, lo)
 
 
+@wp.func
+def von_mises(sxx: Any, syy: Any, szz: Any, sxy: Any, sxz: Any, syz: Any):
+    """sqrt(3 J2) of the stress (xx, yy, zz, xy, xz, yz)."""
+    normal = (sxx - syy) * (sxx - syy) + (syy - szz) * (syy - szz) + (szz - sxx) * (szz - sxx)
+    j2 = type(sxx)(0.5) * normal * (type(sxx)(1.0) / type(sxx)(3.0)) + sxy * sxy + sxz * sxz + syz * syz
+    return wp.sqrt(type(sxx)(3.0) * j2)
+
+
 @wp.kernel
 def derived_fields(stress: wp.array3d(dtype=Any), derived: wp.array3d(dtype=Any)):
     """derived[:, i, j] <- von Mises sqrt(3 J2), maximum shear (s1 - s3) / 2, principal stresses
@@ -198,11 +206,9 @@ def derived_fields(stress: wp.array3d(dtype=Any), derived: wp.array3d(dtype=Any)
     sxz = stress[4, i, j]
     syz = stress[5, i, j]
     half = type(sxx)(0.5)
-    normal = (sxx - syy) * (sxx - syy) + (syy - szz) * (syy - szz) + (szz - sxx) * (szz - sxx)
     third = type(sxx)(1.0) / type(sxx)(3.0)
-    j2 = half * normal * third + sxy * sxy + sxz * sxz + syz * syz
     p = principal_stresses(sxx, syy, szz, sxy, sxz, syz)
-    derived[0, i, j] = wp.sqrt(type(sxx)(3.0) * j2)
+    derived[0, i, j] = von_mises(sxx, syy, szz, sxy, sxz, syz)
     derived[1, i, j] = half * (p[0] - p[2])
     derived[2, i, j] = p[0]
     derived[3, i, j] = p[1]
@@ -221,9 +227,7 @@ def von_mises_field(stress: wp.array3d(dtype=Any), derived: wp.array3d(dtype=Any
     sxy = stress[3, i, j]
     sxz = stress[4, i, j]
     syz = stress[5, i, j]
-    normal = (sxx - syy) * (sxx - syy) + (syy - szz) * (syy - szz) + (szz - sxx) * (szz - sxx)
-    j2 = normal / type(sxx)(6.0) + sxy * sxy + sxz * sxz + syz * syz
-    derived[0, i, j] = wp.sqrt(type(sxx)(3.0) * j2)
+    derived[0, i, j] = von_mises(sxx, syy, szz, sxy, sxz, syz)
 
 
 @wp.kernel

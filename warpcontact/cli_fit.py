@@ -16,8 +16,6 @@ import argparse
 import math
 import sys
 
-from .case import FFT_BACKENDS
-
 EXIT_NOT_CONVERGED = 3
 
 EXAMPLE_FIT = """example:
@@ -44,7 +42,7 @@ OUT/evaluations/<hash>.json (every case computed; a rerun reuses them). See docs
 
 def add_parser(sub):
     """Register the ``fit`` sub-command on an argparse subparsers object; returns its parser."""
-    from .cli_sweep import add_batch_options
+    from .cli_sweep import add_many_case_options
 
     p = sub.add_parser(
         "fit",
@@ -56,12 +54,7 @@ def add_parser(sub):
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
     p.add_argument("fit", metavar="FIT.toml", help="fit file (TOML; see docs/fit.md)")
-    p.add_argument("--out", required=True, help="output folder (created if needed; reused to resume)")
-    p.add_argument("--device", help="override [solver] device of every case: cpu, cuda, cuda:N")
-    p.add_argument("--dtype", choices=("float64", "float32"), help="override [solver] dtype of every case")
-    p.add_argument("--fft", choices=FFT_BACKENDS, help="override [solver] fft of every case")
-    p.add_argument("--quiet", action="store_true", help="no progress lines (warnings and errors are still printed)")
-    add_batch_options(p, default_workers="one per GPU for CUDA cases, else one per CPU core")
+    add_many_case_options(p)
     p.set_defaults(func=cmd_fit)
     return p
 

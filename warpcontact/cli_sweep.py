@@ -58,14 +58,20 @@ def add_parser(sub):
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
     p.add_argument("sweep", metavar="SWEEP.toml", help="sweep file (TOML; see docs/sweeps.md)")
+    add_many_case_options(p)
+    p.set_defaults(func=cmd_sweep)
+    return p
+
+
+def add_many_case_options(p):
+    """The options of a command that runs many cases of one file and resumes (``sweep``, ``fit``):
+    ``--out``, the solver overrides of every case, ``--quiet`` and the batch options."""
     p.add_argument("--out", required=True, help="output folder (created if needed; reused to resume)")
     p.add_argument("--device", help="override [solver] device of every case: cpu, cuda, cuda:N")
     p.add_argument("--dtype", choices=("float64", "float32"), help="override [solver] dtype of every case")
     p.add_argument("--fft", choices=FFT_BACKENDS, help="override [solver] fft of every case")
     p.add_argument("--quiet", action="store_true", help="no progress lines (warnings and errors are still printed)")
     add_batch_options(p, default_workers="one per GPU for CUDA cases, else one per CPU core")
-    p.set_defaults(func=cmd_sweep)
-    return p
 
 
 def add_batch_options(p, default_workers: str, default: int | None = None):

@@ -715,7 +715,7 @@ class _YieldEvaluator:
         self.grid = grid
         self.tractions = tractions_si
         self.fine = SubsurfaceStress(pair, grid, depths, device=device, dtype=dtype, fft=fft)
-        self.coarse = None
+        self.coarse = self.coarse_tractions = None
         n = grid.n
         if n % 2 == 0 and radius >= COARSE_STRESS_MIN_RADIUS_CELLS * grid.dx:
             from .geometry import Grid
@@ -730,7 +730,7 @@ class _YieldEvaluator:
             np.zeros(len(depths), dtype=bool)
         out = {name: np.zeros((len(depths), 3)) for name in BODIES}
         for mask, evaluator, tr in ((~deep, self.fine, self.tractions),
-                                    (deep, self.coarse, getattr(self, "coarse_tractions", None))):
+                                    (deep, self.coarse, self.coarse_tractions)):
             if mask.any():
                 part = evaluator.von_mises_maxima(*tr, depths[mask])
                 for name in BODIES:

@@ -337,7 +337,7 @@ class ContactSolver:
         for name in ("pressure", "shear_x", "shear_y"):
             wp.launch(gk.prolong_constant, dim=m.grid.shape, inputs=[getattr(cstate, name)],
                       outputs=[getattr(state, name)], device=m.device)
-        wp.launch(gk.prolong_status, dim=m.grid.shape, inputs=[cstate.status], outputs=[state.status],
+        wp.launch(gk.prolong_constant, dim=m.grid.shape, inputs=[cstate.status], outputs=[state.status],
                   device=m.device)
 
     def _turns(self, state, dx: float, dy: float, dz: float):
