@@ -86,9 +86,11 @@ class Rows:
 class Sums:
     """The array a reducing launch adds its block sums to (and may read). Each part of a split
     CPU launch adds to a copy of it; the copies' additions are added to it after the parts end
-    (Warp's CPU atomics are plain additions: two threads must not add to one array)."""
+    (Warp's CPU atomics are plain additions: two threads must not add to one array). The slots in
+    ``maxima`` hold a largest value (``block_max``), not a sum: they get the largest of the copies'."""
 
     array: wp.array
+    maxima: tuple = ()
 
 
 @dataclass(frozen=True)
@@ -239,7 +241,8 @@ class LaunchCache:
             self._splits.move_to_end(key)
         copies, launches = plan
         # this call's Sums arrays (the plan's key holds their addresses, the plan not the arrays)
-        totals = [a.array.numpy() for a in outputs if isinstance(a, Sums)]
+        marked_sums = [a for a in outputs if isinstance(a, Sums)]
+        totals = [a.array.numpy() for a in marked_sums]
         before = [t.copy() for t in totals]
         for part_copies in copies:
             for c, b in zip(part_copies, before):
@@ -252,8 +255,12 @@ class LaunchCache:
         launches[0].launch()
         for future in others:
             future.result()
-        for i, (t, b) in enumerate(zip(totals, before)):
-            t[...] = b + sum(part_copies[i] - b for part_copies in copies)
+        for i, (a, t, b) in enumerate(zip(marked_sums, totals, before)):
+            with np.errstate(invalid="ignore"):  # a maximum's slot from -inf: replaced below
+                merged = b + sum(part_copies[i] - b for part_copies in copies)
+            for slot in a.maxima:
+                merged[slot] = max(b[slot], *(part_copies[i][slot] for part_copies in copies))
+            t[...] = merged
 
     def _split_plan(self, kernel, shape, parts, part_launch, outputs, block_dim):
         """A split launch, recorded: each part's copies of the Sums arrays (kept, as NumPy views

@@ -43,7 +43,7 @@ estimate above (friction and adhesion, n = 256-4096), on CUDA all of it on the h
 ``check_fits`` checks both against the memory there is.
 
 Not counted: a path's saved fields (``runner.run_path`` keeps about 13 float64 (n, n) arrays per
-state of the path on the host, and ``results.state_summary`` makes that many temporarily), and
+state of the path on the host, made by ``results.state_fields``; summaries stay on the device), and
 extra states (``find_gross_slip`` holds 3: pass ``states=3``).
 """
 
