@@ -462,7 +462,6 @@ def test_device_coefficients_are_the_numpy_ones(n, dx, dy, padded, device):
     wrap-around order with its zero middle row and column, or natural order)."""
     import warp as wp
 
-
     host = influence_coefficients(PAPER_PAIR, n, n, dx, dy, padded=padded)
     got = influence_coefficients_device(PAPER_PAIR, n, n, dx, dy, device, padded=padded)
     bound = _rounding_bound(PAPER_PAIR, n, n, dx, dy, padded)
