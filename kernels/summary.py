@@ -2,15 +2,17 @@
 
 ``summary_sums`` reads the tractions, the gap and the cell status of every cell once and adds
 to ``sums`` (slots below): the force sums, the cell counts of the contact, stick and adhesive
-areas, the stick cells' centre offsets (their centroid) and the largest contact pressure. The
-host multiplies by the scales (E*, the cell area, the cell size) and reads the whole array in one
-transfer per state.
+areas, the stick cells' centre offsets (their centroid), the largest contact pressure and the
+largest adhesive tension. The host multiplies by the scales (E*, the cell area, the cell size)
+and reads the whole array in one transfer per state. ``domain_edge`` gathers a field's edge
+cells for the domain-edge checks (``guards``).
 
 The sums are float64 for float32 and float64 fields alike: each value is converted exactly to
 float64 before it is added, so a float32 state's sums carry the rounding of a float64 sum (about
 n_cells x 1.1e-16 of the sum of magnitudes at worst), not of a float32 one (n_cells x 6e-8).
 Counts and the centre offsets (half-integers) are whole multiples of 1/2 below 2^52: their sums
-are exact in any order. ``sums`` is set before the launch: 0 in every slot, -inf in S_MAX_PRESSURE.
+are exact in any order. ``sums`` is set before the launch: 0 in every slot, -inf in
+S_MAX_PRESSURE and S_MAX_TENSION.
 """
 
 from typing import Any
@@ -36,7 +38,8 @@ S_ADHESIVE_CELLS = wp.constant(8)  # cells with p <= 0 and the gap within the la
 S_STICK_X = wp.constant(9)  # sum over stick cells of the centre's x offset in cells, j - (n_x - 1) / 2
 S_STICK_Y = wp.constant(10)  # sum over stick cells of the centre's y offset in cells, i - (n_y - 1) / 2
 S_MAX_PRESSURE = wp.constant(11)  # the largest p (max, not a sum)
-N_SUMMARY = 12
+S_MAX_TENSION = wp.constant(12)  # the largest adhesive tension -p_adh (max, not a sum)
+N_SUMMARY = 13
 
 
 @wp.func
@@ -89,6 +92,7 @@ def summary_sums(
     stick_x = zero
     stick_y = zero
     largest = type(zero)(-wp.inf)
+    largest_tension = type(zero)(-wp.inf)
     for k in range(per):
         i = cell_index(thread, outer, inner, k)
         if i < n:
@@ -102,6 +106,7 @@ def summary_sums(
             elastic_x += qx
             elastic_y += qy
             largest = wp.max(largest, p)
+            largest_tension = wp.max(largest_tension, -type(zero)(adhesive_pressure[i]))
             if p > zero:
                 contact_cells += one
             elif adhesive != 0 and p <= zero:
@@ -114,6 +119,25 @@ def summary_sums(
     block_add_vector(sums, S_FORCE_Z, wp.vector(force_z, force_x, force_y, elastic_z, elastic_x, elastic_y,
                                                 contact_cells, stick_cells, adhesive_cells, stick_x, stick_y), lane)
     block_max(sums, S_MAX_PRESSURE, largest, lane)
+    block_max(sums, S_MAX_TENSION, largest_tension, lane)
+
+
+@wp.kernel
+def domain_edge(field: wp.array2d(dtype=Any), edge: wp.array(dtype=Any)):
+    """``edge`` = the cells of ``field`` on the domain's edge, in the order of numpy's
+    ``concatenate([f[0], f[-1], f[:, 0], f[:, -1]])`` (2 columns + 2 rows entries; the corners
+    twice): what the domain-edge checks read, without the whole field leaving the device."""
+    k = wp.tid()
+    rows = field.shape[0]
+    columns = field.shape[1]
+    if k < columns:
+        edge[k] = field[0, k]
+    elif k < 2 * columns:
+        edge[k] = field[rows - 1, k - columns]
+    elif k < 2 * columns + rows:
+        edge[k] = field[k - 2 * columns, 0]
+    else:
+        edge[k] = field[k - 2 * columns - rows, columns - 1]
 
 
 for _fields in (wp.float32, wp.float64):
@@ -122,3 +146,4 @@ for _fields in (wp.float32, wp.float64):
             "pressure", "adhesive_pressure", "shear_x", "adhesive_shear_x", "shear_y", "adhesive_shear_y", "gap")},
         "sums": wp.array(dtype=wp.float64),
     })
+    wp.overload(domain_edge, {"field": wp.array2d(dtype=_fields), "edge": wp.array(dtype=_fields)})

@@ -476,6 +476,25 @@ def test_cuda_matches_cpu(device):
             assert np.abs(gpu.bodies[name].section[f] - ref).max() <= 1e-10 * scale, (name, f)
 
 
+def test_yield_check_from_the_kept_fields_equals_the_one_from_the_state():
+    """The yield check reads the last state's fields that the result keeps (one host copy of
+    them) or, with fields="none", copies them itself: the same check either way, and
+    ``wc.solve(fields=...)`` keeps what it is asked for (a wrong choice: an InputError naming it)."""
+    import warpcontact as wc
+    from warpcontact.errors import InputError
+
+    case, _ = _hertz_case(n=33, steps=2)
+    kept = wc.solve(case)
+    bare = wc.solve(case, fields="none")
+    last = wc.solve(case, fields="last")
+    assert len(kept.fields) == 2 and bare.fields == [] and last.field_states == [1]
+    assert kept.yield_check == bare.yield_check == last.yield_check
+    assert kept.yield_check["sphere"]["von_mises_max"] > 0
+    assert kept.states == bare.states
+    with pytest.raises(InputError, match="fields"):
+        wc.solve(case, fields="every")
+
+
 @pytest.mark.parametrize("sphere_yield, yielded", [(50e6, True), (200e6, False)])
 def test_every_solve_result_says_whether_a_body_yielded(sphere_yield, yielded):
     """run_path's summary (result.json of solve) carries ``yielded``, ``yield_margin`` (the

@@ -207,3 +207,44 @@ def test_empty_state_summary():
     assert all(s[g][c] == 0.0 for g in ("force", "force_elastic") for c in "xyz")
     # gap 0 <= range out of contact: every cell is adhesive (p = 0)
     assert s["adhesive_area"] == model.n_cells * model.grid.cell_area
+
+
+@pytest.mark.parametrize("dtype", ["float64", "float32"])
+@pytest.mark.parametrize("case", sorted(CASES))
+def test_largest_tension_and_domain_edge_equal_numpy(case, dtype, device):
+    """The checks' device reads (guards: the contact and the adhesive tension on the domain's
+    edge) equal numpy on the whole field, exactly: a maximum and a gather round nothing."""
+    import warp as wp
+
+    from warpcontact.kernels.summary import S_MAX_TENSION
+    from warpcontact.results import domain_edge, summary_sums
+
+    model, state, adhesion = solved(case, device, dtype)
+    tension = -state.adhesive_pressure.numpy().astype(np.float64)
+    assert summary_sums(state, adhesion)[S_MAX_TENSION] == tension.max()
+    if adhesion is not None:
+        assert tension.max() > 0
+    p = state.pressure.numpy()
+    assert np.array_equal(domain_edge(state.pressure), np.concatenate([p[0], p[-1], p[:, 0], p[:, -1]]))
+    # a field of another shape: rows and columns are not mixed up
+    rng = np.random.default_rng(3)
+    field = rng.standard_normal((5, 7)).astype(np.float32 if dtype == "float32" else np.float64)
+    w = wp.array(field, device=device)
+    assert np.array_equal(domain_edge(w), np.concatenate([field[0], field[-1], field[:, 0], field[:, -1]]))
+
+
+@pytest.mark.parametrize("dtype", ["float64", "float32"])
+def test_host_si_equals_astype_times_scale_and_leaves_the_field(dtype, device):
+    """``state.host_si``: the same values as ``numpy().astype(float64) * scale`` (bit for bit), and
+    the device field unchanged (on the CPU ``numpy()`` is a view of it)."""
+    import warp as wp
+
+    from warpcontact.state import host_si
+
+    field = np.random.default_rng(5).standard_normal((6, 4)).astype(np.float32 if dtype == "float32" else np.float64)
+    w = wp.array(field, device=device)
+    scale = 7.8e10
+    got = host_si(w, scale)
+    assert got.dtype == np.float64
+    assert np.array_equal(got, field.astype(np.float64) * scale)
+    assert np.array_equal(w.numpy(), field)

@@ -31,20 +31,27 @@ def _prepare(case: Case, device=None, dtype=None, fft=None) -> Case:
     return case.with_overrides(device=device, dtype=dtype, fft=fft)
 
 
-def solve(case: Case, device=None, dtype=None, fft=None, on_state=None, model=None):
+def solve(case: Case, device=None, dtype=None, fft=None, on_state=None, model=None, fields: str = "all"):
     """Solve every state of the case's load path in order.
 
     Returns a :class:`~warpcontact.runner.PathResult`: ``states`` (one summary dict per state:
     force [N], contact/stick/adhesive areas [m^2], max pressure [Pa], convergence) and
     ``fields`` (per state, numpy arrays (n, n) in SI units: pressure, shear_x, shear_y, gap,
-    slip_x, slip_y, ..., contact_mask, stick_mask, adhesive_mask).
+    slip_x, slip_y, ..., contact_mask, stick_mask, adhesive_mask). ``fields``: whose fields are
+    brought to the host and kept, every state's ("all"), the last state's ("last") or none
+    ("none": the summaries alone, which are reduced on the device; on a GPU at n = 8192 a
+    state's fields are about 5 GiB of host memory and most of the call's time).
     ``on_state(index, total, summary, result)`` is called after each state. ``model``: a
     :class:`~warpcontact.model.ContactModel` of the same materials, sphere, grid, device, float
     type and FFT backend to reuse (many cases of one grid: :mod:`warpcontact.batch`).
     """
     from .runner import run_path
 
-    return run_path(_prepare(case, device, dtype, fft), on_state=on_state, model=model)
+    from .runner import FIELDS_CHOICES
+
+    if fields not in FIELDS_CHOICES:
+        raise InputError("fields", f"unknown choice {fields!r}; choose one of {', '.join(FIELDS_CHOICES)}")
+    return run_path(_prepare(case, device, dtype, fft), on_state=on_state, model=model, fields=fields)
 
 
 def path(case: Case, device=None, dtype=None, fft=None):

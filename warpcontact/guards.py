@@ -93,8 +93,9 @@ def check_contact_fits(state, approach=None, edge_share: float = 0.0):
     at once rather than after the turn limit. ``approach``: (delta_x, delta_y, delta_z) [m] of
     the step, named in the message (default: ``state.approach``); ``edge_share``: the share of the
     edge's cells in contact above which it raises [-] (0: any cell)."""
-    p = state.pressure.numpy()
-    edge = np.concatenate([p[0], p[-1], p[:, 0], p[:, -1]])
+    from .results import domain_edge
+
+    edge = domain_edge(state.pressure)  # the edge cells alone leave the device
     if np.mean(edge > 0) > edge_share:
         g = state.model.grid
         dx, dy, dz = state.approach if approach is None else approach
@@ -301,11 +302,15 @@ def warn_if_adhesion_at_edge(state, adhesion, delta_z: float | None = None) -> b
     give the deepest approach of the path). Returns whether it warned (a path warns once)."""
     if adhesion is None:
         return False
-    tension = -state.adhesive_pressure.numpy()  # p_adh / E* <= 0: tension positive
-    peak = float(tension.max())
+    from warpcontact.kernels.summary import S_MAX_TENSION
+
+    from .results import domain_edge, summary_sums
+
+    # p_adh / E* <= 0: tension positive; the peak reduced and the edge gathered on the device
+    peak = float(summary_sums(state, adhesion)[S_MAX_TENSION])
     if not peak > 0.0:
         return False
-    edge = float(np.concatenate([tension[0], tension[-1], tension[:, 0], tension[:, -1]]).max())
+    edge = float((-domain_edge(state.adhesive_pressure)).max())
     if not edge > ADHESION_EDGE_FRACTION * peak:
         return False
     m = state.model

@@ -17,6 +17,8 @@ from .errors import OutputError
 
 from warpcontact.kernels.tangential import STICK
 
+from .state import host_si
+
 
 def adhesive_mask(fields: dict, adhesion) -> np.ndarray:
     """A_adh: cells out of elastic contact whose gap is within the law's range (MODEL.md 6)."""
@@ -44,7 +46,7 @@ def summary_sums(state, adhesion=None) -> np.ndarray:
     buffers = _SUMMARY_BUFFERS.get(m)
     if buffers is None:
         start = np.zeros(sk.N_SUMMARY)
-        start[sk.S_MAX_PRESSURE] = -np.inf
+        start[sk.S_MAX_PRESSURE] = start[sk.S_MAX_TENSION] = -np.inf
         buffers = (wp.zeros(sk.N_SUMMARY, dtype=wp.float64, device=m.device),
                    wp.array(start, dtype=wp.float64, device=m.device))
         _SUMMARY_BUFFERS[m] = buffers
@@ -56,8 +58,22 @@ def summary_sums(state, adhesion=None) -> np.ndarray:
     reach = float(adhesion.range) if adhesion is not None else 0.0
     m.launch_reduce(sk.summary_sums, [*fields, columns, rows, FirstRow(), wp.float64(m.length_scale), wp.float64(reach),
                                       int(adhesion is not None)],
-                    [Sums(sums, maxima=(int(sk.S_MAX_PRESSURE),))])
+                    [Sums(sums, maxima=(int(sk.S_MAX_PRESSURE), int(sk.S_MAX_TENSION)))])
     return np.array(sums.numpy(), dtype=np.float64)  # a copy: on the CPU numpy() is a view of the buffer
+
+
+def domain_edge(field) -> np.ndarray:
+    """The cells of the 2-D Warp array ``field`` on the domain's edge, as numpy's
+    ``concatenate([f[0], f[-1], f[:, 0], f[:, -1]])`` (the corners twice), in the field's units
+    and float type: gathered on its device, one transfer of 2 (rows + columns) values."""
+    import warp as wp
+
+    from warpcontact.kernels import summary as sk
+
+    rows, columns = field.shape
+    edge = wp.empty(2 * (rows + columns), dtype=field.dtype, device=field.device)
+    wp.launch(sk.domain_edge, dim=edge.shape, inputs=[field], outputs=[edge], device=field.device)
+    return edge.numpy()
 
 
 def state_summary(state, adhesion=None) -> dict:
@@ -120,7 +136,7 @@ def shear_limit_si(state, friction=None) -> np.ndarray:
     m = state.model
     out = m.field()
     friction.shear_limit(m, state.pressure.flatten(), out.flatten())
-    return out.numpy().astype(np.float64) * m.traction_scale
+    return host_si(out, m.traction_scale)
 
 
 def state_fields(state, adhesion=None, friction=None) -> dict:

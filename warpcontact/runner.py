@@ -41,9 +41,8 @@ def adhesion_law(case):
         return Exponential(ad.w, ad.rho)
     if ad.law == "lj93":
         return LennardJones93(ad.w, ad.z0)
-    if ad.smoothing is None:
-        return Dugdale(ad.sigma_0, ad.h_0)
-    return Dugdale(ad.sigma_0, ad.h_0, smoothing=ad.smoothing)
+    optional = {k: getattr(ad, k) for k in ("smoothing", "ramps") if getattr(ad, k) is not None}
+    return Dugdale(ad.sigma_0, ad.h_0, **optional)
 
 
 def build_model(case) -> ContactModel:
@@ -194,8 +193,11 @@ def run_path(case, on_state=None, keep_fields: bool = True, fields: str = "all",
         if result.states:  # the last state against the bodies' yield strengths (below the surface)
             from .stress import yield_check
 
-            result.yield_check = yield_check(case.pair, case.grid, state.to_numpy_si(), model.device,
-                                             model.dtype_name, case.solver.fft)
+            # the last state's SI fields, brought to the host once: those kept for the result
+            last = result.fields[-1] if result.fields and result.field_states[-1] == len(result.states) - 1 \
+                else state.to_numpy_si()
+            result.yield_check = yield_check(case.pair, case.grid, last, model.device, model.dtype_name,
+                                             case.solver.fft)
             checks.yielded(result.yield_check, result.states[-1])
     except KeyboardInterrupt as e:
         result.interrupted = True

@@ -73,5 +73,17 @@ class ContactState:
         out = {}
         for name in self.FIELDS:
             scale = m.traction_scale if name in self.TRACTIONS else m.length_scale
-            out[name] = getattr(self, name).numpy().astype(np.float64) * scale
+            out[name] = host_si(getattr(self, name), scale)
         return out
+
+
+def host_si(field, scale: float) -> np.ndarray:
+    """The Warp array ``field`` times ``scale`` as a float64 numpy array on the host: the device
+    copy plus one pass (a CUDA array's ``numpy()`` is a fresh host copy, scaled in place when it
+    is float64; a CPU array's is a view of the field, scaled into a new array). The same values
+    as ``field.numpy().astype(np.float64) * scale`` without its second host array."""
+    values = field.numpy()
+    if field.device.is_cuda and values.dtype == np.float64:
+        values *= scale
+        return values
+    return np.multiply(values, scale, dtype=np.float64)
