@@ -99,3 +99,33 @@ def test_case_file_setting(tmp_path):
     with pytest.raises(InputError) as e:
         case_from_dict(data)
     assert e.value.key == "solver.nested"
+
+
+def test_auto_nests_from_the_measured_grid_of_each_device_kind():
+    """nested = "auto" (the default of a case and of the solver): the nested start from
+    NESTED_AUTO_N cells per side of the device's kind on, not below; the key takes true, false or
+    "auto" and names itself for anything else."""
+    import tomllib
+    from pathlib import Path
+
+    from warpcontact.case import case_from_dict
+    from warpcontact.errors import InputError
+    from warpcontact.solvers.contact import NESTED_AUTO_N
+
+    def solver(n, nested="auto"):
+        model = ContactModel(PAPER_PAIR, Sphere(R), Grid(n, 4 * math.sqrt(R * DZ)))
+        s = ContactSolver(model, TaborVonMises(0.8, PAPER_PAIR.softer.yield_strength))
+        if nested != "auto":
+            s.nested = nested
+        return s
+
+    n = NESTED_AUTO_N["cpu"]
+    assert solver(n).nested == "auto" and solver(n).uses_nested
+    assert not solver(n - 2).uses_nested
+    assert not solver(n, nested=False).uses_nested and solver(64, nested=True).uses_nested
+    data = tomllib.loads((Path(__file__).resolve().parents[1] / "examples" / "table2_k080_dz5e-5.toml").read_text())
+    assert case_from_dict(data).solver.nested == "auto"
+    data.setdefault("solver", {})["nested"] = "sometimes"
+    with pytest.raises(InputError) as e:
+        case_from_dict(data)
+    assert e.value.key == "solver.nested" and "auto" in str(e.value)

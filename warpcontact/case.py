@@ -396,7 +396,8 @@ class SolverSpec:
             adhesive fixed point); a step that reaches it is reported as not converged.
         fft: "auto", "scipy" (CPU only), "cupy" (CUDA only) or "warp".
         nested: start each step with friction (no adhesion) from its solution on the grid of half
-            the cells per side (``ContactSolver.nested``): fewer iterations on large grids.
+            the cells per side (``ContactSolver.nested``): fewer iterations on large grids. true,
+            false or "auto" (the default: from 512 cells per side on the CPU, 2048 on CUDA).
         tol_default: True when ``tol`` came from the dtype's default; such a tol follows a dtype
             override (see :meth:`with_overrides`). Not compared, not written by ``to_dict``.
     """
@@ -407,7 +408,7 @@ class SolverSpec:
     max_iter: int = DEFAULT_MAX_ITER
     max_turns: int = DEFAULT_MAX_TURNS
     fft: str = "auto"
-    nested: bool = False
+    nested: bool | str = "auto"
     tol_default: bool = field(default=False, compare=False, repr=False)
 
     def __post_init__(self):
@@ -426,8 +427,8 @@ class SolverSpec:
         _set(self, "max_iter", _integer("solver.max_iter", self.max_iter, 1))
         _set(self, "max_turns", _integer("solver.max_turns", self.max_turns, 1))
         _choice("solver.fft", self.fft, FFT_BACKENDS)
-        if not _is_bool(self.nested):
-            raise InputError("solver.nested", f"must be true or false, {_got(self.nested)}")
+        if not (_is_bool(self.nested) or self.nested == "auto"):
+            raise InputError("solver.nested", f"must be true, false or \"auto\", {_got(self.nested)}")
         kind = FFT_DEVICE_KIND.get(self.fft)
         if kind is not None and not self.device.startswith(kind):
             raise InputError(

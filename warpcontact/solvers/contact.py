@@ -47,6 +47,12 @@ TURN_TOL_RATIO = 0.01
 #: coarse grid's discretisation, not the fine tolerance)
 NESTED_MIN_N = 64
 NESTED_COARSE_TOL = 1e-6
+#: ``nested = "auto"`` (the default): the nested start from these grids on (cells per side), by
+#: device kind: where it was measured to cost less than it saves (bench/scaling.py, rows
+#: coupled-precond and coupled-nested side by side; docs/performance.md). 2 CPU cores: 1.1-1.8x
+#: faster at n = 512 and 1024 (0.8x at 256); H100: 1.6x and 2.3x at 4096 (float64), even at 1024,
+#: slower at 256; at 8192 the plain start did not end a step in 260 s, the nested 18-20 s
+NESTED_AUTO_N = {"cpu": 512, "cuda": 2048}
 
 
 class ContactSolver:
@@ -143,7 +149,8 @@ class ContactSolver:
         #: about one cell per iteration, so from the last state's front a step that moves it far
         #: costs as many iterations as cells it moves (``bench/scaling.py``, row coupled-nested).
         #: Needs an even n with n / 2 >= NESTED_MIN_N; otherwise the step starts as without.
-        self.nested = False
+        #: True, False, or "auto": from NESTED_AUTO_N cells per side on (by device kind).
+        self.nested: bool | str = "auto"
         #: inner iterations of the coarse grids in the last nested start (0 without)
         self.nested_iterations = 0
         self._coarse = None  # (ContactSolver, ContactState) of the half grid, made when first needed
@@ -260,7 +267,7 @@ class ContactSolver:
             # not converged: the lagged turns below from its iterate
             self.turn_fallbacks += 1
         self.nested_iterations = 0
-        if self.nested and self.friction is not None and self.adhesion is None:
+        if self.uses_nested and self.friction is not None and self.adhesion is None:
             self._nested_start(state, (dx, dy, dz))
         normal_info, tangential_info, outer, converged_turns, iterations = self._turns(state, dx, dy, dz)
         if self.adhesion is not None and not converged_turns:
@@ -291,6 +298,15 @@ class ContactSolver:
         state.info = info
         check_contact_fits(state)
         return info
+
+    @property
+    def uses_nested(self) -> bool:
+        """Whether a step with friction and no adhesion starts nested (``nested``; "auto": n of at
+        least NESTED_AUTO_N of the device's kind)."""
+        if self.nested == "auto":
+            kind = "cuda" if self.model.device.is_cuda else "cpu"
+            return self.model.grid.n >= NESTED_AUTO_N[kind]
+        return bool(self.nested)
 
     def _coarse_pair(self):
         """The solver and state of the half grid (``nested``), or None where n does not halve."""
