@@ -58,6 +58,21 @@ def dugdale_normal(gap: Any, sigma_0: Any, h_0: Any, ramp: Any):
 
 
 @wp.func
+def dugdale_centred_normal(gap: Any, sigma_0: Any, h_0: Any, ramp: Any):
+    """Dugdale with one ramp centred on h_0: tension sigma_0 for 0 < h <= h_0 - ramp / 2, falling
+    linearly to none at h_0 + ramp / 2 (the work of adhesion sigma_0 h_0 and the law's centroid
+    are the sharp law's); ramp = 0 is the sharp law."""
+    zero = type(gap)(0.0)
+    one = type(gap)(1.0)
+    half = type(gap)(0.5) * ramp
+    if gap <= zero or gap >= h_0 + half:
+        return zero
+    if ramp <= zero:
+        return wp.where(gap <= h_0, -sigma_0, zero)
+    return -sigma_0 * wp.min((h_0 + half - gap) / ramp, one)
+
+
+@wp.func
 def touching_segment(t: Any, g: Any):
     """For a touching cell: the point of the segment [0, g] nearest to t (a scalar traction)."""
     zero = g - g
@@ -124,15 +139,20 @@ def dugdale_tractions(
     h_0: Any,
     ramp: Any,
     touching: Any,
+    centred: int,
     law_pressure: wp.array(dtype=Any),
 ):
     """The Dugdale tension of the current gap on cells out of contact (zero on contact cells);
-    touching cells as in ``smc_tractions``."""
+    touching cells as in ``smc_tractions``. ``centred``: the one ramp centred on h_0
+    (``dugdale_centred_normal``) instead of the two (``dugdale_normal``)."""
     i = wp.tid()
     zero = sigma_0 - sigma_0
     p = zero
     if contact_pressure[i] <= zero:
-        p = dugdale_normal(gap[i], sigma_0, h_0, ramp)
+        if centred != 0:
+            p = dugdale_centred_normal(gap[i], sigma_0, h_0, ramp)
+        else:
+            p = dugdale_normal(gap[i], sigma_0, h_0, ramp)
         if gap[i] <= touching:
             p = touching_segment(adhesive_pressure[i], p)
     law_pressure[i] = p

@@ -33,6 +33,7 @@ LAW_SMC = wp.constant(0)  # McGarry et al. (2014) at a fixed tangential opening:
 LAW_DUGDALE = wp.constant(1)  # Dugdale-Maugis with linear ramps: a = sigma_0, b = h_0, c = ramp width
 LAW_EXPONENTIAL = wp.constant(2)  # t = (w / rho) exp(-h / rho): a = w, b = rho
 LAW_LJ93 = wp.constant(3)  # Lennard-Jones 9-3 from its equilibrium distance: a = w, b = z0
+LAW_DUGDALE_CENTRED = wp.constant(4)  # Dugdale-Maugis, one ramp centred on h_0: a = sigma_0, b = h_0, c = ramp width
 
 # slots of the sums array
 S_ENERGY = wp.constant(0)  # energy change of a trial step (trial kernel) or energy (evaluate)
@@ -74,6 +75,19 @@ def law_values(law: int, h: Any, opening_t: Any, a: Any, b: Any, c: Any):
             if h < c:
                 k = a / c
             elif h >= b and h < b + c:
+                k = -a / c
+        else:
+            phi = a * wp.min(h, b) - a * b
+            t = wp.where(h <= b, a, zero)
+    elif law == LAW_DUGDALE_CENTRED:
+        # tension a from contact (h = 0) to b - c / 2, falling linearly to 0 at b + c / 2; w = a b and
+        # the law's centroid (its first moment) are the sharp law's
+        lo = b - type(h)(0.5) * c
+        if c > zero:
+            f = wp.min(wp.max(h - lo, zero), c)
+            phi = a * (wp.min(h, lo) + f - f * f / (type(h)(2.0) * c)) - a * b
+            t = a * wp.max(wp.min((b + type(h)(0.5) * c - h) / c, one), zero)
+            if h >= lo and h < b + type(h)(0.5) * c:
                 k = -a / c
         else:
             phi = a * wp.min(h, b) - a * b

@@ -29,8 +29,9 @@ TOUCHING = 1e-2
 
 
 #: cell_softening above which pull-off warns of lattice trapping (measured, Dugdale, n = 192:
-#: lambda = 1 at 1.1: pull-off -0.5 % from Maugis-Dugdale; lambda = 2 at 4.4: +8 %, approach and
-#: retraction 0.1 pi R w apart; lambda = 2 at 0.74 (smoothing 0.3): +1.5 %)
+#: lambda = 2 at 4.4: +8 %, approach and retraction 0.1 pi R w apart). Below it the grid still
+#: adds a sawtooth to the retraction: refined pull-offs at lambda = 2, n = 192, one centred ramp:
+#: +1.6 % at 0.74, +0.4 % at 0.44-0.49, +0.1-0.3 % at 0.37 and below (bench/md_convergence.py)
 TRAPPING_SOFTENING = 2.0
 
 
@@ -156,24 +157,41 @@ class SMC:
                 "delta_t": self.delta_t, "work_of_adhesion": self.work_of_adhesion}
 
 
+#: where the Dugdale law's ramps go (``Dugdale.ramps``; the case file's choices, case.DUGDALE_RAMPS)
+RAMPS = ("both", "centred")
+
+
 @dataclass(frozen=True)
 class Dugdale:
     """Dugdale-Maugis law: tension sigma_0 where 0 < h <= h_0 (Maugis 1992), w = sigma_0 h_0.
 
-    On a grid the law's two jumps make cells at the edges of the cohesive zone flip from one
-    fixed-point turn to the next; ``smoothing`` > 0 replaces them by linear ramps of width
-    smoothing x h_0 (rising from h = 0, falling past h_0), which keeps w = sigma_0 h_0 exact and
-    lets the turns converge. smoothing = 0 is the sharp law.
+    On a grid the law's jumps make cells at the edges of the cohesive zone flip from one
+    fixed-point turn to the next, and trap the zone's edge between cells; ``smoothing`` > 0
+    replaces them by linear ramps of width smoothing x h_0, which keep w = sigma_0 h_0 exact.
+    smoothing = 0 is the sharp law. ``ramps`` places them:
+
+    - "both" (default): a ramp rising from h = 0 and one falling past h_0. The law's centroid moves
+      out by smoothing h_0 / 2 and the contact edge carries no tension: the pull-off moves towards
+      DMT by O(smoothing) (measured in the continuum, axisymmetric rings, lambda = 2: +1.0 % at
+      smoothing 0.1, +1.8 % at 0.3 from Maugis-Dugdale; bench/md_convergence.py).
+    - "centred": one ramp, falling from h_0 - smoothing h_0 / 2 to h_0 + smoothing h_0 / 2 (a
+      cell's average of the sharp law where the gap varies by that much across it); the tension
+      sigma_0 acts from contact on, as Maugis's (the contact cells carry tensions down to
+      -sigma_0, the energy minimiser's bound). w is kept and the centroid moves by only
+      smoothing^2 h_0 / 24, so the pull-off changes at second order (continuum, lambda = 2:
+      +0.014 % at smoothing 0.3, +0.09 % at 0.6, +0.25 % at 1).
 
     Attributes:
         sigma_0: adhesive tension [Pa].
         h_0: range [m].
         smoothing: ramp width over h_0 [-] (default 0.05).
+        ramps: "both" or "centred" (default "both").
     """
 
     sigma_0: float
     h_0: float
     smoothing: float = 0.05
+    ramps: str = "both"
 
     has_shear = False
     #: the tension ends at a finite gap (range): surfaces beyond it do not interact at all, so the
@@ -183,8 +201,14 @@ class Dugdale:
     def __post_init__(self):
         _positive("adhesion.sigma_0", self.sigma_0)
         _positive("adhesion.h_0", self.h_0)
+        if self.ramps not in RAMPS:
+            raise InputError("adhesion.ramps", f"must be one of {', '.join(map(repr, RAMPS))}, got {self.ramps!r}")
         if not (isinstance(self.smoothing, (int, float)) and 0.0 <= self.smoothing < 1.0):
             raise InputError("adhesion.smoothing", f"must lie in [0, 1), got {self.smoothing!r}")
+
+    @property
+    def centred(self) -> bool:
+        return self.ramps == "centred"
 
     @property
     def work_of_adhesion(self) -> float:
@@ -192,7 +216,8 @@ class Dugdale:
 
     @property
     def range(self) -> float:
-        return self.h_0 * (1.0 + self.smoothing)
+        """The largest gap with a tension [m]: h_0 (1 + smoothing), or h_0 (1 + smoothing / 2) centred."""
+        return self.h_0 * (1.0 + (0.5 if self.centred else 1.0) * self.smoothing)
 
     @property
     def peak_tension(self) -> float:
@@ -205,7 +230,8 @@ class Dugdale:
 
     def normal_law(self, model):
         L = model.length_scale
-        return (int(nk.LAW_DUGDALE), (self.sigma_0 / model.traction_scale, self.h_0 / L, self.smoothing * self.h_0 / L),
+        law_id = nk.LAW_DUGDALE_CENTRED if self.centred else nk.LAW_DUGDALE
+        return (int(law_id), (self.sigma_0 / model.traction_scale, self.h_0 / L, self.smoothing * self.h_0 / L),
                 self.h_0 / L)
 
     def tangential_opening(self, model, state, out):
@@ -221,6 +247,7 @@ class Dugdale:
                 state.gap.flatten(), state.pressure.flatten(), state.adhesive_pressure.flatten(),
                 model.scalar(self.sigma_0 / model.traction_scale), model.scalar(self.h_0 / L),
                 model.scalar(self.smoothing * self.h_0 / L), model.scalar(TOUCHING * self.h_0 / L),
+                int(self.centred),
             ],
             outputs=[law_pressure.flatten()],
         )
@@ -229,7 +256,7 @@ class Dugdale:
 
     def describe(self) -> dict:
         return {"law": "dugdale", "sigma_0": self.sigma_0, "h_0": self.h_0, "smoothing": self.smoothing,
-                "work_of_adhesion": self.work_of_adhesion}
+                "ramps": self.ramps, "work_of_adhesion": self.work_of_adhesion}
 
 
 @dataclass(frozen=True)

@@ -54,11 +54,13 @@ LOAD_KEYS = ("delta_z", "delta_x", "delta_y", "steps", "path")
 SOLVER_KEYS = ("device", "dtype", "tol", "max_iter", "max_turns", "fft", "nested")
 FRICTION_KEYS = {"coulomb": ("law", "mu"), "tabor": ("law", "k_tau", "k_vm", "hardness_cap")}
 ADHESION_KEYS = {"smc": ("law", "sigma_max", "tau_max", "delta_n", "delta_t"),
-                 "dugdale": ("law", "sigma_0", "h_0", "smoothing"),
+                 "dugdale": ("law", "sigma_0", "h_0", "smoothing", "ramps"),
                  "exponential": ("law", "w", "rho"),
                  "lj93": ("law", "w", "z0")}
-#: Keys a law may leave out (its default then holds): Dugdale's ramp width over h_0.
-ADHESION_OPTIONAL = {"dugdale": ("smoothing",)}
+#: Keys a law may leave out (its default then holds): Dugdale's ramp width over h_0 and where the ramps go.
+ADHESION_OPTIONAL = {"dugdale": ("smoothing", "ramps")}
+#: Where the Dugdale law's ramps go (warpcontact.adhesion.RAMPS): both ends, or one centred on h_0.
+DUGDALE_RAMPS = ("both", "centred")
 #: Every key an [adhesion] table may hold.
 ADHESION_ALL_KEYS = tuple(dict.fromkeys(k for keys in ADHESION_KEYS.values() for k in keys))
 
@@ -529,6 +531,7 @@ class AdhesionSpec:
         sigma_0: constant attraction [Pa] (dugdale).
         h_0: range of the attraction [m] (dugdale).
         smoothing: ramp width over h_0 [-] (dugdale, optional, default 0.05; in [0, 1)).
+        ramps: "both" or "centred" (dugdale, optional, default "both"; ``warpcontact.adhesion.Dugdale``).
         w: work of adhesion [J/m^2] (exponential, lj93).
         rho: decay length of t = (w / rho) exp(-h / rho) [m] (exponential).
         z0: equilibrium distance of the Lennard-Jones 9-3 potential [m] (lj93).
@@ -542,6 +545,7 @@ class AdhesionSpec:
     sigma_0: float | None = None
     h_0: float | None = None
     smoothing: float | None = None
+    ramps: str | None = None
     w: float | None = None
     rho: float | None = None
     z0: float | None = None
@@ -570,6 +574,9 @@ class AdhesionSpec:
                     raise InputError("adhesion.smoothing", f"must be a number in [0, 1) (the ramp width over h_0), "
                                                            f"got {v!r}")
                 _set(self, name, float(v))
+                continue
+            if name == "ramps":
+                _choice("adhesion.ramps", v, DUGDALE_RAMPS)
                 continue
             _set(self, name, _positive(f"adhesion.{name}", v, self._UNITS[name]))
 
