@@ -3,7 +3,7 @@
 full disk, about how much space the file needs), exit status 74, and what was written before left
 whole and valid; sweeps and tables keep their finished cases, and a rerun resumes.
 
-The faults are injected where output bytes reach the disk (``results._write_temporary``, which
+The faults are injected where output bytes reach the disk (``files._write_temporary``, which
 writes part of the file before failing, as a full disk does), so no mount is needed; one test
 also fills a real 600 KiB tmpfs and remounts it read-only, where the machine lets it (root).
 """
@@ -20,7 +20,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from warpcontact import interrupts, results
+from warpcontact import files, interrupts, results
 from warpcontact.cli import EXIT_WRITE_ERROR, main
 from warpcontact.errors import OutputError
 
@@ -45,7 +45,7 @@ def fail_writes(monkeypatch, code, when=lambda path, data: True):
     """Make every output write for which ``when(path, data)`` holds fail with ``code``, after half
     of its bytes reached the file (a disk that fills up during the write). Returns the list of the
     paths that failed."""
-    real = results._write_temporary
+    real = files._write_temporary
     failed = []
 
     def write(tmp, data):
@@ -56,7 +56,7 @@ def fail_writes(monkeypatch, code, when=lambda path, data: True):
         failed.append(target)
         raise OSError(code, os.strerror(code))
 
-    monkeypatch.setattr(results, "_write_temporary", write)
+    monkeypatch.setattr(files, "_write_temporary", write)
     return failed
 
 
@@ -283,7 +283,7 @@ def fake_cell(calls):
 def test_table2_disk_full_keeps_the_finished_cells_and_a_rerun_resumes(tmp_path, monkeypatch, capsys):
     from warpcontact import table2
 
-    calls, writer = [], results._write_temporary
+    calls, writer = [], files._write_temporary
     monkeypatch.setattr(table2, "table2_cell", fake_cell(calls))
     out = tmp_path / "t2"
     argv = ["table2", "--no-adhesion", "--n", "24", "--k-tau", "0.5", "--delta-z-um", "1e-5", "5e-5", "1e-4",
@@ -302,7 +302,7 @@ def test_table2_disk_full_keeps_the_finished_cells_and_a_rerun_resumes(tmp_path,
     assert len((out / "table2.md").read_text().splitlines()) == 2 + 1
     no_temporary_files(out)
 
-    monkeypatch.setattr(results, "_write_temporary", writer)  # space made
+    monkeypatch.setattr(files, "_write_temporary", writer)  # space made
     calls.clear()
     assert main(argv) == 0
     assert calls == [(0.5, 5e-5), (0.5, 1e-4)]  # the finished cell is not computed again

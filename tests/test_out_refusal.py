@@ -10,7 +10,7 @@ from pathlib import Path
 
 import pytest
 
-from warpcontact import api, batch, runner, stress, sweep
+from warpcontact import api, batch, runner, stress_study, sweep
 from warpcontact.cli import EXIT_INPUT, _parser, check_out, main
 
 EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
@@ -73,7 +73,7 @@ def trapped(monkeypatch):
         raise AssertionError("the command started its work despite a bad --out")
 
     for module, name in ((runner, "run_path"), (runner, "build"), (api, "run_gross_slip"), (api, "run_pull_off"),
-                         (stress, "subsurface_stress"), (sweep, "run_sweep"), (sweep, "load_sweep"),
+                         (stress_study, "subsurface_stress"), (sweep, "run_sweep"), (sweep, "load_sweep"),
                          (batch, "run_tasks")):
         monkeypatch.setattr(module, name, trap)
     import warpcontact.schema

@@ -6,7 +6,7 @@ import sys
 
 import numpy as np
 
-from warpcontact import results
+from warpcontact import files, results
 
 
 def test_the_parser_imports_neither_warp_nor_scipy():
@@ -29,7 +29,7 @@ def test_the_package_names_load_on_first_use():
 
 
 def test_large_fields_are_written_uncompressed_small_ones_compressed(tmp_path, monkeypatch):
-    monkeypatch.setattr(results, "NPZ_COMPRESS_BELOW_BYTES", 8 * 64 * 64)  # one 64 x 64 float64 field
+    monkeypatch.setattr(files, "NPZ_COMPRESS_BELOW_BYTES", 8 * 64 * 64)  # one 64 x 64 float64 field
     small = {"p": np.zeros((32, 32))}
     large = {"p": np.zeros((64, 64)), "q": np.ones((64, 64))}
     results.atomic_write_npz(tmp_path / "small.npz", small)

@@ -13,6 +13,7 @@ import warp as wp
 from scipy.integrate import dblquad
 
 from warpcontact import stress as st
+from warpcontact import stress_study
 from warpcontact.case import case_from_dict
 from warpcontact.errors import InputError
 from warpcontact.geometry import Grid
@@ -367,7 +368,7 @@ def test_solved_hertz_contact_puts_each_maximum_where_hertz_does():
     p0) and its depth within 5 % of a (0.491 a and 0.454 a). The solver's pressure differs from
     Hertz by the discretisation of the contact edge, about (dx/a)^1.5 = 1 % of p0 at most."""
     case, a = _hertz_case(steps=1)
-    res = st.subsurface_stress(case, with_first_yield=False)
+    res = stress_study.subsurface_stress(case, with_first_yield=False)
     p0 = 2 * case.pair.E_star * a / (math.pi * case.sphere.radius)
     summary = res.summary()
     for name in st.BODIES:
@@ -386,7 +387,7 @@ def test_first_yield_on_the_path():
     delta_z (vm_max grows as sqrt(delta_z); linear interpolation over a quarter of the load errs
     by under 1 %)."""
     case, a = _hertz_case(n=33, steps=4, sphere_yield=50e6)
-    res = st.subsurface_stress(case, layers=16)
+    res = stress_study.subsurface_stress(case, layers=16)
     fy = res.first_yield
     assert fy["flat"]["reached"] is False
     assert fy["sphere"]["reached"] is True and fy["sphere"]["state"] == 3
@@ -426,7 +427,7 @@ def test_bad_depths_and_state_are_input_errors():
         st.check_depths([])
     case, _ = _hertz_case(n=16, steps=2)
     with pytest.raises(InputError, match="state"):
-        st.subsurface_stress(case, state=5)
+        stress_study.subsurface_stress(case, state=5)
 
 
 def test_cli_stress_writes_json_npz_and_plots(tmp_path, capsys):

@@ -10,7 +10,7 @@ from pathlib import Path
 
 import pytest
 
-from warpcontact import api
+from warpcontact import runner
 from warpcontact.cli_sweep import add_parser, cmd_sweep
 from warpcontact.errors import InputError
 from warpcontact.sweep import case_id, load_sweep
@@ -117,7 +117,7 @@ def test_solve_task_records_an_error_and_goes_on(tmp_path, capsys):
 
 
 def test_ctrl_c_keeps_what_finished(tmp_path, monkeypatch, capsys):
-    real, calls = api.solve, []
+    real, calls = runner.run_path, []
 
     def solve_then_interrupt(case, **kw):
         calls.append(case)
@@ -125,14 +125,14 @@ def test_ctrl_c_keeps_what_finished(tmp_path, monkeypatch, capsys):
             raise KeyboardInterrupt
         return real(case, **kw)
 
-    monkeypatch.setattr(api, "solve", solve_then_interrupt)
+    monkeypatch.setattr(runner, "run_path", solve_then_interrupt)
     sweep = write_sweep(tmp_path, f'base = "{HERTZ_CASE.as_posix()}"\n[sweep]\n"grid.n" = [24, 32]\n')
     out = tmp_path / "out"
-    # --workers 1: the cases in this process, where the patched api.solve is
+    # --workers 1: the cases in this process, where the patched runner.run_path is
     assert cmd_sweep(parse("sweep", sweep, "--out", out, "--quiet", "--workers", "1")) == 130
     assert "interrupted" in capsys.readouterr().err
     assert len(list((out / "cases").glob("*.json"))) == 1 and len(read_csv(out / "sweep.csv")) == 1
-    monkeypatch.setattr(api, "solve", real)
+    monkeypatch.setattr(runner, "run_path", real)
     assert cmd_sweep(parse("sweep", sweep, "--out", out, "--quiet")) == 0  # resumes: the second case only
     assert [r["grid.n"] for r in read_csv(out / "sweep.csv")] == ["24", "32"]
 

@@ -5,7 +5,7 @@ conjugate-gradient solvers (Polonsky & Keer 1999; Chen & Wang 2008), displacemen
 See MODEL.md-level details in docs/ and the README.
 """
 
-__version__ = "0.1.0"
+from ._version import __version__  # noqa: F401  (kept in sync with pyproject.toml)
 
 from typing import TYPE_CHECKING
 
@@ -15,7 +15,7 @@ if TYPE_CHECKING:  # for readers, type checkers and the documentation's static a
     from .errors import ConvergenceError, InputError, NonFiniteError
     from .geometry import Grid, Sphere
     from .materials import COPPER, HARDENED_STEEL, PAPER_PAIR, Material, MaterialPair
-    from .stress import subsurface_stress
+    from .stress_study import subsurface_stress
 
 # The names below are imported when first used (PEP 562), so that `warpcontact --help` and the
 # command line's argument parsing do not import Warp, SciPy and the solvers (a second or so).
@@ -26,7 +26,7 @@ _LAZY = {
     "MaterialPair": "materials",
     "Case": "case", "case_from_dict": "case", "load_case": "case",
     "gross_slip": "api", "path": "api", "pull_off": "api", "solve": "api",
-    "subsurface_stress": "stress",
+    "subsurface_stress": "stress_study",
 }
 
 

@@ -24,11 +24,19 @@ from __future__ import annotations
 from .case import Case
 from .errors import InputError
 
-
-def _prepare(case: Case, device=None, dtype=None, fft=None) -> Case:
-    if not isinstance(case, Case):
-        raise TypeError(f"expected a warpcontact Case (see load_case / case_from_dict), got {type(case).__name__}")
-    return case.with_overrides(device=device, dtype=dtype, fft=fft)
+# the builders of a case's task live in the studies (warpcontact.tasks), where the sweeps, the fits
+# and the stress study use them too; their names here are those of the Python API and the command line
+from .tasks import (  # noqa: F401
+    STATE_LISTS,
+    check_gross_slip_case,
+    check_pull_off_case,
+    gross_slip_summary,
+    pull_off_summary,
+    result_row,
+    run_gross_slip,
+    run_pull_off,
+)
+from .tasks import prepare as _prepare
 
 
 def solve(case: Case, device=None, dtype=None, fft=None, on_state=None, model=None, fields: str = "all"):
@@ -45,9 +53,7 @@ def solve(case: Case, device=None, dtype=None, fft=None, on_state=None, model=No
     :class:`~warpcontact.model.ContactModel` of the same materials, sphere, grid, device, float
     type and FFT backend to reuse (many cases of one grid: :mod:`warpcontact.batch`).
     """
-    from .runner import run_path
-
-    from .runner import FIELDS_CHOICES
+    from .runner import FIELDS_CHOICES, run_path
 
     if fields not in FIELDS_CHOICES:
         raise InputError("fields", f"unknown choice {fields!r}; choose one of {', '.join(FIELDS_CHOICES)}")
@@ -84,12 +90,7 @@ def gross_slip(case: Case, device=None, dtype=None, fft=None, rel_tol: float = 0
     whether a body yielded at delta_x_max: yielded, yield_margin, yield_check (``stress.yield_keys``).
     ``on_state(index, summary)`` is called after each state. ``model``: as :func:`solve`'s.
     """
-    from .runner import build
-
-    case = _prepare(case, device, dtype, fft)
-    check_gross_slip_case(case)
-    model, solver, _ = build(case, model)
-    return run_gross_slip(case, model, solver, rel_tol=rel_tol, on_state=on_state)
+    return gross_slip_summary(_prepare(case, device, dtype, fft), rel_tol=rel_tol, on_state=on_state, model=model)
 
 
 def pull_off(case: Case, steps: int = 20, retract_to: float | None = None, device=None, dtype=None, fft=None,
@@ -101,118 +102,5 @@ def pull_off(case: Case, steps: int = 20, retract_to: float | None = None, devic
     work_of_adhesion [J/m^2], tabor_parameter [-], dmt_pull_off and jkr_pull_off [N], the curve
     (summaries), converged, elapsed_s [s]. ``on_state(index, total, summary)`` after each state.
     ``model``: as :func:`solve`'s."""
-    from .runner import build
-
-    case = _prepare(case, device, dtype, fft)
-    check_pull_off_case(case, steps, retract_to)
-    model, solver, _ = build(case, model)
-    return run_pull_off(case, model, solver, steps=steps, retract_to=retract_to, on_state=on_state)
-
-
-# ---------------------------------------------------------------------------------------------
-# One summary per kind of result: the command line, this API and the sweep rows use these.
-
-
-def check_gross_slip_case(case: Case) -> None:
-    """What a gross-slip search needs of a case: a [friction] table and a positive approach."""
-    if case.friction is None:
-        raise InputError("friction", "gross-slip needs a [friction] table (law = 'tabor' or 'coulomb')")
-    dz = case.load.delta_z_max
-    if not dz > 0:
-        raise InputError("load.delta_z", f"gross-slip needs a positive normal approach, got {dz!r}")
-
-
-def check_pull_off_case(case: Case, steps: int = 20, retract_to: float | None = None) -> None:
-    """What an approach-retract curve needs: an [adhesion] table, 2 or more steps each way, an end
-    below the deepest approach."""
-    if case.adhesion is None:
-        raise InputError("adhesion", "pull-off needs an [adhesion] table (law = 'smc' or 'dugdale')")
-    if isinstance(steps, bool) or not isinstance(steps, int) or steps < 2:
-        raise InputError("steps", f"must be an integer of at least 2 (steps each way), got {steps!r}")
-    dz_max = case.load.delta_z_max
-    if retract_to is not None and not float(retract_to) < dz_max:
-        raise InputError("retract_to", f"must lie below the deepest approach {dz_max:g} m, got {retract_to:g}")
-
-
-def run_gross_slip(case: Case, model, solver, rel_tol: float = 0.01, on_state=None) -> dict:
-    """The gross-slip search of ``case`` on a built model and solver, with the run's checks
-    (:class:`~warpcontact.guards.RunChecks`: resolution and yield, one warning each), as a summary:
-    find_gross_slip's result with its results withheld (None, and a ``note``) when a state did
-    not converge. The one builder of a gross-slip summary."""
-    from .guards import GROSS_SLIP_RESULTS, RunChecks, withhold_if_unconverged
-    from .slip_search import find_gross_slip
-    from .stress import state_yield_keys
-
-    checks = RunChecks(case)
-
-    def observe(k, s):
-        checks.observe(s, decisive=s.get("kind") == "normal" and checks.decisive(s))
-        if on_state is not None:
-            on_state(k, s)
-
-    steps = case.load.steps if not case.load.explicit else 4
-    r = find_gross_slip(model, solver, case.load.delta_z_max, normal_steps=steps, rel_tol=rel_tol, on_state=observe,
-                        at_max=state_yield_keys)
-    checks.gross_slip(r)
-    checks.yielded(r.get("yield_check"), f"at delta_x_max = {r['delta_x_max']:.4g} m")
-    return withhold_if_unconverged(r, GROSS_SLIP_RESULTS)
-
-
-def run_pull_off(case: Case, model, solver, steps: int = 20, retract_to: float | None = None, on_state=None) -> dict:
-    """The approach-retract curve of ``case`` on a built model and solver, with the run's checks,
-    as a summary: the curve, pull_off_force [N], pull_off_delta_z [m], work_of_adhesion [J/m^2],
-    tabor_parameter [-] (with the law's range), dmt_pull_off = -2 pi R w and jkr_pull_off =
-    -1.5 pi R w [N], cell_softening [-] (``warpcontact.adhesion.cell_softening``: above 2 a
-    warning of lattice trapping); the results withheld when a state did not converge. The one
-    builder of a pull-off summary."""
-    import math
-
-    from .approach_retract import approach_retract, tabor_parameter
-    from .guards import PULL_OFF_RESULTS, RunChecks, withhold_if_unconverged
-
-    checks = RunChecks(case)
-    law = solver.adhesion
-    dz_max = case.load.delta_z_max
-    top_seen = []
-
-    def observe(k, total, s):
-        top = not top_seen and checks.decisive(s)  # the deepest approach: the contact is largest there
-        if top:
-            top_seen.append(k)
-        checks.observe(s, decisive=top)
-        if on_state is not None:
-            on_state(k, total, s)
-
-    from .adhesion import cell_softening, trapping_warning
-
-    trapping = trapping_warning(law, model)
-    if trapping:
-        import warnings
-
-        warnings.warn(trapping, stacklevel=2)
-    end = -4.0 * law.range if retract_to is None else float(retract_to)
-    r = approach_retract(model, solver, -2.0 * law.range, dz_max, end, int(steps), on_state=observe,
-                         extend=retract_to is None)
-    from .guards import warn_if_jagged_pull_off
-
-    warn_if_jagged_pull_off(r, model.grid.n)
-    R, w = case.sphere.radius, law.work_of_adhesion
-    result = {**r, "work_of_adhesion": w, "tabor_parameter": tabor_parameter(case.pair, R, w, law.range),
-              "dmt_pull_off": -2.0 * math.pi * R * w, "jkr_pull_off": -1.5 * math.pi * R * w,
-              "cell_softening": cell_softening(law, model)}
-    return withhold_if_unconverged(result, PULL_OFF_RESULTS)
-
-
-#: the lists of states a result holds; a sweep row counts them (n_states) instead
-STATE_LISTS = ("states", "curve")
-
-
-def result_row(result: dict) -> dict:
-    """A summary as a sweep row: every key of :func:`run_gross_slip`'s, :func:`run_pull_off`'s or
-    a solve's last state, less the lists of states (counted in ``n_states``) and the timing (the
-    sweep records its own)."""
-    from .stress import yield_keys
-
-    row = {**yield_keys(None), **{k: v for k, v in result.items() if k not in STATE_LISTS and k != "elapsed_s"}}
-    row["n_states"] = sum(len(result[k]) for k in STATE_LISTS if isinstance(result.get(k), list))
-    return row
+    return pull_off_summary(_prepare(case, device, dtype, fft), steps=steps, retract_to=retract_to,
+                            on_state=on_state, model=model)

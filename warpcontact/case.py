@@ -37,6 +37,8 @@ except ModuleNotFoundError:  # Python < 3.11
     import tomli as tomllib
 
 from .errors import InputError
+from .fft.names import BACKENDS as FFT_BACKENDS  # FFT backends by name (warpcontact.fft)
+from .fft.names import DEVICE_KIND as FFT_DEVICE_KIND  # those that run on one kind of device only
 from .geometry import MIN_CELLS, Grid, Sphere
 from .guards import profile_note
 from .materials import Material, MaterialPair
@@ -66,10 +68,6 @@ ADHESION_ALL_KEYS = tuple(dict.fromkeys(k for keys in ADHESION_KEYS.values() for
 
 PROFILES = ("sphere", "paraboloid")
 DTYPES = ("float64", "float32")
-#: FFT backends by name (see warpcontact.fft)
-FFT_BACKENDS = ("auto", "fftw", "scipy", "cupy", "warp")
-#: FFT backends that run only on one kind of device (see warpcontact.fft).
-FFT_DEVICE_KIND = {"fftw": "cpu", "scipy": "cpu", "cupy": "cuda"}
 #: Default relative tolerance of the conjugate-gradient solves, per dtype.
 DEFAULT_TOL = {"float64": 1e-10, "float32": 1e-5}
 #: Largest accepted tolerance.

@@ -168,7 +168,8 @@ def cmd_stress(args) -> int:
     from .case import load_case
     from .plots import save
     from .results import atomic_write_json, atomic_write_npz
-    from .stress import check_depths, subsurface_stress
+    from .stress import check_depths
+    from .stress_study import subsurface_stress
 
     case = load_case(args.case).with_overrides(device=args.device, dtype=args.dtype, fft=args.fft)
     depths = check_depths(args.depths) if args.depths else None

@@ -56,7 +56,8 @@ from typing import Mapping
 
 import numpy as np
 
-from . import __version__, interrupts
+from . import interrupts
+from ._version import __version__
 from .case import Case, case_from_dict, read_toml
 from .errors import InputError, OutputError
 from .sweep import CASE_SCHEMA, DOTTED_KEYS, TASKS, SweepCase, _base_from, _check_task, _flatten, _jsonable, \

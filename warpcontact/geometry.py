@@ -100,3 +100,13 @@ class Sphere:
                 f"the domain ({grid.size:g} m across) reaches beyond the sphere's radius {self.radius:g} m",
             )
         return r2 / (self.radius + np.sqrt(self.radius**2 - r2))  # = R - sqrt(R^2 - r^2), no cancellation
+
+
+def profile_note(size: float, sphere) -> str:
+    """What a suggested domain side [m] needs of the profile: "" when it fits the sphere's profile,
+    else a clause asking for the paraboloid (the exact sphere's gap exists only within r < R, so
+    its domain stays below sqrt(2) R)."""
+    if getattr(sphere, "profile", "sphere") != "sphere" or size < math.sqrt(2.0) * sphere.radius:
+        return ""
+    return (f" with sphere.profile = 'paraboloid' (a domain of that side reaches beyond the sphere's radius "
+            f"R = {sphere.radius:.4g} m)")

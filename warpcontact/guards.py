@@ -12,9 +12,11 @@ from __future__ import annotations
 import math
 import warnings
 
-import numpy as np
+from .geometry import profile_note
 
-from .errors import InputError
+# the domain-edge check runs inside the solver's step (after its first turn and at its end), so it
+# lives with the state (numerics, below the solvers); its names here are the ones users know
+from .state import EDGE_SHARE_AT_FIRST_TURN, check_contact_fits  # noqa: F401
 
 #: contact radius under which a state is called too coarse [cells]
 MIN_CONTACT_RADIUS_CELLS = 8
@@ -32,15 +34,6 @@ ADHESION_EDGE_FRACTION = 0.01
 SMC_TAIL_IN_DELTA_N = 7.64
 #: margin on the suggested domain side [-]
 DOMAIN_MARGIN = 1.1
-#: share of the domain's edge cells in contact after the first turn of a step above which the step
-#: stops there (``check_contact_fits``). The first turn solves loosely against the last state's
-#: shear, and its contact can pass the converged one's: at n = 64 (issue 32's AFM case with friction
-#: on a domain of side 2.03 Hertz radii) 40 of the 4 x 64 edge cells against none at the step's end.
-#: A disc over half the edge reaches 1.12 half-sides, 0.06 n cells past the edge (2 at n = 32); one
-#: that merely touches the edge is judged at the step's end. On that case (sides 2.2-3.0 nm; n = 32
-#: and 64 without adhesion, n = 32 with it) every path stops at the same state as with the step-end
-#: check alone.
-EDGE_SHARE_AT_FIRST_TURN = 0.5
 
 
 class CoarseGridWarning(UserWarning):
@@ -73,38 +66,6 @@ class YieldWarning(UserWarning):
 
 class AdhesionAtEdgeWarning(UserWarning):
     """The adhesive law still pulls hard on the domain's edge: the domain cuts off the law's tail."""
-
-
-def profile_note(size: float, sphere) -> str:
-    """What a suggested domain side [m] needs of the profile: "" when it fits the sphere's profile,
-    else a clause asking for the paraboloid (the exact sphere's gap exists only within r < R, so
-    its domain stays below sqrt(2) R)."""
-    if getattr(sphere, "profile", "sphere") != "sphere" or size < math.sqrt(2.0) * sphere.radius:
-        return ""
-    return (f" with sphere.profile = 'paraboloid' (a domain of that side reaches beyond the sphere's radius "
-            f"R = {sphere.radius:.4g} m)")
-
-
-def check_contact_fits(state, approach=None, edge_share: float = 0.0):
-    """InputError (key ``grid.size``) if contact cells touch the edge of the domain: the domain is
-    too small for the load, and the DC-FFT solution would miss the contact beyond it. Made after
-    each step, and after the first turn of a step that turns (``ContactSolver``) with
-    ``edge_share`` = EDGE_SHARE_AT_FIRST_TURN, so that a contact far past the edge stops the run
-    at once rather than after the turn limit. ``approach``: (delta_x, delta_y, delta_z) [m] of
-    the step, named in the message (default: ``state.approach``); ``edge_share``: the share of the
-    edge's cells in contact above which it raises [-] (0: any cell)."""
-    from .results import domain_edge
-
-    edge = domain_edge(state.pressure)  # the edge cells alone leave the device
-    if np.mean(edge > 0) > edge_share:
-        g = state.model.grid
-        dx, dy, dz = state.approach if approach is None else approach
-        raise InputError(
-            "grid.size",
-            f"the contact reaches the edge of the {g.size:.4g} m domain at delta = ({dx:.4g}, {dy:.4g}, {dz:.4g}) m; "
-            f"use at least {1.5 * g.size:.4g} m{profile_note(1.5 * g.size, state.model.sphere)} (and more cells to "
-            f"keep the resolution)",
-        )
 
 
 #: cells across the slip annulus at gross slip (the contact radius less the stick radius at
@@ -304,7 +265,8 @@ def warn_if_adhesion_at_edge(state, adhesion, delta_z: float | None = None) -> b
         return False
     from warpcontact.kernels.summary import S_MAX_TENSION
 
-    from .results import domain_edge, summary_sums
+    from .results import summary_sums
+    from .state import domain_edge
 
     # p_adh / E* <= 0: tension positive; the peak reduced and the edge gathered on the device
     peak = float(summary_sums(state, adhesion)[S_MAX_TENSION])

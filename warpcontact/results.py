@@ -1,23 +1,26 @@
-"""Summaries of solved states and files that are written whole or not at all."""
+"""Summaries of solved states, as dicts of SI numbers and as fields; the atomic writes (warpcontact.files)
+named here too."""
 
 from __future__ import annotations
 
-import errno
-import json
 import math
-import os
-import secrets
-import shutil
 import weakref
-from pathlib import Path
 
 import numpy as np
 
-from .errors import OutputError
-
+# the atomic writes live in warpcontact.files (the shared role: FFTW's wisdom is written there too);
+# their names here are the ones the studies and the command line have always used
+from .files import (  # noqa: F401
+    NPZ_COMPRESS_BELOW_BYTES,
+    atomic_write_bytes,
+    atomic_write_json,
+    atomic_write_npz,
+    free_bytes,
+    output_error,
+)
 from warpcontact.kernels.tangential import STICK
 
-from .state import host_si
+from .state import domain_edge, host_si  # noqa: F401  (domain_edge: named here too)
 
 
 def adhesive_mask(fields: dict, adhesion) -> np.ndarray:
@@ -60,20 +63,6 @@ def summary_sums(state, adhesion=None) -> np.ndarray:
                                       int(adhesion is not None)],
                     [Sums(sums, maxima=(int(sk.S_MAX_PRESSURE), int(sk.S_MAX_TENSION)))])
     return np.array(sums.numpy(), dtype=np.float64)  # a copy: on the CPU numpy() is a view of the buffer
-
-
-def domain_edge(field) -> np.ndarray:
-    """The cells of the 2-D Warp array ``field`` on the domain's edge, as numpy's
-    ``concatenate([f[0], f[-1], f[:, 0], f[:, -1]])`` (the corners twice), in the field's units
-    and float type: gathered on its device, one transfer of 2 (rows + columns) values."""
-    import warp as wp
-
-    from warpcontact.kernels import summary as sk
-
-    rows, columns = field.shape
-    edge = wp.empty(2 * (rows + columns), dtype=field.dtype, device=field.device)
-    wp.launch(sk.domain_edge, dim=edge.shape, inputs=[field], outputs=[edge], device=field.device)
-    return edge.numpy()
 
 
 def state_summary(state, adhesion=None) -> dict:
@@ -150,83 +139,3 @@ def state_fields(state, adhesion=None, friction=None) -> dict:
     f["stick_mask"] = status == STICK
     f["status"] = status.astype(np.int8)
     return f
-
-
-def _write_temporary(tmp: Path, data: bytes) -> None:
-    """Create ``tmp`` (a name of our own: O_EXCL; mode 0666 less the umask, an ordinary file's,
-    not mkstemp's 0600) and write ``data`` to it. The one place where output bytes reach the
-    disk (tests make it fail with ENOSPC or EROFS)."""
-    fd = os.open(tmp, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o666)
-    with os.fdopen(fd, "wb") as fh:
-        fh.write(data)
-
-
-def free_bytes(path) -> int | None:
-    """Bytes free to an ordinary user on the file system of ``path`` (its nearest existing
-    folder), or None when that cannot be told."""
-    p = Path(path)
-    while not p.exists() and p != p.parent:
-        p = p.parent
-    try:
-        return shutil.disk_usage(p).free
-    except OSError:
-        return None
-
-
-def output_error(path, e: OSError, action: str = "write", needed_bytes: int | None = None) -> OutputError:
-    """``e`` (an OSError met while writing ``path``) as an OutputError naming the file, what
-    failed and, for a full disk, the size of the file and the space left."""
-    if isinstance(e, OutputError):
-        return e
-    free = free_bytes(Path(path).parent) if e.errno == errno.ENOSPC else None
-    return OutputError(path, e.errno, e.strerror or str(e), action, needed_bytes, free)
-
-
-def atomic_write_bytes(path, data: bytes):
-    """Write ``data`` to ``path`` through a temporary file and a rename: readers see all or nothing.
-
-    A failure (no space left, read-only file system, quota, I/O error, a folder that cannot be
-    made) raises :class:`~warpcontact.errors.OutputError` naming ``path``; the file that was at
-    ``path`` before is left as it was and the temporary file is removed. An interrupt
-    (KeyboardInterrupt) likewise removes the temporary file and leaves ``path`` as it was.
-    """
-    path = Path(path)
-    try:
-        path.parent.mkdir(parents=True, exist_ok=True)
-    except OSError as e:
-        raise output_error(path.parent, e, "create the folder") from None
-    tmp = path.parent / f"{path.name}.{secrets.token_hex(6)}.tmp"
-    try:
-        _write_temporary(tmp, data)
-        os.replace(tmp, path)
-    except BaseException as e:
-        try:
-            tmp.unlink(missing_ok=True)  # first: the space it took counts as free in the message
-        except OSError:  # the file system went away under us: nothing more to do
-            pass
-        if isinstance(e, OSError):
-            raise output_error(path, e, "write", len(data)) from None
-        raise
-
-
-def atomic_write_json(path, obj):
-    atomic_write_bytes(path, (json.dumps(obj, indent=2, allow_nan=True) + "\n").encode())
-
-
-#: arrays of this many bytes and more are written to an NPZ file uncompressed: zlib runs at about
-#: 30-200 MB/s on one core (64 MiB of fields: 0.34 s for smooth contact fields, 2.0 s for noise,
-#: against 0.08 s uncompressed, on this project's 2-core machine), far below a disk's speed
-NPZ_COMPRESS_BELOW_BYTES = 32 * 2**20
-
-
-def atomic_write_npz(path, arrays: dict, compress: bool | None = None):
-    """Write ``arrays`` to the NPZ file ``path`` atomically (:func:`atomic_write_bytes`); NumPy reads
-    it with ``np.load`` either way. ``compress``: zlib (smaller files); default: only when the arrays
-    hold fewer than :data:`NPZ_COMPRESS_BELOW_BYTES` bytes, so large grids are written at disk speed."""
-    import io
-
-    if compress is None:
-        compress = sum(np.asarray(a).nbytes for a in arrays.values()) < NPZ_COMPRESS_BELOW_BYTES
-    buf = io.BytesIO()
-    (np.savez_compressed if compress else np.savez)(buf, **arrays)
-    atomic_write_bytes(path, buf.getvalue())

@@ -6,7 +6,7 @@ import math
 import time
 from dataclasses import dataclass, field
 
-from . import __version__
+from ._version import __version__
 from .adhesion import SMC, Dugdale, Exponential, LennardJones93
 from .friction import Coulomb, TaborVonMises
 from .guards import RunChecks, warn_if_adhesion_at_edge

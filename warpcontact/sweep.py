@@ -51,17 +51,17 @@ from os import PathLike
 from pathlib import Path
 from typing import Mapping
 
-from . import __version__, interrupts
+from . import interrupts
+from ._version import __version__
 from .case import (ADHESION_KEYS, FLAT_KEYS, GRID_KEYS, LOAD_KEYS, SOLVER_KEYS, SPHERE_KEYS, Case,
                    case_from_dict, load_case, read_toml)
 from .errors import ConvergenceError, InputError, NonFiniteError, OutputError
+from .tasks import TASKS  # what each case runs: its load path, gross slip or pull-off (tasks.run_task)
 
 #: Tables of a sweep file.
 SWEEP_TABLES = ("base", "sweep", "run")
 #: Keys of the ``[run]`` table.
 RUN_KEYS = ("task", "rel_tol", "scheduler")
-#: What each case runs: ``api.solve`` (the case's load path), ``api.gross_slip`` or ``api.pull_off``.
-TASKS = ("solve", "gross-slip", "pull-off")
 #: Default bisection bracket of delta_x_max (relative), as in ``warpcontact gross-slip``.
 DEFAULT_REL_TOL = 0.01
 #: The case keys a sweep may vary: table -> keys (the case-file schema, docs/case-files.md).
@@ -466,37 +466,6 @@ def finished_record(out: str | PathLike, sweep: Sweep, sc: SweepCase) -> dict | 
     return rec if all(rec.get(k) == v for k, v in ident.items()) else None
 
 
-def _gross_slip_summary(r: dict) -> dict:
-    """A gross-slip or pull-off case's row: the command's result.json keys less the lists of states
-    (``api.result_row``; the results already withheld when a state did not converge)."""
-    from .api import result_row
-
-    return result_row(r)
-
-
-def _run_case(task: str, rel_tol: float, case: Case, on_state, model=None) -> dict:
-    """Solve one case; returns its summary. ``on_state(index, total or None, summary)`` follows
-    its states. KeyboardInterrupt propagates (nothing is recorded)."""
-    from . import api
-
-    if task == "gross-slip":
-        r = api.gross_slip(case, rel_tol=rel_tol, on_state=lambda k, s: on_state(k, None, s), model=model)
-        return _gross_slip_summary(r)
-    if task == "pull-off":
-        r = api.pull_off(case, on_state=lambda k, total, s: on_state(k, total, s), model=model)
-        return _gross_slip_summary(r)
-    result = api.solve(case, on_state=lambda k, total, s, res: on_state(k, total, s), model=model)
-    if result.interrupted:  # run_path keeps what finished; a sweep records whole cases only
-        raise KeyboardInterrupt
-    from .stress import yield_keys
-
-    summary = dict(result.states[-1])
-    summary["converged"] = result.converged
-    summary["n_states"] = len(result.states)
-    summary.update(yield_keys(result.yield_check))  # the last state's check (run_path); None when not made
-    return summary
-
-
 def run_case(task: str, rel_tol: float, case: Case, on_state=None) -> dict:
     """One case of a sweep where the batch engine runs it (a worker, or this process): its outcome,
     ``summary`` or ``error`` (a case that raised InputError, NonFiniteError or ConvergenceError),
@@ -507,6 +476,7 @@ def run_case(task: str, rel_tol: float, case: Case, on_state=None) -> dict:
     the sweep; KeyboardInterrupt propagates (nothing is recorded)."""
     from .batch import cached_model, model_key, worker_device
     from .runner import build_model
+    from .tasks import run_task
 
     device = worker_device(case.solver.device)
     if device != case.solver.device:
@@ -519,7 +489,7 @@ def run_case(task: str, rel_tol: float, case: Case, on_state=None) -> dict:
             s = case.solver
             model = cached_model(model_key(case.pair, case.sphere, case.grid, s.device, s.dtype, s.fft),
                                  lambda: build_model(case))
-            summary = _run_case(task, rel_tol, case, on_state or (lambda *a: None), model)
+            summary = run_task(task, rel_tol, case, on_state or (lambda *a: None), model)
         except InputError as e:
             if e.key in _SETUP_KEYS:
                 raise

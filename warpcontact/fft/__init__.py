@@ -12,12 +12,13 @@ warp      cpu, cuda   Warp ``tile_fft``: no dependency beyond Warp (default on C
 
 from __future__ import annotations
 
-import warp as wp
+from typing import TYPE_CHECKING
 
-from ..case import FFT_BACKENDS as BACKENDS
-from ..case import FFT_DEVICE_KIND
 from ..errors import InputError
-from .base import FFTBackend
+from .names import BACKENDS, DEVICE_KIND
+
+if TYPE_CHECKING:
+    from .base import FFTBackend
 
 #: what installs the backends that are optional extras
 OPTIONAL = {"fftw": "pyFFTW is not installed: pip install 'warpcontact[fftw]'",
@@ -26,6 +27,8 @@ OPTIONAL = {"fftw": "pyFFTW is not installed: pip install 'warpcontact[fftw]'",
 
 def available_backends(device) -> list[str]:
     """Names of the backends that can run on ``device`` here."""
+    import warp as wp
+
     device = wp.get_device(device)
     if device.is_cpu:
         from . import fftw_backend
@@ -38,6 +41,8 @@ def available_backends(device) -> list[str]:
 
 def make_fft(name: str, ny: int, nx: int, device, dtype) -> FFTBackend:
     """The FFT backend ``name`` ("auto" picks the fastest available) for an (ny, nx) grid."""
+    import warp as wp
+
     device = wp.get_device(device)
     if name not in BACKENDS:
         raise InputError("solver.fft", f"unknown FFT backend {name!r}; choose one of {', '.join(BACKENDS)}")
@@ -45,7 +50,7 @@ def make_fft(name: str, ny: int, nx: int, device, dtype) -> FFTBackend:
         name = available_backends(device)[0]
     if name not in available_backends(device):
         kind = "cpu" if device.is_cpu else "cuda"
-        hint = f" ({OPTIONAL[name]})" if FFT_DEVICE_KIND.get(name) == kind and name in OPTIONAL else ""
+        hint = f" ({OPTIONAL[name]})" if DEVICE_KIND.get(name) == kind and name in OPTIONAL else ""
         raise InputError(
             "solver.fft",
             f"backend {name!r} is not available on {device}{hint}; available: {available_backends(device)}",
@@ -67,4 +72,13 @@ def make_fft(name: str, ny: int, nx: int, device, dtype) -> FFTBackend:
     return WarpTileFFT(ny, nx, device, dtype)
 
 
-__all__ = ["FFTBackend", "BACKENDS", "available_backends", "make_fft"]
+def __getattr__(name: str):
+    """``FFTBackend`` on first use (PEP 562): the backend names (.names) load without Warp."""
+    if name == "FFTBackend":
+        from .base import FFTBackend
+
+        return FFTBackend
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+
+
+__all__ = ["FFTBackend", "BACKENDS", "DEVICE_KIND", "available_backends", "make_fft"]

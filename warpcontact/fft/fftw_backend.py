@@ -102,7 +102,7 @@ def _save_wisdom():
         return
     import pyfftw
 
-    from ..results import atomic_write_bytes
+    from ..files import atomic_write_bytes
 
     try:
         atomic_write_bytes(path, json.dumps([t.decode("ascii") for t in pyfftw.export_wisdom()]).encode())

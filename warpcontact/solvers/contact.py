@@ -12,8 +12,7 @@ from warpcontact.kernels import adhesion as ak
 from warpcontact.kernels import coupling as ck
 
 from .. import interrupts
-from ..guards import EDGE_SHARE_AT_FIRST_TURN, check_contact_fits
-from ..state import SolveInfo
+from ..state import EDGE_SHARE_AT_FIRST_TURN, SolveInfo, check_contact_fits
 from .adhesive import AdhesiveNormalSolver
 from .fixed_point import AndersonMixing
 from .normal import NormalSolver
