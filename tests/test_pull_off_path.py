@@ -167,8 +167,10 @@ def test_dugdale_ramps_key_in_a_case_file(tmp_path):
 
     d = tomllib.loads((ROOT / "examples" / "pull_off_dugdale_lambda2.toml").read_text())
     assert adhesion_law(case_from_dict(d)).ramps == "centred"
+    d["adhesion"]["ramps"] = "both"
+    assert adhesion_law(case_from_dict(d)).ramps == "both"
     del d["adhesion"]["ramps"]
-    assert adhesion_law(case_from_dict(d)).ramps == "both"  # left out: the law's default
+    assert adhesion_law(case_from_dict(d)).ramps == "centred"  # left out: the law's default
     d["adhesion"]["ramps"] = "middle"
     with pytest.raises(InputError, match="adhesion.ramps"):
         case_from_dict(d)

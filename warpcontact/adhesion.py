@@ -170,11 +170,11 @@ class Dugdale:
     replaces them by linear ramps of width smoothing x h_0, which keep w = sigma_0 h_0 exact.
     smoothing = 0 is the sharp law. ``ramps`` places them:
 
-    - "both" (default): a ramp rising from h = 0 and one falling past h_0. The law's centroid moves
+    - "both": a ramp rising from h = 0 and one falling past h_0. The law's centroid moves
       out by smoothing h_0 / 2 and the contact edge carries no tension: the pull-off moves towards
       DMT by O(smoothing) (measured in the continuum, axisymmetric rings, lambda = 2: +1.0 % at
       smoothing 0.1, +1.8 % at 0.3 from Maugis-Dugdale; bench/md_convergence.py).
-    - "centred": one ramp, falling from h_0 - smoothing h_0 / 2 to h_0 + smoothing h_0 / 2 (a
+    - "centred" (default): one ramp, falling from h_0 - smoothing h_0 / 2 to h_0 + smoothing h_0 / 2 (a
       cell's average of the sharp law where the gap varies by that much across it); the tension
       sigma_0 acts from contact on, as Maugis's (the contact cells carry tensions down to
       -sigma_0, the energy minimiser's bound). w is kept and the centroid moves by only
@@ -185,13 +185,13 @@ class Dugdale:
         sigma_0: adhesive tension [Pa].
         h_0: range [m].
         smoothing: ramp width over h_0 [-] (default 0.05).
-        ramps: "both" or "centred" (default "both").
+        ramps: "centred" (default) or "both".
     """
 
     sigma_0: float
     h_0: float
     smoothing: float = 0.05
-    ramps: str = "both"
+    ramps: str = "centred"
 
     has_shear = False
     #: the tension ends at a finite gap (range): surfaces beyond it do not interact at all, so the

@@ -529,7 +529,7 @@ class AdhesionSpec:
         sigma_0: constant attraction [Pa] (dugdale).
         h_0: range of the attraction [m] (dugdale).
         smoothing: ramp width over h_0 [-] (dugdale, optional, default 0.05; in [0, 1)).
-        ramps: "both" or "centred" (dugdale, optional, default "both"; ``warpcontact.adhesion.Dugdale``).
+        ramps: "centred" or "both" (dugdale, optional, default "centred"; ``warpcontact.adhesion.Dugdale``).
         w: work of adhesion [J/m^2] (exponential, lj93).
         rho: decay length of t = (w / rho) exp(-h / rho) [m] (exponential).
         z0: equilibrium distance of the Lennard-Jones 9-3 potential [m] (lj93).
