@@ -34,6 +34,8 @@ def test_laws_from_a_case():
     law = adhesion_law(case_from_dict(d))
     assert isinstance(law, Dugdale) and law.smoothing == 0.3
     assert case_from_dict(d).adhesion.to_dict() == d["adhesion"]  # round trip, smoothing kept
+    d = example(law="dugdale", sigma_0=1e9, h_0=5e-10, smoothing=1.3)  # the centred ramp (default) takes >= 1
+    assert adhesion_law(case_from_dict(d)).smoothing == 1.3
     d = example(law="dugdale", sigma_0=1e9, h_0=5e-10)  # smoothing left out: the law's default
     assert adhesion_law(case_from_dict(d)).smoothing == Dugdale(1e9, 5e-10).smoothing
     assert "smoothing" not in case_from_dict(d).adhesion.to_dict()
@@ -43,12 +45,16 @@ def test_laws_from_a_case():
     ({"law": "exponential", "w": 0.5}, "adhesion.rho"),  # missing length
     ({"law": "exponential", "w": 0.5, "rho": 1e-10, "z0": 1e-10}, "adhesion.z0"),  # another law's key
     ({"law": "lj93", "w": 0.5, "rho": 1e-10}, "adhesion.rho"),
-    ({"law": "dugdale", "sigma_0": 1e9, "h_0": 5e-10, "smoothing": 1.0}, "adhesion.smoothing"),
+    ({"law": "dugdale", "sigma_0": 1e9, "h_0": 5e-10, "smoothing": 2.0}, "adhesion.smoothing"),  # centred: < 2
+    ({"law": "dugdale", "sigma_0": 1e9, "h_0": 5e-10, "smoothing": 1.0, "ramps": "both"}, "adhesion.smoothing"),
     ({"law": "exponential", "w": 500.0, "rho": 1e-10}, "adhesion.w"),  # 500 J/m^2: no solids
     ({"law": "exponential", "w": 0.5, "rho": 1e-13}, "adhesion.rho"),  # peak tension 5e12 Pa > E*
     ({"law": "smc", "w": 0.5, "rho": 1e-10}, "adhesion"),
 ])
 def test_bad_keys_are_refused_by_name(adhesion, key):
+    """A missing or foreign key, a value past its bound (the centred Dugdale ramp spans
+    h_0 (1 -/+ smoothing / 2): smoothing < 2; the ramps at both ends must not overlap: < 1), a
+    law's parameters beyond any solid: refused with the key named."""
     with pytest.raises(InputError) as e:
         case_from_dict(example(**adhesion))
     assert key in str(e.value)

@@ -158,7 +158,14 @@ class SMC:
 
 
 #: where the Dugdale law's ramps go (``Dugdale.ramps``; the case file's choices, case.DUGDALE_RAMPS)
-RAMPS = ("both", "centred")
+RAMPS = ("centred", "both")
+
+
+def max_smoothing(ramps: str) -> float:
+    """The Dugdale smoothing's upper bound (exclusive) [-]: the centred ramp spans
+    h_0 (1 -/+ smoothing / 2) and must start above contact (2); the ramps at both ends must not
+    overlap (1)."""
+    return 2.0 if ramps == "centred" else 1.0
 
 
 @dataclass(frozen=True)
@@ -184,7 +191,7 @@ class Dugdale:
     Attributes:
         sigma_0: adhesive tension [Pa].
         h_0: range [m].
-        smoothing: ramp width over h_0 [-] (default 0.05).
+        smoothing: ramp width over h_0 [-] (default 0.05; below 2 centred, below 1 at both ends).
         ramps: "centred" (default) or "both".
     """
 
@@ -203,8 +210,10 @@ class Dugdale:
         _positive("adhesion.h_0", self.h_0)
         if self.ramps not in RAMPS:
             raise InputError("adhesion.ramps", f"must be one of {', '.join(map(repr, RAMPS))}, got {self.ramps!r}")
-        if not (isinstance(self.smoothing, (int, float)) and 0.0 <= self.smoothing < 1.0):
-            raise InputError("adhesion.smoothing", f"must lie in [0, 1), got {self.smoothing!r}")
+        limit = max_smoothing(self.ramps)
+        if not (isinstance(self.smoothing, (int, float)) and 0.0 <= self.smoothing < limit):
+            raise InputError("adhesion.smoothing", f"must lie in [0, {limit:g}) with ramps = {self.ramps!r}, "
+                                                   f"got {self.smoothing!r}")
 
     @property
     def centred(self) -> bool:

@@ -62,7 +62,7 @@ ADHESION_KEYS = {"smc": ("law", "sigma_max", "tau_max", "delta_n", "delta_t"),
 #: Keys a law may leave out (its default then holds): Dugdale's ramp width over h_0 and where the ramps go.
 ADHESION_OPTIONAL = {"dugdale": ("smoothing", "ramps")}
 #: Where the Dugdale law's ramps go (warpcontact.adhesion.RAMPS): both ends, or one centred on h_0.
-DUGDALE_RAMPS = ("both", "centred")
+DUGDALE_RAMPS = ("centred", "both")
 #: Every key an [adhesion] table may hold.
 ADHESION_ALL_KEYS = tuple(dict.fromkeys(k for keys in ADHESION_KEYS.values() for k in keys))
 
@@ -528,7 +528,7 @@ class AdhesionSpec:
         delta_t: tangential characteristic length [m] (smc).
         sigma_0: constant attraction [Pa] (dugdale).
         h_0: range of the attraction [m] (dugdale).
-        smoothing: ramp width over h_0 [-] (dugdale, optional, default 0.05; in [0, 1)).
+        smoothing: ramp width over h_0 [-] (dugdale, optional, default 0.05; in [0, 2) centred, [0, 1) both).
         ramps: "centred" or "both" (dugdale, optional, default "centred"; ``warpcontact.adhesion.Dugdale``).
         w: work of adhesion [J/m^2] (exponential, lj93).
         rho: decay length of t = (w / rho) exp(-h / rho) [m] (exponential).
@@ -568,9 +568,11 @@ class AdhesionSpec:
                     continue
                 raise InputError(f"adhesion.{name}", f"is required for law {law!r}")
             if name == "smoothing":
-                if isinstance(v, bool) or not isinstance(v, (int, float)) or not 0.0 <= v < 1.0:
-                    raise InputError("adhesion.smoothing", f"must be a number in [0, 1) (the ramp width over h_0), "
-                                                           f"got {v!r}")
+                ramps = self.ramps if self.ramps in DUGDALE_RAMPS else DUGDALE_RAMPS[0]
+                limit = 2.0 if ramps == "centred" else 1.0  # adhesion.max_smoothing: case loads no Warp
+                if isinstance(v, bool) or not isinstance(v, (int, float)) or not 0.0 <= v < limit:
+                    raise InputError("adhesion.smoothing", f"must be a number in [0, {limit:g}) (the ramp width over "
+                                                           f"h_0, with ramps = {ramps!r}), got {v!r}")
                 _set(self, name, float(v))
                 continue
             if name == "ramps":

@@ -77,7 +77,7 @@ VALUES = {
     "friction.hardness_cap": {"type": "boolean"},
     "adhesion.law": _enum(C.ADHESION_KEYS),
     # the laws' strengths and lengths: > 0, in the units of AdhesionSpec._UNITS (added below)
-    "adhesion.smoothing": {"type": "number", "minimum": 0, "exclusiveMaximum": 1},
+    "adhesion.smoothing": {"type": "number", "minimum": 0, "exclusiveMaximum": 2},  # below 1 with ramps = "both" (checked by the case)
     "adhesion.ramps": _enum(C.DUGDALE_RAMPS),
 }
 VALUES.update({f"adhesion.{k}": _POSITIVE for k in C.AdhesionSpec._UNITS if f"adhesion.{k}" not in VALUES})
