@@ -207,6 +207,82 @@ def test_the_model_cache_reuses_the_model_and_gives_a_fresh_models_numbers():
     batch.clear_models()
 
 
+def _cached_once(key, keep=1):
+    """The cache's model of ``key``, a stand-in (the cache holds any object; its builds are counted
+    in batch._cache_stats)."""
+    return batch.cached_model(key, lambda: ("model", key), keep)
+
+
+def test_the_cache_keeps_at_most_keep_models_the_most_recently_used():
+    """keep = 1 (sweeps, tables): another key drops the last model. keep = 3 (a fit of three
+    rows' models): the three are kept, a fourth drops the least recently used, and a later call
+    with keep = 1 (an unrelated sweep on the same worker) leaves one; never more than
+    MAX_KEPT_MODELS."""
+    batch.clear_models()
+    built = batch._cache_stats["built"]
+    for key in ("a", "b", "a"):
+        _cached_once(key)
+    assert batch._cache_stats["built"] - built == 3 and list(batch._models) == ["a"]
+    batch.clear_models()
+    built = batch._cache_stats["built"]
+    for key in ("a", "b", "c", "a", "b", "c"):
+        _cached_once(key, keep=3)
+    assert batch._cache_stats["built"] - built == 3 and list(batch._models) == ["a", "b", "c"]
+    _cached_once("a", keep=3)  # used: the most recent
+    _cached_once("d", keep=3)  # drops b, the least recently used
+    assert list(batch._models) == ["c", "a", "d"]
+    _cached_once("a", keep=1)
+    assert list(batch._models) == ["a"]
+    for i in range(batch.MAX_KEPT_MODELS + 4):
+        _cached_once(i, keep=100)
+    assert len(batch._models) == batch.MAX_KEPT_MODELS
+    batch.clear_models()
+
+
+def test_kept_models_are_dropped_and_built_again_when_the_new_one_does_not_fit():
+    """A new model refused for memory (InputError on grid.n) while others are kept: they are
+    dropped and it is built again, so keeping models never refuses a case that fits alone."""
+    batch.clear_models()
+    _cached_once("a", keep=2)
+    tries = []
+
+    def build():
+        tries.append(len(batch._models))
+        if batch._models:
+            raise InputError("grid.n", "does not fit")
+        return "b"
+
+    assert batch.cached_model("b", build, keep=2) == "b"
+    assert tries == [1, 0] and list(batch._models) == ["b"]
+    with pytest.raises(InputError):  # refused alone: the error stands
+        batch.cached_model("c", lambda: (_ for _ in ()).throw(InputError("grid.n", "does not fit")), keep=2)
+    batch.clear_models()
+
+
+def _task_on_model(key):
+    _cached_once(key, keep=2)
+    return key
+
+
+def test_a_series_of_batches_in_this_process_keeps_its_models_until_the_series_ends():
+    """The fit's batches (one per Jacobian) in this process: run_tasks(keep_models=True) inside
+    session() keeps the models from one batch to the next (two models, built once for three
+    batches); the series' end drops them. A run_tasks without keep_models drops them at its end, as
+    before (a sweep, a table)."""
+    batch.clear_models()
+    built = batch._cache_stats["built"]
+    with batch.session(Placement(workers=1), 2) as (placement, where):
+        assert placement == Placement(workers=1) and where is None
+        for _ in range(3):
+            tasks = [Task(k, k, _task_on_model, (k,), group=k) for k in ("row 1", "row 2")]
+            stats = run_tasks(tasks, lambda t, v: None, placement, keep_models=True)
+            assert list(batch._models) == ["row 1", "row 2"]
+        assert batch._cache_stats["built"] - built == 2 and stats.models_built == 0
+    assert not batch._models
+    run_tasks([Task("x", "x", _task_on_model, ("row 1",))], lambda t, v: None, Placement(workers=1))
+    assert not batch._models
+
+
 def test_errors_of_warpcontact_cross_the_process_boundary_whole():
     """InputError's two arguments do not survive pickling as an exception: call_task carries them."""
     carried = batch.call_task(raise_input_error, ("grid.n", "must be at least 8, got 4"))

@@ -107,9 +107,16 @@ def test_k_tau_recovered_from_three_gross_slip_rows_and_a_rerun_computes_nothing
     write_csv(folder / "data.csv", ["load.delta_z", "grid.size", "mu", "delta_x_max"],
               [(dz, size, repr(mu), repr(dx)) for dz, size, mu, dx in rows])
     out = tmp_path / "out"
+    from warpcontact import batch
+
+    built = batch._cache_stats["built"]
     assert main(["fit", str(fit_file), "--out", str(out), "--workers", "1"]) == 0
     err = capsys.readouterr().err
     assert "fit [iteration 1] k_tau=0.5: residual rms" in err and "fit: friction.k_tau = 0.69" in err
+    # one model per row's grid for the whole fit, though it ran a batch per Jacobian (k_tau does not
+    # change the model): a cache dropped between batches builds 3 per batch
+    assert "fit [iteration 2]" in err and batch._cache_stats["built"] - built == len(GS_ROWS)
+    assert not batch._models  # dropped at the fit's end
 
     result = json.loads((out / "fit.json").read_text())
     p = result["parameters"]["friction.k_tau"]

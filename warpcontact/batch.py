@@ -27,10 +27,14 @@ Each worker process keeps the model of its last case (:func:`cached_model`: infl
 plans and buffers, recorded launches; the compiled kernels are the process's anyway), keyed by
 materials, sphere, grid, device, float type and FFT backend, so a run of cases of one grid builds
 it once per worker and the per-case cost is the solve. Tasks are submitted grouped by that key.
+A series of batches on the same models (a fit: one batch per Jacobian, its rows on grids of their
+own) keeps one model per distinct key of its cases, at most MAX_KEPT_MODELS and a share of the RAM
+(:func:`models_to_keep`), across its batches (:func:`session`); the models go with the series.
 """
 
 from __future__ import annotations
 
+import contextlib
 import os
 import signal
 import socket
@@ -126,8 +130,17 @@ class BatchStats:
 # Worker side: the model cache, the device, the call.
 
 
-_models: OrderedDict = OrderedDict()  # this process's models by model_key: the last one
+_models: OrderedDict = OrderedDict()  # this process's models by model_key, the most recently used last
 _cache_stats = {"built": 0, "reused": 0}
+#: the most models one process keeps for a series of batches (``cached_model``'s ``keep``): a fit
+#: keeps one per distinct model of its rows (its rows' grids, say), at most this many
+MAX_KEPT_MODELS = 8
+#: share of the RAM that the models a CPU process keeps for a fit may take together [-]
+#: (``models_to_keep``; each model's influence spectra, spectral buffers and FFT work buffers, as
+#: ``resources.breakdown`` counts them). On CUDA the memory check of a new model reads the free
+#: memory, which the kept models have taken: ``cached_model`` drops them and builds again when the
+#: new model is refused for them.
+KEPT_MODELS_RAM_SHARE = 0.25
 
 
 def model_key(pair, sphere, grid, device: str, dtype: str, fft: str) -> tuple:
@@ -136,22 +149,71 @@ def model_key(pair, sphere, grid, device: str, dtype: str, fft: str) -> tuple:
     return (pair, sphere, grid, str(device), str(dtype), str(fft))
 
 
-def cached_model(key: tuple, build: Callable):
-    """The model of ``key`` (:func:`model_key`) this process built last, or ``build()``'s when it
-    holds another: that one is dropped first, so the memory check of the new one sees it freed."""
+def _drop_models(count: int) -> None:
+    """Keep this process's ``count`` most recently used models, drop the others."""
+    while len(_models) > max(0, count):
+        _models.popitem(last=False)
+
+
+def cached_model(key: tuple, build: Callable, keep: int = 1):
+    """The model of ``key`` (:func:`model_key`) when this process holds it, else ``build()``'s.
+
+    The process holds at most ``keep`` models [-] (the most recently used; at most
+    MAX_KEPT_MODELS): 1, the last case's, for a sweep or a table, whose cases come grouped by model;
+    for a fit the number of distinct models among its rows (:func:`models_to_keep`), so that each of
+    its batches (one per Jacobian) finds the models of the batch before. Those beyond ``keep`` are
+    dropped before a new one is built, so that its memory check sees them freed; a new one that the
+    memory check refuses (InputError on ``grid.n``) while other models are held is built again after
+    they are dropped."""
+    keep = max(1, min(int(keep), MAX_KEPT_MODELS))
     model = _models.get(key)
     if model is not None:
+        _models.move_to_end(key)
+        _drop_models(keep)
         _cache_stats["reused"] += 1
         return model
-    _models.clear()
-    model = build()
+    _drop_models(keep - 1)
+    try:
+        model = build()
+    except Exception as e:
+        from .errors import InputError
+
+        if not (isinstance(e, InputError) and e.key == "grid.n" and _models):
+            raise
+        _models.clear()  # refused for the memory the kept models hold: they go, the new one is tried again
+        model = build()
     _models[key] = model
     _cache_stats["built"] += 1
     return model
 
 
+def models_to_keep(cases) -> int:
+    """How many models [-] a process keeps across a series of batches of ``cases`` (a fit's cases at
+    one point: one per data row): the number of distinct models among them (:func:`model_key`), at
+    most MAX_KEPT_MODELS and, on the CPU, as many of the largest as fit together in
+    KEPT_MODELS_RAM_SHARE of the RAM (at least 1: the case's own, as without keeping)."""
+    from .resources import breakdown, host_memory_bytes
+
+    sizes = {}
+    for c in cases:
+        s = c.solver
+        key = model_key(c.pair, c.sphere, c.grid, s.device, s.dtype, s.fft)
+        if key not in sizes:
+            if str(s.device) == "cpu":
+                b = breakdown(c.grid.n, s.dtype, "cpu", c.friction is not None, s.fft, adhesion=c.adhesion is not None)
+                sizes[key] = b["spectra"] + b["fft_work"]
+            else:
+                sizes[key] = 0  # CUDA: bounded by cached_model's retry on a refusal (see KEPT_MODELS_RAM_SHARE)
+    keep = min(len(sizes), MAX_KEPT_MODELS)
+    ram = host_memory_bytes()
+    largest = sorted(sizes.values(), reverse=True)
+    while keep > 1 and ram and sum(largest[:keep]) > KEPT_MODELS_RAM_SHARE * ram:
+        keep -= 1
+    return max(1, keep)
+
+
 def clear_models() -> None:
-    """Drop the models this process keeps (the end of a run in this process)."""
+    """Drop the models this process keeps (the end of a run in this process, or of a fit)."""
     _models.clear()
 
 
@@ -391,7 +453,7 @@ def _grouped(tasks: list) -> list:
 
 def run_tasks(tasks, on_result: Callable, placement: Placement | None = None, progress=None,
               failed: Callable | None = None, on_error: Callable | None = None,
-              on_state: Callable | None = None, before: int = 0) -> BatchStats:
+              on_state: Callable | None = None, before: int = 0, keep_models: bool = False) -> BatchStats:
     """Run ``tasks`` (:class:`Task`) where ``placement`` says; hand each value back as it arrives.
 
     Args:
@@ -409,6 +471,9 @@ def run_tasks(tasks, on_result: Callable, placement: Placement | None = None, pr
         on_state: ``on_state(task, *state_args)`` for the states of a case run in this process
             (passed to its function as ``on_state``).
         before: cases finished by an earlier run (counted in the progress line).
+        keep_models: in this process, keep the models after the run (one of a series of batches on
+            the same models, inside :func:`session`, which drops them at its end); by default they
+            are dropped at the end of the run. Workers keep theirs either way (``cached_model``).
 
     Returns:
         :class:`BatchStats`.
@@ -467,7 +532,8 @@ def run_tasks(tasks, on_result: Callable, placement: Placement | None = None, pr
                 show()
         finally:
             stats.models_built = _cache_stats["built"] - built
-            clear_models()
+            if not keep_models:
+                clear_models()
         stats.wall_s = time.perf_counter() - t0
         stats.task_s = sum(stats.task_times)
         return stats
@@ -526,5 +592,30 @@ def run_tasks(tasks, on_result: Callable, placement: Placement | None = None, pr
     return stats
 
 
+@contextlib.contextmanager
+def session(placement: Placement, pending: int):
+    """Where a series of batches runs on the same workers and models (a fit: one batch per
+    Jacobian). Yields (the placement to give each batch's :func:`run_tasks`, a description of where
+    they run or None when each batch says it). Without a scheduler and for more than one worker
+    (``pending``: the cases of the first batch), a local cluster is started once for the series and
+    given to each batch by its address (:func:`run_tasks` would start one per batch: the workers'
+    start and their models would be paid at every batch); it ends with the series. In this process
+    (one worker) the models that the batches keep (``run_tasks(..., keep_models=True)``) are dropped
+    at the end of the series, as at the end of a single run."""
+    if placement.scheduler is not None or placement.in_process(pending):
+        try:
+            yield placement, None
+        finally:
+            clear_models()
+        return
+    cluster = _Cluster(placement, pending)
+    finished = False
+    try:
+        yield Placement(scheduler=cluster.cluster.scheduler_address, device=placement.device), cluster.where
+        finished = True
+    finally:
+        cluster.close(finished=finished)
+
+
 __all__ = ["BatchStats", "LostTask", "Placement", "Task", "Tally", "cached_model", "call_task", "clear_models",
-           "model_key", "run_tasks", "worker_device", "worker_environments"]
+           "model_key", "models_to_keep", "run_tasks", "session", "worker_device", "worker_environments"]

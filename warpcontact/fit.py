@@ -39,7 +39,6 @@ naming the key (``fit.friction.k_tau.min``, ``run.task``) or the CSV line (``dat
 
 from __future__ import annotations
 
-import contextlib
 import copy
 import csv
 import difflib
@@ -60,8 +59,9 @@ from . import interrupts
 from ._version import __version__
 from .case import Case, case_from_dict, read_toml
 from .errors import InputError, OutputError
-from .sweep import CASE_SCHEMA, DOTTED_KEYS, TASKS, SweepCase, _base_from, _check_task, _flatten, _jsonable, \
-    _short_float, _substitute
+from .sweep import (CASE_SCHEMA, DOTTED_KEYS, SweepCase, base_case, check_task, flatten, jsonable, short_float,
+                    substitute)
+from .tasks import TASKS
 
 #: Tables of a fit file.
 FIT_TABLES = ("base", "data", "fit", "run")
@@ -455,7 +455,7 @@ def _row_case(fit_base: dict, row: Row, values: Mapping, overrides: Mapping, dat
     with the row's conditions and the values put in, through case_from_dict)."""
     params = {**row.conditions, **{k: float(v) for k, v in values.items()}}
     try:
-        case = case_from_dict(_substitute(fit_base, params))
+        case = case_from_dict(substitute(fit_base, params))
         return case.with_overrides(**overrides)
     except InputError as e:
         if e.key in row.conditions:
@@ -482,7 +482,7 @@ def fit_from_dict(data: Mapping, source: str | PathLike | None = None, device: s
         if k not in FIT_TABLES:
             raise InputError(str(k), f"unknown table; {_near(k, FIT_TABLES)}a fit file has {', '.join(FIT_TABLES)}")
     src = Path(source) if source is not None else None
-    base = _base_from(data, src)
+    base = base_case(data, src)
     run = _run_settings(data, base)
     task = run["task"]
 
@@ -531,7 +531,7 @@ def fit_from_dict(data: Mapping, source: str | PathLike | None = None, device: s
             case = _row_case(base_dict, row, values, overrides, data_path.name)
             if values is start:
                 label = f"{data_path.name} line {row.line}"
-                _check_task(SweepCase(0, {**row.conditions, **values}, "", label, case), task)
+                check_task(SweepCase(0, {**row.conditions, **values}, "", label, case), task)
     return Fit(base=base, parameters=tuple(parameters), rows=rows, outputs=outputs, columns=columns,
                conditions=conditions, task=task, rel_tol=run["rel_tol"], weighted=weighted,
                rescale_stderr=run["rescale_stderr"] if run["rescale_stderr"] is not None else not weighted,
@@ -648,7 +648,7 @@ class EvaluationFailed(RuntimeError):
 
 def evaluation_identity(task: str, rel_tol: float, case: Case) -> dict:
     """What a cached evaluation must match: the task, the bracket (gross-slip) and the case."""
-    ident = {"task": task, "case": _jsonable(case.to_dict())}
+    ident = {"task": task, "case": jsonable(case.to_dict())}
     if task == "gross-slip":
         ident["rel_tol"] = rel_tol
     return ident
@@ -688,16 +688,20 @@ class _Evaluator:
     def outcomes(self, points: list) -> list:
         """For each point (parameter key -> value), each row's outcome (summary or error), in row
         order; the missing ones computed together, each written as it finishes."""
-        from .batch import Task, model_key, run_tasks
+        from .batch import Task, model_key, models_to_keep, run_tasks
         from .results import atomic_write_json
         from .sweep import run_case
 
         fit = self.fit
         plan, tasks, pending = [], [], {}
-        for values in points:
+        cases = [[_row_case(fit.base_dict, row, values, fit.overrides, self.data_name) for row in fit.rows]
+                 for values in points]
+        # the models of one point's rows, kept by each process across the fit's batches (the next
+        # Jacobian's cases differ from these in the fitted values only)
+        keep = max(models_to_keep(row_cases) for row_cases in cases) if cases else 1
+        for values, row_cases in zip(points, cases):
             hashes = []
-            for row in fit.rows:
-                case = _row_case(fit.base_dict, row, values, fit.overrides, self.data_name)
+            for row, case in zip(fit.rows, row_cases):
                 ident = evaluation_identity(fit.task, fit.rel_tol, case)
                 h = evaluation_hash(ident)
                 hashes.append(h)
@@ -707,7 +711,7 @@ class _Evaluator:
                     continue
                 s = case.solver
                 pending[h] = (ident, row, values)
-                tasks.append(Task(h, f"line {row.line} {_show(values)}", run_case, (fit.task, fit.rel_tol, case),
+                tasks.append(Task(h, f"line {row.line} {_show(values)}", run_case, (fit.task, fit.rel_tol, case, keep),
                                   model_key(case.pair, case.sphere, case.grid, s.device, s.dtype, s.fft)))
             plan.append(hashes)
 
@@ -741,7 +745,7 @@ class _Evaluator:
                 from .results import output_error
 
                 raise output_error(self.folder, e, "create the folder") from None
-            stats = run_tasks(tasks, on_result, self.placement, on_error=on_error)
+            stats = run_tasks(tasks, on_result, self.placement, on_error=on_error, keep_models=True)
             self.batches.append(stats)
             self.compute_s += time.perf_counter() - t0
         return [[self.memory[h] for h in hashes] for hashes in plan]
@@ -760,7 +764,7 @@ class _Evaluator:
                 if rec.get("status") != "ok":
                     raise EvaluationFailed(f"{where} did not converge (a state of its path); see {self.folder}")
                 flat = {}
-                _flatten("", rec["summary"], flat)
+                flatten("", rec["summary"], flat)
                 for j, o in enumerate(fit.outputs):
                     v = flat.get(o)
                     if v is None or isinstance(v, bool) or not isinstance(v, numbers.Real):
@@ -830,26 +834,6 @@ def _values(fit: Fit, u) -> dict:
     return {p.key: p.from_unit(ui) for p, ui in zip(fit.parameters, u)}
 
 
-@contextlib.contextmanager
-def _engine(placement, pending: int):
-    """Where the fit's batches run, and the words for it (None: as each batch says). A local
-    cluster is started once for the whole fit (run_tasks would start one per batch: the workers'
-    start and their models would be paid at every optimiser step) and given to each batch by its
-    address; it ends with the fit."""
-    from .batch import Placement, _Cluster
-
-    if placement.scheduler is not None or placement.in_process(pending):
-        yield placement, None
-        return
-    cluster = _Cluster(placement, pending)
-    finished = False
-    try:
-        yield Placement(scheduler=cluster.cluster.scheduler_address, device=placement.device), cluster.where
-        finished = True
-    finally:
-        cluster.close(finished=finished)
-
-
 def _fmt(v) -> str:
     return "inf" if v is None or not math.isfinite(v) else f"{v:.4g}"
 
@@ -868,7 +852,7 @@ def run_fit(fit: Fit, out: str | PathLike, quiet: bool = False, log=None, placem
     """
     from scipy.optimize import least_squares
 
-    from .batch import Placement
+    from .batch import Placement, session
     from .results import atomic_write_json, output_error
 
     log = sys.stderr if log is None else log
@@ -936,7 +920,7 @@ def run_fit(fit: Fit, out: str | PathLike, quiet: bool = False, log=None, placem
 
     result = None
     try:
-        with _engine(placement, pending) as (where, where_text):
+        with session(placement, pending) as (where, where_text):
             ev = _Evaluator(fit, out, where, where_text)
             # the trust-region subproblem in a 2-D subspace (lsmr), the variables scaled by the Jacobian's
             # columns: where the data cannot see a parameter (a zero column), 'exact' shrank the trust
@@ -1020,9 +1004,9 @@ def _result(fit, ls, u, J, values, y_fit, y_start, data, weights, residuals_of, 
             why = ("the outputs do not change with it over the difference step (a singular J^T J)"
                    if not math.isfinite(stderr) else f"its relative stderr is {rel:.3g} > {UNIDENTIFIED_REL_STDERR:g}")
             report.warnings.append(f"fit.{p.key}: the data do not fix this parameter ({why}); its value "
-                                   f"{_short_float(v)} is where the optimiser stopped, not a measurement")
+                                   f"{short_float(v)} is where the optimiser stopped, not a measurement")
         if at is not None:
-            report.warnings.append(f"fit.{p.key}: the fit ended on its {at} = {_short_float(getattr(p, at))}; "
+            report.warnings.append(f"fit.{p.key}: the fit ended on its {at} = {short_float(getattr(p, at))}; "
                                    "widen the bounds if the data allow it (the stderr is that of the linearised "
                                    "model there)")
         params[p.key] = entry
@@ -1093,7 +1077,7 @@ def _toml_value(v) -> str:
             return "nan"
         if math.isinf(v):
             return "inf" if v > 0 else "-inf"
-        text = _short_float(v)
+        text = short_float(v)
         return text if any(c in text for c in ".en") else text + ".0"
     if isinstance(v, str):
         return json.dumps(v)
@@ -1134,7 +1118,7 @@ def _write_outputs(fit: Fit, out: Path, result: dict) -> None:
     case_from_dict(d)  # the fitted case passes the case checks (the bounds were checked on every row)
     lines = [f"# The base case of {fit.source or 'a fit'} with the fitted values (warpcontact fit; fit.json):"]
     for k, e in result["parameters"].items():
-        lines.append(f"#   {k} = {_short_float(e['value'])} +- {_fmt(e['stderr'])}"
+        lines.append(f"#   {k} = {short_float(e['value'])} +- {_fmt(e['stderr'])}"
                      + ("" if e["identified"] else "  (NOT fixed by the data)"))
     lines.append(f"# residual rms {result['residual_rms']:.4g}; converged: {str(result['converged']).lower()}")
     atomic_write_bytes(out / "fitted.toml", case_toml(d, "\n".join(lines)).encode())

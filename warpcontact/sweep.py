@@ -132,8 +132,9 @@ class Sweep:
     scheduler: str | None = None
 
 
-def _jsonable(x):
-    """x as it reads back from JSON (tuples become lists), for comparing with stored records."""
+def jsonable(x):
+    """``x`` as it reads back from JSON (tuples become lists; numbers keep their units), for
+    comparing a case or its parameters with a stored record (a sweep's case, a fit's evaluation)."""
     return json.loads(json.dumps(x, allow_nan=True))
 
 
@@ -144,8 +145,10 @@ def case_id(params: Mapping) -> str:
     return hashlib.sha256(text.encode()).hexdigest()[:12]
 
 
-def _short_float(v: float) -> str:
-    """The shorter of repr and the shortest exact exponent form: 1e8 (not 100000000.0), 6.708e-8, 0.8."""
+def short_float(v: float) -> str:
+    """``v`` as the shorter of repr and the shortest exact exponent form: 1e8 (not 100000000.0),
+    6.708e-8, 0.8; the value reads back exactly (units: those of ``v``, unchanged). Labels of sweep
+    cases, a fit's parameters in its messages and fitted.toml."""
     r = repr(v)
     if v == 0 or v != v or v in (float("inf"), float("-inf")):
         return r
@@ -162,7 +165,7 @@ def _show_value(v) -> str:
     if isinstance(v, bool):
         return "true" if v else "false"
     if isinstance(v, float):
-        return _short_float(v)
+        return short_float(v)
     if isinstance(v, (str, numbers.Number)):
         return str(v)
     return json.dumps(v, separators=(",", ":"))
@@ -219,7 +222,10 @@ def _check_values(key: str, v) -> list:
     return list(v)
 
 
-def _base_from(data: Mapping, source: Path | None) -> Case:
+def base_case(data: Mapping, source: Path | None) -> Case:
+    """The base case of a sweep or fit file (SI units): ``data["base"]``, a table holding a whole case
+    or the path of a case file (relative to ``source``, the file's own path, when given). InputError
+    naming ``base`` (or ``base.<key>``, or the key in the base case file) when it is missing or wrong."""
     if "base" not in data:
         raise InputError("base", 'is required: a [base] table holding a whole case, or base = "case.toml" '
                                  "(relative to the sweep file)")
@@ -272,9 +278,10 @@ def _run_scheduler(data: Mapping) -> str | None:
     return v.strip()
 
 
-def _substitute(base: dict, params: Mapping) -> dict:
-    """The base case dict with the swept values put in (an explicit load.path replaces the default
-    path's keys, and the reverse)."""
+def substitute(base: dict, params: Mapping) -> dict:
+    """A copy of the case dict ``base`` with ``params`` (dotted case key -> value, in the case file's
+    SI units: "friction.k_tau", "load.delta_z" [m]) put in: a sweep's combination, a fit's row at a
+    point. An explicit ``load.path`` replaces the default path's keys, and the reverse."""
     d = copy.deepcopy(base)
     swept = {tuple(k.split(".", 1)) for k in params}
     load = d.get("load", {})
@@ -296,14 +303,16 @@ def _build_case(base_dict: dict, params: Mapping, label: str, overrides: Mapping
         return InputError(key, f"{e.problem} (in the sweep case {label})")
 
     try:
-        case = case_from_dict(_substitute(base_dict, params))
+        case = case_from_dict(substitute(base_dict, params))
         return case.with_overrides(**overrides)
     except InputError as e:
         raise wrap(e) from None
 
 
-def _check_task(sc: SweepCase, task: str) -> None:
-    """What the task needs of each case, checked before anything runs."""
+def check_task(sc: SweepCase, task: str) -> None:
+    """What ``task`` (one of TASKS) needs of the case ``sc``, checked before anything runs: a
+    [friction] table and a positive deepest delta_z [m] for "gross-slip", an [adhesion] table for
+    "pull-off". InputError naming ``run.task`` (or the swept ``sweep.load.delta_z``) and the case."""
     from .runner import adhesion_law, friction_law
 
     where = f" (in the sweep case {sc.label})"
@@ -347,7 +356,7 @@ def sweep_from_dict(data: Mapping, source: str | PathLike | None = None, device:
             what = "a case table belongs inside [base]; " if k in CASE_SCHEMA else ""
             raise InputError(str(k), f"unknown {'table' if isinstance(data[k], Mapping) else 'key'} of a sweep file; "
                                      f"{what}{hint}expected {', '.join(SWEEP_TABLES)}")
-    base = _base_from(data, src)
+    base = base_case(data, src)
     if "sweep" not in data:
         raise InputError("sweep", 'is required: a [sweep] table of dotted case keys and lists, e.g. '
                                   '"friction.k_tau" = [0.5, 0.8]')
@@ -374,11 +383,11 @@ def sweep_from_dict(data: Mapping, source: str | PathLike | None = None, device:
 
     cases = []
     for index, combo in enumerate(itertools.product(*values)):
-        params = _jsonable(dict(zip(keys, combo)))
+        params = jsonable(dict(zip(keys, combo)))
         label = case_label(params)
         case = _build_case(base_dict, params, label, overrides)
         sc = SweepCase(index=index, params=params, id=case_id(params), label=label, case=case)
-        _check_task(sc, task)
+        check_task(sc, task)
         cases.append(sc)
     return Sweep(base=base, keys=tuple(keys), values=tuple(values), task=task, rel_tol=rel_tol, cases=tuple(cases),
                  source=str(src) if src is not None else None, scheduler=_run_scheduler(data))
@@ -447,7 +456,7 @@ def _record_path(out: Path, sc: SweepCase) -> Path:
 
 def _identity(sweep: Sweep, sc: SweepCase) -> dict:
     """What a stored record must match to be reused."""
-    ident = {"params": sc.params, "task": sweep.task, "case": _jsonable(sc.case.to_dict())}
+    ident = {"params": sc.params, "task": sweep.task, "case": jsonable(sc.case.to_dict())}
     if sweep.task == "gross-slip":
         ident["rel_tol"] = sweep.rel_tol
     return ident
@@ -466,14 +475,16 @@ def finished_record(out: str | PathLike, sweep: Sweep, sc: SweepCase) -> dict | 
     return rec if all(rec.get(k) == v for k, v in ident.items()) else None
 
 
-def run_case(task: str, rel_tol: float, case: Case, on_state=None) -> dict:
+def run_case(task: str, rel_tol: float, case: Case, keep_models: int = 1, on_state=None) -> dict:
     """One case of a sweep where the batch engine runs it (a worker, or this process): its outcome,
     ``summary`` or ``error`` (a case that raised InputError, NonFiniteError or ConvergenceError),
     ``warnings`` (their messages) and ``elapsed_s`` [s]. The model comes from the process's cache
     (:func:`warpcontact.batch.cached_model`): a case of the last case's grid reuses it. On a worker
     pinned to a GPU a CUDA case runs on that GPU. ``on_state(index, total or None, summary)``
-    follows its states. An InputError about the machine (device, FFT, dtype) is raised: it stops
-    the sweep; KeyboardInterrupt propagates (nothing is recorded)."""
+    follows its states. ``keep_models``: the models the process keeps [-] (``cached_model``'s
+    ``keep``: 1 for a sweep; a fit's :func:`~warpcontact.batch.models_to_keep`). An InputError about
+    the machine (device, FFT, dtype) is raised: it stops the sweep; KeyboardInterrupt propagates
+    (nothing is recorded)."""
     from .batch import cached_model, model_key, worker_device
     from .runner import build_model
     from .tasks import run_task
@@ -488,7 +499,7 @@ def run_case(task: str, rel_tol: float, case: Case, on_state=None) -> dict:
         try:
             s = case.solver
             model = cached_model(model_key(case.pair, case.sphere, case.grid, s.device, s.dtype, s.fft),
-                                 lambda: build_model(case))
+                                 lambda: build_model(case), keep=keep_models)
             summary = run_task(task, rel_tol, case, on_state or (lambda *a: None), model)
         except InputError as e:
             if e.key in _SETUP_KEYS:
@@ -512,10 +523,13 @@ def _csv_cell(v):
     return v
 
 
-def _flatten(prefix: str, v, out: dict) -> None:
+def flatten(prefix: str, v, out: dict) -> None:
+    """Put the values of the nested summary ``v`` into ``out`` under flat names, the keys joined with
+    '_' after ``prefix`` (force {"x": ...} -> force_x): a sweep.csv row, a fit's output names.
+    Values keep their units (the summary's SI units: N, m, Pa)."""
     if isinstance(v, Mapping):
         for k, w in v.items():
-            _flatten(f"{prefix}_{k}" if prefix else str(k), w, out)
+            flatten(f"{prefix}_{k}" if prefix else str(k), w, out)
     else:
         out[prefix] = v
 
@@ -530,7 +544,7 @@ def csv_text(sweep: Sweep, records: list) -> str:
         row = {k: _csv_cell(r["params"].get(k)) for k in sweep.keys}
         row.update(id=r["id"], label=r["label"], status=r["status"], converged=r["converged"])
         flat = {}
-        _flatten("", {k: v for k, v in (r.get("summary") or {}).items() if k not in ("converged", "note")}, flat)
+        flatten("", {k: v for k, v in (r.get("summary") or {}).items() if k not in ("converged", "note")}, flat)
         for k, v in flat.items():
             row[k] = _csv_cell(v)
             columns.setdefault(k, None)
@@ -737,12 +751,18 @@ __all__ = [
     "Sweep",
     "SweepCase",
     "SweepReport",
+    "base_case",
     "case_id",
     "case_label",
+    "check_task",
     "csv_text",
     "finished_record",
+    "flatten",
+    "jsonable",
     "load_sweep",
     "run_case",
     "run_sweep",
+    "short_float",
+    "substitute",
     "sweep_from_dict",
 ]
