@@ -168,7 +168,9 @@ def run_task(task: str, rel_tol: float, case: Case, on_state, model=None) -> dic
     from .runner import run_path
     from .stress import yield_keys
 
-    result = run_path(case, on_state=lambda k, total, s, res: on_state(k, total, s), model=model)
+    # the row needs the summaries (reduced on the device) and the last state's yield check alone:
+    # no field is kept on the host
+    result = run_path(case, on_state=lambda k, total, s, res: on_state(k, total, s), model=model, fields="none")
     if result.interrupted:  # run_path keeps what finished; a sweep records whole cases only
         raise KeyboardInterrupt
     summary = dict(result.states[-1])
