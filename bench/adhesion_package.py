@@ -49,7 +49,7 @@ CHECK_GAPS = (0.0, 1.0, 3.0)
 #: both tractions are w / rho exp(-h / rho) in float64; ours is evaluated in scaled units (h / dx,
 #: t / E*) and scaled back: a few ulps apart
 TRACTION_RTOL = 1e-12
-#: refinement substeps, as warpcontact.approach_retract.REFINE_SUBSTEPS (checked in the ours worker)
+#: refinement substeps, as warpcontact.studies.approach_retract.REFINE_SUBSTEPS (checked in the ours worker)
 SUBSTEPS = 8
 #: Maugis-Dugdale at lambda = 1.127 mu (docs/validation.md, the exponential law's mapping) for mu = 3
 MD_AT_TABOR_3 = -1.513
@@ -62,10 +62,10 @@ def worker_ours(a) -> dict:
     import warp as wp
     from warpcontact.kernels import adhesive as ak
 
-    from warpcontact import approach_retract as ar
+    from warpcontact.studies import approach_retract as ar
     from warpcontact.api import run_pull_off
-    from warpcontact.case import load_case
-    from warpcontact.runner import build
+    from warpcontact.records.case import load_case
+    from warpcontact.studies.runner import build
 
     assert ar.REFINE_SUBSTEPS == SUBSTEPS, "the refinement of theirs follows ours: update SUBSTEPS"
     case = load_case(a.case)

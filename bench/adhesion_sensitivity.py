@@ -52,7 +52,7 @@ def _run_cell(job):
     """One Table 2 cell in a worker process: (k_tau, delta_z_um, adhesion, sigma_max, delta_n, n, size_in_a)."""
     k, dz, adh, sigma, dn, n, size_in_a = job
     os.environ.setdefault("OMP_NUM_THREADS", "1")
-    from warpcontact.table2 import Table2Settings, table2_cell
+    from warpcontact.studies.table2 import Table2Settings, table2_cell
 
     settings = Table2Settings(n=n, size_in_a=size_in_a, fft="scipy",
                               **({"sigma_max": sigma, "tau_max": sigma, "delta_n": dn, "delta_t": dn} if adh else {}))
@@ -66,7 +66,7 @@ def _run_cell(job):
 
 def _cost(job):
     """Relative cost of a cell: its grid's cell count (the tail-holding domain of adhesive cells)."""
-    from warpcontact.table2 import Table2Settings, cell_grid
+    from warpcontact.studies.table2 import Table2Settings, cell_grid
 
     k, dz, adh, sigma, dn, n, size_in_a = job
     if not adh:
@@ -80,13 +80,13 @@ def _warm_up():
     import warp as wp
 
     wp.config.quiet = True
-    from warpcontact.adhesion import SMC
-    from warpcontact.friction import TaborVonMises
-    from warpcontact.geometry import Grid, Sphere
-    from warpcontact.materials import PAPER_PAIR
-    from warpcontact.model import ContactModel
+    from warpcontact.physics.adhesion import SMC
+    from warpcontact.physics.friction import TaborVonMises
+    from warpcontact.physics.geometry import Grid, Sphere
+    from warpcontact.physics.materials import PAPER_PAIR
+    from warpcontact.numerics.model import ContactModel
     from warpcontact.solvers.contact import ContactSolver
-    from warpcontact.state import ContactState
+    from warpcontact.numerics.state import ContactState
 
     model = ContactModel(PAPER_PAIR, Sphere(10e-6), Grid(16, 1e-7), fft="scipy")
     solver = ContactSolver(model, TaborVonMises(0.8, 200e6), adhesion=SMC(2e7, 2e7, 5e-12, 5e-12))
@@ -94,7 +94,7 @@ def _warm_up():
 
 
 def run(out: Path, workers: int, n: int, size_in_a: float, sigmas, deltas):
-    from warpcontact.table2 import K_TAU, DELTA_Z_UM
+    from warpcontact.studies.table2 import K_TAU, DELTA_Z_UM
 
     out.mkdir(parents=True, exist_ok=True)
     path = out / "cells.jsonl"
@@ -244,7 +244,7 @@ def plot(records, paper, path: Path):
 
 
 def report(out: Path):
-    from warpcontact.table2 import paper_table
+    from warpcontact.studies.table2 import paper_table
 
     records = load(out)
     paper = paper_table()

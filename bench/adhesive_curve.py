@@ -11,14 +11,14 @@ import sys
 import time
 
 import numpy as np
-from warpcontact.adhesion import Dugdale, SMC
-from warpcontact.geometry import Grid, Sphere
-from warpcontact.materials import PAPER_PAIR
-from warpcontact.model import ContactModel
-from warpcontact.state import ContactState
+from warpcontact.physics.adhesion import Dugdale, SMC
+from warpcontact.physics.geometry import Grid, Sphere
+from warpcontact.physics.materials import PAPER_PAIR
+from warpcontact.numerics.model import ContactModel
+from warpcontact.numerics.state import ContactState
 from warpcontact.solvers.adhesive import AdhesiveNormalSolver
-from warpcontact.reference import maugis_dugdale_force_at, maugis_dugdale_pull_off, maugis_dugdale_scales
-from warpcontact.adhesion import cell_softening
+from warpcontact.physics.reference import maugis_dugdale_force_at, maugis_dugdale_pull_off, maugis_dugdale_scales
+from warpcontact.physics.adhesion import cell_softening
 lam, n = float(sys.argv[1]), int(sys.argv[2]); dtype = sys.argv[3] if len(sys.argv) > 3 else "float64"
 smoothing = float(sys.argv[4]) if len(sys.argv) > 4 else 0.05
 device = sys.argv[5] if len(sys.argv) > 5 else "cpu"

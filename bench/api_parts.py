@@ -40,8 +40,8 @@ def main():
     import scaling
 
     import warpcontact as wc
-    import warpcontact.runner as runner
-    from warpcontact.case import case_from_dict
+    import warpcontact.studies.runner as runner
+    from warpcontact.records.case import case_from_dict
 
     device = wp.get_device(a.device)
     spent = defaultdict(float)
@@ -61,7 +61,7 @@ def main():
     runner.build = timed("build", originals["build"])
     runner.state_summary = timed("summary", originals["state_summary"])
     runner.state_fields = timed("fields", originals["state_fields"])
-    import warpcontact.stress as stress
+    import warpcontact.numerics.stress as stress
 
     stress_yield = stress.yield_check
     stress.yield_check = timed("yield check", stress_yield)

@@ -7,7 +7,7 @@
 
 The sweep: frictionless Hertz solves of examples/hertz.toml (one state each) at ``--cases``
 approaches between 0.8e-10 and 1.0e-10 m on one grid, so every case after a worker's first reuses
-its model (warpcontact.batch.cached_model). Each placement (this process; a local cluster of 1
+its model (warpcontact.studies.batch.cached_model). Each placement (this process; a local cluster of 1
 worker; of 2 workers) runs the same sweep into a fresh folder, and reports:
 
 - start: starting the local cluster [s] (0 in this process);
@@ -48,8 +48,8 @@ def sweep_file(folder: Path, cases: int, n: int, device: str) -> Path:
 
 
 def run_placement(path: Path, workers: int | None, in_process: bool) -> dict:
-    from warpcontact.batch import Placement
-    from warpcontact.sweep import load_sweep, run_sweep
+    from warpcontact.studies.batch import Placement
+    from warpcontact.studies.sweep import load_sweep, run_sweep
 
     sweep = load_sweep(path)
     out = Path(tempfile.mkdtemp(prefix="batch_overhead_"))
@@ -76,8 +76,8 @@ def _one_worker_cluster(sweep, out):
     """A sweep on a local cluster of one worker process (Placement(workers=1) runs in this process)."""
     from distributed import LocalCluster
 
-    from warpcontact.batch import Placement
-    from warpcontact.sweep import run_sweep
+    from warpcontact.studies.batch import Placement
+    from warpcontact.studies.sweep import run_sweep
 
     with LocalCluster(n_workers=1, threads_per_worker=1, processes=True, dashboard_address=None,
                       host="127.0.0.1", memory_limit=0) as cluster:
@@ -86,7 +86,7 @@ def _one_worker_cluster(sweep, out):
 
 def fresh_model_ms(path: Path, count: int = 5) -> float:
     from warpcontact import api
-    from warpcontact.sweep import load_sweep
+    from warpcontact.studies.sweep import load_sweep
 
     times = []
     for sc in load_sweep(path).cases[:count]:

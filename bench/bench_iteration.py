@@ -46,16 +46,16 @@ import time
 
 import warp as wp
 
-from warpcontact import resources
-from warpcontact.adhesion import SMC
-from warpcontact.friction import TaborVonMises
-from warpcontact.geometry import Grid, Sphere
-from warpcontact.materials import PAPER_PAIR
-from warpcontact.model import ContactModel
-from warpcontact.slip_search import estimate_delta_x_max
+from warpcontact.numerics import resources
+from warpcontact.physics.adhesion import SMC
+from warpcontact.physics.friction import TaborVonMises
+from warpcontact.physics.geometry import Grid, Sphere
+from warpcontact.physics.materials import PAPER_PAIR
+from warpcontact.numerics.model import ContactModel
+from warpcontact.studies.slip_search import estimate_delta_x_max
 from warpcontact.solvers import NormalSolver
 from warpcontact.solvers.contact import ContactSolver
-from warpcontact.state import ContactState
+from warpcontact.numerics.state import ContactState
 
 R, DZ = 10e-6, 1.0e-10
 A = math.sqrt(R * DZ)

@@ -16,13 +16,13 @@ from __future__ import annotations
 import argparse
 import time
 
-from warpcontact.friction import TaborVonMises
-from warpcontact.geometry import Sphere
-from warpcontact.materials import PAPER_PAIR
-from warpcontact.model import ContactModel
-from warpcontact.slip_search import find_gross_slip
+from warpcontact.physics.friction import TaborVonMises
+from warpcontact.physics.geometry import Sphere
+from warpcontact.physics.materials import PAPER_PAIR
+from warpcontact.numerics.model import ContactModel
+from warpcontact.studies.slip_search import find_gross_slip
 from warpcontact.solvers.contact import ContactSolver
-from warpcontact.table2 import RADIUS, UM, Table2Settings, cell_grid
+from warpcontact.studies.table2 import RADIUS, UM, Table2Settings, cell_grid
 
 
 def run(k_tau, dz_um, settings, lagged: bool):

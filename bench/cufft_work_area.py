@@ -11,7 +11,7 @@ cuFFT use Bluestein's algorithm, whose buffers are several spectra (measured: up
 import warp as wp
 
 from warpcontact.fft.cupy_backend import CupyFFT
-from warpcontact.resources import cufft_work_spectra
+from warpcontact.numerics.resources import cufft_work_spectra
 
 SIZES = (64, 127, 128, 131, 200, 251, 257, 509, 521, 1000, 1021, 1100, 1300, 2039, 2048, 3001, 4001, 4097, 6000, 8191)
 

@@ -20,12 +20,12 @@ import time
 
 import numpy as np
 
-from warpcontact.adhesion import SMC, Exponential, LennardJones93, cell_softening
-from warpcontact.geometry import Grid, Sphere
-from warpcontact.materials import PAPER_PAIR
-from warpcontact.model import ContactModel
+from warpcontact.physics.adhesion import SMC, Exponential, LennardJones93, cell_softening
+from warpcontact.physics.geometry import Grid, Sphere
+from warpcontact.physics.materials import PAPER_PAIR
+from warpcontact.numerics.model import ContactModel
 from warpcontact.solvers.adhesive import AdhesiveNormalSolver
-from warpcontact.state import ContactState
+from warpcontact.numerics.state import ContactState
 
 R, W = 1e-6, 0.5
 

@@ -6,7 +6,7 @@
 
 The Dugdale law at Maugis parameter lambda (R = 1 um, w = 0.5 J/m^2, the paper's pair, float64,
 CPU), domain DOMAIN x a0 (a0: JKR's contact radius at zero load) on n x n cells, through
-``warpcontact.approach_retract`` with the refined pull-off. ``--path cli`` is ``warpcontact
+``warpcontact.studies.approach_retract`` with the refined pull-off. ``--path cli`` is ``warpcontact
 pull-off``'s default path (20 steps each way from -2 ranges to delta_z = 2 h_0 and back to
 -4 ranges, extended until the contact breaks); ``--path test`` the tests' (12 steps each way,
 -h_0 -> 2 h_0 -> -3 h_0). Prints one row per (lambda, smoothing, ramps, n): the refined pull-off
@@ -37,17 +37,12 @@ import time
 
 import numpy as np
 
-from warpcontact.adhesion import Dugdale, cell_softening
-from warpcontact.approach_retract import approach_retract
-from warpcontact.geometry import Grid, Sphere
-from warpcontact.materials import PAPER_PAIR
-from warpcontact.model import ContactModel
-from warpcontact.reference import (
-    _md_path,
-    _md_state,
-    maugis_dugdale_pull_off,
-    maugis_dugdale_scales,
-)
+from warpcontact.physics.adhesion import Dugdale, cell_softening
+from warpcontact.studies.approach_retract import approach_retract
+from warpcontact.physics.geometry import Grid, Sphere
+from warpcontact.physics.materials import PAPER_PAIR
+from warpcontact.numerics.model import ContactModel
+from warpcontact.physics.reference import _md_path, _md_state, maugis_dugdale_pull_off, maugis_dugdale_scales
 from warpcontact.solvers.contact import ContactSolver
 
 R, W = 1e-6, 0.5

@@ -13,15 +13,15 @@ import math
 
 import warp as wp
 
-from warpcontact import resources
-from warpcontact.adhesion import SMC
-from warpcontact.friction import TaborVonMises
-from warpcontact.geometry import Grid, Sphere
-from warpcontact.materials import PAPER_PAIR
-from warpcontact.model import ContactModel
+from warpcontact.numerics import resources
+from warpcontact.physics.adhesion import SMC
+from warpcontact.physics.friction import TaborVonMises
+from warpcontact.physics.geometry import Grid, Sphere
+from warpcontact.physics.materials import PAPER_PAIR
+from warpcontact.numerics.model import ContactModel
 from warpcontact.solvers.contact import ContactSolver
-from warpcontact.state import ContactState
-from warpcontact.table2 import DELTA_N, DELTA_T, SIGMA_MAX, TAU_MAX
+from warpcontact.numerics.state import ContactState
+from warpcontact.studies.table2 import DELTA_N, DELTA_T, SIGMA_MAX, TAU_MAX
 
 R, DZ = 10e-6, 1.0e-10  # bench/scale_check.py's problem
 A = math.sqrt(R * DZ)

@@ -30,11 +30,11 @@ import time
 import warp as wp
 
 from bench_iteration import best_wall_time  # bench/, beside this script
-from warpcontact.geometry import Grid, Sphere
-from warpcontact.materials import PAPER_PAIR
-from warpcontact.model import ContactModel
+from warpcontact.physics.geometry import Grid, Sphere
+from warpcontact.physics.materials import PAPER_PAIR
+from warpcontact.numerics.model import ContactModel
 from warpcontact.solvers import NormalSolver
-from warpcontact.state import ContactState
+from warpcontact.numerics.state import ContactState
 
 R, DZ = 10e-6, 1.0e-10
 A = math.sqrt(R * DZ)

@@ -28,7 +28,7 @@ from warpcontact.solvers.contact import ContactSolver
 from warpcontact.solvers.fixed_point import AndersonMixing
 from warpcontact.solvers.normal import NormalSolver
 from warpcontact.solvers.tangential import TangentialSolver
-from warpcontact.table2 import Table2Settings, table2_cell
+from warpcontact.studies.table2 import Table2Settings, table2_cell
 
 
 class Phases:

@@ -21,14 +21,14 @@ import time
 import warp as wp
 
 from iteration_parts import timed_ms  # bench/, beside this script
-from warpcontact.geometry import Grid, Sphere
+from warpcontact.physics.geometry import Grid, Sphere
 from warpcontact.kernels import normal as nk
 from warpcontact.kernels import spectral
-from warpcontact.launch import ReductionLaunch
-from warpcontact.materials import PAPER_PAIR
-from warpcontact.model import ContactModel
+from warpcontact.numerics.launch import ReductionLaunch
+from warpcontact.physics.materials import PAPER_PAIR
+from warpcontact.numerics.model import ContactModel
 from warpcontact.solvers import NormalSolver
-from warpcontact.state import ContactState
+from warpcontact.numerics.state import ContactState
 
 R, DZ = 10e-6, 1.0e-10
 A = math.sqrt(R * DZ)

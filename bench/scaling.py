@@ -68,7 +68,7 @@ GPU_SIZES = [256, 512, 1024, 2048, 4096, 8192]
 
 def case_dict(n: int, friction: bool, device: str, dtype: str, fft: str) -> dict:
     """The problem as a case for ``wc.solve``: the paper's pair as Table 1 gives it."""
-    from warpcontact.materials import PAPER_PAIR
+    from warpcontact.physics.materials import PAPER_PAIR
 
     def material(m):
         return {"E": m.E, "nu": m.nu, "yield_strength": m.yield_strength, "hardness": m.hardness}
@@ -88,12 +88,12 @@ def measure(config: dict) -> dict:
 
     wp.config.quiet = True
     wp.init()
-    from warpcontact.friction import TaborVonMises
-    from warpcontact.geometry import Grid, Sphere
-    from warpcontact.materials import PAPER_PAIR
-    from warpcontact.model import ContactModel
+    from warpcontact.physics.friction import TaborVonMises
+    from warpcontact.physics.geometry import Grid, Sphere
+    from warpcontact.physics.materials import PAPER_PAIR
+    from warpcontact.numerics.model import ContactModel
     from warpcontact.solvers.contact import ContactSolver
-    from warpcontact.state import ContactState
+    from warpcontact.numerics.state import ContactState
 
     row, n, dtype = config["row"], config["n"], config["dtype"]
     device = wp.get_device(config["device"])
@@ -149,8 +149,8 @@ def measure(config: dict) -> dict:
     del solver, state, model
     if config["api"]:
         import warpcontact as wc
-        from warpcontact.case import case_from_dict
-        import warpcontact.runner as runner
+        from warpcontact.records.case import case_from_dict
+        import warpcontact.studies.runner as runner
 
         case = case_from_dict(case_dict(n, row != "normal", config["device"], dtype, config["fft"]))
         original = runner.ContactSolver

@@ -23,10 +23,10 @@ import numpy as np
 import warp as wp
 
 from warpcontact.fft.base import FFTBackend
-from warpcontact.geometry import Grid, Sphere
-from warpcontact.influence import KERNELS, SPECTRUM_PARTS, device_coefficients, influence_coefficients
-from warpcontact.materials import PAPER_PAIR
-from warpcontact.model import ContactModel
+from warpcontact.physics.geometry import Grid, Sphere
+from warpcontact.physics.influence import KERNELS, SPECTRUM_PARTS, device_coefficients, influence_coefficients
+from warpcontact.physics.materials import PAPER_PAIR
+from warpcontact.numerics.model import ContactModel
 
 
 PATHS = {"host": ["host"], "device": ["device"], "both": ["host", "device"]}

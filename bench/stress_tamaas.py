@@ -34,9 +34,9 @@ import time
 
 import numpy as np
 
-from warpcontact import stress as st
-from warpcontact.geometry import Grid
-from warpcontact.materials import Material, MaterialPair
+from warpcontact.numerics import stress as st
+from warpcontact.physics.geometry import Grid
+from warpcontact.physics.materials import Material, MaterialPair
 
 A, P0, NU = 1e-6, 1e9, 0.3
 DEPTH_IN_A = 1.5

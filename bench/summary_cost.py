@@ -30,15 +30,15 @@ import numpy as np
 import warp as wp
 
 from warpcontact import quiet_warp
-from warpcontact.adhesion import Dugdale
-from warpcontact.geometry import Grid, Sphere
+from warpcontact.physics.adhesion import Dugdale
+from warpcontact.physics.geometry import Grid, Sphere
 from warpcontact.kernels import summary as sk
 from warpcontact.kernels.tangential import SLIP, STICK
-from warpcontact.launch import FirstRow, Rows, Sums
-from warpcontact.materials import PAPER_PAIR
-from warpcontact.model import ContactModel
-from warpcontact.results import adhesive_mask, state_summary
-from warpcontact.state import ContactState
+from warpcontact.numerics.launch import FirstRow, Rows, Sums
+from warpcontact.physics.materials import PAPER_PAIR
+from warpcontact.numerics.model import ContactModel
+from warpcontact.records.results import adhesive_mask, state_summary
+from warpcontact.numerics.state import ContactState
 
 R = 10e-6
 FORCES = (("force", "x"), ("force", "y"), ("force", "z"), ("force_elastic", "x"), ("force_elastic", "y"),

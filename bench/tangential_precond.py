@@ -49,15 +49,15 @@ import time
 import numpy as np
 from scipy import fft as sfft
 
-from warpcontact.friction import Coulomb, TaborVonMises
-from warpcontact.geometry import Grid, Sphere
-from warpcontact.influence import influence_coefficients
-from warpcontact.materials import COPPER, PAPER_PAIR, MaterialPair
-from warpcontact.model import ContactModel
-from warpcontact.reference import mindlin
+from warpcontact.physics.friction import Coulomb, TaborVonMises
+from warpcontact.physics.geometry import Grid, Sphere
+from warpcontact.physics.influence import influence_coefficients
+from warpcontact.physics.materials import COPPER, PAPER_PAIR, MaterialPair
+from warpcontact.numerics.model import ContactModel
+from warpcontact.physics.reference import mindlin
 from warpcontact.solvers.contact import ContactSolver
 from warpcontact.solvers.tangential import TangentialSolver
-from warpcontact.state import ContactState
+from warpcontact.numerics.state import ContactState
 
 R, DZ, MU = 10e-6, 1.0e-10, 0.3
 A = math.sqrt(R * DZ)

@@ -3,7 +3,7 @@
 Scaled units (tractions / E*, lengths / dx). The adhesive tractions act outside the elastic
 contact (cells with p_c = 0); inside it the SMC law gives no normal traction (h = 0) and the
 total shear there is the tangential solver's unknown, bounded as a whole. Conventions as in
-warpcontact/influence.py: the adhesive shear is the traction on the flat, along the slip s of
+warpcontact/physics/influence.py: the adhesive shear is the traction on the flat, along the slip s of
 the sphere relative to the flat (on the sphere it opposes s).
 
 The law kernels evaluate the tractions of the current gap and slip; the fixed point over them is

@@ -1,7 +1,7 @@
 """Influence coefficients of the Boussinesq-Cerruti kernels, computed on the device.
 
 The antiderivatives at the cell corners, and each cell's four-corner difference
-(``warpcontact/influence.py`` orchestrates, and its module docstring gives the formulas; this is
+(``warpcontact/physics/influence.py`` orchestrates, and its module docstring gives the formulas; this is
 the same arithmetic as its numpy path).
 
 Always float64, whatever the model's float type: a far cell's integral [m / Pa, or m per unit

@@ -2,7 +2,7 @@
 into the stress spectra of one body, and the derived fields (von Mises, maximum shear, principal
 stresses, hydrostatic) with their maxima.
 
-The orchestration, the formulas' derivation and their references are in ``warpcontact/stress.py``.
+The orchestration, the formulas' derivation and their references are in ``warpcontact/numerics/stress.py``.
 Lengths are in cells (x, y, z divided by the cell size dx); tractions and stresses in the model's
 scaled units (divided by E*).
 

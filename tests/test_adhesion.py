@@ -7,14 +7,14 @@ import pytest
 import warp as wp
 from scipy import integrate
 
-from warpcontact.adhesion import SMC, TOUCHING, Dugdale
-from warpcontact.geometry import Grid, Sphere
-from warpcontact.materials import PAPER_PAIR
-from warpcontact.model import ContactModel
-from warpcontact.approach_retract import approach_retract, tabor_parameter
-from warpcontact.reference import maugis_dugdale_pull_off
+from warpcontact.physics.adhesion import SMC, TOUCHING, Dugdale
+from warpcontact.physics.geometry import Grid, Sphere
+from warpcontact.physics.materials import PAPER_PAIR
+from warpcontact.numerics.model import ContactModel
+from warpcontact.studies.approach_retract import approach_retract, tabor_parameter
+from warpcontact.physics.reference import maugis_dugdale_pull_off
 from warpcontact.solvers.contact import ContactSolver
-from warpcontact.state import ContactState
+from warpcontact.numerics.state import ContactState
 
 
 def test_smc_and_dugdale_kernels_match_closed_forms(device):
@@ -49,7 +49,7 @@ def test_smc_and_dugdale_kernels_match_closed_forms(device):
     assert np.allclose(f["adhesive_pressure"], p_ref, rtol=1e-12, atol=1e-12 * law.sigma_max)
     assert np.allclose(f["adhesive_shear_x"], qx_ref, rtol=1e-12, atol=1e-12 * law.tau_max)
     # a touching cell keeps a traction that lies on the segment [0, law] and is projected onto it
-    # otherwise (the law's jump to the contact side, see warpcontact.adhesion.TOUCHING)
+    # otherwise (the law's jump to the contact side, see warpcontact.physics.adhesion.TOUCHING)
     law_p = -law.sigma_max * np.maximum(h, 0) / law.delta_n * e
     start = np.zeros((n, n))
     start[1, 1] = 0.5 * law_p[1, 1]  # on the segment: kept
@@ -186,8 +186,8 @@ def test_maugis_dugdale_reference_limits():
 
 def test_adhesion_enlarges_contact_and_stick_area():
     """The paper's observation (Figure 1): with adhesion the contact and the stick areas grow."""
-    from warpcontact.friction import TaborVonMises
-    from warpcontact.results import state_summary
+    from warpcontact.physics.friction import TaborVonMises
+    from warpcontact.records.results import state_summary
 
     R, dz = 10e-6, 5e-11
     a = math.sqrt(R * dz)

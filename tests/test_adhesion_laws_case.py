@@ -9,11 +9,11 @@ from pathlib import Path
 import pytest
 
 import warpcontact as wc
-from warpcontact.adhesion import Dugdale, Exponential, LennardJones93
-from warpcontact.case import case_from_dict
+from warpcontact.physics.adhesion import Dugdale, Exponential, LennardJones93
+from warpcontact.records.case import case_from_dict
 from warpcontact.errors import InputError
-from warpcontact.reference import maugis_dugdale_pull_off
-from warpcontact.runner import adhesion_law
+from warpcontact.physics.reference import maugis_dugdale_pull_off
+from warpcontact.studies.runner import adhesion_law
 
 EXAMPLE = Path(__file__).resolve().parents[1] / "examples" / "pull_off_jkr.toml"
 

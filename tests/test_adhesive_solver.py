@@ -6,17 +6,17 @@ import numpy as np
 import pytest
 import warp as wp
 
-from warpcontact.adhesion import SMC, Dugdale, Exponential, LennardJones93
-from warpcontact.approach_retract import approach_retract
+from warpcontact.physics.adhesion import SMC, Dugdale, Exponential, LennardJones93
+from warpcontact.studies.approach_retract import approach_retract
 from warpcontact.errors import InputError
-from warpcontact.geometry import Grid, Sphere
+from warpcontact.physics.geometry import Grid, Sphere
 from warpcontact.kernels import adhesive as ak
-from warpcontact.materials import PAPER_PAIR
-from warpcontact.model import ContactModel
-from warpcontact.reference import maugis_dugdale_pull_off
+from warpcontact.physics.materials import PAPER_PAIR
+from warpcontact.numerics.model import ContactModel
+from warpcontact.physics.reference import maugis_dugdale_pull_off
 from warpcontact.solvers.adhesive import AdhesiveNormalSolver
 from warpcontact.solvers.contact import ContactSolver
-from warpcontact.state import ContactState
+from warpcontact.numerics.state import ContactState
 
 R, W = 1e-6, 0.5
 A0 = (9 * math.pi * W * R**2 / (2 * PAPER_PAIR.E_star)) ** (1 / 3)  # JKR contact radius at zero load
@@ -213,8 +213,8 @@ def test_centred_ramp_keeps_the_work_and_the_centroid_of_the_sharp_law():
         assert law.range == pytest.approx(h[np.flatnonzero(t > 0)[-1]], abs=2 * (h[1] - h[0])), ramps
     with pytest.raises(InputError, match="adhesion.ramps"):
         Dugdale(sigma_0=sigma_0, h_0=h_0, ramps="middle")
-    from warpcontact.adhesion import RAMPS
-    from warpcontact.case import DUGDALE_RAMPS
+    from warpcontact.physics.adhesion import RAMPS
+    from warpcontact.records.case import DUGDALE_RAMPS
 
     assert RAMPS == DUGDALE_RAMPS  # the case file's choices are the law's
 
@@ -223,7 +223,7 @@ def test_centred_ramp_in_the_fixed_point_kernel():
     """The fixed-point turns' tension (Dugdale.tractions, kernels/adhesion.py, used with friction)
     is the minimiser's law (law_values) for the centred ramp too, on cells out of contact past the
     touching band (TOUCHING h_0); 1e-12 of sigma_0."""
-    from warpcontact.adhesion import TOUCHING
+    from warpcontact.physics.adhesion import TOUCHING
 
     law = Dugdale(sigma_0=2e8, h_0=1e-9, smoothing=0.4, ramps="centred")
     model = ContactModel(PAPER_PAIR, Sphere(R), Grid(16, 1e-8))

@@ -21,12 +21,12 @@ import warp as wp
 from test_case import BAD_CASES, BAD_FILES, PAPER_TOML, paper_dict, to_toml
 
 from warpcontact import api
-from warpcontact.adhesion import SMC, Dugdale
-from warpcontact.case import case_from_dict
+from warpcontact.physics.adhesion import SMC, Dugdale
+from warpcontact.records.case import case_from_dict
 from warpcontact.cli import main
 from warpcontact.errors import InputError
-from warpcontact.friction import Coulomb, TaborVonMises
-from warpcontact.geometry import Grid
+from warpcontact.physics.friction import Coulomb, TaborVonMises
+from warpcontact.physics.geometry import Grid
 
 NO_CUDA = wp.get_cuda_device_count() == 0
 

@@ -1,4 +1,4 @@
-"""The batch engine (warpcontact.batch): cases as tasks on dask.distributed.
+"""The batch engine (warpcontact.studies.batch): cases as tasks on dask.distributed.
 
 A worker killed mid-sweep loses nothing finished and its case is computed again; the per-worker
 model cache gives the numbers of a fresh model; errors cross the process boundary whole; local
@@ -19,8 +19,8 @@ from pathlib import Path
 
 import pytest
 
-from warpcontact import batch
-from warpcontact.batch import Placement, Task, run_tasks
+from warpcontact.studies import batch
+from warpcontact.studies.batch import Placement, Task, run_tasks
 from warpcontact.errors import InputError
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -154,7 +154,7 @@ def test_a_sweep_whose_worker_is_killed_finishes_with_every_case_written(tmp_pat
     """A real sweep (frictionless Hertz solves, 5 grids) on 2 local workers; a worker is killed
     (SIGKILL) once the first case is written. The sweep completes: every case written once, the
     first case's file unchanged, sweep.json complete."""
-    from warpcontact.sweep import load_sweep, run_sweep
+    from warpcontact.studies.sweep import load_sweep, run_sweep
 
     (tmp_path / "sweep.toml").write_text(f'base = "{HERTZ_CASE.as_posix()}"\n[sweep]\n'
                                          '"load.steps" = [3, 4, 5, 6, 7]\n[run]\ntask = "solve"\n')
@@ -188,8 +188,8 @@ def test_the_model_cache_reuses_the_model_and_gives_a_fresh_models_numbers():
     """Two cases of one grid in one process: the second reuses the first's model (built once) and
     its forces equal those of a case solved with a model of its own, to the bit (same operations)."""
     from warpcontact import api
-    from warpcontact.case import load_case
-    from warpcontact.sweep import run_case
+    from warpcontact.records.case import load_case
+    from warpcontact.studies.sweep import run_case
 
     case = load_case(HERTZ_CASE)  # the example's n = 128, one state
     batch.clear_models()
@@ -340,7 +340,7 @@ def test_a_sweep_runs_on_a_scheduler_given_by_address(tmp_path, alarm):
     the cluster keeps running after the sweep."""
     from distributed import LocalCluster
 
-    from warpcontact.sweep import load_sweep, run_sweep
+    from warpcontact.studies.sweep import load_sweep, run_sweep
 
     with LocalCluster(n_workers=1, threads_per_worker=1, processes=True, dashboard_address=None,
                       host="127.0.0.1") as cluster:
@@ -363,7 +363,7 @@ def test_an_unreachable_scheduler_is_an_input_error(tmp_path, monkeypatch):
 
 
 def test_bad_run_scheduler_names_the_key(tmp_path):
-    from warpcontact.sweep import load_sweep
+    from warpcontact.studies.sweep import load_sweep
 
     (tmp_path / "sweep.toml").write_text(f'base = "{HERTZ_CASE.as_posix()}"\n[sweep]\n"grid.n" = [32]\n'
                                          "[run]\nscheduler = 8786\n")

@@ -8,7 +8,7 @@ import math
 
 import pytest
 
-from warpcontact.case import (
+from warpcontact.records.case import (
     DEFAULT_K_VM,
     AdhesionSpec,
     Case,
@@ -19,8 +19,8 @@ from warpcontact.case import (
     load_case,
 )
 from warpcontact.errors import InputError
-from warpcontact.geometry import Grid, Sphere
-from warpcontact.materials import MaterialPair
+from warpcontact.physics.geometry import Grid, Sphere
+from warpcontact.physics.materials import MaterialPair
 
 #: The paper's case: copper asperity (R = 10 um) on hardened steel, delta_z = 5.0e-5 um.
 PAPER_TOML = """\
@@ -465,7 +465,7 @@ def test_documented_examples_parse():
     doc = (pathlib.Path(__file__).resolve().parents[1] / "docs" / "case-files.md").read_text(encoding="utf-8")
     blocks = re.findall(r"```toml\n(.*?)```", doc, flags=re.S)
     assert len(blocks) == 2
-    from warpcontact.case import tomllib
+    from warpcontact.records.case import tomllib
 
     paper = case_from_dict(tomllib.loads(blocks[0]))
     assert paper.friction.mu_b == pytest.approx(0.7698, abs=1e-4)

@@ -279,7 +279,7 @@ def test_adhesion_at_the_edge_warns(tmp_path):
 def test_gross_slip_ctrl_c_keeps_the_finished_states(tmp_path, monkeypatch, capsys):
     """Ctrl-C during the search: exit 130, result.json with the states finished so far, the
     search's results null and the file marked interrupted."""
-    from warpcontact import slip_search
+    from warpcontact.studies import slip_search
     from warpcontact.cli import main
 
     real = slip_search.find_gross_slip
@@ -305,7 +305,8 @@ def test_gross_slip_ctrl_c_keeps_the_finished_states(tmp_path, monkeypatch, caps
 def test_solve_fields_option_writes_the_last_state_or_none(tmp_path):
     """--fields last: one entry, the last state's (state_index says which); none: no fields.npz, and
     the run is complete all the same."""
-    from warpcontact import cli, runner
+    from warpcontact import cli
+    from warpcontact.studies import runner
 
     assert cli.FIELDS_CHOICES == runner.FIELDS_CHOICES  # the parser's copy of the choices
     case = small_case(tmp_path, TABLE2_CASE, **{"n = 96": "n = 40", "steps = 4 ": "steps = 2\ndelta_x = 3e-11 "})

@@ -374,7 +374,7 @@ def test_an_ignored_sighup_stays_ignored(handlers):
 
 def test_a_stop_during_the_set_up_writes_nothing(handlers, tmp_path, monkeypatch, capsys):
     """Before a command's first write (the model being built) a stop leaves the folder as it was."""
-    from warpcontact import runner
+    from warpcontact.studies import runner
     from warpcontact.cli import main
 
     def stopped(case, model=None):  # runner.build's signature

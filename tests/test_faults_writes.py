@@ -20,7 +20,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from warpcontact import files, interrupts, results
+from warpcontact import files, interrupts
+from warpcontact.records import results
 from warpcontact.cli import EXIT_WRITE_ERROR, main
 from warpcontact.errors import OutputError
 
@@ -281,7 +282,7 @@ def fake_cell(calls):
 
 
 def test_table2_disk_full_keeps_the_finished_cells_and_a_rerun_resumes(tmp_path, monkeypatch, capsys):
-    from warpcontact import table2
+    from warpcontact.studies import table2
 
     calls, writer = [], files._write_temporary
     monkeypatch.setattr(table2, "table2_cell", fake_cell(calls))

@@ -55,7 +55,7 @@ def test_work_area_within_the_memory_estimate(n):
     """cuFFT's work area (the plans' shared buffer) stays within ``resources.cufft_work_spectra``,
     the allowance the memory estimate counts: sizes with and without large prime factors, where
     cuFFT uses Bluestein's algorithm or not (measured 0 to 6.46 spectra)."""
-    from warpcontact.resources import cufft_work_spectra
+    from warpcontact.numerics.resources import cufft_work_spectra
 
     for dtype in (wp.float64, wp.float32):
         for pruned in (True, False):

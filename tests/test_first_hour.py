@@ -19,10 +19,10 @@ import numpy as np
 import pytest
 from test_case import to_toml
 
-from warpcontact.case import case_from_dict
+from warpcontact.records.case import case_from_dict
 from warpcontact.cli import main
 from warpcontact.errors import InputError
-from warpcontact.plausibility import PlausibilityWarning
+from warpcontact.records.plausibility import PlausibilityWarning
 
 
 def afm_dict(n: int = 32, adhesion: bool = True, friction: bool = True) -> dict:
@@ -220,7 +220,7 @@ def test_pull_off_checks_the_resolution_once(capsys, tmp_path):
 def test_the_adhesive_zone_is_judged_by_the_same_rule():
     """A law of 5 pm range beside a contact of 11 cells: the adhesive zone, not the contact, asks
     for the finer grid. With no adhesive cell at all the zone is estimated from the Hertz gap."""
-    from warpcontact.guards import CoarseGridWarning, RunChecks, adhesive_zone_estimate
+    from warpcontact.records.guards import CoarseGridWarning, RunChecks, adhesive_zone_estimate
 
     d = afm_dict(64, friction=False)
     d["grid"]["size"] = 8e-9
@@ -242,7 +242,7 @@ def test_the_adhesive_zone_is_judged_by_the_same_rule():
 
 def test_table2_grids_are_judged_by_the_same_rule():
     from warpcontact.cli import _table2_resolution
-    from warpcontact.guards import CoarseGridWarning
+    from warpcontact.records.guards import CoarseGridWarning
 
     law = {"delta_n": 5e-12}
     with pytest.warns(CoarseGridWarning, match=r"table2 --n 16: the contact radius .* spans 5.3 cells .* --n 112"):
@@ -371,7 +371,7 @@ def test_version_and_help_texts(capsys):
 def test_figure_draws_a_gross_slip_and_a_pull_off_output(capsys, tmp_path):
     """figure on gross-slip's folder: the state at gross slip, solved again along the search's
     history (its force is the result's to the last digit); on pull-off's: the force-approach curve."""
-    from warpcontact.cli_figure import gross_slip_fields
+    from warpcontact.cli.figure import gross_slip_fields
 
     d = afm_dict(16, adhesion=False)
     rc, err = run_cli(capsys, tmp_path, d, "gross-slip")
@@ -409,7 +409,7 @@ def test_sweep_rows_carry_the_summary_keys_and_pull_off_is_a_task(tmp_path):
     pull-off sweep runs and its rows have the pull-off keys."""
     import csv
 
-    from warpcontact.sweep import run_sweep, sweep_from_dict
+    from warpcontact.studies.sweep import run_sweep, sweep_from_dict
 
     base = afm_dict(16, adhesion=False)
     sw = sweep_from_dict({"base": base, "sweep": {"friction.k_tau": [0.6]}, "run": {"task": "gross-slip"}})
@@ -436,7 +436,7 @@ def test_sweep_rows_carry_the_summary_keys_and_pull_off_is_a_task(tmp_path):
 @pytest.mark.parametrize("call", ["solve", "path", "gross_slip"])
 def test_the_python_api_warns_once_as_the_command_line_does(call):
     import warpcontact as wc
-    from warpcontact.guards import CoarseGridWarning, YieldWarning
+    from warpcontact.records.guards import CoarseGridWarning, YieldWarning
 
     case = case_from_dict(afm_dict(32, adhesion=False))
     with warnings.catch_warnings(record=True) as caught:

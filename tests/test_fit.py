@@ -15,10 +15,10 @@ import numpy as np
 import pytest
 
 from warpcontact import api, interrupts
-from warpcontact.case import case_from_dict, load_case
+from warpcontact.records.case import case_from_dict, load_case
 from warpcontact.cli import main
 from warpcontact.errors import InputError
-from warpcontact.fit import OUTPUTS, covariance, load_fit, run_fit
+from warpcontact.studies.fit import OUTPUTS, covariance, load_fit, run_fit
 
 ROOT = Path(__file__).resolve().parents[1]
 PAPER_CASE = ROOT / "examples" / "table2_k080_dz5e-5.toml"
@@ -107,7 +107,7 @@ def test_k_tau_recovered_from_three_gross_slip_rows_and_a_rerun_computes_nothing
     write_csv(folder / "data.csv", ["load.delta_z", "grid.size", "mu", "delta_x_max"],
               [(dz, size, repr(mu), repr(dx)) for dz, size, mu, dx in rows])
     out = tmp_path / "out"
-    from warpcontact import batch
+    from warpcontact.studies import batch
 
     built = batch._cache_stats["built"]
     assert main(["fit", str(fit_file), "--out", str(out), "--workers", "1"]) == 0
@@ -293,7 +293,7 @@ def test_bad_fit_files_are_refused_naming_the_key_or_line(tmp_path, capsys, fit_
 def test_a_stop_keeps_the_finished_evaluations_and_a_rerun_resumes(hertz_forces, tmp_path, monkeypatch, capsys):
     """SIGTERM while the fourth case runs: exit 143, the three finished cases kept in
     DIR/evaluations, fit.json says interrupted; the rerun computes the rest and converges."""
-    from warpcontact import sweep
+    from warpcontact.studies import sweep
 
     fit_file = hertz_fit(tmp_path, hertz_forces)
     real, calls = sweep.run_case, []
@@ -325,7 +325,7 @@ def test_a_fit_runs_on_a_scheduler_given_by_address(hertz_forces, tmp_path):
     running after the fit."""
     from distributed import LocalCluster
 
-    from warpcontact.batch import Placement
+    from warpcontact.studies.batch import Placement
 
     with LocalCluster(n_workers=1, threads_per_worker=1, processes=True, dashboard_address=None,
                       host="127.0.0.1") as cluster:

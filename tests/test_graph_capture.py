@@ -11,13 +11,13 @@ from types import SimpleNamespace
 
 import warp as wp
 
-from warpcontact.friction import Coulomb
-from warpcontact.geometry import Grid, Sphere
-from warpcontact.materials import COPPER, MaterialPair
-from warpcontact.model import ContactModel
+from warpcontact.physics.friction import Coulomb
+from warpcontact.physics.geometry import Grid, Sphere
+from warpcontact.physics.materials import COPPER, MaterialPair
+from warpcontact.numerics.model import ContactModel
 from warpcontact.solvers.base import ProjectedCG
 from warpcontact.solvers.contact import ContactSolver
-from warpcontact.state import ContactState
+from warpcontact.numerics.state import ContactState
 
 R, DZ = 10e-6, 1e-10
 

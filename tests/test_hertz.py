@@ -8,12 +8,12 @@ import warp as wp
 
 from conftest import NEEDS_FFTW
 
-from warpcontact.geometry import Grid, Sphere
-from warpcontact.materials import PAPER_PAIR
-from warpcontact.model import ContactModel
-from warpcontact.reference import hertz
+from warpcontact.physics.geometry import Grid, Sphere
+from warpcontact.physics.materials import PAPER_PAIR
+from warpcontact.numerics.model import ContactModel
+from warpcontact.physics.reference import hertz
 from warpcontact.solvers import NormalSolver
-from warpcontact.state import ContactState
+from warpcontact.numerics.state import ContactState
 
 R = 10e-6
 DELTA_Z = 1.0e-10

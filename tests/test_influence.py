@@ -6,10 +6,16 @@ from scipy import integrate
 
 from conftest import NEEDS_FFTW
 
-from warpcontact.geometry import Grid
-from warpcontact.influence import KERNELS, cell_integral, influence_coefficients, influence_coefficients_device, point_kernels
-from warpcontact.materials import COPPER, HARDENED_STEEL, PAPER_PAIR, MaterialPair
-from warpcontact.operator import ElasticOperator
+from warpcontact.physics.geometry import Grid
+from warpcontact.physics.influence import (
+    KERNELS,
+    cell_integral,
+    influence_coefficients,
+    influence_coefficients_device,
+    point_kernels,
+)
+from warpcontact.physics.materials import COPPER, HARDENED_STEEL, PAPER_PAIR, MaterialPair
+from warpcontact.numerics.operator import ElasticOperator
 
 ELEMENTARY = {
     "inv_r": lambda x, y: 1.0 / np.hypot(x, y),
@@ -69,7 +75,7 @@ def test_antiderivatives_on_the_axes_and_at_the_origin():
     """The antiderivatives are finite on the axes and at the origin, where their terms' factors
     vanish (x asinh(y/|x|) at x = 0, y ln r at y = 0): the conventions the corner lattice and
     the singular cell rely on; off the axes they are the closed forms of the module docstring."""
-    from warpcontact.influence import _corner_terms
+    from warpcontact.physics.influence import _corner_terms
 
     v = np.array([-2.0, 0.0, 0.5]) * 1.3e-9
     X, Y = np.meshgrid(v, v, indexing="xy")
@@ -91,7 +97,7 @@ def test_antiderivatives_on_the_axes_and_at_the_origin():
 def test_coefficients_by_blocks_on_threads_are_the_single_thread_ones(padded):
     """A grid of several row blocks (BLOCK_ROWS) gives the same coefficients, bit for bit, on one
     thread and on three, and the cell integrals at a few offsets across the blocks' seams."""
-    from warpcontact.influence import BLOCK_ROWS
+    from warpcontact.physics.influence import BLOCK_ROWS
 
     ny, nx, dx, dy = 2 * BLOCK_ROWS + 5, 37, 1.1e-9, 0.9e-9
     one = influence_coefficients(PAPER_PAIR, ny, nx, dx, dy, padded=padded, workers=1)
@@ -224,7 +230,7 @@ def test_spectra_are_real_or_imaginary(shape):
     the coefficients of far cells are differences of antiderivatives that grow like r log r, each
     rounded to 1e-16 relative; measured 1e-15 to 4e-14 of the largest coefficient at n <= 64
     (7e-13 at n = 256), and the dropped part 1e-16 to 1.1e-14 of the spectrum's largest entry."""
-    from warpcontact.influence import SPECTRUM_PARTS
+    from warpcontact.physics.influence import SPECTRUM_PARTS
 
     ny, nx, dx, dy = shape
     coeffs = influence_coefficients(PAPER_PAIR, ny, nx, dx, dy)
@@ -357,7 +363,7 @@ def test_spectral_energy_reads_the_mirror_of_its_even_spectrum(fft):
     import warp as wp
 
     from warpcontact.kernels import spectral
-    from warpcontact.launch import ReductionLaunch
+    from warpcontact.numerics.launch import ReductionLaunch
 
     n = 24
     op = ElasticOperator(PAPER_PAIR, Grid(n, 1e-8), "cpu", wp.float64, fft)
@@ -419,7 +425,7 @@ CORNER_ROUNDING_ULPS = 16
 def _corner_magnitudes(x, y) -> dict:
     """Per elementary kernel, the sum of the magnitudes of its antiderivative's terms at the
     corners (x, y) (``_corner_terms``' formulas without their signs and cancellations)."""
-    from warpcontact.influence import _xasinh
+    from warpcontact.physics.influence import _xasinh
 
     xa, ya = np.abs(_xasinh(x, y)), np.abs(_xasinh(y, x))
     r2 = x * x + y * y
@@ -434,7 +440,7 @@ def _corner_magnitudes(x, y) -> dict:
 def _rounding_bound(pair, ny, nx, dx, dy, padded=True) -> dict:
     """Per kernel, the allowed |device - host| of each coefficient (CORNER_ROUNDING_ULPS eps times
     sum_terms |c| sum_corners magnitudes), in the coefficients' layout."""
-    from warpcontact.influence import _layout
+    from warpcontact.physics.influence import _layout
 
     first_y, first_x, count_y, count_x = _layout(ny, nx, padded)
     cy = (np.arange(count_y + 1, dtype=np.float64) - first_y - 0.5) * dy
@@ -479,7 +485,7 @@ def test_device_coefficients_are_the_numpy_ones(n, dx, dy, padded, device):
 def test_device_coefficients_scale_and_order():
     """``scale`` multiplies the sum of the terms (as the operator's ``a *= scale``, rounded the
     same way), and the generator yields KERNELS in order, each made when asked for."""
-    from warpcontact.influence import device_coefficients, influence_coefficients_device
+    from warpcontact.physics.influence import device_coefficients, influence_coefficients_device
 
     n, dx = 9, 1.3e-9
     scale = PAPER_PAIR.E_star / dx

@@ -23,7 +23,7 @@ def test_kernels_import_from_the_installed_package():
 
 def test_status_codes_agree():
     from warpcontact.kernels import tangential as tk
-    from warpcontact.results import STICK
+    from warpcontact.records.results import STICK
 
     assert STICK == tk.STICK == 1 and tk.SLIP == 2 and tk.OUT == 0
 
@@ -51,7 +51,7 @@ def test_api_functions_stay_functions():
 
     for name in ("solve", "path", "gross_slip", "pull_off", "load_case", "case_from_dict"):
         assert callable(getattr(wc, name)), name
-    import warpcontact.approach_retract  # noqa: F401
-    import warpcontact.slip_search  # noqa: F401
+    import warpcontact.studies.approach_retract  # noqa: F401
+    import warpcontact.studies.slip_search  # noqa: F401
 
     assert callable(wc.gross_slip) and callable(wc.pull_off)

@@ -1,4 +1,4 @@
-"""Launches split over the CPU's threads by rows (warpcontact.launch: Rows, Sums, LaunchCache.split)."""
+"""Launches split over the CPU's threads by rows (warpcontact.numerics.launch: Rows, Sums, LaunchCache.split)."""
 
 import math
 
@@ -6,18 +6,18 @@ import numpy as np
 import pytest
 import warp as wp
 
-from warpcontact.friction import TaborVonMises
-from warpcontact.geometry import Grid, Sphere
+from warpcontact.physics.friction import TaborVonMises
+from warpcontact.physics.geometry import Grid, Sphere
 from warpcontact.kernels import normal as nk
 from warpcontact.kernels import spectral
 from warpcontact.kernels import tangential as tk
-from warpcontact.launch import LaunchCache, ReductionLaunch, Rows, Sums
-from warpcontact.materials import PAPER_PAIR
-from warpcontact.model import ContactModel
+from warpcontact.numerics.launch import LaunchCache, ReductionLaunch, Rows, Sums
+from warpcontact.physics.materials import PAPER_PAIR
+from warpcontact.numerics.model import ContactModel
 from warpcontact.solvers import NormalSolver
-from warpcontact.slip_search import estimate_delta_x_max
+from warpcontact.studies.slip_search import estimate_delta_x_max
 from warpcontact.solvers.contact import ContactSolver
-from warpcontact.state import ContactState
+from warpcontact.numerics.state import ContactState
 
 R = 10e-6
 DELTA_Z = 1.0e-10

@@ -11,12 +11,12 @@ import math
 import numpy as np
 import pytest
 
-from warpcontact.friction import TaborVonMises
-from warpcontact.geometry import Grid, Sphere
-from warpcontact.materials import PAPER_PAIR
-from warpcontact.model import ContactModel
+from warpcontact.physics.friction import TaborVonMises
+from warpcontact.physics.geometry import Grid, Sphere
+from warpcontact.physics.materials import PAPER_PAIR
+from warpcontact.numerics.model import ContactModel
 from warpcontact.solvers.contact import ContactSolver
-from warpcontact.state import ContactState
+from warpcontact.numerics.state import ContactState
 
 R, DZ, DX = 10e-6, 1.0e-10, 2.0e-11
 STEPS = [(0.0, 0.0, DZ), (DX, 0.0, DZ)]
@@ -84,9 +84,9 @@ def test_case_file_setting(tmp_path):
 
     import tomllib
 
-    from warpcontact.case import case_from_dict
+    from warpcontact.records.case import case_from_dict
     from warpcontact.errors import InputError
-    from warpcontact.runner import build
+    from warpcontact.studies.runner import build
 
     data = tomllib.loads((Path(__file__).resolve().parents[1] / "examples" / "table2_k080_dz5e-5.toml").read_text())
     data["grid"]["n"] = 128
@@ -108,7 +108,7 @@ def test_auto_nests_from_the_measured_grid_of_each_device_kind():
     import tomllib
     from pathlib import Path
 
-    from warpcontact.case import case_from_dict
+    from warpcontact.records.case import case_from_dict
     from warpcontact.errors import InputError
     from warpcontact.solvers.contact import NESTED_AUTO_N
 

@@ -10,7 +10,8 @@ from pathlib import Path
 
 import pytest
 
-from warpcontact import api, batch, runner, stress_study, sweep
+from warpcontact import api
+from warpcontact.studies import batch, runner, stress_study, sweep
 from warpcontact.cli import EXIT_INPUT, _parser, check_out, main
 
 EXAMPLES = Path(__file__).resolve().parents[1] / "examples"

@@ -5,15 +5,15 @@ import math
 import numpy as np
 import pytest
 
-from warpcontact.friction import Coulomb, TaborVonMises
-from warpcontact.geometry import Grid, Sphere
-from warpcontact.slip_search import find_gross_slip
-from warpcontact.materials import COPPER, PAPER_PAIR, MaterialPair
-from warpcontact.model import ContactModel
-from warpcontact.reference import hertz, mindlin
-from warpcontact.results import state_summary
+from warpcontact.physics.friction import Coulomb, TaborVonMises
+from warpcontact.physics.geometry import Grid, Sphere
+from warpcontact.studies.slip_search import find_gross_slip
+from warpcontact.physics.materials import COPPER, PAPER_PAIR, MaterialPair
+from warpcontact.numerics.model import ContactModel
+from warpcontact.physics.reference import hertz, mindlin
+from warpcontact.records.results import state_summary
 from warpcontact.solvers.contact import ContactSolver
-from warpcontact.state import ContactState
+from warpcontact.numerics.state import ContactState
 
 R, DZ, MU = 10e-6, 1.0e-10, 0.3
 A = math.sqrt(R * DZ)
@@ -115,7 +115,7 @@ def test_stick_cells_do_not_slip(adhesive):
     """The stick condition itself, on the coupled pair: over a load step the slip of every stick
     cell is unchanged (to the solver tolerance times the shift), and slip cells' shear is at its
     limit and along their slip increment."""
-    from warpcontact.adhesion import SMC
+    from warpcontact.physics.adhesion import SMC
 
     law = SMC(2e7, 2e7, 2e-11, 2e-11) if adhesive else None
     model = ContactModel(PAPER_PAIR, Sphere(R, "paraboloid"), Grid(48, 3 * A))
@@ -148,7 +148,7 @@ def test_turns_keep_the_normal_displacement_of_the_pressure(adhesive, device):
     is K of the total normal traction (contact + adhesive) to 1e-6 (the test of
     test_adhesive_solver: the traction is the displacement's, carried between exact products,
     and the split into contact and adhesive parts meets the law to the solve's tolerance)."""
-    from warpcontact.adhesion import SMC
+    from warpcontact.physics.adhesion import SMC
 
     law = SMC(2e7, 2e7, 2e-11, 2e-11) if adhesive else None
     model = ContactModel(PAPER_PAIR, Sphere(R, "paraboloid"), Grid(48, 3 * A), device=device)
@@ -171,7 +171,7 @@ def test_normal_solves_preconditioned_by_default():
     adhesive step too (its docstring gives the measurements); an explicit choice wins.
     Frictionless, both choices reach the same pressure (to 100 tolerances of its peak: both meet
     the 1e-10 residual), the preconditioned one in fewer iterations."""
-    from warpcontact.adhesion import SMC
+    from warpcontact.physics.adhesion import SMC
 
     law = TaborVonMises(0.8, PAPER_PAIR.softer.yield_strength)
     model = ContactModel(PAPER_PAIR, Sphere(R), Grid(48, 4 * A))

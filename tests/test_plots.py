@@ -1,4 +1,4 @@
-"""Figures of solved states (warpcontact.plots) and the ``figure`` sub-command (warpcontact.cli_figure)."""
+"""Figures of solved states (warpcontact.plots) and the ``figure`` sub-command (warpcontact.cli.figure)."""
 
 import argparse
 from pathlib import Path
@@ -8,11 +8,11 @@ import pytest
 from matplotlib.figure import Figure
 
 from warpcontact import plots
-from warpcontact.adhesion import SMC
-from warpcontact.case import load_case
-from warpcontact.cli_figure import add_parser, cmd_figure
+from warpcontact.physics.adhesion import SMC
+from warpcontact.records.case import load_case
+from warpcontact.cli.figure import add_parser, cmd_figure
 from warpcontact.errors import InputError
-from warpcontact.runner import run_path
+from warpcontact.studies.runner import run_path
 
 ROOT = Path(__file__).resolve().parents[1]
 PNG_SIGNATURE = b"\x89PNG\r\n\x1a\n"
@@ -340,8 +340,8 @@ FIGURE_PANELS = {"a": (0.80, False), "b": (0.80, True), "c": (0.95, False), "d":
 def test_figure_examples_are_the_papers_states(fig, panel):
     """examples/figureNX.toml hold the state of the paper's caption, with the table2 adhesion
     defaults on panels b and d, on one grid per figure whose domain holds the adhesive tail."""
-    from warpcontact import table2
-    from warpcontact.guards import suggested_adhesive_size
+    from warpcontact.studies import table2
+    from warpcontact.records.guards import suggested_adhesive_size
 
     case = load_case(ROOT / "examples" / f"figure{fig}{panel}.toml")
     dz, dx = FIGURE_STATES[fig]
@@ -384,7 +384,7 @@ def test_case_caption_names_the_laws_as_a_figure_caption_would(tmp_path):
     """figure writes the friction and adhesion laws of the case under each plot (from result.json)."""
     import json
 
-    from warpcontact.cli_figure import case_caption
+    from warpcontact.cli.figure import case_caption
 
     case = {"friction": {"law": "tabor", "k_tau": 0.95}, "adhesion": {"law": "smc", "sigma_max": 1e6, "tau_max": 1e6,
                                                                       "delta_n": 5e-12, "delta_t": 5e-12}}

@@ -1,4 +1,4 @@
-"""Progress bars (warpcontact.progress): the bar's text, whole lines in a log, redraws on a
+"""Progress bars (warpcontact.records.progress): the bar's text, whole lines in a log, redraws on a
 terminal, silence with --quiet; and the command line's progress on stderr."""
 
 import io
@@ -8,7 +8,7 @@ import subprocess
 import sys
 from pathlib import Path
 
-from warpcontact.progress import WIDTH, Progress, clock, write_above
+from warpcontact.records.progress import WIDTH, Progress, clock, write_above
 
 ROOT = Path(__file__).resolve().parents[1]
 

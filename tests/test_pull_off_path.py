@@ -16,9 +16,9 @@ import numpy as np
 import pytest
 
 from warpcontact.api import run_pull_off
-from warpcontact.approach_retract import REFINE_SUBSTEPS, pull_off_fit
-from warpcontact.case import load_case
-from warpcontact.runner import build
+from warpcontact.studies.approach_retract import REFINE_SUBSTEPS, pull_off_fit
+from warpcontact.records.case import load_case
+from warpcontact.studies.runner import build
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -145,7 +145,7 @@ def test_maugis_dugdale_lambda_2_through_the_example():
     assert case.adhesion.ramps == "centred"
     assert r["converged"]
     law = case.adhesion
-    from warpcontact.reference import maugis_dugdale_pull_off, maugis_parameter
+    from warpcontact.physics.reference import maugis_dugdale_pull_off, maugis_parameter
 
     lam = maugis_parameter(case.pair, case.sphere.radius, law.sigma_0, law.work_of_adhesion)
     assert lam == pytest.approx(2.0, rel=1e-5)
@@ -160,10 +160,10 @@ def test_dugdale_ramps_key_in_a_case_file(tmp_path):
     import io
     import tomllib
 
-    from warpcontact.case import case_from_dict
+    from warpcontact.records.case import case_from_dict
     from warpcontact.cli import main
     from warpcontact.errors import InputError
-    from warpcontact.runner import adhesion_law
+    from warpcontact.studies.runner import adhesion_law
 
     d = tomllib.loads((ROOT / "examples" / "pull_off_dugdale_lambda2.toml").read_text())
     assert adhesion_law(case_from_dict(d)).ramps == "centred"

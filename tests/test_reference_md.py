@@ -1,4 +1,4 @@
-"""The Maugis-Dugdale reference (warpcontact.reference) against an independent solution, its limits and
+"""The Maugis-Dugdale reference (warpcontact.physics.reference) against an independent solution, its limits and
 published values.
 
 Units are Johnson & Greenwood's (1997), J. Colloid Interface Sci. 192, 326: K = 4 E* / 3,
@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 from scipy import integrate, special
 
-from warpcontact.reference import (
+from warpcontact.physics.reference import (
     LAMBDA_JUMP_IN_ON_NONCONTACT_BRANCH,
     LAMBDA_JUMP_OUT_ON_CONTACT_BRANCH,
     maugis_dugdale_critical_points,

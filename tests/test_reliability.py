@@ -14,19 +14,19 @@ from hypothesis.extra import numpy as hnp
 from conftest import NEEDS_FFTW
 
 from warpcontact.errors import NonFiniteError
-from warpcontact.friction import TaborVonMises
-from warpcontact.geometry import Grid, Sphere
-from warpcontact.slip_search import estimate_delta_x_max
+from warpcontact.physics.friction import TaborVonMises
+from warpcontact.physics.geometry import Grid, Sphere
+from warpcontact.studies.slip_search import estimate_delta_x_max
 from warpcontact.kernels import laws
 from warpcontact.kernels.tangential import STICK
-from warpcontact.materials import PAPER_PAIR
-from warpcontact.model import ContactModel
-from warpcontact.results import state_summary
+from warpcontact.physics.materials import PAPER_PAIR
+from warpcontact.numerics.model import ContactModel
+from warpcontact.records.results import state_summary
 from warpcontact.solvers import NormalSolver
 from warpcontact.solvers.contact import ContactSolver
 from warpcontact.solvers.tangential import TangentialSolver
-from warpcontact.state import ContactState
-from warpcontact.table2 import Table2Settings, table2_cell
+from warpcontact.numerics.state import ContactState
+from warpcontact.studies.table2 import Table2Settings, table2_cell
 
 R = 10e-6
 HERTZ_DZ = 1.0e-10  # m, the paper's 1e-4 um
@@ -480,7 +480,7 @@ def _smc_case(size, n, delta_n=5e-10, sigma_max=3.6788e7, delta_z=HERTZ_DZ):
     """The paper pair, R = 10 um (paraboloid), frictionless, one normal state at ``delta_z`` [m],
     SMC law (w = e sigma_max delta_n = 0.05 J/m^2 by default) on an ``n`` x ``n`` grid of side
     ``size`` [m]."""
-    from warpcontact.case import case_from_dict
+    from warpcontact.records.case import case_from_dict
 
     return case_from_dict({
         "sphere": {"radius": R, "E": 106e9, "nu": 0.33, "profile": "paraboloid"},
@@ -496,7 +496,7 @@ def _edge_warnings(run, case, **kw):
     """(result of run(case), the AdhesionAtEdgeWarnings it gave)."""
     import warnings
 
-    from warpcontact.guards import AdhesionAtEdgeWarning
+    from warpcontact.records.guards import AdhesionAtEdgeWarning
 
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
@@ -515,9 +515,9 @@ def test_adhesion_at_the_edge_warns_and_the_suggested_domain_holds_the_tail():
     still warns, so the check is not idle. The force the small domain misses is most of it."""
     import re
 
-    from warpcontact.adhesion import SMC
+    from warpcontact.physics.adhesion import SMC
     from warpcontact.api import solve
-    from warpcontact.guards import suggested_adhesive_size
+    from warpcontact.records.guards import suggested_adhesive_size
 
     a = math.sqrt(R * HERTZ_DZ)
     small, warned = _edge_warnings(solve, _smc_case(4 * a, 32))
@@ -561,15 +561,17 @@ def test_adhesion_at_the_edge_warns_once_per_curve():
 
 def test_adhesive_tail_lengths():
     """SMC: x e^(1 - x) falls to 1 % of its peak at x = 7.64; Dugdale: no tension past its range."""
-    from warpcontact.adhesion import SMC, Dugdale
-    from warpcontact.guards import SMC_TAIL_IN_DELTA_N, adhesion_tail, suggested_adhesive_size
+    from warpcontact.physics.adhesion import SMC, Dugdale
+    from warpcontact.records.guards import SMC_TAIL_IN_DELTA_N, adhesion_tail, suggested_adhesive_size
 
     x = SMC_TAIL_IN_DELTA_N
     assert x * math.exp(1 - x) == pytest.approx(0.01, rel=0.01)
     assert adhesion_tail(SMC(1e8, 1e8, 1e-9, 2e-9)) == pytest.approx(7.64e-9)
-    law = Dugdale(1e8, 1e-9)
+    law = Dugdale(1e8, 1e-9)  # the centred ramp (default) ends at h_0 (1 + smoothing / 2)
+    assert adhesion_tail(law) == law.range == pytest.approx(1.025e-9)
+    assert suggested_adhesive_size(R, 1e-10, law) == pytest.approx(2.2 * math.sqrt(2 * R * (1e-10 + 1.025e-9)))
+    law = Dugdale(1e8, 1e-9, ramps="both")  # the ramps at both ends: the falling one ends at h_0 (1 + smoothing)
     assert adhesion_tail(law) == law.range == pytest.approx(1.05e-9)
-    assert suggested_adhesive_size(R, 1e-10, law) == pytest.approx(2.2 * math.sqrt(2 * R * (1e-10 + 1.05e-9)))
 
 
 @pytest.mark.parametrize("key, value", [("rel_tol", 0.0), ("rel_tol", -0.1), ("rel_tol", 1.0), ("rel_tol", float("nan")),
@@ -578,8 +580,8 @@ def test_gross_slip_search_settings_are_checked(key, value):
     """A bisection tolerance outside (0, 1) would never end (or end at once); step counts must be
     whole and positive. Refused before any solve, naming the argument."""
     from warpcontact.errors import InputError
-    from warpcontact.friction import Coulomb
-    from warpcontact.slip_search import find_gross_slip
+    from warpcontact.physics.friction import Coulomb
+    from warpcontact.studies.slip_search import find_gross_slip
 
     model = ContactModel(PAPER_PAIR, Sphere(10e-6), Grid(16, 1e-7))
     with pytest.raises(InputError, match=key):

@@ -1,4 +1,4 @@
-"""The memory estimate of warpcontact.resources against what the objects really allocate (CPU)."""
+"""The memory estimate of warpcontact.numerics.resources against what the objects really allocate (CPU)."""
 
 import gc
 import tracemalloc
@@ -9,15 +9,15 @@ import warp as wp
 
 from conftest import NEEDS_FFTW
 
-from warpcontact import resources
-from warpcontact.adhesion import SMC
+from warpcontact.numerics import resources
+from warpcontact.physics.adhesion import SMC
 from warpcontact.errors import InputError
-from warpcontact.friction import TaborVonMises
-from warpcontact.geometry import Grid, Sphere
-from warpcontact.materials import PAPER_PAIR
-from warpcontact.model import ContactModel
+from warpcontact.physics.friction import TaborVonMises
+from warpcontact.physics.geometry import Grid, Sphere
+from warpcontact.physics.materials import PAPER_PAIR
+from warpcontact.numerics.model import ContactModel
 from warpcontact.solvers.contact import ContactSolver
-from warpcontact.state import ContactState
+from warpcontact.numerics.state import ContactState
 
 R, DZ = 10e-6, 1.0e-10
 SIZE = 4 * (R * DZ) ** 0.5

@@ -21,7 +21,7 @@ from pathlib import Path
 
 import pytest
 
-from warpcontact.case import case_from_dict
+from warpcontact.records.case import case_from_dict
 from warpcontact.errors import InputError
 from warpcontact.schema import DIALECT, case_schema, schema_json
 
@@ -401,7 +401,7 @@ def test_schema_command_prints_and_writes(tmp_path):
 def test_a_key_the_schema_does_not_describe_stops_it(monkeypatch):
     """A key added to case.py's lists without its value's kind in schema.VALUES is not left out
     of the schema silently."""
-    from warpcontact import case
+    from warpcontact.records import case
 
     monkeypatch.setattr(case, "SPHERE_KEYS", (*case.SPHERE_KEYS, "colour"))
     with pytest.raises(KeyError, match="sphere.colour"):

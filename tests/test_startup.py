@@ -6,14 +6,15 @@ import sys
 
 import numpy as np
 
-from warpcontact import files, results
+from warpcontact import files
+from warpcontact.records import results
 
 
 def test_the_parser_imports_neither_warp_nor_scipy():
     """`warpcontact --help` and argument parsing load no Warp, SciPy, dask or solver module (they
     cost about a second; bench/batch_overhead.py times --help)."""
     code = ("import sys; from warpcontact.cli import _parser; _parser()\n"
-            "heavy = [m for m in ('warp', 'scipy', 'distributed', 'matplotlib', 'warpcontact.model', "
+            "heavy = [m for m in ('warp', 'scipy', 'distributed', 'matplotlib', 'warpcontact.numerics.model', "
             "'warpcontact.solvers', 'warpcontact.kernels') if m in sys.modules]\n"
             "print(','.join(heavy))")
     r = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
@@ -24,7 +25,7 @@ def test_the_parser_imports_neither_warp_nor_scipy():
 def test_the_package_names_load_on_first_use():
     import warpcontact as wc
 
-    assert wc.load_case.__module__ == "warpcontact.case" and wc.PAPER_PAIR.E_star > 0
+    assert wc.load_case.__module__ == "warpcontact.records.case" and wc.PAPER_PAIR.E_star > 0
     assert {"solve", "gross_slip", "InputError"} <= set(dir(wc))
 
 

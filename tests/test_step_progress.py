@@ -17,13 +17,13 @@ import pytest
 from test_first_hour import afm_dict
 
 import warpcontact.solvers.contact as contact_module
-from warpcontact.case import case_from_dict
+from warpcontact.records.case import case_from_dict
 from warpcontact.errors import InputError
-from warpcontact.geometry import Grid
-from warpcontact.guards import EDGE_SHARE_AT_FIRST_TURN, check_contact_fits
-from warpcontact.model import ContactModel
-from warpcontact.progress import Progress
-from warpcontact.runner import build, run_path
+from warpcontact.physics.geometry import Grid
+from warpcontact.records.guards import EDGE_SHARE_AT_FIRST_TURN, check_contact_fits
+from warpcontact.numerics.model import ContactModel
+from warpcontact.records.progress import Progress
+from warpcontact.studies.runner import build, run_path
 
 
 class Terminal(io.StringIO):

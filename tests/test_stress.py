@@ -1,4 +1,4 @@
-"""Subsurface stress (warpcontact/stress.py, kernels/stress.py) against closed forms.
+"""Subsurface stress (warpcontact/numerics/stress.py, kernels/stress.py) against closed forms.
 
 Grids are small (n <= 65) so that the file runs in well under a minute on 2 CPU cores; each
 tolerance says where it comes from.
@@ -12,12 +12,12 @@ import pytest
 import warp as wp
 from scipy.integrate import dblquad
 
-from warpcontact import stress as st
-from warpcontact import stress_study
-from warpcontact.case import case_from_dict
+from warpcontact.numerics import stress as st
+from warpcontact.studies import stress_study
+from warpcontact.records.case import case_from_dict
 from warpcontact.errors import InputError
-from warpcontact.geometry import Grid
-from warpcontact.materials import Material, MaterialPair
+from warpcontact.physics.geometry import Grid
+from warpcontact.physics.materials import Material, MaterialPair
 
 from conftest import DEVICES
 
@@ -501,7 +501,7 @@ def test_every_solve_result_says_whether_a_body_yielded(sphere_yield, yielded):
     """run_path's summary (result.json of solve) carries ``yielded``, ``yield_margin`` (the
     smaller yield strength / von Mises maximum of the bodies) and the per-body check: the
     two-material Hertz contact's sphere reaches 55.4 MPa below the surface (0.606 p0)."""
-    from warpcontact.runner import run_path
+    from warpcontact.studies.runner import run_path
 
     case, a = _hertz_case(n=33, steps=1, sphere_yield=sphere_yield)
     s = run_path(case, fields="none").summary(complete=True)

@@ -20,15 +20,15 @@ from types import SimpleNamespace
 import numpy as np
 import pytest
 
-from warpcontact.adhesion import SMC, Dugdale
-from warpcontact.friction import Coulomb, TaborVonMises
-from warpcontact.geometry import Grid, Sphere
+from warpcontact.physics.adhesion import SMC, Dugdale
+from warpcontact.physics.friction import Coulomb, TaborVonMises
+from warpcontact.physics.geometry import Grid, Sphere
 from warpcontact.kernels.tangential import SLIP, STICK
-from warpcontact.materials import PAPER_PAIR
-from warpcontact.model import ContactModel
-from warpcontact.results import state_summary
+from warpcontact.physics.materials import PAPER_PAIR
+from warpcontact.numerics.model import ContactModel
+from warpcontact.records.results import state_summary
 from warpcontact.solvers.contact import ContactSolver
-from warpcontact.state import ContactState
+from warpcontact.numerics.state import ContactState
 
 R, DZ = 10e-6, 5e-11
 A = math.sqrt(R * DZ)
@@ -217,7 +217,7 @@ def test_largest_tension_and_domain_edge_equal_numpy(case, dtype, device):
     import warp as wp
 
     from warpcontact.kernels.summary import S_MAX_TENSION
-    from warpcontact.results import domain_edge, summary_sums
+    from warpcontact.records.results import domain_edge, summary_sums
 
     model, state, adhesion = solved(case, device, dtype)
     tension = -state.adhesive_pressure.numpy().astype(np.float64)
@@ -239,7 +239,7 @@ def test_host_si_equals_astype_times_scale_and_leaves_the_field(dtype, device):
     the device field unchanged (on the CPU ``numpy()`` is a view of it)."""
     import warp as wp
 
-    from warpcontact.state import host_si
+    from warpcontact.numerics.state import host_si
 
     field = np.random.default_rng(5).standard_normal((6, 4)).astype(np.float32 if dtype == "float32" else np.float64)
     w = wp.array(field, device=device)

@@ -10,10 +10,10 @@ from pathlib import Path
 
 import pytest
 
-from warpcontact import runner
-from warpcontact.cli_sweep import add_parser, cmd_sweep
+from warpcontact.studies import runner
+from warpcontact.cli.sweep import add_parser, cmd_sweep
 from warpcontact.errors import InputError
-from warpcontact.sweep import case_id, load_sweep
+from warpcontact.studies.sweep import case_id, load_sweep
 
 ROOT = Path(__file__).resolve().parents[1]
 PAPER_CASE = ROOT / "examples" / "table2_k080_dz5e-5.toml"
@@ -199,7 +199,7 @@ class Terminal(io.StringIO):
 def test_progress_bar_over_cases_on_a_terminal(tmp_path):
     """On a terminal: a bar over the cases, redrawn with the running case's states, and each
     finished case's result line kept whole above it; with quiet, nothing."""
-    from warpcontact.sweep import run_sweep
+    from warpcontact.studies.sweep import run_sweep
 
     text = PAPER_CASE.read_text().replace("n = 96", "n = 32").replace("E = 205e9\nnu = 0.31", "E = 106e9\nnu = 0.33")
     (tmp_path / "base.toml").write_text(text)  # the flat of the sphere's material: one turn a state, fast

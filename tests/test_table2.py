@@ -6,7 +6,7 @@ digits of it (4.2e-6 means 4.15e-6 ... 4.25e-6, +-1.2 %).
 
 import pytest
 
-from warpcontact.table2 import Table2Settings, cells, table2_cell
+from warpcontact.studies.table2 import Table2Settings, cells, table2_cell
 
 # one cell per regime: bond failure (Tabor) only, mixed, von Mises dominated
 CI_CELLS = [(0.80, 5.0e-5), (0.50, 1.5e-4), (0.95, 1.5e-4)]
@@ -45,8 +45,8 @@ def test_cell_grid_holds_the_adhesive_tail_at_the_same_cell_side():
     for domain."""
     import math
 
-    from warpcontact.guards import suggested_adhesive_size
-    from warpcontact.table2 import RADIUS, cell_grid
+    from warpcontact.records.guards import suggested_adhesive_size
+    from warpcontact.studies.table2 import RADIUS, cell_grid
 
     dz = 5e-11  # m
     st = Table2Settings(n=64, sigma_max=5e6, tau_max=5e6, delta_n=2e-11, delta_t=2e-11)
@@ -81,8 +81,8 @@ def test_adhesive_cell_with_the_default_law_raises_mu_as_the_paper_does():
 
 
 def test_mu_is_undefined_not_a_number_when_adhesion_holds_the_sphere_in_tension():
-    from warpcontact.slip_search import friction_coefficient
-    from warpcontact.table2 import markdown
+    from warpcontact.studies.slip_search import friction_coefficient
+    from warpcontact.studies.table2 import markdown
 
     assert friction_coefficient({"x": 2.0, "z": 4.0}) == 0.5
     assert friction_coefficient({"x": 2.0, "z": -1e-9}) is None and friction_coefficient({"x": 2.0, "z": 0.0}) is None

@@ -7,17 +7,17 @@ import numpy as np
 import pytest
 import warp as wp
 
-from warpcontact.friction import Coulomb, TaborVonMises
-from warpcontact.geometry import Grid, Sphere
-from warpcontact.influence import influence_coefficients
+from warpcontact.physics.friction import Coulomb, TaborVonMises
+from warpcontact.physics.geometry import Grid, Sphere
+from warpcontact.physics.influence import influence_coefficients
 from warpcontact.kernels import tangential as tk
-from warpcontact.materials import COPPER, PAPER_PAIR, MaterialPair
-from warpcontact.model import ContactModel
-from warpcontact.reference import mindlin
-from warpcontact.results import state_summary
+from warpcontact.physics.materials import COPPER, PAPER_PAIR, MaterialPair
+from warpcontact.numerics.model import ContactModel
+from warpcontact.physics.reference import mindlin
+from warpcontact.records.results import state_summary
 from warpcontact.solvers.contact import ContactSolver
 from warpcontact.solvers.tangential import TangentialSolver
-from warpcontact.state import ContactState
+from warpcontact.numerics.state import ContactState
 
 R, DZ, MU = 10e-6, 1.0e-10, 0.3
 A = math.sqrt(R * DZ)

@@ -11,8 +11,8 @@ from pathlib import Path
 import pytest
 
 from warpcontact import api
-from warpcontact.case import case_from_dict
-from warpcontact.guards import YieldWarning
+from warpcontact.records.case import case_from_dict
+from warpcontact.records.guards import YieldWarning
 
 ROOT = Path(__file__).resolve().parents[1]
 PAPER = tomllib.loads((ROOT / "examples" / "table2_k080_dz5e-5.toml").read_text())
@@ -77,7 +77,7 @@ def test_pressure_above_a_tiny_yield_strength_yields_and_warns_once():
 def test_sweep_rows_carry_the_yield_keys():
     """A gross-slip row (result_row of the gross-slip summary) and a solve row (run_path's last
     state) carry yielded and yield_margin; a row without a check (pull-off) carries them as None."""
-    from warpcontact.sweep import run_case
+    from warpcontact.studies.sweep import run_case
 
     gs = run_case("gross-slip", 0.01, paper_case(0.95))
     row = gs["summary"]
@@ -91,7 +91,7 @@ def test_sweep_rows_carry_the_yield_keys():
 
 
 def test_table2_cell_reports_the_check_and_the_markdown_column():
-    from warpcontact.table2 import Table2Settings, markdown, table2_cell
+    from warpcontact.studies.table2 import Table2Settings, markdown, table2_cell
 
     rec = table2_cell(0.50, 1.0e-5, Table2Settings(n=32))
     assert rec["yielded"] is False and rec["yield_margin"] == pytest.approx(margin_of(rec["yield_check"]))
@@ -113,8 +113,8 @@ def test_gross_slip_command_prints_one_warning_line_and_writes_the_keys(tmp_path
 
 
 def _solved_state(k_tau, delta_x, n=64):
-    from warpcontact.runner import build
-    from warpcontact.state import ContactState
+    from warpcontact.studies.runner import build
+    from warpcontact.numerics.state import ContactState
 
     case = paper_case(k_tau=k_tau, n=n)
     model, solver, _ = build(case)
@@ -134,7 +134,7 @@ def test_yield_check_depths_find_the_maximum_of_a_fine_scan(k_tau, delta_x):
     its value at 0.02 a (the shallowest depth the check had before)."""
     import numpy as np
 
-    from warpcontact import stress as st
+    from warpcontact.numerics import stress as st
 
     model, fields = _solved_state(k_tau, delta_x)
     check = st.yield_check(model.pair, model.grid, fields)
@@ -150,7 +150,7 @@ def test_lean_von_mises_pass_matches_the_full_evaluation():
     evaluation's per-depth von Mises maxima and their places, to rounding."""
     import numpy as np
 
-    from warpcontact import stress as st
+    from warpcontact.numerics import stress as st
 
     model, fields = _solved_state(0.8, 1e-11)
     a = st.contact_radius(fields, model.grid.cell_area)
@@ -170,7 +170,7 @@ def test_deep_depths_on_the_half_grid_match_the_fine_grid():
     64 cells (radius ~21) the fine grid alone."""
     import numpy as np
 
-    from warpcontact import stress as st
+    from warpcontact.numerics import stress as st
 
     model, fields = _solved_state(0.8, 1e-11, n=128)
     dx = model.grid.dx

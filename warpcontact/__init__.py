@@ -11,22 +11,23 @@ from typing import TYPE_CHECKING
 
 if TYPE_CHECKING:  # for readers, type checkers and the documentation's static analysis
     from .api import gross_slip, path, pull_off, solve
-    from .case import Case, case_from_dict, load_case
+    from .records.case import Case, case_from_dict, load_case
     from .errors import ConvergenceError, InputError, NonFiniteError
-    from .geometry import Grid, Sphere
-    from .materials import COPPER, HARDENED_STEEL, PAPER_PAIR, Material, MaterialPair
-    from .stress_study import subsurface_stress
+    from .physics.geometry import Grid, Sphere
+    from .physics.materials import COPPER, HARDENED_STEEL, PAPER_PAIR, Material, MaterialPair
+    from .studies.stress_study import subsurface_stress
 
 # The names below are imported when first used (PEP 562), so that `warpcontact --help` and the
 # command line's argument parsing do not import Warp, SciPy and the solvers (a second or so).
 _LAZY = {
     "ConvergenceError": "errors", "InputError": "errors", "NonFiniteError": "errors",
-    "Grid": "geometry", "Sphere": "geometry",
-    "COPPER": "materials", "HARDENED_STEEL": "materials", "PAPER_PAIR": "materials", "Material": "materials",
-    "MaterialPair": "materials",
-    "Case": "case", "case_from_dict": "case", "load_case": "case",
+    "Grid": "physics.geometry", "Sphere": "physics.geometry",
+    "COPPER": "physics.materials", "HARDENED_STEEL": "physics.materials", "PAPER_PAIR": "physics.materials",
+    "Material": "physics.materials",
+    "MaterialPair": "physics.materials",
+    "Case": "records.case", "case_from_dict": "records.case", "load_case": "records.case",
     "gross_slip": "api", "path": "api", "pull_off": "api", "solve": "api",
-    "subsurface_stress": "stress_study",
+    "subsurface_stress": "studies.stress_study",
 }
 
 

@@ -14,19 +14,19 @@ The dicts returned are the result.json of the matching command less the run's re
 software, case, complete): one builder per kind of result (:func:`run_gross_slip`,
 :func:`run_pull_off`), shared with the command line and the sweep rows (:func:`result_row`).
 
-Every function takes a :class:`~warpcontact.case.Case` (SI units throughout) and optional
+Every function takes a :class:`~warpcontact.records.case.Case` (SI units throughout) and optional
 ``device``, ``dtype`` and ``fft`` overrides; mistakes raise ``InputError`` (a ValueError) naming the
 key.
 """
 
 from __future__ import annotations
 
-from .case import Case
+from .records.case import Case
 from .errors import InputError
 
-# the builders of a case's task live in the studies (warpcontact.tasks), where the sweeps, the fits
+# the builders of a case's task live in the studies (warpcontact.studies.tasks), where the sweeps, the fits
 # and the stress study use them too; their names here are those of the Python API and the command line
-from .tasks import (  # noqa: F401
+from .studies.tasks import (
     STATE_LISTS,
     check_gross_slip_case,
     check_pull_off_case,
@@ -36,13 +36,13 @@ from .tasks import (  # noqa: F401
     run_gross_slip,
     run_pull_off,
 )
-from .tasks import prepare as _prepare
+from .studies.tasks import prepare as _prepare
 
 
 def solve(case: Case, device=None, dtype=None, fft=None, on_state=None, model=None, fields: str = "all"):
     """Solve every state of the case's load path in order.
 
-    Returns a :class:`~warpcontact.runner.PathResult`: ``states`` (one summary dict per state:
+    Returns a :class:`~warpcontact.studies.runner.PathResult`: ``states`` (one summary dict per state:
     force [N], contact/stick/adhesive areas [m^2], max pressure [Pa], convergence) and
     ``fields`` (per state, numpy arrays (n, n) in SI units: pressure, shear_x, shear_y, gap,
     slip_x, slip_y, ..., contact_mask, stick_mask, adhesive_mask). ``fields``: whose fields are
@@ -50,10 +50,10 @@ def solve(case: Case, device=None, dtype=None, fft=None, on_state=None, model=No
     ("none": the summaries alone, which are reduced on the device; on a GPU at n = 8192 a
     state's fields are about 5 GiB of host memory and most of the call's time).
     ``on_state(index, total, summary, result)`` is called after each state. ``model``: a
-    :class:`~warpcontact.model.ContactModel` of the same materials, sphere, grid, device, float
-    type and FFT backend to reuse (many cases of one grid: :mod:`warpcontact.batch`).
+    :class:`~warpcontact.numerics.model.ContactModel` of the same materials, sphere, grid, device, float
+    type and FFT backend to reuse (many cases of one grid: :mod:`warpcontact.studies.batch`).
     """
-    from .runner import FIELDS_CHOICES, run_path
+    from .studies.runner import FIELDS_CHOICES, run_path
 
     if fields not in FIELDS_CHOICES:
         raise InputError("fields", f"unknown choice {fields!r}; choose one of {', '.join(FIELDS_CHOICES)}")
@@ -64,9 +64,9 @@ def path(case: Case, device=None, dtype=None, fft=None):
     """Iterate over the solved states of the load path: yields one summary dict per state (as in
     :func:`solve`), each as soon as it is solved; the slip history is carried along. Warns as
     :func:`solve` does (a coarse grid, a pressure above a yield strength: once each)."""
-    from .guards import RunChecks
-    from .results import state_summary
-    from .runner import build
+    from .records.guards import RunChecks
+    from .records.results import state_summary
+    from .studies.runner import build
 
     case = _prepare(case, device, dtype, fft)
     _, solver, state = build(case)

@@ -1,7 +1,7 @@
 """The JSON Schema (draft 2020-12) of a case file, for editors that complete and check TOML:
 ``warpcontact schema`` prints it; docs/case-files.md says how to point an editor at it.
 
-Built from :mod:`warpcontact.case`, not written beside it: the tables and their keys are
+Built from :mod:`warpcontact.records.case`, not written beside it: the tables and their keys are
 ``case.TABLES``, ``case.REQUIRED_TABLES`` and the ``*_KEYS`` tuples that ``case_from_dict``
 checks against; the choices, limits and defaults are case's constants and its dataclasses'
 defaults (``SphereSpec``, ``Material``, ``Grid``, ``LoadSpec``, ``SolverSpec``, ``FrictionSpec``);
@@ -23,9 +23,9 @@ import json
 import math
 import re
 
-from . import case as C
-from .geometry import MIN_CELLS, Grid
-from .materials import Material
+from .records import case as C
+from .physics.geometry import MIN_CELLS, Grid
+from .physics.materials import Material
 
 DIALECT = "https://json-schema.org/draft/2020-12/schema"
 
@@ -43,7 +43,7 @@ def _enum(choices) -> dict:
     return {"type": "string", "enum": list(choices)}
 
 
-#: The kind of each key's value, by dotted key (the keys themselves come from warpcontact.case).
+#: The kind of each key's value, by dotted key (the keys themselves come from warpcontact.records.case).
 VALUES = {
     "sphere.radius": _POSITIVE,
     "sphere.E": _POSITIVE,

@@ -16,7 +16,7 @@ import numpy as np
 import warp as wp
 
 from ..kernels.fft import crop_field, pad_field
-from ..launch import LaunchCache, Rows
+from ..numerics.launch import LaunchCache, Rows
 
 
 class FFTBackend:

@@ -14,8 +14,8 @@ import warp as wp
 from warpcontact.kernels import adhesive as ak
 
 from .. import interrupts
-from ..launch import ReductionLaunch
-from ..state import SolveInfo
+from ..numerics.launch import ReductionLaunch
+from ..numerics.state import SolveInfo
 
 #: L-BFGS pairs kept (5: the fewest FFT pairs per state on the Maugis-Dugdale curves at n = 96;
 #: bench/adhesive_algorithms.py)
@@ -81,7 +81,7 @@ class PaddedConvolution:
         if fft.spectral_shape == (2 * n, n + 1) and fft.half_axis == 1:
             spectrum = self._view(op.influence[0])  # K_zz's (real) spectrum
         else:  # the warp backend's layout: made once on the host
-            from ..influence import influence_coefficients
+            from ..physics.influence import influence_coefficients
 
             coeffs = influence_coefficients(model.pair, n, n, model.grid.dx, model.grid.dy)["zz"]
             coeffs *= model.pair.E_star / model.grid.dx
@@ -114,7 +114,7 @@ class AdhesiveNormalSolver:
     Adhesion package minimises its energy with a bounded quasi-Newton method (Pastewka & Robbins,
     PNAS 111 (2014) 3298; L-BFGS-B: Byrd, Lu, Nocedal & Zhu, SIAM J. Sci. Comput. 16 (1995) 1190).
     Every law with a potential fits: SMC at the cell's fixed tangential opening, Dugdale with
-    ramps, exponential, Lennard-Jones 9-3 (``warpcontact.adhesion``). A local minimum is a stable
+    ramps, exponential, Lennard-Jones 9-3 (``warpcontact.physics.adhesion``). A local minimum is a stable
     equilibrium: along a path each state continues the last one's branch, and where that branch
     ends (jump into or out of contact) the minimisation moves to the next stable one, as the
     physical system does under displacement control.
@@ -140,7 +140,7 @@ class AdhesiveNormalSolver:
 
     Args:
         model: the contact model.
-        law: an adhesion law with ``normal_law(model)`` (``warpcontact.adhesion``).
+        law: an adhesion law with ``normal_law(model)`` (``warpcontact.physics.adhesion``).
         tol: relative projected gradient (default :func:`default_adhesive_tolerance`).
         max_iter: iteration limit of a solve.
         memory: L-BFGS pairs.

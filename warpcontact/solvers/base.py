@@ -13,7 +13,7 @@ from warpcontact.kernels.reduce import (
 )
 
 from .. import interrupts
-from ..state import SolveInfo
+from ..numerics.state import SolveInfo
 
 
 def default_tolerance(dtype) -> float:

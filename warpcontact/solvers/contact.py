@@ -12,7 +12,7 @@ from warpcontact.kernels import adhesion as ak
 from warpcontact.kernels import coupling as ck
 
 from .. import interrupts
-from ..state import EDGE_SHARE_AT_FIRST_TURN, SolveInfo, check_contact_fits
+from ..numerics.state import EDGE_SHARE_AT_FIRST_TURN, SolveInfo, check_contact_fits
 from .adhesive import AdhesiveNormalSolver
 from .fixed_point import AndersonMixing
 from .normal import NormalSolver
@@ -77,8 +77,8 @@ class ContactSolver:
 
     Args:
         model: the contact model.
-        friction: a shear-limit law (``warpcontact.friction``) or None for frictionless contact.
-        adhesion: an adhesion law (``warpcontact.adhesion``) or None.
+        friction: a shear-limit law (``warpcontact.physics.friction``) or None for frictionless contact.
+        adhesion: an adhesion law (``warpcontact.physics.adhesion``) or None.
         tol: relative residual of the inner solves (default by dtype, see NormalSolver).
         outer_tol: relative change that ends the turns (default 100 tol: 1e-8 in float64, 1e-3 in
             float32).
@@ -314,9 +314,9 @@ class ContactSolver:
         if n % 2 or n // 2 < NESTED_MIN_N:
             return None
         if self._coarse is None:
-            from ..geometry import Grid
-            from ..model import ContactModel
-            from ..state import ContactState
+            from ..physics.geometry import Grid
+            from ..numerics.model import ContactModel
+            from ..numerics.state import ContactState
 
             coarse_model = ContactModel(m.pair, m.sphere, Grid(n // 2, m.grid.size), device=m.device,
                                         dtype=m.dtype_name, fft=m.fft_name)

@@ -9,8 +9,8 @@ import warp as wp
 
 from warpcontact.kernels import normal as nk
 
-from ..launch import ReductionLaunch, Rows, Sums
-from ..state import SolveInfo
+from ..numerics.launch import ReductionLaunch, Rows, Sums
+from ..numerics.state import SolveInfo
 from .base import ProjectedCG, default_tolerance, raise_non_finite  # noqa: F401  (re-export)
 
 
@@ -50,7 +50,7 @@ class NormalSolver(ProjectedCG):
     Oosterlee (2014), Numer. Linear Algebra Appl. 21, 256-274.
 
     Args:
-        model: the :class:`~warpcontact.model.ContactModel`.
+        model: the :class:`~warpcontact.numerics.model.ContactModel`.
         tol: relative residual to reach (default: 1e-10 in float64, 1e-5 in float32).
         max_iter: iteration limit; a solve that reaches it returns ``converged = False``.
         pressure_cap: upper bound of the pressure [Pa] (hardness), inf for none.

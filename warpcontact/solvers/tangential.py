@@ -7,8 +7,8 @@ import warp as wp
 from warpcontact.kernels import reduce
 from warpcontact.kernels import tangential as tk
 
-from ..launch import Rows, Sums
-from ..state import SolveInfo
+from ..numerics.launch import Rows, Sums
+from ..numerics.state import SolveInfo
 from .base import ProjectedCG, raise_non_finite
 
 
@@ -53,7 +53,7 @@ class TangentialSolver(ProjectedCG):
     for the exact gradient and K t for the step at every iteration (two applications).
 
     Args:
-        model: the :class:`~warpcontact.model.ContactModel`.
+        model: the :class:`~warpcontact.numerics.model.ContactModel`.
         tol: relative residual to reach (default: 1e-10 in float64, 1e-5 in float32).
         max_iter: iteration limit; a solve that reaches it returns ``converged = False``.
         use_graphs: replay solves as CUDA graphs (default: on CUDA with conditional graph nodes).

@@ -1,0 +1,642 @@
+"""Command line: ``warpcontact solve CASE.toml --out DIR`` and the other commands.
+
+Exit status (every command; docs/faults.md says what each leaves on disk):
+
+- 0 success;
+- 2 a mistake in the input (one line on stderr naming it, no traceback);
+- 3 a state did not converge (results are written and marked ``converged: false``);
+- 74 an output could not be written (no space left, read-only file system, quota, I/O error:
+  one line naming the file; what was written before is left whole; sysexits' EX_IOERR);
+- 130, 143, 129 stopped by Ctrl-C, SIGTERM, SIGHUP (128 + the signal's number, as shells report
+  it): the states or cases finished so far are written, marked ``"interrupted": true``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import errno
+import math
+import sys
+from pathlib import Path
+
+from .. import interrupts
+from ..records.case import FFT_BACKENDS
+from .solve import EXIT_NOT_CONVERGED, _earlier_run, _remove_stale, _turns_hint, cmd_solve
+from ..errors import ConvergenceError, InputError, NonFiniteError, OutputError
+from ..records.progress import Progress, end_line, write_above
+
+EXIT_INPUT = 2
+EXIT_WRITE_ERROR = 74
+EXIT_INTERRUPTED = 130  # Ctrl-C; SIGTERM 143, SIGHUP 129: interrupts.exit_status()
+#: --fields of solve: runner.FIELDS_CHOICES (not imported here: the parser is built before the solver is needed)
+FIELDS_CHOICES = ("all", "last", "none")
+
+EXAMPLE_SOLVE = """example:
+  warpcontact solve examples/hertz.toml --out out/hertz
+  warpcontact solve examples/hertz.toml --out out/hertz --device cuda --dtype float32
+
+writes OUT/result.json (forces [N], contact area [m^2] and radius [m], max pressure [Pa],
+convergence, timings, the case; "complete": false until the run has solved and written
+everything) and OUT/fields.npz (pressure, shear, gap, slip fields in SI units for every state
+of the path, with masks; loads with numpy alone; --fields last or none writes less)."""
+
+
+def _common(p):
+    p.add_argument("--out", required=True, help="output folder (created if needed)")
+    p.add_argument("--device", help="override [solver] device: cpu, cuda, cuda:N")
+    p.add_argument("--dtype", choices=("float64", "float32"), help="override [solver] dtype")
+    p.add_argument("--fft", choices=FFT_BACKENDS, help="override [solver] fft")
+    p.add_argument("--quiet", action="store_true", help="no progress output")
+
+
+def _parser():
+    parser = argparse.ArgumentParser(
+        prog="warpcontact",
+        description="Sphere-on-flat contact with friction and adhesion (DC-FFT, conjugate gradients, NVIDIA Warp).",
+    )
+    from .. import __version__
+
+    parser.add_argument("--version", action="version", version=f"warpcontact {__version__}")
+    sub = parser.add_subparsers(dest="command", required=True)
+    p = sub.add_parser(
+        "solve",
+        help="solve every state of a case's load path",
+        description="Solve every state of the load path of CASE (a TOML file, SI units; see docs/case-files.md).",
+        epilog=EXAMPLE_SOLVE,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
+    p.add_argument("case", help="case file (TOML)")
+    p.add_argument("--fields", choices=FIELDS_CHOICES, default="all",
+                   help="whose fields OUT/fields.npz holds: every state's (all, the default), the last state's "
+                   "(last: 1/n_states of the size) or none (no fields.npz)")
+    _common(p)
+
+    g = sub.add_parser(
+        "gross-slip",
+        help="find delta_x at gross slip and the static friction coefficient",
+        description="Load the case's delta_z in [load] steps with friction active, then raise delta_x until no "
+        "cell sticks; bisect to 1 %. The case needs a [friction] table; its delta_x, delta_y are not used.",
+        epilog="example:\n  warpcontact gross-slip examples/table2_k080_dz5e-5.toml --out out/gs\n\n"
+        "writes OUT/result.json with delta_x_max [m], mu, the force at delta_x_max [N] and every state of the path.",
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
+    g.add_argument("case", help="case file (TOML)")
+    _common(g)
+
+    t = sub.add_parser(
+        "table2",
+        help="compute the paper's Table 2 (24 cells: 12 adhesionless, 12 adhesive)",
+        description="delta_x_max and mu for k_tau in (0.50, 0.80, 0.95) x delta_z in (1e-5, 5e-5, 1e-4, 1.5e-4) um, "
+        "copper sphere R = 10 um on hardened steel, without and with adhesion (the SMC law; the paper gives no "
+        "parameters: the defaults below are ours, README 'Adhesion defaults' says why), compared with the paper. "
+        "Each finished cell is written at once; a rerun with the same settings skips finished cells.",
+        epilog="example:\n  warpcontact table2 --out out/table2 --n 128\n"
+        "  warpcontact table2 --no-adhesion --out out/table2 --n 64 128   # grid convergence: both resolutions\n"
+        "  warpcontact table2 --adhesion-only --sigma-max 2e6 --tau-max 2e6 --out out/t2_s2e6",
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
+    from ..studies.table2 import Table2Settings as _T2
+
+    col = t.add_mutually_exclusive_group()
+    col.add_argument("--no-adhesion", action="store_true", help="only the adhesionless columns")
+    col.add_argument("--adhesion-only", action="store_true", help="only the adhesive columns")
+    t.add_argument("--sigma-max", type=float, default=_T2.sigma_max, help=f"SMC peak normal traction [Pa] (default {_T2.sigma_max:g})")
+    t.add_argument("--tau-max", type=float, default=_T2.tau_max, help=f"SMC peak shear traction [Pa] (default {_T2.tau_max:g})")
+    t.add_argument("--delta-n", type=float, default=_T2.delta_n, help=f"SMC normal length [m] (default {_T2.delta_n:g})")
+    t.add_argument("--delta-t", type=float, default=_T2.delta_t, help=f"SMC tangential length [m] (default {_T2.delta_t:g})")
+    t.add_argument("--n", type=int, nargs="+", default=[128], help="cells per side; several values give a grid study")
+    t.add_argument("--size-in-a", type=float, default=3.0, help="domain side in Hertz radii a = sqrt(R delta_z)")
+    from .sweep import add_batch_options
+
+    add_batch_options(t, "1", default=1)  # warpcontact.studies.batch
+    po = sub.add_parser(
+        "pull-off",
+        help="approach and retract the sphere: force-displacement curve and pull-off force",
+        description="Needs an [adhesion] table. delta_z runs from -2 ranges of the law up to the case's delta_z and "
+        "back down to --retract-to (default: -(4 ranges of the law)), in --steps steps each way.",
+        epilog="example:\n  warpcontact pull-off examples/pull_off_dmt.toml --out out/pull\n\n"
+        "writes OUT/result.json (pull_off_force [N], the most tensile total F_z, and the curve) and OUT/pull_off.png.",
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
+    po.add_argument("case", help="case file (TOML) with an [adhesion] table")
+    po.add_argument("--steps", type=int, default=20, help="steps each way (default 20)")
+    po.add_argument("--retract-to", type=float, help="last delta_z [m] (default: -4 ranges of the law)")
+    _common(po)
+
+    from .figure import add_parser as add_figure_parser
+    from .sweep import add_parser as add_sweep_parser
+
+    add_figure_parser(sub)
+    add_sweep_parser(sub)
+    from .stress import add_parser as add_stress_parser
+
+    add_stress_parser(sub)
+    from .fit import add_parser as add_fit_parser
+
+    add_fit_parser(sub)
+    t.add_argument("--k-tau", type=float, nargs="+", help="only these k_tau columns (0.50, 0.80, 0.95)")
+    t.add_argument("--delta-z-um", type=float, nargs="+", help="only these delta_z rows in um (1e-5, 5e-5, 1e-4, 1.5e-4)")
+    _common(t)
+    sc = sub.add_parser(
+        "schema",
+        help="print the JSON Schema of a case file (for editors that complete and check TOML)",
+        description="Print the JSON Schema (draft 2020-12) of a case file, built from the checks that every command "
+        "makes: tables, keys, types, ranges, choices, defaults and descriptions. Point an editor at it to complete "
+        "and check case files as they are typed (docs/case-files.md).",
+        epilog="example:\n  warpcontact schema --out case.schema.json\n  warpcontact schema | python3 -m json.tool",
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
+    sc.add_argument("--out", metavar="FILE", help="write the schema to FILE (whole or not at all) instead of printing it")
+    sc.set_defaults(out_is_file=True)  # every other command's --out is a folder
+    return parser
+
+
+def cmd_gross_slip(args) -> int:
+    from ..api import check_gross_slip_case, run_gross_slip
+    from ..records.case import load_case
+    from ..records.guards import GROSS_SLIP_RESULTS
+    from ..records.results import atomic_write_json
+    from ..studies.runner import build
+
+    case = load_case(args.case).with_overrides(device=args.device, dtype=args.dtype, fft=args.fft)
+    check_gross_slip_case(case)
+    model, solver, _ = build(case)
+    out = Path(args.out)
+    info = _run_info(model, case)
+
+    progress = Progress("gross-slip", quiet=args.quiet)  # a search: the number of states is not known
+    states = []  # the finished states: written after each, and on a stop
+
+    def on_state(k, s):
+        with interrupts.deferred():  # the list and the file stay in step
+            states.append(s)
+            _write_partial(out, {"states": states}, info, GROSS_SLIP_RESULTS)
+        progress.update(k + 1, s["iterations"], s["residual"],
+                        f"{s['kind']} delta_x {s['delta']['x']:.4e} m, {s['stick_cells']} stick cells")
+
+    earlier = _earlier_run(out, ("result.json",))
+    try:
+        if earlier:  # replaced at once; elsewhere nothing is written before the first state finishes
+            with interrupts.deferred():
+                _write_partial(out, {"states": states}, info, GROSS_SLIP_RESULTS)
+        r = run_gross_slip(case, model, solver, on_state=on_state)
+    except KeyboardInterrupt as e:
+        interrupts.stopping(e)  # first: a second signal does not cut what follows
+        progress.close()
+        return _interrupted(out, {"states": states}, info, GROSS_SLIP_RESULTS, e, earlier)
+    finally:
+        progress.close()
+    result = {**r, "complete": True, "interrupted": False, **info}
+    with interrupts.deferred(raise_after=False):
+        atomic_write_json(out / "result.json", result)
+    if not r["converged"]:
+        print(f"not converged: a state of the gross-slip path did not converge{_turns_hint(r['states'], case)}; "
+              f"see {out / 'result.json'}", file=sys.stderr)
+        return EXIT_NOT_CONVERGED
+    if not args.quiet:
+        mu = "undefined (F_z <= 0: adhesion holds the sphere in tension)" if r["mu"] is None else f"{r['mu']:.4f}"
+        print(f"delta_x_max = {r['delta_x_max']:.4e} m, mu = {mu}  [{r['elapsed_s']:.1f} s] -> {out}", file=sys.stderr)
+    return 0
+
+
+def cmd_pull_off(args) -> int:
+    from ..api import check_pull_off_case, run_pull_off
+    from ..records.case import load_case
+    from ..records.guards import PULL_OFF_RESULTS
+    from ..records.results import atomic_write_json
+    from ..studies.runner import build
+
+    case = load_case(args.case).with_overrides(device=args.device, dtype=args.dtype, fft=args.fft)
+    if args.steps < 2:
+        raise InputError("--steps", f"must be at least 2, got {args.steps}")
+    dz_max = case.load.delta_z_max
+    if args.retract_to is not None and not args.retract_to < dz_max:
+        raise InputError("--retract-to", f"must lie below the deepest approach {dz_max:g} m, got {args.retract_to:g}")
+    check_pull_off_case(case, args.steps, args.retract_to)
+    model, solver, _ = build(case)
+    out = Path(args.out)
+
+    info = _run_info(model, case)
+    progress = Progress("pull-off", total=2 * args.steps + 1, quiet=args.quiet)
+    curve, refined = [], []  # the finished states (path, refinement): written after each, and on a stop
+    finished = {"curve": curve, "refined": refined}
+
+    def on_state(k, total, s):
+        with interrupts.deferred():  # the lists and the file stay in step
+            (refined if "purpose" in s else curve).append(s)
+            _write_partial(out, finished, info, PULL_OFF_RESULTS)
+        progress.total = total  # grows where the path finds a jump to locate or goes on in contact
+        what = f", {s['purpose']}" if "purpose" in s else ""
+        progress.update(k + 1, s["iterations"], s["residual"],
+                        f"delta_z {s['delta']['z']:+.3e} m, F_z {s['force']['z']:+.3e} N, "
+                        f"{s['outer_iterations']} turns{what}")
+
+    earlier = _earlier_run(out, ("result.json", "pull_off.png"))
+    try:
+        if earlier:  # replaced at once; elsewhere nothing is written before the first state finishes
+            with interrupts.deferred():
+                _write_partial(out, finished, info, PULL_OFF_RESULTS)
+                _remove_stale(out / "pull_off.png")
+        r = run_pull_off(case, model, solver, steps=args.steps, retract_to=args.retract_to, on_state=on_state)
+    except KeyboardInterrupt as e:
+        interrupts.stopping(e)  # first: a second signal does not cut what follows
+        progress.close()
+        return _interrupted(out, finished, info, PULL_OFF_RESULTS, e, earlier)
+    finally:
+        progress.close()
+    R, w = case.sphere.radius, r["work_of_adhesion"]
+    result = {**r, "interrupted": False, **info}
+    with interrupts.deferred(raise_after=False):  # the plot first: complete = every output written
+        try:
+            _plot_pull_off(r, out / "pull_off.png", result)
+        except OSError as e:
+            from ..records.results import output_error
+
+            error = output_error(out / "pull_off.png", e)
+            atomic_write_json(out / "result.json", {**result, "complete": False, "write_error": str(error)})
+            raise error from None
+        atomic_write_json(out / "result.json", {**result, "complete": True})
+    if not r["converged"]:
+        print(f"not converged: a state of the approach-retract curve did not converge{_turns_hint(r['curve'], case)}; "
+              f"see {out / 'result.json'}", file=sys.stderr)
+        return EXIT_NOT_CONVERGED
+    if not args.quiet:
+        for line in _contact_event_lines(r):
+            print(line, file=sys.stderr)
+        print(f"pull-off force {r['pull_off_force']:.4e} N = {r['pull_off_force'] / (math.pi * R * w):.3f} pi R w "
+              f"(Tabor parameter {result['tabor_parameter']:.3g}) -> {out}", file=sys.stderr)
+    return 0
+
+
+def _contact_event_lines(r) -> list[str]:
+    """One line per place the contact formed or broke on the path, and one where it never left."""
+    lines = []
+    for e in r["contact_events"]:
+        how = "jumps" if e["jump"] else "changes continuously"
+        lines.append(f"{e['of']} {e['kind']} ({e['branch']}) between delta_z {e['delta_z_before']:+.4e} and "
+                     f"{e['delta_z_after']:+.4e} m: F_z {how} from {e['force_before']:+.4e} to {e['force_after']:+.4e} N, "
+                     f"contact radius {e['contact_radius_before']:.3e} -> {e['contact_radius_after']:.3e} m")
+    for where in r.get("in_contact_at", []):
+        lines.append(f"warning: the sphere is in contact at the path's {where} (delta_z "
+                     f"{r['delta_start' if where == 'start' else 'delta_end']:+.4e} m): the curve misses the jump "
+                     f"{'in' if where == 'start' else 'out'}" + (" (give --retract-to further out)" if where == "end" else ""))
+    return lines
+
+
+def _run_info(model, case) -> dict:
+    """What a result.json records of the run: device, dtype, FFT, software version, the case."""
+    from .. import __version__
+
+    return {"device": str(model.device), "dtype": model.dtype_name, "fft": model.fft_name,
+            "software": {"warpcontact": __version__}, "case": case.to_dict()}
+
+
+def _write_partial(out: Path, finished: dict, info: dict, keys, stop: BaseException | None = None):
+    """OUT/result.json of a run not finished: the states so far (``finished``: lists of state
+    summaries by their names, the path's first) and ``info``, the results ``keys`` null,
+    ``complete: false``; after a stop (``stop``: the KeyboardInterrupt), ``interrupted: true`` and
+    the signal."""
+    from ..records.results import atomic_write_json
+
+    states = [s for group in finished.values() for s in group]
+    record = {**{k: None for k in keys}, "converged": False, "complete": False, "interrupted": stop is not None,
+              **finished, **info}
+    if stop is not None:
+        signal_name = interrupts.signal_name(interrupts.stop_signal(stop))
+        record["stop_signal"] = signal_name
+        record["note"] = f"interrupted ({signal_name}) after {len(states)} state(s): {', '.join(keys)} not reported"
+    else:
+        record["note"] = f"running, or stopped without a chance to write (kill -9): {len(states)} state(s) so far"
+    atomic_write_json(out / "result.json", record)
+
+
+def _interrupted(out: Path, finished: dict, info: dict, keys, stop: BaseException | None = None,
+                 earlier: bool = True) -> int:
+    """After a stop (Ctrl-C, SIGTERM, SIGHUP): OUT/result.json with what finished, marked interrupted
+    and not converged (:func:`_write_partial`); one line on stderr. Before the first state finished
+    nothing is written, unless an earlier run's result.json was replaced (``earlier``): then the
+    file records the stop. Returns the exit status (130, 143, 129)."""
+    states = [s for group in finished.values() for s in group]
+    if not states and not earlier:
+        print(f"{interrupts.describe(stop)}: stopped before the first state finished; nothing was written",
+              file=sys.stderr)
+        return interrupts.exit_status(stop)
+    with interrupts.deferred(raise_after=False):
+        _write_partial(out, finished, info, keys, stop if stop is not None else KeyboardInterrupt())
+    if not states:
+        print(f"{interrupts.describe(stop)}: stopped before the first state finished; {out / 'result.json'} "
+              "(which replaced the earlier run's) records the stop and holds no state", file=sys.stderr)
+    else:
+        print(f"{interrupts.describe(stop)}: {len(states)} state(s) finished and written to {out}", file=sys.stderr)
+    return interrupts.exit_status(stop)
+
+
+def _plot_pull_off(r, path, result):
+    from ..plots import pull_off_curve, save
+
+    save(pull_off_curve(result), path)
+
+
+def cmd_table2(args) -> int:
+    import json
+    import math
+
+    from ..records.results import atomic_write_bytes, atomic_write_json
+    from ..studies.batch import Task, run_tasks
+    from .sweep import placement_from
+    from ..records.guards import RunChecks
+    from ..studies.table2 import Table2Settings, cell_model_key, cells, markdown, run_cell
+
+    for n in args.n:
+        if n < 8:
+            raise InputError("--n", f"must be at least 8, got {n}")
+    if not (args.size_in_a > 2.0):
+        raise InputError("--size-in-a", f"the domain must hold the contact diameter 2a: use more than 2, got {args.size_in_a}")
+    law = dict(sigma_max=args.sigma_max, tau_max=args.tau_max, delta_n=args.delta_n, delta_t=args.delta_t)
+    try:
+        Table2Settings(**law).adhesion_law()
+        if not args.no_adhesion:  # a length in nm written as m, ...: the plausibility of every case
+            from ..records.case import AdhesionSpec
+            from ..physics.materials import PAPER_PAIR
+            from ..records.plausibility import check_adhesion
+
+            bodies = {k: (m.E, m.nu, m.yield_strength, m.hardness)
+                      for k, m in (("sphere", PAPER_PAIR.sphere), ("flat", PAPER_PAIR.flat))}
+            check_adhesion(AdhesionSpec("smc", **law), PAPER_PAIR.E_star, bodies)
+    except InputError as e:  # name the option, not the case-file key
+        raise InputError("--" + e.key.split(".")[-1].replace("_", "-"), e.problem) from None
+    columns = (False,) if args.no_adhesion else (True,) if args.adhesion_only else (False, True)
+    out = Path(args.out)
+    path = out / "table2.json"
+    records = json.loads(path.read_text())["cells"] if path.exists() else []
+    selected = cells()
+    for name, values, column in (("--k-tau", args.k_tau, 0), ("--delta-z-um", args.delta_z_um, 1)):
+        if values:
+            known = sorted({c[column] for c in cells()})
+            for v in values:
+                if not any(math.isclose(v, k, rel_tol=1e-9) for k in known):
+                    raise InputError(name, f"{v!r} is not a cell of Table 2; choose from {known}")
+            selected = [c for c in selected if any(math.isclose(c[column], v, rel_tol=1e-9) for v in values)]
+    todo = [(n, k, dz, adh) for adh in columns for n in args.n for k, dz in selected]
+    _table2_resolution(todo, args.size_in_a, law)
+    settings_key = (args.size_in_a, args.device or "cpu", args.dtype or "float64", args.fft or "auto")
+    law_key = tuple(sorted(law.items()))
+
+    def key(n, k, dz, adh, size_in_a, device, dtype, fft, law=None):
+        return (n, k, dz, adh, size_in_a, device, dtype, fft, law if adh else None)
+
+    def record_law(r):
+        d = r.get("adhesion_law") or {}
+        return tuple(sorted((name, d.get(name)) for name in law))
+
+    done = {key(r["n"], r["k_tau"], r["delta_z_um"], r.get("adhesion", False), r.get("size_in_a", 3.0),
+                r.get("device", "cpu"), r.get("dtype", "float64"), r.get("fft", "auto"), record_law(r)) for r in records}
+    placement = placement_from(args)
+    interrupted = False
+    write_error = None  # an OutputError that stopped the run
+    kept = len(records)  # cells in table2.json on disk
+    finished = sum(1 for c in todo if key(*c, *settings_key, law_key) in done)
+    progress = Progress("table2", total=len(todo), quiet=args.quiet, start=finished)  # a bar over the cells
+    pending = [(i, c) for i, c in enumerate(todo) if key(*c, *settings_key, law_key) not in done]
+
+    def settings_for(n):
+        return Table2Settings(n=n, size_in_a=args.size_in_a, device=args.device or "cpu",
+                              dtype=args.dtype or "float64", fft=args.fft or "auto", **law)
+
+    def label(n, k, dz, adh):
+        return f"n {n} k_tau {k:.2f} delta_z {dz:.1e} um {'adhesive' if adh else 'adhesionless'}"
+
+    def write(complete=False, stopped=False):
+        nonlocal kept
+        status = {"complete": complete, "interrupted": stopped, "cells_planned": len(todo),
+                  "cells_done": finished, "stop_signal": interrupts.signal_name(interrupts.stop_signal())
+                  if stopped else None}
+        try:
+            _write_table2(out, records, status, atomic_write_json, atomic_write_bytes, markdown)
+        except OutputError as e:
+            if Path(e.path).name != "table2.json":  # the JSON, written first, holds them all
+                kept = len(records)
+            raise
+        kept = len(records)
+
+    def finish(i, cell, rec, settings):
+        """Keep a finished cell and write the tables at once; False if stopped meanwhile (a stop
+        signal, a write error)."""
+        nonlocal finished, write_error
+        rec.update(size_in_a=args.size_in_a, device=settings.device, dtype=settings.dtype, fft=settings.fft)
+        with interrupts.deferred():  # the tables are written whole, then a stop that came meanwhile is raised
+            records.append(rec)
+            finished += 1
+            try:
+                write()
+            except OutputError as e:
+                write_error = e
+                return False
+        progress.write(f"table2 [{i + 1}/{len(todo)}] {cell}: {_table2_result(rec)}")
+        RunChecks(None).yielded(rec.get("yield_check"), f"in Table 2 cell {cell} (at delta_x_max)")  # each cell a run
+        progress.status(finished)
+        return True
+
+    try:
+        with interrupts.deferred():
+            write()  # this run's marker (complete: false) replaces the last run's before any cell
+        tasks = []
+        for i, (n, k, dz, adh) in pending:  # one task of the batch engine per cell
+            settings = settings_for(n)
+            tasks.append(Task(str(i), label(n, k, dz, adh), run_cell, (k, dz, settings, adh),
+                              cell_model_key(dz, settings, adh)))
+
+        def on_result(task, rec):
+            return finish(int(task.key), task.label, rec, task.args[2])
+
+        def on_state(task, j, s):  # the states of a cell computed in this process, on a terminal
+            progress.status(finished, s["iterations"], s["residual"], f"{task.label}: state {j + 1} ({s['kind']})")
+
+        run_tasks(tasks, on_result, placement, progress=progress, failed=lambda rec: not rec["converged"],
+                  on_state=on_state, before=finished)
+    except KeyboardInterrupt as e:
+        interrupts.stopping(e)  # a second signal does not cut the last writes
+        interrupted = True
+    progress.close()
+    if write_error is not None:
+        raise write_error.with_hint(f"{kept} cell(s) finished and kept in {path}: free space and run the same "
+                                    "command again to compute the others") from None
+    with interrupts.deferred(raise_after=False):
+        try:
+            write(complete=not interrupted, stopped=interrupted)
+        except OutputError as e:
+            raise e.with_hint(f"{kept} cell(s) finished and kept in {path}: free space and run the same command "
+                              "again to finish") from None
+    if interrupted:
+        print(f"{interrupts.describe()}: {len(records)} cell(s) written to {out}; rerun to finish", file=sys.stderr)
+        return interrupts.exit_status()
+    return 0 if all(r["converged"] for r in records) else EXIT_NOT_CONVERGED
+
+
+def _table2_resolution(todo, size_in_a: float, law: dict) -> None:
+    """One warning when a Table 2 cell's grid is too coarse by the rule of every command
+    (guards.resolution_advice), judged before the run on each cell's Hertz contact radius
+    a = sqrt(R delta_z) and, in the adhesive columns, the adhesive zone that the Hertz gap
+    leaves within the law's range delta_n (the DMT side's width, an upper bound)."""
+    import warnings
+
+    from ..records.guards import (
+        CoarseGridWarning,
+        adhesive_zone_estimate,
+        resolution_advice,
+        resolution_needs,
+    )
+    from ..studies.table2 import RADIUS
+
+    worst = None
+    for n, _, dz_um, adh in todo:
+        a = math.sqrt(RADIUS * dz_um * 1e-6)
+        widths = {"contact_radius": a}
+        if adh:
+            widths["adhesive_zone"] = adhesive_zone_estimate(a, RADIUS, law["delta_n"])
+        needs = resolution_needs(n, size_in_a * a, **widths)
+        if needs and (worst is None or max(x[-1] for x in needs) > worst[0]):
+            worst = (max(x[-1] for x in needs), n, dz_um, widths)
+    if worst is not None:
+        need, n, dz_um, widths = worst
+        text = resolution_advice(n, size_in_a * math.sqrt(RADIUS * dz_um * 1e-6), f"at delta_z = {dz_um:g} um",
+                                 **widths)
+        warnings.warn(f"table2 --n {n}: {text.split(' on the ')[0]}: results carry a large discretisation error; "
+                      f"--n {need} would do", CoarseGridWarning, stacklevel=2)
+
+
+def _table2_result(rec) -> str:
+    """A finished cell's result line: delta_x_max [um] and mu against the paper, the time [s]."""
+    if not rec["converged"]:
+        return f"not converged (a state of the path did not converge), {rec['elapsed_s']:.0f} s"
+    mu = ("undefined (F_z <= 0)" if rec["mu"] is None
+          else f"{rec['mu']:.4f} ({100 * rec['rel_diff_mu']:+.1f} %)")
+    return (f"delta_x_max {rec['delta_x_max_um']:.3e} um ({100 * rec['rel_diff_delta_x_max']:+.1f} %), "
+            f"mu {mu}, {rec['elapsed_s']:.0f} s")
+
+
+def _write_table2(out, records, status, atomic_write_json, atomic_write_bytes, markdown):
+    """OUT/table2.json (``status``: complete, interrupted, cells planned and done; the cells),
+    then table2.md and table2.csv, each whole (atomic: a failure raises OutputError and leaves
+    the file as it was)."""
+    import csv
+    import io
+
+    records = sorted(records, key=lambda r: (r.get("adhesion", False), r["n"], r["k_tau"], r["delta_z_um"]))
+    atomic_write_json(out / "table2.json", {**status, "cells": records})
+    atomic_write_bytes(out / "table2.md", markdown(records).encode())
+    buf = io.StringIO()
+    law_keys = ["sigma_max", "tau_max", "delta_n", "delta_t"]
+    keys = ["n", "k_tau", "delta_z_um", "adhesion", *law_keys, "delta_x_max_um", "paper_delta_x_max_um",
+            "rel_diff_delta_x_max", "mu", "paper_mu", "rel_diff_mu", "mu_elastic", "converged", "yielded",
+            "yield_margin", "elapsed_s"]
+    w = csv.DictWriter(buf, fieldnames=keys, extrasaction="ignore")
+    w.writeheader()
+    w.writerows({**r, **{k: (r.get("adhesion_law") or {}).get(k, "") for k in law_keys}} for r in records)
+    atomic_write_bytes(out / "table2.csv", buf.getvalue().encode())
+
+
+def cmd_schema(args) -> int:
+    from ..schema import schema_json
+
+    text = schema_json()
+    if args.out is None:
+        sys.stdout.write(text)
+        return 0
+    from ..records.results import atomic_write_bytes
+
+    atomic_write_bytes(Path(args.out), text.encode())
+    print(f"schema -> {args.out}", file=sys.stderr)
+    return 0
+
+
+def check_out(out, is_file: bool = False) -> None:
+    """Refuse ``--out`` before anything runs (InputError, exit 2) where the outputs could not be
+    written: a folder option naming an existing file (a file option: an existing folder), or a
+    folder that cannot be made or written in. Judged on the nearest folder that exists, by making
+    and removing a temporary file there (what permissions, read-only file systems and ACLs
+    allow), so nothing is left behind and no folder is made before the run needs it."""
+    path = Path(out)
+    try:
+        if is_file and path.is_dir():
+            raise InputError("--out", f"{path} is a folder: name the file to write")
+        if not is_file and path.exists() and not path.is_dir():
+            raise InputError("--out", f"{path} is a file, not a folder: name a new or existing folder for the outputs")
+        folder = path.parent if is_file else path
+        existing = folder
+        while not existing.exists() and existing != existing.parent:
+            existing = existing.parent
+        if not existing.is_dir():
+            raise InputError("--out", f"{existing} is a file, so the folder {folder} cannot be made")
+    except OSError as e:  # a path that cannot even be looked at (a folder without search permission)
+        raise InputError("--out", f"cannot reach {path} ({(e.strerror or str(e)).lower()})") from None
+    import tempfile
+
+    try:
+        with tempfile.NamedTemporaryFile(dir=existing, prefix=".warpcontact-", suffix=".probe"):
+            pass
+    except OSError as e:
+        raise InputError("--out", f"cannot write in {existing} ({(e.strerror or str(e)).lower()}): name a folder "
+                                  "you can write to") from None
+
+
+def _show_warning(message, category, filename, lineno, file=None, line=None):
+    write_above(f"warpcontact: warning: {message}")  # above a progress bar being drawn
+
+
+#: errors of the system met while writing: reported in one line, exit EXIT_WRITE_ERROR
+WRITE_ERRNOS = tuple(getattr(errno, name) for name in ("ENOSPC", "EROFS", "EDQUOT", "EIO", "EFBIG")
+                     if hasattr(errno, name))
+
+
+def main(argv=None) -> int:
+    import warnings
+
+    warnings.showwarning = _show_warning
+    interrupts.reset()  # a new run: no stop received yet
+    interrupts.install()
+    try:
+        args = _parser().parse_args(argv)  # imports the commands' modules: a second or so
+    except KeyboardInterrupt as e:
+        print(f"{interrupts.describe(e)}: stopped during the set-up, before anything was written", file=sys.stderr)
+        return interrupts.exit_status(e)
+    try:
+        from .figure import cmd_figure
+        from .sweep import cmd_sweep
+        from .stress import cmd_stress
+        from .fit import cmd_fit
+
+        if getattr(args, "out", None) is not None:  # before any command starts: nothing is solved in vain
+            check_out(args.out, getattr(args, "out_is_file", False))
+        commands = {"solve": cmd_solve, "gross-slip": cmd_gross_slip, "table2": cmd_table2, "figure": cmd_figure,
+                    "pull-off": cmd_pull_off, "sweep": cmd_sweep, "stress": cmd_stress, "fit": cmd_fit,
+                    "schema": cmd_schema}
+        return commands[args.command](args)
+    except InputError as e:
+        end_line()  # of a progress bar being drawn
+        print(f"warpcontact: error: {e}", file=sys.stderr)
+        return EXIT_INPUT
+    except (NonFiniteError, ConvergenceError) as e:
+        end_line()
+        print(f"warpcontact: error: {e}", file=sys.stderr)
+        return EXIT_NOT_CONVERGED
+    except OutputError as e:
+        end_line()
+        print(f"warpcontact: error: {e}", file=sys.stderr)
+        return EXIT_WRITE_ERROR
+    except OSError as e:
+        if e.errno not in WRITE_ERRNOS:
+            raise
+        end_line()
+        where = f" {e.filename}" if e.filename else " an output"
+        print(f"warpcontact: error: cannot write{where}: {(e.strerror or str(e)).lower()}", file=sys.stderr)
+        return EXIT_WRITE_ERROR
+    except KeyboardInterrupt as e:  # the commands catch a stop once they have written: this is the set-up
+        end_line()
+        print(f"{interrupts.describe(e)}: stopped during the set-up, before anything was written to {args.out}",
+              file=sys.stderr)
+        return interrupts.exit_status(e)
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,132 @@
+"""``warpcontact sweep SWEEP.toml --out DIR``: the cartesian product of listed case parameters.
+
+Each finished case is written at once (``DIR/cases/<id>.json``, and ``DIR/sweep.csv`` with one
+row per finished case); a rerun skips the cases already finished. The sweep file format is in
+``docs/sweeps.md``; the work is done by :mod:`warpcontact.studies.sweep`. Wire it into ``cli/__init__.py`` with::
+
+    from .sweep import add_parser, cmd_sweep
+    add_parser(sub)                  # in _parser(), on the subparsers object
+    {..., "sweep": cmd_sweep}        # in main()'s table of commands
+
+Exit status: 0 every case converged; 2 a mistake in the sweep file or a combination (raised as
+InputError for cli.main to report); 3 some case did not converge or recorded an error (results
+written); 74 an output could not be written (raised as OutputError for cli.main to report; the
+finished cases are on disk, a rerun resumes); 130, 143, 129 stopped by Ctrl-C, SIGTERM, SIGHUP
+(finished cases are written; rerun to finish).
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+
+from ..records.case import FFT_BACKENDS
+
+EXIT_NOT_CONVERGED = 3
+EXIT_INTERRUPTED = 130  # Ctrl-C; SIGTERM 143, SIGHUP 129: interrupts.exit_status()
+
+EXAMPLE_SWEEP = """example:
+  warpcontact sweep examples/sweep_k_tau.toml --out out/sweep
+  warpcontact sweep examples/sweep_k_tau.toml --out out/sweep --device cuda --dtype float32
+
+a sweep file holds the base case (a [base] table, or base = "case.toml" relative to the sweep
+file), the swept case keys with their values, and the task:
+
+  base = "table2_k080_dz5e-5.toml"
+  [sweep]
+  "friction.k_tau" = [0.5, 0.8, 0.95]
+  "load.delta_z" = [1e-11, 5e-11]
+  [run]
+  task = "gross-slip"               # or "solve"; default gross-slip when the base has [friction]
+  # scheduler = "tcp://host:8786"   # run on a dask cluster started by hand (docs/scaling.md)
+
+writes OUT/cases/<id>.json for each case as soon as it finishes (the swept values, the summary:
+delta_x_max [m], mu, force [N] for gross-slip, the last state's forces and areas for solve;
+elapsed_s, the whole case) and OUT/sweep.csv (one row per finished case, swept keys first). Run
+it again to finish an interrupted sweep: finished cases are skipped. See docs/sweeps.md."""
+
+
+def add_parser(sub):
+    """Register the ``sweep`` sub-command on an argparse subparsers object; returns its parser."""
+    p = sub.add_parser(
+        "sweep",
+        help="run the cartesian product of listed case parameters (k_tau, delta_z, grid, adhesion, ...)",
+        description="Run every combination of the values listed in SWEEP (a TOML file: a base case, a [sweep] "
+        "table of dotted case keys and lists, a [run] task), writing each finished case at once; a rerun skips "
+        "finished cases.",
+        epilog=EXAMPLE_SWEEP,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
+    p.add_argument("sweep", metavar="SWEEP.toml", help="sweep file (TOML; see docs/sweeps.md)")
+    add_many_case_options(p)
+    p.set_defaults(func=cmd_sweep)
+    return p
+
+
+def add_many_case_options(p):
+    """The options of a command that runs many cases of one file and resumes (``sweep``, ``fit``):
+    ``--out``, the solver overrides of every case, ``--quiet`` and the batch options."""
+    p.add_argument("--out", required=True, help="output folder (created if needed; reused to resume)")
+    p.add_argument("--device", help="override [solver] device of every case: cpu, cuda, cuda:N")
+    p.add_argument("--dtype", choices=("float64", "float32"), help="override [solver] dtype of every case")
+    p.add_argument("--fft", choices=FFT_BACKENDS, help="override [solver] fft of every case")
+    p.add_argument("--quiet", action="store_true", help="no progress lines (warnings and errors are still printed)")
+    add_batch_options(p, default_workers="one per GPU for CUDA cases, else one per CPU core")
+
+
+def add_batch_options(p, default_workers: str, default: int | None = None):
+    """``--workers`` (``default``: None sizes a local cluster to the machine) and ``--scheduler`` of a
+    command of many cases (:mod:`warpcontact.studies.batch`); ``default_workers`` says the default in words."""
+    p.add_argument("--workers", type=int, metavar="N", default=default,
+                   help="cases computed at once: 1 computes them in this process, one after another; N > 1 in N "
+                   f"worker processes of a local cluster (default: {default_workers}). On CUDA the workers take "
+                   "the GPUs in turn; several may share one GPU (small grids leave a GPU mostly idle)")
+    p.add_argument("--scheduler", metavar="ADDRESS",
+                   help="run the cases on the workers of a running dask scheduler (tcp://host:8786) instead of a "
+                   "local cluster; see docs/scaling.md")
+
+
+def placement_from(args, scheduler=None):
+    """The :class:`warpcontact.studies.batch.Placement` of ``--workers`` / ``--scheduler`` (``scheduler``: a
+    file's ``[run] scheduler``, which the option overrides). InputError for workers < 1."""
+    from ..studies.batch import Placement
+    from ..errors import InputError
+
+    if args.workers is not None and args.workers < 1:
+        raise InputError("--workers", f"must be at least 1, got {args.workers}")
+    return Placement(scheduler=args.scheduler or scheduler, workers=args.workers,
+                     device=getattr(args, "device", None) or "cpu")
+
+
+def cmd_sweep(args) -> int:
+    """Run the sweep of ``args.sweep`` into ``args.out``. Returns 0 (every case converged), 3 (a case
+    did not converge or recorded an error) or 128 + the signal (stopped: 130 Ctrl-C, 143 SIGTERM,
+    129 SIGHUP). A bad sweep file raises InputError; a write that fails, OutputError (naming the
+    finished cases kept)."""
+    from .. import interrupts
+    from ..studies.sweep import load_sweep, run_sweep
+
+    sweep = load_sweep(args.sweep, device=args.device, dtype=args.dtype, fft=args.fft)
+    placement = placement_from(args, sweep.scheduler)
+    report = run_sweep(sweep, args.out, quiet=args.quiet, placement=placement)  # writes after a stop: deferred
+    out = args.out
+    if report.write_error is not None:
+        raise report.write_error.with_hint(
+            f"{len(report.records)} of {report.total} case(s) finished and kept in {out}: free space and run the "
+            "same command again to resume") from None
+    if report.interrupted:
+        print(f"{interrupts.describe()}: {len(report.records)} of {report.total} case(s) finished and written to "
+              f"{out}; rerun to finish", file=sys.stderr)
+        return interrupts.exit_status()
+    bad = report.not_converged
+    if not args.quiet:
+        print(f"sweep: {report.total} case(s) in {out}: {len(report.computed)} computed, {len(report.skipped)} "
+              f"skipped (finished before); {len(bad)} without a converged result [{report.elapsed_s:.1f} s]",
+              file=sys.stderr)
+    if bad:
+        errors = sum(1 for r in bad if r.get("status") == "error")
+        print(f"not converged: {len(bad) - errors} case(s) did not converge and {errors} recorded an error "
+              f"({', '.join(r['label'] for r in bad[:5])}{', ...' if len(bad) > 5 else ''}); see {out}/sweep.csv",
+              file=sys.stderr)
+        return EXIT_NOT_CONVERGED
+    return 0

@@ -1,0 +1,85 @@
+"""The contact model: static data shared by every state and solver of one problem."""
+
+from __future__ import annotations
+
+import numpy as np
+import warp as wp
+
+from .device import dtype_name, numpy_dtype, resolve_device, resolve_dtype
+from ..physics.geometry import Grid, Sphere
+from .launch import LaunchCache, ReductionLaunch
+from ..physics.materials import MaterialPair
+from .operator import ElasticOperator
+from .resources import check_index_limit
+
+
+class ContactModel:
+    """Materials, sphere, grid, device, float type and the elastic operator of one problem.
+
+    Internally every field is in scaled units: tractions / ``traction_scale`` (E*), lengths /
+    ``length_scale`` (the cell size dx). States convert to SI when asked.
+
+    Args:
+        pair: sphere and flat materials.
+        sphere: the sphere's geometry.
+        grid: the surface grid.
+        device: "cpu", "cuda" or "cuda:N".
+        dtype: "float64" or "float32".
+        fft: FFT backend name ("auto" picks the fastest available on the device).
+        influence: where the influence coefficients are computed, "auto", "host" or "device"
+            (``ElasticOperator``; "auto": on the device on CUDA, numpy on the CPU).
+    """
+
+    def __init__(self, pair: MaterialPair, sphere: Sphere, grid: Grid, device="cpu", dtype="float64", fft="auto",
+                 influence="auto"):
+        self.pair, self.sphere, self.grid = pair, sphere, grid
+        self.device = resolve_device(device)
+        self.dtype = resolve_dtype(dtype)
+        check_index_limit(grid.n, self.dtype, fft)  # before anything is allocated
+        self.np_dtype = numpy_dtype(self.dtype)
+        self.length_scale = grid.dx
+        self.traction_scale = pair.E_star
+        self.n_cells = grid.n * grid.n
+        self.reduction = ReductionLaunch.for_cells(self.n_cells, self.device)
+        #: launches recorded once and replayed when they repeat (see warpcontact.numerics.launch)
+        self.launches = LaunchCache(self.device)
+        with wp.ScopedDevice(self.device):
+            self.initial_gap = self.field(sphere.initial_gap(grid) / self.length_scale)
+            self.operator = ElasticOperator(pair, grid, self.device, self.dtype, fft, influence)
+
+    @property
+    def dtype_name(self) -> str:
+        return dtype_name(self.dtype)
+
+    @property
+    def fft_name(self) -> str:
+        return self.operator.fft.name
+
+    def launch(self, kernel, dim, inputs, outputs=()):
+        """``wp.launch`` on the model's device, recorded the first time and replayed after."""
+        self.launches.launch(kernel, dim, inputs, outputs)
+
+    def launch_cells(self, kernel, inputs, outputs=()):
+        """An elementwise kernel of one thread per cell; on the CPU, with its fields marked
+        :class:`~warpcontact.numerics.launch.Rows`, split by rows over the CPU's threads."""
+        self.launches.launch_cells(kernel, self.grid.shape, inputs, outputs)
+
+    def launch_reduce(self, kernel, inputs, outputs):
+        """A reducing kernel (kernels/reduce.py) over all cells: ``inputs``, then the launch shape's
+        arguments (n, outer, inner, per), then ``outputs``. On the CPU, with its fields marked
+        :class:`~warpcontact.numerics.launch.Rows` and its sums :class:`~warpcontact.numerics.launch.Sums`, split by
+        rows over the CPU's threads (``LaunchCache.split``)."""
+        self.launches.launch_reduce(kernel, self.reduction, self.n_cells, inputs, outputs, rows=self.grid.shape)
+
+    def scalar(self, value: float):
+        """``value`` as a Warp scalar of the model's float type (for kernel arguments)."""
+        return self.dtype(value)
+
+    def field(self, values=None) -> wp.array:
+        """A (n, n) field on the model's device: zeros, or a copy of ``values`` (scaled units)."""
+        if values is None:
+            return wp.zeros(self.grid.shape, dtype=self.dtype, device=self.device)
+        return wp.array(np.asarray(values, dtype=self.np_dtype), dtype=self.dtype, device=self.device)
+
+    def scalars(self, count: int) -> wp.array:
+        return wp.zeros(count, dtype=self.dtype, device=self.device)

@@ -1,0 +1,224 @@
+"""The coupled elastic operator: DC-FFT convolution of (p, q_x, q_y) to (u_z, u_x, u_y).
+
+Works in the model's scaled units: tractions divided by E*, lengths by the cell size dx, so that
+the influence coefficients are of order one in float32 and float64 alike.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import warp as wp
+
+from warpcontact.kernels import spectral
+
+from ..errors import InputError
+from ..fft import make_fft
+from .launch import FirstRow, LaunchCache, ReductionLaunch, Rows, Sums
+from ..physics.influence import KERNELS, SPECTRUM_PARTS, device_coefficients, influence_coefficients
+
+#: where the influence coefficients are computed (``ElasticOperator``'s ``influence``)
+INFLUENCE_PATHS = ("auto", "host", "device")
+
+
+class ElasticOperator:
+    """Maps tractions to relative surface displacements through the influence spectra.
+
+    Args:
+        pair: the material pair.
+        grid: the surface grid.
+        device, dtype: where and in which float type the fields live.
+        fft: FFT backend name ("auto", "scipy", "cupy", "warp").
+        influence: where the influence coefficients are computed: "host" (numpy,
+            ``influence_coefficients``), "device" (Warp kernels on the operator's device,
+            ``device_coefficients``) or "auto": the device on CUDA, the host on the CPU (numpy on
+            the CPU's threads is faster there than Warp's one-thread CPU kernels: docs/performance.md,
+            "Set-up").
+
+    The spectra of the six influence kernels are computed once and kept on the device, each as
+    its one non-zero part, real or imaginary (by the FFT backend: float64 on the host, then cast;
+    cuFFT on the device with the cupy backend); three spectral buffers are allocated once. The
+    coefficients are float64 whatever ``dtype``; on the device path the cupy backend transforms
+    them where they are (cast on the device as the host path casts on the host), the others get
+    a host copy (the warp backend on CUDA, whose spectra are made on the host).
+    """
+
+    def __init__(self, pair, grid, device, dtype, fft: str = "auto", influence: str = "auto"):
+        self.pair, self.grid = pair, grid
+        self.device, self.dtype = device, dtype
+        self.shape = grid.shape
+        self.fft = make_fft(fft, grid.n, grid.n, device, dtype)
+        self.launches = LaunchCache(self.fft.device)
+        sy, sx = self.fft.spectral_shape
+        self._spectral_entries = sy * sx
+        self._spectral_reduction = ReductionLaunch.for_cells(self._spectral_entries, self.fft.device)
+        # K_zz is even: on CUDA the energy product reads its spectrum up to the middle of the full
+        # axis and mirrors past it, half of K_zz's bytes (``spectral_normal_energy``'s ``mirror``)
+        self._mirror = self.fft.spectral_shape[1 - self.fft.half_axis] if self.fft.device.is_cuda else 0
+        self.coupled = pair.D != 0.0
+        scale = pair.E_star / grid.dx  # scaled displacement per scaled traction
+        if influence not in INFLUENCE_PATHS:
+            raise InputError("influence", f"unknown path {influence!r}; choose one of {', '.join(INFLUENCE_PATHS)}")
+        if influence == "auto":
+            influence = "device" if self.fft.device.is_cuda else "host"
+        #: where the influence coefficients were computed: "host" or "device"
+        self.influence_path = influence
+        if influence == "host":
+            coeffs = influence_coefficients(pair, grid.n, grid.n, grid.dx, grid.dy)
+            self._self_coefficients = {k: float(coeffs[k][0, 0] * scale) for k in KERNELS}
+            # (np.linalg.norm: a dot product of the flattened view, no temporary array of the grid)
+            self._column_norms = {k: float(np.linalg.norm(coeffs[k]) * abs(scale)) for k in KERNELS}
+
+            def scaled():  # each coefficient array scaled in place and let go once transformed
+                for k in KERNELS:
+                    a = coeffs.pop(k)
+                    a *= scale
+                    yield a
+        else:
+            self._self_coefficients, self._column_norms = {}, {}
+            on_device = getattr(self.fft, "takes_device_coefficients", False)
+
+            def scaled():  # each array made scaled on the device (float64) and let go once transformed
+                for k, a in device_coefficients(pair, grid.n, grid.n, grid.dx, grid.dy, self.fft.device, scale=scale):
+                    self._self_coefficients[k] = float(a.flatten()[:1].numpy()[0])  # offset (0, 0)
+                    self._column_norms[k] = float(np.sqrt(wp.utils.array_inner(a, a)))
+                    yield a if on_device else a.numpy()
+                    del a  # (one array at a time: let go before the next is made)
+
+        # three buffers, one array each: a stacked (3, ...) array's first stride (one spectrum)
+        # would pass Warp's 32-bit strides at n = 8192 in float64 (resources.index_limit)
+        self._buf = [wp.zeros(self.fft.spectral_shape, dtype=self.fft.complex_dtype, device=self.fft.device)
+                     for _ in range(3)]
+        #: the six influence spectra, each real or imaginary: only that part (SPECTRUM_PARTS)
+        self.influence = self.fft.alloc_influence(len(KERNELS))
+        self.fft.influence_spectra(scaled(), [SPECTRUM_PARTS[k] for k in KERNELS], self.influence, self._buf[0])
+
+    def self_coefficient(self, kernel: str) -> float:
+        """Displacement of a cell under its own unit traction, scaled units (kernel in KERNELS)."""
+        return self._self_coefficients[kernel]
+
+    def column_norm(self, kernel: str) -> float:
+        """2-norm of the displacements one cell's unit traction causes over the padded grid, scaled
+        units: ||K e_j||_2 <= this for every cell j, so ||K c||_2 <= this * ||c||_1."""
+        return self._column_norms[kernel]
+
+    def spectral_product(self, kernel, spectra):
+        """Launch the product ``kernel`` (kernels/spectral.py) on ``spectra``, in place: one entry
+        per thread on CUDA, one row per thread on the CPU (``LaunchCache.launch_rows``), the rows
+        split over the CPU's threads."""
+        self.launches.launch_rows(kernel, self.fft.spectral_shape,
+                                  [Rows(self.influence, axis=1), *(Rows(s) for s in spectra)])
+
+    def normal(self, pressure: wp.array2d, displacement: wp.array2d):
+        """displacement <- K_zz pressure (no coupling)."""
+        self.fft.forward(pressure, self._buf[0])
+        self.spectral_product(spectral.spectral_normal, self._buf[:1])
+        self.fft.inverse(self._buf[0], displacement)
+
+    def normal_product(self, spectrum: wp.array2d, energy: wp.array | None = None, slot: int = 0,
+                       inverse: bool = False):
+        """The spectral product of K_zz on ``spectrum``, in place; with ``energy``, also
+        ``energy[slot] += (K_zz t) . t`` for the field t whose spectrum it is, summed in Fourier
+        space (Parseval; ``spectral.spectral_normal_energy``: no pass over the grid of its own).
+        ``inverse``: the product of the circulant inverse 1 / K_zz instead, with its sum
+        t . (K_zz^-1 t) (``energy`` required), the normal solver's preconditioner."""
+        if energy is None:
+            if inverse:
+                raise ValueError("normal_product: the inverse product is launched with its sum (pass energy)")
+            self.spectral_product(spectral.spectral_normal, [spectrum])
+            return
+        fft = self.fft
+        self.launches.launch_reduce(
+            spectral.spectral_normal_energy, self._spectral_reduction, self._spectral_entries,
+            [Rows(self.influence, axis=1), Rows(spectrum), fft.half_axis, fft.half_length, fft.energy_scale,
+             int(inverse), int(slot), FirstRow(), self._mirror],
+            [Sums(energy)], rows=fft.spectral_shape)
+
+    def normal_padded(self, energy: wp.array | None = None, slot: int = 0, inverse: bool = False):
+        """K_zz applied to the field a kernel wrote into the corner of ``fft.padded_input``; the
+        result, times ``fft.output_scale``, in the corner of ``fft.padded_output`` (for solver
+        kernels that pad and crop as part of their own passes). ``energy``, ``slot``,
+        ``inverse``: as :meth:`normal_product`."""
+        self.fft.transform_input(self._buf[0])
+        self.normal_product(self._buf[0], energy, slot, inverse)
+        self.fft.transform_to_output(self._buf[0])
+
+    def tangential(self, shear_x, shear_y, disp_x, disp_y):
+        """(disp_x, disp_y) <- K_tt (shear_x, shear_y) (no coupling)."""
+        self.fft.forward(shear_x, self._buf[1])
+        self.fft.forward(shear_y, self._buf[2])
+        self.spectral_product(spectral.spectral_tangential, self._buf[1:])
+        self.fft.inverse(self._buf[1], disp_x)
+        self.fft.inverse(self._buf[2], disp_y)
+
+    def coupled_apply(self, pressure, shear_x, shear_y, disp_z, disp_x, disp_y):
+        """(disp_z, disp_x, disp_y) <- the full 3x3 operator applied to (pressure, shear_x, shear_y)."""
+        for src, buf in zip((pressure, shear_x, shear_y), self._buf):
+            self.fft.forward(src, buf)
+        self.spectral_product(spectral.spectral_coupled, self._buf)
+        for buf, dst in zip(self._buf, (disp_z, disp_x, disp_y)):
+            self.fft.inverse(buf, dst)
+
+    def cross_normal(self, shear_x, shear_y, disp_z):
+        """disp_z <- K_zt q: the shear's normal displacement (coupling only; two forward
+        transforms and one inverse)."""
+        self.fft.forward(shear_x, self._buf[1])
+        self.fft.forward(shear_y, self._buf[2])
+        self.spectral_product(spectral.spectral_cross_normal, self._buf)
+        self.fft.inverse(self._buf[0], disp_z)
+
+    def cross_tangential(self, pressure, disp_x, disp_y):
+        """(disp_x, disp_y) <- K_tp p: the pressure's tangential displacement (coupling only; one
+        forward transform and two inverse)."""
+        self.fft.forward(pressure, self._buf[0])
+        self.spectral_product(spectral.spectral_cross_tangential, self._buf)
+        self.fft.inverse(self._buf[1], disp_x)
+        self.fft.inverse(self._buf[2], disp_y)
+
+    # --- the circulant inverse of the tangential block: the tangential solver's preconditioner ---
+
+    def tangential_column_norm(self) -> float:
+        """Bound on the 2-norm of the displacements one cell's unit shear (of any direction)
+        causes over the padded grid, scaled units: the Frobenius norm of the cell's two columns
+        of K_tt, sqrt(|K_xx|^2 + 2 |K_xy|^2 + |K_yy|^2); so ||K_tt c||_2 <= this * sum_j |c_j|."""
+        c = self._column_norms
+        return float(np.sqrt(c["xx"] ** 2 + 2.0 * c["xy"] ** 2 + c["yy"] ** 2))
+
+    def tangential_inverse_product(self, energy: wp.array, slot: int, eigen_floor: float):
+        """The circulant inverse of K_tt (``spectral.spectral_tangential_inverse_energy``, its
+        eigenvalues floored at ``eigen_floor``, scaled) on the spectra in the shear buffers
+        (``_buf[1]``, ``_buf[2]``), in place, and ``energy[slot] += g . M g`` for the fields g
+        whose spectra they are (Parseval)."""
+        fft = self.fft
+        self.launches.launch_reduce(
+            spectral.spectral_tangential_inverse_energy, self._spectral_reduction, self._spectral_entries,
+            [Rows(self.influence, axis=1), Rows(self._buf[1]), Rows(self._buf[2]), fft.half_axis, fft.half_length,
+             fft.energy_scale, fft.dtype(eigen_floor), int(slot), FirstRow()],
+            [Sums(energy)], rows=fft.spectral_shape)
+
+    def tangential_inverse_padded(self, fill_x, fill_y, use_x, use_y, energy: wp.array, slot: int,
+                                  eigen_floor: float):
+        """M g for solver kernels that pad and crop as part of their own passes: ``fill_x()`` and
+        ``fill_y()`` each write one component of g into the corner of ``fft.padded_input`` (each
+        is transformed before the next is written); M g's components come out in the corner of
+        ``fft.padded_output`` (times ``fft.output_scale``), x while ``use_x()`` runs, then y while
+        ``use_y()`` runs. ``energy[slot] += g . M g``. Four transforms and the spectral product
+        (:meth:`tangential_inverse_product`)."""
+        fft = self.fft
+        fill_x()
+        fft.transform_input(self._buf[1])
+        fill_y()
+        fft.transform_input(self._buf[2])
+        self.tangential_inverse_product(energy, slot, eigen_floor)
+        fft.transform_to_output(self._buf[1])
+        use_x()
+        fft.transform_to_output(self._buf[2])
+        use_y()
+
+    def tangential_inverse(self, grad_x, grad_y, out_x, out_y, energy: wp.array, slot: int, eigen_floor: float):
+        """(out_x, out_y) <- M (grad_x, grad_y) on (n, n) fields, M the circulant inverse of K_tt
+        (:meth:`tangential_inverse_product`), and ``energy[slot] += g . M g``."""
+        self.fft.forward(grad_x, self._buf[1])
+        self.fft.forward(grad_y, self._buf[2])
+        self.tangential_inverse_product(energy, slot, eigen_floor)
+        self.fft.inverse(self._buf[1], out_x)
+        self.fft.inverse(self._buf[2], out_y)

@@ -1,0 +1,141 @@
+"""The fields of one solved (or to-be-solved) state of a contact.
+
+Also what the solver checks on a state during its step: whether the contact fits in the domain
+(:func:`check_contact_fits`, on the edge cells gathered on the device by :func:`domain_edge`).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from ..errors import InputError
+from ..physics.geometry import profile_note
+
+
+@dataclass
+class SolveInfo:
+    """Convergence record of one solve.
+
+    Attributes:
+        converged: the residual fell under the tolerance.
+        iterations: iterations of the innermost solver(s) used, summed.
+        residual: final relative residual (see the solver's docstring for its definition).
+        history: relative residual per iteration (normal solver), for plots.
+    """
+
+    converged: bool
+    iterations: int
+    residual: float
+    outer_iterations: int = 0
+    history: list = field(default_factory=list)
+
+
+class ContactState:
+    """Fields of one state on the model's device, in the model's scaled units.
+
+    Attributes (Warp arrays of shape (n, n), row = y, column = x):
+        pressure: elastic contact pressure p_c / E* (>= 0).
+        shear_x, shear_y: shear traction the sphere exerts on the flat, / E*.
+        gap: h / dx, the normal gap after deformation.
+        disp_z: u_z / dx, the normal relative displacement (into the bodies, summed).
+        disp_x, disp_y: u_t / dx, tangential displacement of the flat relative to the sphere.
+        slip_x, slip_y: accumulated slip of the sphere relative to the flat since the start of the
+            path, / dx (s = delta - u_t).
+        adhesive_pressure: p_adh / E* (<= 0, tension), on cells out of contact.
+        adhesive_shear_x, adhesive_shear_y: adhesive shear on the flat / E*, out of contact.
+    Total tractions: pressure + adhesive_pressure, shear + adhesive_shear.
+    Scalars: ``approach`` (delta_x, delta_y, delta_z) [m] and ``info`` (:class:`SolveInfo`).
+    """
+
+    FIELDS = (
+        "pressure", "shear_x", "shear_y", "gap", "disp_z", "disp_x", "disp_y", "slip_x", "slip_y",
+        "adhesive_pressure", "adhesive_shear_x", "adhesive_shear_y",
+    )
+    TRACTIONS = ("pressure", "shear_x", "shear_y", "adhesive_pressure", "adhesive_shear_x", "adhesive_shear_y")
+
+    def __init__(self, model):
+        import warp as wp
+
+        self.model = model
+        for name in self.FIELDS:
+            setattr(self, name, model.field())
+        #: cell status, int32 (n, n): 0 out of contact, 1 stick, 2 slip (kernels/tangential.py)
+        self.status = wp.zeros(model.grid.shape, dtype=wp.int32, device=model.device)
+        self.approach = (0.0, 0.0, 0.0)
+        self.info: SolveInfo | None = None
+
+    def copy_from(self, other: "ContactState"):
+        import warp as wp
+
+        for name in self.FIELDS + ("status",):
+            wp.copy(getattr(self, name), getattr(other, name))
+        self.approach = other.approach
+        self.info = other.info
+
+    def to_numpy_si(self) -> dict:
+        """Every field as a float64 numpy array in SI units (Pa for tractions, m for lengths)."""
+        m = self.model
+        out = {}
+        for name in self.FIELDS:
+            scale = m.traction_scale if name in self.TRACTIONS else m.length_scale
+            out[name] = host_si(getattr(self, name), scale)
+        return out
+
+
+def host_si(field, scale: float) -> np.ndarray:
+    """The Warp array ``field`` times ``scale`` as a float64 numpy array on the host: the device
+    copy plus one pass (a CUDA array's ``numpy()`` is a fresh host copy, scaled in place when it
+    is float64; a CPU array's is a view of the field, scaled into a new array). The same values
+    as ``field.numpy().astype(np.float64) * scale`` without its second host array."""
+    values = field.numpy()
+    if field.device.is_cuda and values.dtype == np.float64:
+        values *= scale
+        return values
+    return np.multiply(values, scale, dtype=np.float64)
+
+
+def domain_edge(field) -> np.ndarray:
+    """The cells of the 2-D Warp array ``field`` on the domain's edge, as numpy's
+    ``concatenate([f[0], f[-1], f[:, 0], f[:, -1]])`` (the corners twice), in the field's units
+    and float type: gathered on its device, one transfer of 2 (rows + columns) values."""
+    import warp as wp
+
+    from warpcontact.kernels import summary as sk
+
+    rows, columns = field.shape
+    edge = wp.empty(2 * (rows + columns), dtype=field.dtype, device=field.device)
+    wp.launch(sk.domain_edge, dim=edge.shape, inputs=[field], outputs=[edge], device=field.device)
+    return edge.numpy()
+
+
+#: share of the domain's edge cells in contact after the first turn of a step above which the step
+#: stops there (``check_contact_fits``). The first turn solves loosely against the last state's
+#: shear, and its contact can pass the converged one's: at n = 64 (issue 32's AFM case with friction
+#: on a domain of side 2.03 Hertz radii) 40 of the 4 x 64 edge cells against none at the step's end.
+#: A disc over half the edge reaches 1.12 half-sides, 0.06 n cells past the edge (2 at n = 32); one
+#: that merely touches the edge is judged at the step's end. On that case (sides 2.2-3.0 nm; n = 32
+#: and 64 without adhesion, n = 32 with it) every path stops at the same state as with the step-end
+#: check alone.
+EDGE_SHARE_AT_FIRST_TURN = 0.5
+
+
+def check_contact_fits(state, approach=None, edge_share: float = 0.0):
+    """InputError (key ``grid.size``) if contact cells touch the edge of the domain: the domain is
+    too small for the load, and the DC-FFT solution would miss the contact beyond it. Made after
+    each step, and after the first turn of a step that turns (``ContactSolver``) with
+    ``edge_share`` = EDGE_SHARE_AT_FIRST_TURN, so that a contact far past the edge stops the run
+    at once rather than after the turn limit. ``approach``: (delta_x, delta_y, delta_z) [m] of
+    the step, named in the message (default: ``state.approach``); ``edge_share``: the share of the
+    edge's cells in contact above which it raises [-] (0: any cell)."""
+    edge = domain_edge(state.pressure)  # the edge cells alone leave the device
+    if np.mean(edge > 0) > edge_share:
+        g = state.model.grid
+        dx, dy, dz = state.approach if approach is None else approach
+        raise InputError(
+            "grid.size",
+            f"the contact reaches the edge of the {g.size:.4g} m domain at delta = ({dx:.4g}, {dy:.4g}, {dz:.4g}) m; "
+            f"use at least {1.5 * g.size:.4g} m{profile_note(1.5 * g.size, state.model.sphere)} (and more cells to "
+            f"keep the resolution)",
+        )

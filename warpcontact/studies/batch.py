@@ -1,0 +1,621 @@
+"""The batch engine: many cases as tasks on dask.distributed, each result handed back as it arrives.
+
+Every command of many cases (``sweep``, ``table2``) gives its cases to :func:`run_tasks`, which
+runs them where :class:`Placement` says and calls ``on_result`` in this process for each finished
+case, in the order they finish: the command writes it there (atomically), so nothing finished is
+lost whatever happens to the run or its workers afterwards, and a rerun skips it.
+
+Where the cases run:
+
+- ``workers=1`` and no scheduler: in this process, one after another; no cluster is started and
+  the states of the running case are shown on a terminal.
+- ``workers=N`` (N > 1), or ``workers=None`` (sized to the machine: one worker per GPU when the
+  cases run on CUDA, one per CPU core otherwise): a local cluster of N worker processes started
+  for the run and closed at its end (dask.distributed's ``SpecCluster`` of ``Nanny`` workers, as
+  ``LocalCluster`` builds it, with one thread per worker). On CUDA each worker is pinned to one GPU
+  (``CUDA_VISIBLE_DEVICES``; the workers take the GPUs in turn when there are more workers than
+  GPUs) and a case's ``cuda`` or ``cuda:N`` runs on its worker's GPU.
+- ``scheduler="tcp://host:8786"``: the workers of a cluster started by hand (``dask scheduler``,
+  ``dask worker``; several GPUs, several hosts: docs/scaling.md).
+
+A worker that dies while computing a case (killed, out of memory, its host lost) has its case
+computed again by another worker (dask's scheduler does it; a case whose workers die
+``distributed.scheduler.allowed-failures`` + 1 times, 4 by default, is given up and reported as
+:class:`LostTask`). The cases finished before are on disk already.
+
+Each worker process keeps the model of its last case (:func:`cached_model`: influence spectra, FFT
+plans and buffers, recorded launches; the compiled kernels are the process's anyway), keyed by
+materials, sphere, grid, device, float type and FFT backend, so a run of cases of one grid builds
+it once per worker and the per-case cost is the solve. Tasks are submitted grouped by that key.
+A series of batches on the same models (a fit: one batch per Jacobian, its rows on grids of their
+own) keeps one model per distinct key of its cases, at most MAX_KEPT_MODELS and a share of the RAM
+(:func:`models_to_keep`), across its batches (:func:`session`); the models go with the series.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import os
+import signal
+import socket
+import time
+from collections import OrderedDict
+from dataclasses import dataclass, field
+from typing import Callable
+
+#: seconds to wait for a scheduler given by address, or for a local cluster's workers, to answer
+CONNECT_TIMEOUT_S = 60
+#: seconds the closing of a local cluster may take before its worker processes are killed
+CLOSE_TIMEOUT_S = 3
+#: set in the environment of a local cluster's GPU workers: the case's CUDA device is the worker's
+PINNED_GPU_ENV = "WARPCONTACT_WORKER_GPU"
+
+
+# ---------------------------------------------------------------------------------------------
+# Tasks and where they run.
+
+
+@dataclass(frozen=True)
+class Task:
+    """One case of a batch.
+
+    Attributes:
+        key: unique within the run (a case id); names the task on the cluster.
+        label: readable name for progress lines and messages.
+        fn: a module-level function (picklable by reference), called as ``fn(*args)`` on a worker
+            or ``fn(*args, on_state=callback)`` in this process; returns a picklable value.
+        args: its arguments (picklable).
+        group: tasks of one group share a model (:func:`model_key`); they are submitted together.
+    """
+
+    key: str
+    label: str
+    fn: Callable
+    args: tuple = ()
+    group: tuple | None = None
+
+
+@dataclass(frozen=True)
+class Placement:
+    """Where a batch runs: ``scheduler`` (an address, or None for a cluster of our own), ``workers``
+    (None: sized to the machine; 1 without a scheduler: this process) and ``device`` (the cases'
+    device: "cpu", "cuda", "cuda:N"; it sizes and pins a local cluster)."""
+
+    scheduler: str | None = None
+    workers: int | None = None
+    device: str = "cpu"
+
+    def in_process(self, pending: int) -> bool:
+        """Whether the cases run in this process: one worker asked for, or a single case (a cluster
+        for one case would only add its start-up), and no scheduler given."""
+        return self.scheduler is None and (self.workers == 1 or pending <= 1)
+
+
+class LostTask(RuntimeError):
+    """A case whose workers died every time it was tried (killed, out of memory)."""
+
+
+@dataclass
+class Tally:
+    """Cases of a run: ``total``, ``before`` (finished by an earlier run), ``done`` (finished now),
+    ``failed`` (of those, the ones the command counts as failed), ``running`` (on workers now)."""
+
+    total: int
+    before: int = 0
+    done: int = 0
+    failed: int = 0
+    running: int = 0
+
+    def text(self) -> str:
+        return f"{self.running} running, {self.failed} failed"
+
+
+@dataclass
+class BatchStats:
+    """Times of a run [s]: ``wall_s`` from the first submission to the last result handed back;
+    ``start_s`` starting (or reaching) the cluster; ``task_s`` the sum over cases of the time
+    inside their functions (on the workers); ``workers`` the workers used (1 in this process)."""
+
+    wall_s: float = 0.0
+    start_s: float = 0.0
+    task_s: float = 0.0
+    tasks: int = 0
+    workers: int = 1
+    where: str = "this process"
+    models_built: int = 0
+    task_times: list = field(default_factory=list)
+
+
+# ---------------------------------------------------------------------------------------------
+# Worker side: the model cache, the device, the call.
+
+
+_models: OrderedDict = OrderedDict()  # this process's models by model_key, the most recently used last
+_cache_stats = {"built": 0, "reused": 0}
+#: the most models one process keeps for a series of batches (``cached_model``'s ``keep``): a fit
+#: keeps one per distinct model of its rows (its rows' grids, say), at most this many
+MAX_KEPT_MODELS = 8
+#: share of the RAM that the models a CPU process keeps for a fit may take together [-]
+#: (``models_to_keep``; each model's influence spectra, spectral buffers and FFT work buffers, as
+#: ``resources.breakdown`` counts them). On CUDA the memory check of a new model reads the free
+#: memory, which the kept models have taken: ``cached_model`` drops them and builds again when the
+#: new model is refused for them.
+KEPT_MODELS_RAM_SHARE = 0.25
+
+
+def model_key(pair, sphere, grid, device: str, dtype: str, fft: str) -> tuple:
+    """What a model depends on: materials, sphere (the initial gap), grid, device, float type, FFT
+    backend."""
+    return (pair, sphere, grid, str(device), str(dtype), str(fft))
+
+
+def _drop_models(count: int) -> None:
+    """Keep this process's ``count`` most recently used models, drop the others."""
+    while len(_models) > max(0, count):
+        _models.popitem(last=False)
+
+
+def cached_model(key: tuple, build: Callable, keep: int = 1):
+    """The model of ``key`` (:func:`model_key`) when this process holds it, else ``build()``'s.
+
+    The process holds at most ``keep`` models [-] (the most recently used; at most
+    MAX_KEPT_MODELS): 1, the last case's, for a sweep or a table, whose cases come grouped by model;
+    for a fit the number of distinct models among its rows (:func:`models_to_keep`), so that each of
+    its batches (one per Jacobian) finds the models of the batch before. Those beyond ``keep`` are
+    dropped before a new one is built, so that its memory check sees them freed; a new one that the
+    memory check refuses (InputError on ``grid.n``) while other models are held is built again after
+    they are dropped."""
+    keep = max(1, min(int(keep), MAX_KEPT_MODELS))
+    model = _models.get(key)
+    if model is not None:
+        _models.move_to_end(key)
+        _drop_models(keep)
+        _cache_stats["reused"] += 1
+        return model
+    _drop_models(keep - 1)
+    try:
+        model = build()
+    except Exception as e:
+        from ..errors import InputError
+
+        if not (isinstance(e, InputError) and e.key == "grid.n" and _models):
+            raise
+        _models.clear()  # refused for the memory the kept models hold: they go, the new one is tried again
+        model = build()
+    _models[key] = model
+    _cache_stats["built"] += 1
+    return model
+
+
+def models_to_keep(cases) -> int:
+    """How many models [-] a process keeps across a series of batches of ``cases`` (a fit's cases at
+    one point: one per data row): the number of distinct models among them (:func:`model_key`), at
+    most MAX_KEPT_MODELS and, on the CPU, as many of the largest as fit together in
+    KEPT_MODELS_RAM_SHARE of the RAM (at least 1: the case's own, as without keeping)."""
+    from ..numerics.resources import breakdown, host_memory_bytes
+
+    sizes = {}
+    for c in cases:
+        s = c.solver
+        key = model_key(c.pair, c.sphere, c.grid, s.device, s.dtype, s.fft)
+        if key not in sizes:
+            if str(s.device) == "cpu":
+                b = breakdown(c.grid.n, s.dtype, "cpu", c.friction is not None, s.fft, adhesion=c.adhesion is not None)
+                sizes[key] = b["spectra"] + b["fft_work"]
+            else:
+                sizes[key] = 0  # CUDA: bounded by cached_model's retry on a refusal (see KEPT_MODELS_RAM_SHARE)
+    keep = min(len(sizes), MAX_KEPT_MODELS)
+    ram = host_memory_bytes()
+    largest = sorted(sizes.values(), reverse=True)
+    while keep > 1 and ram and sum(largest[:keep]) > KEPT_MODELS_RAM_SHARE * ram:
+        keep -= 1
+    return max(1, keep)
+
+
+def clear_models() -> None:
+    """Drop the models this process keeps (the end of a run in this process, or of a fit)."""
+    _models.clear()
+
+
+def worker_device(device: str) -> str:
+    """The device a case asking for ``device`` runs on here: on a worker pinned to a GPU
+    (``CUDA_VISIBLE_DEVICES`` set to one GPU, which Warp calls cuda:0) any CUDA device is that GPU."""
+    if str(device).startswith("cuda") and os.environ.get(PINNED_GPU_ENV) is not None:
+        return "cuda:0"
+    return str(device)
+
+
+@dataclass(frozen=True)
+class _Raised:
+    """An error of warpcontact's raised by a task on a worker, carried back whole (InputError's
+    two arguments do not survive pickling as an exception)."""
+
+    kind: str
+    args: tuple
+
+    def error(self) -> BaseException:
+        from .. import errors
+
+        return getattr(errors, self.kind)(*self.args)
+
+
+@dataclass(frozen=True)
+class _Done:
+    value: object
+    seconds: float
+    worker: str
+
+
+def _worker_name() -> str:
+    gpu = os.environ.get(PINNED_GPU_ENV)
+    return f"{socket.gethostname()}:{os.getpid()}" + (f" GPU {gpu}" if gpu is not None else "")
+
+
+def call_task(fn: Callable, args: tuple) -> _Done | _Raised:
+    """Run ``fn(*args)`` on a worker: its value and time, or an error of warpcontact's carried back."""
+    from ..errors import ConvergenceError, InputError, NonFiniteError
+
+    t0 = time.perf_counter()
+    try:
+        value = fn(*args)
+    except InputError as e:
+        return _Raised("InputError", (e.key, e.problem))
+    except (ConvergenceError, NonFiniteError) as e:
+        return _Raised(type(e).__name__, e.args)
+    return _Done(value, time.perf_counter() - t0, _worker_name())
+
+
+# ---------------------------------------------------------------------------------------------
+# The cluster.
+
+
+def cpu_cores() -> int:
+    """CPU cores this process may use."""
+    try:
+        return len(os.sched_getaffinity(0))
+    except AttributeError:  # not Linux
+        return os.cpu_count() or 1
+
+
+def gpu_ordinals(device: str) -> list[int]:
+    """The GPUs a local cluster uses for cases on ``device``: every CUDA device for "cuda", the
+    one named for "cuda:N"; [] on the CPU. InputError (solver.device) when there is none."""
+    device = str(device)
+    if not device.startswith("cuda"):
+        return []
+    from ..numerics.device import resolve_device
+
+    resolve_device(device)  # InputError when absent
+    import warp as wp
+
+    return [int(device.split(":")[1])] if ":" in device else list(range(wp.get_cuda_device_count()))
+
+
+def worker_environments(placement: Placement, pending: int) -> list[dict]:
+    """The environment of each worker of a local cluster for ``pending`` cases (one dict each):
+    GPU workers pinned to their GPU in turn; as many workers as asked for (default: one per GPU,
+    or one per CPU core), never more than the cases."""
+    gpus = gpu_ordinals(placement.device)
+    count = placement.workers or (len(gpus) if gpus else cpu_cores())
+    count = max(1, min(count, pending))
+    if not gpus:
+        return [{} for _ in range(count)]
+    return [{"CUDA_VISIBLE_DEVICES": str(gpus[i % len(gpus)]), PINNED_GPU_ENV: str(gpus[i % len(gpus)])}
+            for i in range(count)]
+
+
+class _Cluster:
+    """A dask client on a scheduler given by address, or on a local cluster started here."""
+
+    def __init__(self, placement: Placement, pending: int):
+        import logging
+
+        import dask
+        from distributed import Client, Nanny, Scheduler, SpecCluster
+
+        self.cluster = None
+        if placement.scheduler is not None:
+            try:
+                self.client = Client(placement.scheduler, timeout=f"{CONNECT_TIMEOUT_S}s")
+            except (OSError, TimeoutError, ValueError) as e:
+                from ..errors import InputError
+
+                raise InputError("--scheduler", f"cannot reach the scheduler at {placement.scheduler!r}: "
+                                                f"{e}") from None
+            self.where = f"the cluster at {placement.scheduler}"
+            return
+        envs = worker_environments(placement, pending)
+        quiet = logging.ERROR
+        nanny_log = logging.getLogger("distributed.nanny")
+        if _quiet_restart_after_stop not in nanny_log.filters:
+            nanny_log.addFilter(_quiet_restart_after_stop)
+        workers = {
+            f"warpcontact-{i}": {"cls": Nanny, "options": {
+                "nthreads": 1, "env": env, "host": "127.0.0.1", "dashboard": False, "memory_limit": 0,
+                "silence_logs": quiet, "death_timeout": CONNECT_TIMEOUT_S, "preload": ["warpcontact.studies.batch"]}}
+            for i, env in enumerate(envs)
+        }
+        scheduler = {"cls": Scheduler, "options": {"dashboard_address": None, "host": "127.0.0.1"}}
+        started = set(SpecCluster._instances)
+        try:
+            # a worker takes one case at a time (its thread count) and the rest wait at the scheduler:
+            # a worker that dies takes only its running case with it
+            with dask.config.set({"distributed.scheduler.worker-saturation": 1.0}):
+                self.cluster = SpecCluster(scheduler=scheduler, workers=workers, silence_logs=quiet,
+                                           name="warpcontact")
+            self.client = Client(self.cluster, timeout=f"{CONNECT_TIMEOUT_S}s")
+        except BaseException:  # an error while the workers start: they end now
+            for cluster in set(SpecCluster._instances) - started:
+                _abandon(cluster)
+            raise
+        gpus = sorted({env[PINNED_GPU_ENV] for env in envs if env})
+        self.where = (f"{len(envs)} local worker(s)" + (f" on GPU {', '.join(gpus)}" if gpus else " on the CPU"))
+
+    def threads(self) -> int:
+        return max(1, sum(self.client.nthreads().values()))
+
+    def running(self, pending: int) -> int:
+        """Cases on workers now (the scheduler's tasks in processing), at most ``pending``."""
+        try:
+            return min(pending, sum(len(keys) for keys in self.client.processing().values()))
+        except Exception:  # a progress count: never a reason to fail the run
+            return min(pending, self.threads())
+
+    def close(self, futures=(), finished: bool = True) -> None:
+        """Close the client. A local cluster is closed in order when the run ``finished``; otherwise
+        (a stop, an error) its worker processes are killed at once, their cases abandoned. A cluster
+        given by address keeps its workers; the cases left are cancelled there."""
+        if futures:
+            try:
+                self.client.cancel(list(futures), force=True)
+            except Exception:
+                pass
+        if self.cluster is not None and not finished:
+            _abandon(self.cluster)
+        try:
+            self.client.close(timeout=CLOSE_TIMEOUT_S)
+        except Exception:
+            pass
+        if self.cluster is not None and finished:
+            try:
+                self.cluster.close(timeout=CLOSE_TIMEOUT_S)
+            except Exception:
+                _abandon(self.cluster)
+
+
+def _abandon(cluster) -> None:
+    """End a local cluster's worker processes now (SIGKILL) and keep distributed from closing it
+    again at exit (which would wait for them and print a traceback about workers still starting).
+    A worker process missed here (being started) ends with this process: it watches its parent."""
+    from distributed.deploy.spec import SpecCluster
+
+    for nanny in list(getattr(cluster, "workers", {}).values()):
+        process = getattr(getattr(nanny, "process", None), "process", None)
+        pid = getattr(process, "pid", None)
+        if pid:
+            try:
+                os.kill(pid, signal.SIGKILL)
+            except OSError:
+                pass
+    cluster.shutdown_on_close = False
+    SpecCluster._instances.discard(cluster)
+    import logging
+
+    # the start of a worker whose process was killed fails in a task nobody awaits: asyncio would log
+    # it with its traceback at exit
+    logging.getLogger("asyncio").addFilter(_quiet_abandoned_workers)
+
+
+def _quiet_abandoned_workers(record) -> bool:
+    """A logging filter: False (drop) for asyncio's reports of a local worker that failed to start."""
+    return "Nanny failed to start" not in record.getMessage()
+
+
+def _quiet_restart_after_stop(record) -> bool:
+    """A logging filter on distributed's nanny: False (drop) for its reports of a worker it could not
+    start or restart once a stop signal has come. The signal reaches the workers of the job too (they
+    share its process group); a nanny whose worker ended that way tries to start another while the
+    run is closing, and that fails with a traceback on stderr ("Failed to restart worker", or "Nanny
+    failed to start process" when the stop comes while a worker is being spawned; both seen under
+    load in the stop tests). Reports before any stop signal pass: they are real failures."""
+    from .. import interrupts
+
+    if interrupts.received() is None:
+        return True
+    message = record.getMessage()
+    return not any(text in message for text in _WORKER_START_FAILURES)
+
+
+_WORKER_START_FAILURES = ("Failed to restart worker", "Nanny failed to start")
+
+
+def dask_setup(worker) -> None:
+    """Run by each worker of a local cluster once it has started (Nanny's ``preload``): Ctrl-C at a
+    terminal reaches every process of the job, and the run's own process ends its workers, so they
+    ignore it (a worker still importing when it comes prints a traceback as it ends)."""
+    import threading
+
+    if threading.current_thread() is threading.main_thread():
+        signal.signal(signal.SIGINT, signal.SIG_IGN)
+
+
+def _grouped(tasks: list) -> list:
+    """``tasks`` with those of one group together (in the order each group first appears)."""
+    order: dict = {}
+    for t in tasks:
+        order.setdefault(t.group, len(order))
+    return sorted(tasks, key=lambda t: order[t.group])
+
+
+# ---------------------------------------------------------------------------------------------
+# Running a batch.
+
+
+def run_tasks(tasks, on_result: Callable, placement: Placement | None = None, progress=None,
+              failed: Callable | None = None, on_error: Callable | None = None,
+              on_state: Callable | None = None, before: int = 0, keep_models: bool = False) -> BatchStats:
+    """Run ``tasks`` (:class:`Task`) where ``placement`` says; hand each value back as it arrives.
+
+    Args:
+        tasks: the cases to compute (those finished by an earlier run left out by the caller).
+        on_result: ``on_result(task, value)`` in this process, as each case finishes (in the order
+            they finish): the caller writes it. Returning False ends the run (the cases still
+            running are abandoned).
+        placement: where (default: this process).
+        progress: a :class:`~warpcontact.records.progress.Progress` over all the cases; its line is redrawn
+            with the cases done, running and failed.
+        failed: ``failed(value)``: whether a finished case counts as failed in the progress line.
+        on_error: ``on_error(task, error)`` for a case that raised (an error of warpcontact's, or
+            :class:`LostTask`); returning False ends the run. By default the error is raised and
+            the run ends (the cases finished are written).
+        on_state: ``on_state(task, *state_args)`` for the states of a case run in this process
+            (passed to its function as ``on_state``).
+        before: cases finished by an earlier run (counted in the progress line).
+        keep_models: in this process, keep the models after the run (one of a series of batches on
+            the same models, inside :func:`session`, which drops them at its end); by default they
+            are dropped at the end of the run. Workers keep theirs either way (``cached_model``).
+
+    Returns:
+        :class:`BatchStats`.
+
+    A stop (KeyboardInterrupt: Ctrl-C, SIGTERM, SIGHUP) ends the run at once: a local cluster's
+    workers end with it, and the stop is raised after them.
+    """
+    placement = placement or Placement(workers=1)
+    tasks = _grouped(list(tasks))
+    tally = Tally(total=before + len(tasks), before=before)
+    stats = BatchStats(tasks=len(tasks))
+    if not tasks:
+        return stats
+    failed = failed or (lambda value: False)
+
+    def show(extra=""):
+        if progress is not None:
+            progress.status(tally.before + tally.done, extra=f"{tally.text()}{'  ' + extra if extra else ''}")
+
+    def error(task, e) -> bool:
+        tally.failed += 1
+        if on_error is None:
+            raise e
+        return on_error(task, e) is not False
+
+    def hand_back(task, value) -> bool:
+        tally.done += 1
+        if failed(value):
+            tally.failed += 1
+        return on_result(task, value) is not False
+
+    if placement.in_process(len(tasks)):
+        t0 = time.perf_counter()
+        built = _cache_stats["built"]
+        try:
+            for task in tasks:
+                tally.running = 1
+                show(task.label)
+                kwargs = {} if on_state is None else {"on_state": lambda *a, task=task: on_state(task, *a)}
+                t1 = time.perf_counter()
+                try:
+                    value = task.fn(*task.args, **kwargs)
+                except Exception as e:
+                    from ..errors import ConvergenceError, InputError, NonFiniteError
+
+                    if not isinstance(e, (InputError, ConvergenceError, NonFiniteError)):
+                        raise
+                    tally.running = 0
+                    if not error(task, e):
+                        break
+                    continue
+                stats.task_times.append(time.perf_counter() - t1)
+                tally.running = 0
+                if not hand_back(task, value):
+                    break
+                show()
+        finally:
+            stats.models_built = _cache_stats["built"] - built
+            if not keep_models:
+                clear_models()
+        stats.wall_s = time.perf_counter() - t0
+        stats.task_s = sum(stats.task_times)
+        return stats
+
+    from distributed import as_completed
+    from distributed.client import FutureCancelledError
+
+    try:
+        from distributed.scheduler import KilledWorker
+    except ImportError:  # pragma: no cover - older distributed
+        from distributed import KilledWorker
+
+    t0 = time.perf_counter()
+    show("starting the workers")
+    cluster = _Cluster(placement, len(tasks))
+    futures: dict = {}
+    finished = False
+    try:
+        stats.start_s = time.perf_counter() - t0
+        stats.workers = cluster.threads()
+        stats.where = cluster.where
+        t0 = time.perf_counter()
+        token = os.urandom(4).hex()  # a rerun's tasks are new tasks on a long-lived cluster
+        for task in tasks:
+            fut = cluster.client.submit(call_task, task.fn, task.args, key=f"warpcontact-{task.key}-{token}",
+                                        pure=False)
+            futures[fut] = task
+        tally.running = min(len(futures), stats.workers)
+        show(f"on {cluster.where}")
+        for fut in as_completed(list(futures)):
+            task = futures.pop(fut)
+            try:
+                outcome = fut.result()
+            except KilledWorker as e:
+                if not error(task, LostTask(f"the case {task.label} was given up: the workers computing it died "
+                                            f"({e})")):
+                    break
+                continue
+            except FutureCancelledError:
+                continue
+            if isinstance(outcome, _Raised):
+                if not error(task, outcome.error()):
+                    break
+                continue
+            stats.task_times.append(outcome.seconds)
+            tally.running = cluster.running(len(futures)) if progress is not None and progress.live \
+                else min(len(futures), stats.workers)
+            if not hand_back(task, outcome.value):
+                break
+            show()
+        finished = not futures
+    finally:
+        stats.wall_s = time.perf_counter() - t0
+        cluster.close(futures, finished)
+    stats.task_s = sum(stats.task_times)
+    return stats
+
+
+@contextlib.contextmanager
+def session(placement: Placement, pending: int):
+    """Where a series of batches runs on the same workers and models (a fit: one batch per
+    Jacobian). Yields (the placement to give each batch's :func:`run_tasks`, a description of where
+    they run or None when each batch says it). Without a scheduler and for more than one worker
+    (``pending``: the cases of the first batch), a local cluster is started once for the series and
+    given to each batch by its address (:func:`run_tasks` would start one per batch: the workers'
+    start and their models would be paid at every batch); it ends with the series. In this process
+    (one worker) the models that the batches keep (``run_tasks(..., keep_models=True)``) are dropped
+    at the end of the series, as at the end of a single run."""
+    if placement.scheduler is not None or placement.in_process(pending):
+        try:
+            yield placement, None
+        finally:
+            clear_models()
+        return
+    cluster = _Cluster(placement, pending)
+    finished = False
+    try:
+        yield Placement(scheduler=cluster.cluster.scheduler_address, device=placement.device), cluster.where
+        finished = True
+    finally:
+        cluster.close(finished=finished)
+
+
+__all__ = ["BatchStats", "LostTask", "Placement", "Task", "Tally", "cached_model", "call_task", "clear_models",
+           "model_key", "models_to_keep", "run_tasks", "session", "worker_device", "worker_environments"]

@@ -1,0 +1,206 @@
+"""From a case to solved states: builds the model and solver, walks the load path."""
+
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass, field
+
+from .._version import __version__
+from ..physics.adhesion import SMC, Dugdale, Exponential, LennardJones93
+from ..physics.friction import Coulomb, TaborVonMises
+from ..records.guards import RunChecks, warn_if_adhesion_at_edge
+from ..numerics.resources import check_fits
+from ..numerics.model import ContactModel
+from ..records.progress import show_turn
+from ..records.results import state_fields, state_summary
+from ..solvers.contact import ContactSolver
+from ..numerics.state import ContactState
+from ..numerics.stress import yield_keys
+
+
+def friction_law(case):
+    """The shear-limit law of a case, or None for a frictionless contact."""
+    fr = case.friction
+    if fr is None:
+        return None
+    if fr.law == "coulomb":
+        return Coulomb(fr.mu)
+    kw = {} if fr.k_vm is None else {"k_vm": fr.k_vm}
+    return TaborVonMises(fr.k_tau, case.pair.softer.yield_strength, **kw)
+
+
+def adhesion_law(case):
+    """The adhesion law of a case, or None."""
+    ad = case.adhesion
+    if ad is None:
+        return None
+    if ad.law == "smc":
+        return SMC(ad.sigma_max, ad.tau_max, ad.delta_n, ad.delta_t)
+    if ad.law == "exponential":
+        return Exponential(ad.w, ad.rho)
+    if ad.law == "lj93":
+        return LennardJones93(ad.w, ad.z0)
+    optional = {k: getattr(ad, k) for k in ("smoothing", "ramps") if getattr(ad, k) is not None}
+    return Dugdale(ad.sigma_0, ad.h_0, **optional)
+
+
+def build_model(case) -> ContactModel:
+    """The contact model of a case (materials, sphere, grid, device, float type, FFT backend); a case
+    that will not fit in memory is refused first."""
+    s = case.solver
+    check_fits(case.grid.n, s.dtype, s.device, case.friction is not None, s.fft, adhesion=case.adhesion is not None)
+    return ContactModel(case.pair, case.sphere, case.grid, device=s.device, dtype=s.dtype, fft=s.fft)
+
+
+def build(case, model=None):
+    """(model, solver, state) for a case. ``model``: a model built for the same materials, sphere,
+    grid, device, float type and FFT backend to reuse (:mod:`warpcontact.studies.batch` keeps one per
+    worker); by default one is built (:func:`build_model`)."""
+    s = case.solver
+    if model is None:
+        model = build_model(case)
+    cap = case.pair.softer.hardness if case.friction is not None and case.friction.hardness_cap else math.inf
+    solver = ContactSolver(model, friction_law(case), tol=s.tol, max_iter=s.max_iter, max_outer=s.max_turns,
+                           pressure_cap=cap, adhesion=adhesion_law(case))
+    solver.nested = s.nested
+    solver.on_turn = show_turn  # a long step's turns on the progress line open now (solve, gross-slip, pull-off)
+    return model, solver, ContactState(model)
+
+
+#: what ``fields`` of :func:`run_path` may keep: every state's fields, the last state's, none
+FIELDS_CHOICES = ("all", "last", "none")
+
+
+@dataclass
+class PathResult:
+    """Summaries of every solved state of a path, and the fields kept (numpy, SI).
+
+    ``fields`` holds the fields of the states listed in ``field_states`` (their indices in
+    ``states``): every state, the last one or none (``run_path``'s ``fields``). ``interrupted``:
+    a stop (Ctrl-C, SIGTERM, SIGHUP) ended the path early; ``stop_signal`` names it.
+    """
+
+    case: object
+    model: object
+    states: list = field(default_factory=list)
+    fields: list = field(default_factory=list)
+    field_states: list = field(default_factory=list)
+    elapsed_s: float = 0.0
+    interrupted: bool = False
+    stop_signal: str | None = None
+    #: the elastic assumption checked at the last state (``stress.yield_check``); None until then
+    yield_check: dict | None = None
+
+    @property
+    def converged(self) -> bool:
+        return bool(self.states) and all(s["converged"] for s in self.states)
+
+    def summary(self, complete: bool = False) -> dict:
+        """result.json content: the last state's quantities at top level, every state listed.
+
+        ``complete``: every state of the path is solved and every output of the run written (the
+        caller says so in its last write); False while the run goes on, so that a file left by a
+        killed run reads as partial, and after a stop. ``interrupted``: a stop (``stop_signal``)
+        ended the path before its last state; the states finished are listed.
+        """
+        last = self.states[-1] if self.states else {}
+        m = self.model
+        out = {
+            **last,
+            "converged": self.converged,
+            "complete": bool(complete),
+            "interrupted": self.interrupted,
+            "n_states": len(self.states),
+            "n_states_planned": len(self.case.load.path()),
+            "states": self.states,
+            "device": str(m.device),
+            "dtype": m.dtype_name,
+            "fft": m.fft_name,
+            "elapsed_s": self.elapsed_s,
+            "software": {"warpcontact": __version__},
+            "case": self.case.to_dict(),
+        }
+        if self.interrupted:
+            out["stop_signal"] = self.stop_signal
+        if self.yield_check is not None:  # a body's von Mises maximum against its yield strength
+            out.update(yield_keys(self.yield_check))
+        return out
+
+    def stacked_fields(self) -> dict:
+        """The fields kept stacked along a first axis, plus coordinates: ``state_index`` [-] (the
+        index in ``states`` of each entry), ``delta`` [m] (each entry's approach x, y, z), ``x``,
+        ``y`` [m] (cell centres)."""
+        import numpy as np
+
+        out = {k: np.stack([f[k] for f in self.fields]) for k in self.fields[0]} if self.fields else {}
+        out["x"] = self.model.grid.x
+        out["y"] = self.model.grid.y
+        out["state_index"] = np.array(self.field_states, dtype=np.int64)
+        out["delta"] = np.array([[self.states[i]["delta"][c] for c in "xyz"] for i in self.field_states],
+                                dtype=np.float64).reshape(-1, 3)
+        return out
+
+
+def run_path(case, on_state=None, keep_fields: bool = True, fields: str = "all", on_start=None,
+             model=None) -> PathResult:
+    """Solve every state of the case's load path in order (slip history carried along).
+
+    ``on_start(result)`` is called once the model is built, before the first state (a first
+    write); ``on_state(index, total, summary, result)`` after each state (progress, saving),
+    inside :func:`interrupts.deferred`: a stop that arrives while it writes lets it finish, the
+    state counted, and is raised after it. ``fields``: whose fields to keep, "all" states', the
+    last finished state's ("last") or "none" (``keep_fields=False`` is "none"). A stop (Ctrl-C,
+    SIGTERM, SIGHUP) ends the path: the states finished are kept and ``interrupted`` is set; a
+    stop during the model's set-up propagates (nothing is solved). Warns once per path each
+    (guards): a coarse grid at the deepest approach (:class:`~warpcontact.records.guards.RunChecks`), the
+    pressure above a yield strength, the adhesive tail cut by the domain. ``model``: as :func:`build`'s.
+    """
+    from .. import interrupts
+
+    if fields not in FIELDS_CHOICES:
+        raise ValueError(f"fields must be one of {FIELDS_CHOICES}, got {fields!r}")
+    if not keep_fields:
+        fields = "none"
+    t0 = time.perf_counter()
+    model, solver, state = build(case, model)
+    result = PathResult(case=case, model=model)
+    path = case.load.path()
+    edge_warned = False  # the adhesive tail cut by the domain: one warning per path
+    checks = RunChecks(case)  # resolution and yield: one warning each per path
+    try:
+        if on_start is not None:
+            with interrupts.deferred():
+                on_start(result)
+        for k, approach in enumerate(path):
+            solver.step(state, approach)
+            if not edge_warned:
+                edge_warned = warn_if_adhesion_at_edge(state, solver.adhesion, case.load.delta_z_max)
+            summary = state_summary(state, solver.adhesion)
+            checks.observe(summary, decisive=checks.decisive(summary))
+            kept = state_fields(state, solver.adhesion, solver.friction) if fields != "none" else None
+            with interrupts.deferred():  # the lists, and what on_state writes, stay in step
+                result.states.append(summary)
+                if kept is not None:
+                    if fields == "last":  # the last finished state's: the one a stop leaves last
+                        result.fields.clear()
+                        result.field_states.clear()
+                    result.fields.append(kept)
+                    result.field_states.append(k)
+                result.elapsed_s = time.perf_counter() - t0
+                if on_state is not None:
+                    on_state(k, len(path), summary, result)
+        if result.states:  # the last state against the bodies' yield strengths (below the surface)
+            from ..numerics.stress import yield_check
+
+            # the last state's SI fields, brought to the host once: those kept for the result
+            last = result.fields[-1] if result.fields and result.field_states[-1] == len(result.states) - 1 \
+                else state.to_numpy_si()
+            result.yield_check = yield_check(case.pair, case.grid, last, model.device, model.dtype_name,
+                                             case.solver.fft)
+            checks.yielded(result.yield_check, result.states[-1])
+    except KeyboardInterrupt as e:
+        result.interrupted = True
+        result.stop_signal = interrupts.signal_name(interrupts.stop_signal(e))
+    result.elapsed_s = time.perf_counter() - t0
+    return result

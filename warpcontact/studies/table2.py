@@ -1,0 +1,263 @@
+"""The seed paper's Table 2: delta_x at gross slip and the static friction coefficient.
+
+Copper sphere (R = 10 um) on hardened steel (Table 1), Tabor + von Mises shear limit, the 24
+cells k_tau in (0.50, 0.80, 0.95) x delta_z in (1.0e-5, 5.0e-5, 1.0e-4, 1.5e-4) um, without and
+with adhesion (the SMC law with ``Table2Settings``' parameters; the paper gives none: README
+"Adhesion defaults" gives the reasoning and docs/img/adhesion_sensitivity.png the dependence).
+"""
+
+from __future__ import annotations
+
+import csv
+import math
+import time
+from dataclasses import dataclass
+from pathlib import Path
+
+from ..physics.geometry import Grid, Sphere
+from ..records.guards import suggested_adhesive_size, withhold_if_unconverged
+from ..physics.materials import PAPER_PAIR
+
+# the solvers (Warp, SciPy) are imported where a cell is computed: the command line's parser reads
+# Table2Settings' defaults without them
+
+RADIUS = 10e-6
+K_TAU = (0.50, 0.80, 0.95)
+DELTA_Z_UM = (1.0e-5, 5.0e-5, 1.0e-4, 1.5e-4)
+UM = 1e-6
+#: what a cell reports only when every state of its path converged
+TABLE2_RESULTS = ("delta_x_max_um", "delta_x_gross_um", "mu", "mu_elastic", "force_N", "force_elastic_N",
+                  "rel_diff_delta_x_max", "rel_diff_mu")
+#: adhesion defaults of the adhesive cells (README "Adhesion defaults": why these)
+#: sigma_max = tau_max = 1 MPa, delta_n = delta_t = 5 pm (w = e sigma_max delta_n = 1.36e-5 J/m^2):
+#: of the 12 pairs of bench/adhesion_sensitivity.py (bench_results/adh) the weakest that raises mu
+#: in all 12 cells, as the paper's columns do; RMS 10.8 points from the paper's change by adhesion
+#: (the nominal best, 2 pm: 9.9 points, lowers mu in 7 of 12 cells)
+SIGMA_MAX = 1.0e6
+TAU_MAX = 1.0e6
+DELTA_N = 5.0e-12
+DELTA_T = 5.0e-12
+
+
+def paper_table(path=None) -> dict:
+    """The paper's values: {(k_tau, delta_z_um, adhesion): (delta_x_max_um, mu)}.
+
+    Read from ``shared/data/table2.csv`` when it is found (or ``path``), else from the copy below.
+    """
+    rows = {}
+    candidates = [Path(path)] if path else [Path(__file__).resolve().parents[2] / "shared" / "data" / "table2.csv"]
+    for c in candidates:
+        if c.exists():
+            with open(c) as fh:
+                for r in csv.DictReader(line for line in fh if not line.startswith("#")):
+                    rows[(float(r["k_tau"]), float(r["delta_z_um"]), r["adhesion"] == "yes")] = (
+                        float(r["delta_x_max_um"]), float(r["mu"]))
+            return rows
+    for (k, dz, adh), v in _PAPER.items():
+        rows[(k, dz, adh)] = v
+    return rows
+
+
+# transcription of the paper's Table 2, used when the CSV is not beside us
+_PAPER = {
+    (0.50, 1.0e-5, False): (4.2e-6, 0.332), (0.50, 5.0e-5, False): (2.1e-5, 0.332),
+    (0.50, 1.0e-4, False): (4.2e-5, 0.332), (0.50, 1.5e-4, False): (5.5e-5, 0.308),
+    (0.80, 1.0e-5, False): (9.6e-6, 0.769), (0.80, 5.0e-5, False): (4.8e-5, 0.769),
+    (0.80, 1.0e-4, False): (7.3e-5, 0.665), (0.80, 1.5e-4, False): (7.7e-5, 0.495),
+    (0.95, 1.0e-5, False): (2.2e-5, 1.755), (0.95, 5.0e-5, False): (6.7e-5, 1.250),
+    (0.95, 1.0e-4, False): (8.2e-5, 0.827), (0.95, 1.5e-4, False): (8.5e-5, 0.583),
+    (0.50, 1.0e-5, True): (4.4e-6, 0.340), (0.50, 5.0e-5, True): (2.4e-5, 0.350),
+    (0.50, 1.0e-4, True): (4.9e-5, 0.357), (0.50, 1.5e-4, True): (6.5e-5, 0.325),
+    (0.80, 1.0e-5, True): (1.0e-5, 0.788), (0.80, 5.0e-5, True): (5.4e-5, 0.809),
+    (0.80, 1.0e-4, True): (8.5e-5, 0.688), (0.80, 1.5e-4, True): (8.8e-5, 0.502),
+    (0.95, 1.0e-5, True): (2.3e-5, 1.798), (0.95, 5.0e-5, True): (7.5e-5, 1.277),
+    (0.95, 1.0e-4, True): (9.5e-5, 0.843), (0.95, 1.5e-4, True): (9.8e-5, 0.587),
+}
+
+
+@dataclass(frozen=True)
+class Table2Settings:
+    """Grid and solver settings of a Table 2 run.
+
+    Attributes:
+        n: cells per side of a domain of ``size_in_a`` contact radii (the resolution: cell side
+            size_in_a a / n). Adhesive cells whose law reaches beyond that domain get a larger
+            one with the same cell side (see :func:`cell_grid`).
+        size_in_a: domain side in Hertz contact radii a = sqrt(R delta_z) of each cell.
+        device, dtype, fft: as in case files.
+        rel_tol: bisection bracket of delta_x_max, relative.
+        sigma_max, tau_max: the SMC law's peak normal and shear tractions [Pa] (adhesive cells).
+        delta_n, delta_t: its characteristic lengths [m].
+    """
+
+    n: int = 128
+    size_in_a: float = 3.0
+    device: str = "cpu"
+    dtype: str = "float64"
+    fft: str = "auto"
+    rel_tol: float = 0.01
+    sigma_max: float = SIGMA_MAX
+    tau_max: float = TAU_MAX
+    delta_n: float = DELTA_N
+    delta_t: float = DELTA_T
+
+    def adhesion_law(self):
+        """The SMC law of these parameters (:class:`warpcontact.physics.adhesion.SMC`)."""
+        from ..physics.adhesion import SMC
+
+        return SMC(self.sigma_max, self.tau_max, self.delta_n, self.delta_t)
+
+
+def cell_grid(delta_z: float, settings: Table2Settings, adhesion=None) -> Grid:
+    """The grid of a cell at normal approach ``delta_z`` [m]: ``settings.n`` cells over
+    ``settings.size_in_a`` Hertz radii; with an adhesive law whose tail (the gap where its
+    traction falls to 1 % of its peak) lies beyond that domain, the domain grows to hold it
+    (:func:`warpcontact.records.guards.suggested_adhesive_size`) and the cell count with it, so the cell side
+    stays the same. Outside the contact the adhesive annulus at gap h carries 2 pi R sigma(h) dh, a
+    force that does not fall with r: a domain that cuts the tail cuts the adhesive force (for the
+    SMC law, a fraction (1 + x) e^-x of it is left out beyond gap x delta_n)."""
+    a = math.sqrt(RADIUS * delta_z)
+    size = settings.size_in_a * a
+    n = settings.n
+    if adhesion is not None:
+        need = suggested_adhesive_size(RADIUS, delta_z, adhesion)
+        if need > size:
+            from scipy.fft import next_fast_len
+
+            n = next_fast_len(math.ceil(settings.n * need / size))
+            size *= n / settings.n
+    return Grid(n, size)
+
+
+def table2_cell(k_tau: float, delta_z_um: float, settings: Table2Settings, on_state=None, adhesion: bool = False,
+                model=None) -> dict:
+    """One cell: delta_x_max, mu and the paper's values, with relative differences.
+
+    With ``adhesion`` the SMC law of ``settings`` acts; mu = F_x / F_z with the total F_z
+    (adhesive part included, MODEL.md section 7), and mu_elastic = F_x / F_z of the contact
+    pressure alone is reported beside it. ``model``: the cell's model to reuse (a
+    :class:`~warpcontact.numerics.model.ContactModel` of :func:`cell_model_key`), else one is built.
+    """
+    from ..physics.friction import TaborVonMises
+    from ..numerics.model import ContactModel
+    from .slip_search import find_gross_slip
+    from ..solvers.contact import ContactSolver
+    from ..numerics.stress import state_yield_keys
+
+    dz = delta_z_um * UM
+    adhesive = settings.adhesion_law() if adhesion else None
+    if model is None:
+        model = ContactModel(PAPER_PAIR, Sphere(RADIUS), cell_grid(dz, settings, adhesive),
+                             device=settings.device, dtype=settings.dtype, fft=settings.fft)
+    law = TaborVonMises(k_tau, PAPER_PAIR.softer.yield_strength)
+    t0 = time.perf_counter()
+    r = find_gross_slip(model, ContactSolver(model, law, adhesion=adhesive), dz, rel_tol=settings.rel_tol,
+                        on_state=on_state, at_max=state_yield_keys)
+    paper_dx, paper_mu = paper_table().get((k_tau, delta_z_um, bool(adhesion)), (math.nan, math.nan))
+    dx_um = r["delta_x_max"] / UM
+    record = {
+        "k_tau": k_tau,
+        "delta_z_um": delta_z_um,
+        "adhesion": bool(adhesion),
+        "delta_x_max_um": dx_um,
+        "delta_x_gross_um": r["delta_x_gross"] / UM,
+        "mu": r["mu"],
+        "mu_elastic": r["mu_elastic"],
+        "force_N": r["force"],
+        "force_elastic_N": r["force_elastic"],
+        "paper_delta_x_max_um": paper_dx,
+        "paper_mu": paper_mu,
+        "rel_diff_delta_x_max": dx_um / paper_dx - 1.0,
+        "rel_diff_mu": None if r["mu"] is None else r["mu"] / paper_mu - 1.0,
+        "converged": r["converged"],
+        "n": settings.n,
+        "grid_n": model.grid.n,
+        "size_m": model.grid.size,
+        "cell_m": model.grid.dx,
+        "mu_b": law.mu_b,
+        "crossover_pressure_Pa": law.crossover_pressure,
+        "elapsed_s": time.perf_counter() - t0,
+        "states": len(r["states"]),
+        **{k: r.get(k) for k in ("yielded", "yield_margin", "yield_check")},  # at delta_x_max (find_gross_slip)
+    }
+    if "mu_note" in r:
+        record["mu_note"] = r["mu_note"]
+    if adhesive is not None:
+        record["adhesion_law"] = adhesive.describe()
+    return withhold_if_unconverged(record, TABLE2_RESULTS)
+
+
+def cell_model_key(delta_z_um: float, settings: Table2Settings, adhesion: bool) -> tuple:
+    """What the model of a cell depends on (:func:`warpcontact.studies.batch.model_key`): cells of one
+    delta_z, column and grid share it, whatever their k_tau."""
+    from .batch import model_key
+
+    grid = cell_grid(delta_z_um * UM, settings, settings.adhesion_law() if adhesion else None)
+    return model_key(PAPER_PAIR, Sphere(RADIUS), grid, settings.device, settings.dtype, settings.fft)
+
+
+def run_cell(k_tau: float, delta_z_um: float, settings: Table2Settings, adhesion: bool, on_state=None) -> dict:
+    """:func:`table2_cell` where the batch engine runs it (a worker of ``warpcontact table2
+    --workers``, or this process): the model from the process's cache (a cell of the last cell's
+    grid reuses it; :func:`warpcontact.studies.batch.cached_model`); on a worker pinned to a GPU a CUDA
+    cell runs on that GPU."""
+    import dataclasses
+
+    from .batch import cached_model, worker_device
+    from ..numerics.model import ContactModel
+
+    device = worker_device(settings.device)
+    if device != settings.device:
+        settings = dataclasses.replace(settings, device=device)
+    key = cell_model_key(delta_z_um, settings, adhesion)
+    model = cached_model(key, lambda: ContactModel(key[0], key[1], key[2], device=settings.device,
+                                                   dtype=settings.dtype, fft=settings.fft))
+    return table2_cell(k_tau, delta_z_um, settings, on_state=on_state, adhesion=adhesion, model=model)
+
+
+def cells():
+    """The (k_tau, delta_z_um) cells of each column (with or without adhesion)."""
+    return [(k, dz) for k in K_TAU for dz in DELTA_Z_UM]
+
+
+def _law_text(record) -> str:
+    """The adhesion column of the Markdown table: "no", or the SMC law's parameters."""
+    law = record.get("adhesion_law")
+    if not record.get("adhesion"):
+        return "no"
+    if not law:
+        return "yes"
+    return (f"SMC {law['sigma_max']:g} / {law['tau_max']:g} Pa, "
+            f"{law['delta_n']:g} / {law['delta_t']:g} m")
+
+
+def _elastic_text(record) -> str:
+    """The elastic column: "yes" or "no, yielded", with the margin S_Y / von Mises max; "-" when not
+    checked (a record of an earlier version, or no check)."""
+    y, m = record.get("yielded"), record.get("yield_margin")
+    if y is None:
+        return "-"
+    return f"{'no, yielded' if y else 'yes'} (margin {m:.3g})" if m is not None else ("no, yielded" if y else "yes")
+
+
+def markdown(records: list) -> str:
+    """The table as Markdown: computed, paper, relative difference; unconverged cells marked."""
+    lines = [
+        "| k_tau | delta_z (um) | adhesion | delta_x_max (um) | paper | diff | mu | paper | diff | n | converged "
+        "| elastic at delta_x_max |",
+        "|---|---|---|---|---|---|---|---|---|---|---|---|",
+    ]
+    for r in records:
+        if r["converged"]:
+            dx, ddx = f"{r['delta_x_max_um']:.3e}", f"{100 * r['rel_diff_delta_x_max']:+.1f} %"
+            if r["mu"] is None:
+                mu, dmu = "undefined (F_z <= 0)", "-"
+            else:
+                mu, dmu = f"{r['mu']:.4f}", f"{100 * r['rel_diff_mu']:+.1f} %"
+        else:
+            dx = mu = ddx = dmu = "not converged"
+        lines.append(
+            f"| {r['k_tau']:.2f} | {r['delta_z_um']:.1e} | {_law_text(r)} | {dx} | {r['paper_delta_x_max_um']:.1e} | {ddx} | "
+            f"{mu} | {r['paper_mu']:.3f} | {dmu} | {r['n']} | {r['converged']} | {_elastic_text(r)} |"
+        )
+    return "\n".join(lines) + "\n"
