@@ -18,9 +18,7 @@
 #             tree's in one run: bench_iteration.py (SIDE_ARGS, default --sizes 1024 2048 4096
 #             --compare-up-to 0) ROUNDS times (default 2), each tree's log in $OUT/side_{old,new}_K.log;
 #             SIDE_SCRIPT=this: both trees run this tree's bench_iteration.py (the same measurement)
-#   SOLVE=1   bench/profile_normal_solve.py on cuda:0 (SOLVE_ARGS, default --sizes 1024 2048 4096)
 #   REDUCE=1  bench/reduction_launch.py on cuda:0 (REDUCE_ARGS, default --sizes 1024 2048 4096), warm and --cold
-#   VARIANTS=1 bench/update_variants.py on cuda:0 (VARIANTS_ARGS, default --sizes 1024 2048), warm and --cold
 #   TURNS=1   bench/graph_turns.py on cuda:0 (TURNS_ARGS): what a turn of the device loop costs
 #   ADH=W     bench/adhesion_sensitivity.py on W CPU workers, in the background while the rest runs
 #             (its cells.jsonl is kept in $OUT/adh; a copy in bench_results/adh/ is resumed)
@@ -67,20 +65,10 @@ if [ -n "${SIDE:-}" ]; then
     done
   done
 fi
-if [ "${SOLVE:-0}" = 1 ]; then
-  (cd /tmp && timeout "${SOLVE_TIMEOUT:-200}" python3 "$ROOT/bench/profile_normal_solve.py" --device cuda:0 \
-     ${SOLVE_ARGS:---sizes 1024 2048 4096} > "$OUT/solve_costs.log" 2>&1; grep -v "^ \|^-\|Self " "$OUT/solve_costs.log" | head -20)
-fi
 if [ "${REDUCE:-0}" = 1 ]; then
   for mode in "" --cold; do
     (cd /tmp && timeout "${REDUCE_TIMEOUT:-200}" python3 "$ROOT/bench/reduction_launch.py" --device cuda:0 \
        ${REDUCE_ARGS:---sizes 1024 2048 4096} $mode 2>&1 | tee -a "$OUT/reduction_launch.log")
-  done
-fi
-if [ "${VARIANTS:-0}" = 1 ]; then
-  for mode in "" --cold; do
-    (cd /tmp && timeout "${VARIANTS_TIMEOUT:-200}" python3 "$ROOT/bench/update_variants.py" --device cuda:0 \
-       ${VARIANTS_ARGS:---sizes 1024 2048} $mode 2>&1 | tee -a "$OUT/update_variants.log")
   done
 fi
 if [ "${TURNS:-0}" = 1 ]; then
