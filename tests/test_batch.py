@@ -388,3 +388,37 @@ def test_worker_start_failures_are_dropped_only_after_a_stop_signal(message, mon
     assert batch._quiet_restart_after_stop(record) is False
     other = logging.LogRecord("distributed.nanny", logging.ERROR, __file__, 1, "Worker process died", None, None)
     assert batch._quiet_restart_after_stop(other) is True
+
+
+def test_abandoning_a_local_cluster_stops_its_nannies_restarting_first(monkeypatch):
+    """A stop kills the local workers (``batch._abandon``); each nanny is told to close gracefully
+    before its worker is killed, so that none spawns a new worker as the run exits (a worker spawned
+    then finds its parent gone and prints a traceback: seen once in the sweep stop test)."""
+    import os
+    import signal
+    from types import SimpleNamespace
+
+    from warpcontact.studies import batch
+
+    events = []
+
+    class FakeNanny:
+        def __init__(self, pid):
+            self.process = SimpleNamespace(process=SimpleNamespace(pid=pid))
+
+        def close_gracefully(self, reason=""):
+            events.append(("graceful", self.process.process.pid))
+
+    def fake_kill(pid, signum):
+        events.append(("kill", pid))
+        assert signum == signal.SIGKILL
+
+    monkeypatch.setattr(os, "kill", fake_kill)
+    class FakeCluster:  # weakly referable, as distributed's registry of clusters needs
+        workers = {"a": FakeNanny(101), "b": FakeNanny(102)}
+        shutdown_on_close = True
+
+    cluster = FakeCluster()
+    batch._abandon(cluster)
+    assert events == [("graceful", 101), ("graceful", 102), ("kill", 101), ("kill", 102)]
+    assert cluster.shutdown_on_close is False

@@ -389,7 +389,16 @@ def _abandon(cluster) -> None:
     A worker process missed here (being started) ends with this process: it watches its parent."""
     from distributed.deploy.spec import SpecCluster
 
-    for nanny in list(getattr(cluster, "workers", {}).values()):
+    nannies = list(getattr(cluster, "workers", {}).values())
+    for nanny in nannies:
+        # first, so that no nanny starts a new worker when it sees its worker end below: a worker
+        # being spawned as this process exits finds its parent's pipe closed and prints a traceback
+        # ("EOFError: Ran out of input", seen once in the sweep stop test under load)
+        try:
+            nanny.close_gracefully(reason="warpcontact-stop")
+        except Exception:
+            pass
+    for nanny in nannies:
         process = getattr(getattr(nanny, "process", None), "process", None)
         pid = getattr(process, "pid", None)
         if pid:
