@@ -11,6 +11,7 @@ loads the kernels and captures the graphs). Prints a markdown table, one row per
 
     python bench/api_parts.py --device cuda:0 --sizes 1024 4096
     python bench/api_parts.py --sizes 256 512            # the CPU
+    python bench/api_parts.py --device cuda:0 --frictionless --sizes 8192 --fields none
 """
 
 from __future__ import annotations
@@ -31,6 +32,8 @@ def main():
     ap.add_argument("--dtype", default="float64", choices=["float64", "float32"])
     ap.add_argument("--sizes", type=int, nargs="+", default=[256, 512])
     ap.add_argument("--frictionless", action="store_true")
+    ap.add_argument("--fields", default="all", choices=["all", "last", "none"],
+                    help="whose fields wc.solve brings to the host (its fields= argument)")
     a = ap.parse_args()
 
     import warp as wp
@@ -79,7 +82,7 @@ def main():
             spent.clear()
             wp.synchronize_device(device)
             t0 = time.perf_counter()
-            result = wc.solve(case)
+            result = wc.solve(case, fields=a.fields)
             wp.synchronize_device(device)
             total = time.perf_counter() - t0
             del result

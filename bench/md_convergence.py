@@ -2,10 +2,11 @@
 
     python bench/md_convergence.py [--lam 2] [--n 96 192] [--smoothing 0.3] [--ramps both centred]
                                    [--domain 5] [--path cli|test] [--out out/md_convergence]
+                                   [--device cuda:0]
     python bench/md_convergence.py --continuum 1200 [--lam 2] [--smoothing 0.3] [--ramps both centred]
 
 The Dugdale law at Maugis parameter lambda (R = 1 um, w = 0.5 J/m^2, the paper's pair, float64,
-CPU), domain DOMAIN x a0 (a0: JKR's contact radius at zero load) on n x n cells, through
+on DEVICE, the CPU by default), domain DOMAIN x a0 (a0: JKR's contact radius at zero load) on n x n cells, through
 ``warpcontact.studies.approach_retract`` with the refined pull-off. ``--path cli`` is ``warpcontact
 pull-off``'s default path (20 steps each way from -2 ranges to delta_z = 2 h_0 and back to
 -4 ranges, extended until the contact breaks); ``--path test`` the tests' (12 steps each way,
@@ -61,10 +62,11 @@ def md_radii(lam: float) -> tuple[float, float]:
     return float(st["A"][0]) * unit, float(st["C"][0]) * unit
 
 
-def run(lam: float, n: int, smoothing: float, ramps: str | None, domain: float, path: str) -> dict:
+def run(lam: float, n: int, smoothing: float, ramps: str | None, domain: float, path: str,
+        device: str = "cpu") -> dict:
     sigma_0 = sigma_0_at(lam)
     law = Dugdale(sigma_0=sigma_0, h_0=W / sigma_0, smoothing=smoothing, ramps=ramps)
-    model = ContactModel(PAPER_PAIR, Sphere(R), Grid(n, domain * A0))
+    model = ContactModel(PAPER_PAIR, Sphere(R), Grid(n, domain * A0), device=device)
     solver = ContactSolver(model, None, adhesion=law)
     t0 = time.perf_counter()
     if path == "cli":
@@ -79,7 +81,7 @@ def run(lam: float, n: int, smoothing: float, ramps: str | None, domain: float, 
     dx = model.grid.dx
     row = {
         "lambda": lam, "n": n, "smoothing": smoothing, "ramps": ramps, "domain_a0": domain,
-        "path": path, "cell_softening": cell_softening(law, model),
+        "path": path, "device": device, "cell_softening": cell_softening(law, model),
         "pull_off": r["pull_off_force"] / unit,
         "fit": (r["pull_off_fit"] / unit) if r["pull_off_fit"] is not None else None,
         "scatter": (r["pull_off_scatter"] / unit) if r["pull_off_scatter"] is not None else None,
@@ -220,6 +222,7 @@ def main(argv=None) -> int:
     p.add_argument("--domain", type=float, default=5.0, help="domain side in a0 (default 5)")
     p.add_argument("--path", choices=("cli", "test"), default="cli")
     p.add_argument("--out", default="out/md_convergence")
+    p.add_argument("--device", default="cpu", help="Warp device of the grid runs (e.g. cuda:0)")
     p.add_argument("--continuum", type=int, metavar="RINGS", help="the axisymmetric continuum on RINGS rings instead")
     args = p.parse_args(argv)
     os.makedirs(args.out, exist_ok=True)
@@ -237,7 +240,7 @@ def main(argv=None) -> int:
         for s in args.smoothing:
             for ramps in args.ramps:
                 for n in args.n:
-                    row = run(lam, n, s, ramps, args.domain, args.path)
+                    row = run(lam, n, s, ramps, args.domain, args.path, args.device)
                     tag = f"lam{lam:g}_n{n}_s{s:g}_{row['ramps']}_d{args.domain:g}_{args.path}"
                     with open(os.path.join(args.out, tag + ".json"), "w") as f:
                         json.dump(row, f, indent=1)

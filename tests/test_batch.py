@@ -329,9 +329,16 @@ def test_tasks_of_one_model_are_submitted_together():
     assert [t.key for t in batch._grouped(tasks)] == ["0", "2", "1", "3"]
 
 
-def test_in_process_placement():
+def test_in_process_placement(monkeypatch):
+    monkeypatch.setattr(batch, "cpu_cores", lambda: 2)
     assert Placement(workers=1).in_process(10) and Placement().in_process(1)
     assert not Placement().in_process(2) and not Placement(scheduler="tcp://h:1", workers=1).in_process(1)
+    monkeypatch.setattr(batch, "cpu_cores", lambda: 1)  # a machine a local cluster gives one worker
+    assert Placement().in_process(10)
+    monkeypatch.setattr(batch, "gpu_ordinals", lambda device: [0])  # one GPU: no cluster, no dask
+    assert Placement(device="cuda").in_process(10)
+    monkeypatch.setattr(batch, "gpu_ordinals", lambda device: [0, 1])
+    assert not Placement(device="cuda").in_process(10) and Placement(device="cuda", workers=1).in_process(10)
 
 
 def test_a_sweep_runs_on_a_scheduler_given_by_address(tmp_path, alarm):

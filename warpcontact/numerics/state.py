@@ -66,6 +66,11 @@ class ContactState:
         self.approach = (0.0, 0.0, 0.0)
         self.info: SolveInfo | None = None
 
+    def tractions_si(self) -> dict:
+        """The traction fields [Pa] as :meth:`to_numpy_si` gives them: what the stress below the
+        surface needs (``numerics.stress.tractions``), half of the fields' transfers."""
+        return self.to_numpy_si(self.TRACTIONS)
+
     def copy_from(self, other: "ContactState"):
         import warp as wp
 
@@ -74,11 +79,12 @@ class ContactState:
         self.approach = other.approach
         self.info = other.info
 
-    def to_numpy_si(self) -> dict:
-        """Every field as a float64 numpy array in SI units (Pa for tractions, m for lengths)."""
+    def to_numpy_si(self, names=None) -> dict:
+        """Every field (or those in ``names``) as a float64 numpy array in SI units (Pa for
+        tractions, m for lengths), one transfer each."""
         m = self.model
         out = {}
-        for name in self.FIELDS:
+        for name in self.FIELDS if names is None else names:
             scale = m.traction_scale if name in self.TRACTIONS else m.length_scale
             out[name] = host_si(getattr(self, name), scale)
         return out

@@ -742,4 +742,4 @@ def state_yield_keys(state) -> dict:
     """:func:`yield_keys` of one solved ``ContactState`` on its model (pair, grid, device, float
     type, FFT backend): the check a command makes once, on its final state."""
     m = state.model
-    return yield_keys(yield_check(m.pair, m.grid, state.to_numpy_si(), m.device, m.dtype_name, m.fft_name))
+    return yield_keys(yield_check(m.pair, m.grid, state.tractions_si(), m.device, m.dtype_name, m.fft_name))

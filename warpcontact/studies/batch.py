@@ -86,9 +86,12 @@ class Placement:
     device: str = "cpu"
 
     def in_process(self, pending: int) -> bool:
-        """Whether the cases run in this process: one worker asked for, or a single case (a cluster
-        for one case would only add its start-up), and no scheduler given."""
-        return self.scheduler is None and (self.workers == 1 or pending <= 1)
+        """Whether the cases run in this process: no scheduler given, and one worker asked for, a
+        single case (a cluster for one case would only add its start-up), or a machine that a local
+        cluster would give one worker (one GPU, one CPU core)."""
+        if self.scheduler is not None:
+            return False
+        return self.workers == 1 or pending <= 1 or len(worker_environments(self, pending)) == 1
 
 
 class LostTask(RuntimeError):
@@ -310,9 +313,15 @@ class _Cluster:
     def __init__(self, placement: Placement, pending: int):
         import logging
 
-        import dask
-        from distributed import Client, Nanny, Scheduler, SpecCluster
+        try:
+            import dask
+            from distributed import Client, Nanny, Scheduler, SpecCluster
+        except ImportError as e:  # a dependency of warpcontact, missing from this environment
+            from ..errors import InputError
 
+            raise InputError("--workers", f"more than one worker needs dask.distributed, which cannot be "
+                                          f"imported here ({e}); install it (pip install distributed) or "
+                                          f"run in this process with --workers 1") from None
         self.cluster = None
         if placement.scheduler is not None:
             try:

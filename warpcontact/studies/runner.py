@@ -193,9 +193,9 @@ def run_path(case, on_state=None, keep_fields: bool = True, fields: str = "all",
         if result.states:  # the last state against the bodies' yield strengths (below the surface)
             from ..numerics.stress import yield_check
 
-            # the last state's SI fields, brought to the host once: those kept for the result
+            # the last state's SI tractions, brought to the host once: the fields kept for the result
             last = result.fields[-1] if result.fields and result.field_states[-1] == len(result.states) - 1 \
-                else state.to_numpy_si()
+                else state.tractions_si()
             result.yield_check = yield_check(case.pair, case.grid, last, model.device, model.dtype_name,
                                              case.solver.fft)
             checks.yielded(result.yield_check, result.states[-1])
