@@ -41,7 +41,6 @@ from __future__ import annotations
 
 import copy
 import csv
-import difflib
 import hashlib
 import json
 import math
@@ -64,13 +63,16 @@ from .sweep import (
     DOTTED_KEYS,
     SweepCase,
     base_case,
+    check_case_key,
     check_task,
     flatten,
     jsonable,
+    near,
+    run_scheduler,
+    run_settings,
     short_float,
     substitute,
 )
-from .tasks import TASKS
 
 #: Tables of a fit file.
 FIT_TABLES = ("base", "data", "fit", "run")
@@ -224,26 +226,6 @@ class Fit:
         return d
 
 
-def _near(key: str, choices) -> str:
-    near = difflib.get_close_matches(str(key), list(choices), n=1)
-    return f"did you mean {near[0]!r}? " if near else ""
-
-
-def _check_case_key(key: str, where: str) -> None:
-    """``key`` must be a dotted key of the case-file schema; InputError(where, ...) otherwise."""
-    if key in DOTTED_KEYS:
-        return
-    hint = _near(key, DOTTED_KEYS)
-    if "." not in key:
-        raise InputError(where, f"must be a dotted case key (table.key), such as 'friction.k_tau'; {hint}"
-                                "see docs/case-files.md")
-    table = key.split(".", 1)[0]
-    if table not in CASE_SCHEMA:
-        raise InputError(where, f"unknown case table {table!r}; {hint}expected one of {', '.join(CASE_SCHEMA)}")
-    raise InputError(where, f"unknown case key; {hint}[{table}] has {', '.join(CASE_SCHEMA[table])} "
-                            "(docs/case-files.md)")
-
-
 def _real(where: str, v) -> float:
     if isinstance(v, bool) or not isinstance(v, numbers.Real) or not math.isfinite(float(v)):
         raise InputError(where, f"must be a finite number, got {v!r}")
@@ -265,7 +247,7 @@ def _fit_entries(table: Mapping) -> list:
 
 def _parameter(key: str, spec, base_dict: dict) -> Parameter:
     where = f"fit.{key}"
-    _check_case_key(key, where)
+    check_case_key(key, where)
     table, name = key.split(".", 1)
     if table not in base_dict:
         raise InputError(where, f"the base case has no [{table}] table: a fitted key must be in the base case")
@@ -282,7 +264,7 @@ def _parameter(key: str, spec, base_dict: dict) -> Parameter:
                                 f"(scale = \"log\" optional), got {spec!r}")
     for k in spec:
         if k not in PARAMETER_KEYS:
-            raise InputError(f"{where}.{k}", f"unknown key; {_near(k, PARAMETER_KEYS)}expected one of "
+            raise InputError(f"{where}.{k}", f"unknown key; {near(k, PARAMETER_KEYS)}expected one of "
                                              f"{', '.join(PARAMETER_KEYS)}")
     for k in ("min", "max"):
         if k not in spec:
@@ -303,21 +285,7 @@ def _parameter(key: str, spec, base_dict: dict) -> Parameter:
 
 
 def _run_settings(data: Mapping, base: Case) -> dict:
-    run = data.get("run", {})
-    if not isinstance(run, Mapping):
-        raise InputError("run", f"must be a table ([run]), got {run!r}")
-    for k in run:
-        if k not in RUN_KEYS:
-            raise InputError(f"run.{k}", f"unknown key; {_near(k, RUN_KEYS)}expected one of {', '.join(RUN_KEYS)}")
-    task = run.get("task", "gross-slip" if base.friction is not None else "solve")
-    if not isinstance(task, str) or task not in TASKS:
-        raise InputError("run.task", f"must be one of {', '.join(repr(t) for t in TASKS)}, got {task!r}")
-    rel_tol = run.get("rel_tol", DEFAULT_REL_TOL)
-    if isinstance(rel_tol, bool) or not isinstance(rel_tol, numbers.Real) or not 0.0 < float(rel_tol) <= 0.5:
-        raise InputError("run.rel_tol", "must be a number in (0, 0.5] (bisection bracket of delta_x_max), "
-                                        f"got {rel_tol!r}")
-    if "rel_tol" in run and task != "gross-slip":
-        raise InputError("run.rel_tol", "is used by task 'gross-slip' only")
+    run, task, rel_tol = run_settings(data, base, RUN_KEYS, DEFAULT_REL_TOL)  # task, rel_tol as in a sweep
     n = run.get("max_evaluations", DEFAULT_MAX_EVALUATIONS)
     if isinstance(n, bool) or not isinstance(n, numbers.Integral) or n < 1:
         raise InputError("run.max_evaluations", f"must be an integer >= 1, got {n!r}")
@@ -328,12 +296,8 @@ def _run_settings(data: Mapping, base: Case) -> dict:
     if step is not None and (isinstance(step, bool) or not isinstance(step, numbers.Real)
                              or not 0.0 < float(step) <= 0.5):
         raise InputError("run.diff_step", f"must be a number in (0, 0.5] (relative difference step), got {step!r}")
-    scheduler = run.get("scheduler")
-    if scheduler is not None and (not isinstance(scheduler, str) or not scheduler.strip()):
-        raise InputError("run.scheduler", f"must be a scheduler's address such as 'tcp://host:8786', got {scheduler!r}")
-    return {"task": task, "rel_tol": float(rel_tol), "max_evaluations": int(n), "rescale_stderr": rescale,
-            "diff_step": None if step is None else float(step),
-            "scheduler": scheduler.strip() if scheduler else None}
+    return {"task": task, "rel_tol": rel_tol, "max_evaluations": int(n), "rescale_stderr": rescale,
+            "diff_step": None if step is None else float(step), "scheduler": run_scheduler(data)}
 
 
 def _cell_value(text: str):
@@ -414,10 +378,10 @@ def read_data(path: Path, task: str, name: str | None = None) -> tuple:
             continue
         if "." in c and c.split(".", 1)[0] in CASE_SCHEMA:
             table = c.split(".", 1)[0]
-            raise InputError(where, f"column {c!r}: unknown case key; {_near(c, DOTTED_KEYS)}[{table}] has "
+            raise InputError(where, f"column {c!r}: unknown case key; {near(c, DOTTED_KEYS)}[{table}] has "
                                     f"{', '.join(CASE_SCHEMA[table])}")
         raise InputError(where, f"column {c!r} is neither a case key (table.key) nor an output of task {task!r}; "
-                                f"{_near(flat, outputs_allowed)}its outputs are {', '.join(outputs_allowed)}")
+                                f"{near(flat, outputs_allowed)}its outputs are {', '.join(outputs_allowed)}")
     for out, col in sigmas.items():
         if out not in columns:
             raise InputError(where, f"column {col!r}: no measured column {out!r} to weigh")
@@ -489,7 +453,7 @@ def fit_from_dict(data: Mapping, source: str | PathLike | None = None, device: s
         raise InputError("fit file", f"must hold tables [base], [data], [fit], [run], got {type(data).__name__}")
     for k in data:
         if k not in FIT_TABLES:
-            raise InputError(str(k), f"unknown table; {_near(k, FIT_TABLES)}a fit file has {', '.join(FIT_TABLES)}")
+            raise InputError(str(k), f"unknown table; {near(k, FIT_TABLES)}a fit file has {', '.join(FIT_TABLES)}")
     src = Path(source) if source is not None else None
     base = base_case(data, src)
     run = _run_settings(data, base)

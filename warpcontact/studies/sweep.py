@@ -202,19 +202,26 @@ def _sweep_entries(table: Mapping) -> list:
     return out
 
 
-def _check_sweep_key(key: str) -> None:
+def near(key, choices) -> str:
+    """``did you mean 'x'? `` for the choice nearest a mistyped ``key``, or nothing."""
+    close = difflib.get_close_matches(str(key), list(choices), n=1)
+    return f"did you mean {close[0]!r}? " if close else ""
+
+
+def check_case_key(key: str, where: str) -> None:
+    """``key`` must be a dotted key of the case-file schema; InputError(where, ...) otherwise (a sweep's
+    ``sweep.<key>``, a fit's ``fit.<key>``)."""
     if key in DOTTED_KEYS:
         return
-    near = difflib.get_close_matches(key, DOTTED_KEYS, n=1)
-    hint = f"did you mean {near[0]!r}? " if near else ""
+    hint = near(key, DOTTED_KEYS)
     if "." not in key:
-        raise InputError(f"sweep.{key}", f"must be a dotted case key (table.key), such as 'friction.k_tau'; {hint}"
-                                         "see docs/case-files.md")
+        raise InputError(where, f"must be a dotted case key (table.key), such as 'friction.k_tau'; {hint}"
+                                "see docs/case-files.md")
     table = key.split(".", 1)[0]
     if table not in CASE_SCHEMA:
-        raise InputError(f"sweep.{key}", f"unknown case table {table!r}; {hint}expected one of {', '.join(CASE_SCHEMA)}")
-    raise InputError(f"sweep.{key}", f"unknown case key; {hint}[{table}] has {', '.join(CASE_SCHEMA[table])} "
-                                     "(docs/case-files.md)")
+        raise InputError(where, f"unknown case table {table!r}; {hint}expected one of {', '.join(CASE_SCHEMA)}")
+    raise InputError(where, f"unknown case key; {hint}[{table}] has {', '.join(CASE_SCHEMA[table])} "
+                            "(docs/case-files.md)")
 
 
 def _check_values(key: str, v) -> list:
@@ -258,27 +265,28 @@ def base_case(data: Mapping, source: Path | None) -> Case:
         raise InputError(f"base.{e.key}", e.problem) from None
 
 
-def _run_settings(data: Mapping, base: Case) -> tuple[str, float]:
+def run_settings(data: Mapping, base: Case, run_keys=RUN_KEYS, default_rel_tol=DEFAULT_REL_TOL) -> tuple:
+    """``(run, task, rel_tol)`` of the ``[run]`` table of a sweep or fit file (``run_keys``: the keys it
+    may hold; a fit's has more, which the fit checks): the task (default gross-slip with friction,
+    else solve) and the gross-slip bisection bracket."""
     run = data.get("run", {})
     if not isinstance(run, Mapping):
         raise InputError("run", f"must be a table ([run]), got {run!r}")
     for k in run:
-        if k not in RUN_KEYS:
-            near = difflib.get_close_matches(str(k), RUN_KEYS, n=1)
-            hint = f"did you mean {near[0]!r}? " if near else ""
-            raise InputError(f"run.{k}", f"unknown key; {hint}expected one of {', '.join(RUN_KEYS)}")
+        if k not in run_keys:
+            raise InputError(f"run.{k}", f"unknown key; {near(k, run_keys)}expected one of {', '.join(run_keys)}")
     task = run.get("task", "gross-slip" if base.friction is not None else "solve")
     if not isinstance(task, str) or task not in TASKS:
         raise InputError("run.task", f"must be one of {', '.join(repr(t) for t in TASKS)}, got {task!r}")
-    rel_tol = run.get("rel_tol", DEFAULT_REL_TOL)
+    rel_tol = run.get("rel_tol", default_rel_tol)
     if isinstance(rel_tol, bool) or not isinstance(rel_tol, numbers.Real) or not 0.0 < float(rel_tol) <= 0.5:
         raise InputError("run.rel_tol", f"must be a number in (0, 0.5] (bisection bracket of delta_x_max), got {rel_tol!r}")
     if "rel_tol" in run and task != "gross-slip":
         raise InputError("run.rel_tol", "is used by task 'gross-slip' only")
-    return task, float(rel_tol)
+    return run, task, float(rel_tol)
 
 
-def _run_scheduler(data: Mapping) -> str | None:
+def run_scheduler(data: Mapping) -> str | None:
     """``[run] scheduler``: a dask scheduler's address (``tcp://host:8786``), or None."""
     v = data.get("run", {}).get("scheduler")
     if v is None:
@@ -361,11 +369,9 @@ def sweep_from_dict(data: Mapping, source: str | PathLike | None = None, device:
     src = Path(source) if source is not None else None
     for k in data:
         if k not in SWEEP_TABLES:
-            near = difflib.get_close_matches(str(k), SWEEP_TABLES, n=1)
-            hint = f"did you mean {near[0]!r}? " if near else ""
             what = "a case table belongs inside [base]; " if k in CASE_SCHEMA else ""
             raise InputError(str(k), f"unknown {'table' if isinstance(data[k], Mapping) else 'key'} of a sweep file; "
-                                     f"{what}{hint}expected {', '.join(SWEEP_TABLES)}")
+                                     f"{what}{near(k, SWEEP_TABLES)}expected {', '.join(SWEEP_TABLES)}")
     base = base_case(data, src)
     if "sweep" not in data:
         raise InputError("sweep", 'is required: a [sweep] table of dotted case keys and lists, e.g. '
@@ -378,10 +384,10 @@ def sweep_from_dict(data: Mapping, source: str | PathLike | None = None, device:
         raise InputError("sweep", 'must list at least one case key, e.g. "friction.k_tau" = [0.5, 0.8]')
     keys, values = [], []
     for key, v in entries:
-        _check_sweep_key(key)
+        check_case_key(key, f"sweep.{key}")
         values.append(_check_values(key, v))
         keys.append(key)
-    task, rel_tol = _run_settings(data, base)
+    _, task, rel_tol = run_settings(data, base)
 
     overrides = {"device": device, "dtype": dtype, "fft": fft}
     for name, v in overrides.items():
@@ -400,7 +406,7 @@ def sweep_from_dict(data: Mapping, source: str | PathLike | None = None, device:
         check_task(sc, task)
         cases.append(sc)
     return Sweep(base=base, keys=tuple(keys), values=tuple(values), task=task, rel_tol=rel_tol, cases=tuple(cases),
-                 source=str(src) if src is not None else None, scheduler=_run_scheduler(data))
+                 source=str(src) if src is not None else None, scheduler=run_scheduler(data))
 
 
 def load_sweep(path: str | PathLike, device: str | None = None, dtype: str | None = None,
