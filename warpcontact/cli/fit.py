@@ -12,7 +12,6 @@ stopped by Ctrl-C, SIGTERM, SIGHUP (finished evaluations are kept; rerun to resu
 
 from __future__ import annotations
 
-import argparse
 import math
 import sys
 
@@ -42,21 +41,16 @@ OUT/evaluations/<hash>.json (every case computed; a rerun reuses them). See docs
 
 def add_parser(sub):
     """Register the ``fit`` sub-command on an argparse subparsers object; returns its parser."""
-    from .sweep import add_many_case_options
+    from .sweep import add_many_case_command
 
-    p = sub.add_parser(
-        "fit",
+    return add_many_case_command(
+        sub, "fit", "fit file (TOML; see docs/fit.md)", cmd_fit,
         help="fit case parameters (k_tau, the adhesion law, ...) to measurements, with standard errors",
         description="Fit the case keys listed in FIT (a TOML file: a base case, a CSV of measurements, the fitted "
         "keys with bounds, a [run] task) to the measurements by bounded nonlinear least squares; every model "
         "evaluation is kept, so a rerun resumes.",
         epilog=EXAMPLE_FIT,
-        formatter_class=argparse.RawDescriptionHelpFormatter,
     )
-    p.add_argument("fit", metavar="FIT.toml", help="fit file (TOML; see docs/fit.md)")
-    add_many_case_options(p)
-    p.set_defaults(func=cmd_fit)
-    return p
 
 
 def _value(e: dict) -> str:

@@ -48,18 +48,24 @@ it again to finish an interrupted sweep: finished cases are skipped. See docs/sw
 
 def add_parser(sub):
     """Register the ``sweep`` sub-command on an argparse subparsers object; returns its parser."""
-    p = sub.add_parser(
-        "sweep",
+    return add_many_case_command(
+        sub, "sweep", "sweep file (TOML; see docs/sweeps.md)", cmd_sweep,
         help="run the cartesian product of listed case parameters (k_tau, delta_z, grid, adhesion, ...)",
         description="Run every combination of the values listed in SWEEP (a TOML file: a base case, a [sweep] "
         "table of dotted case keys and lists, a [run] task), writing each finished case at once; a rerun skips "
         "finished cases.",
         epilog=EXAMPLE_SWEEP,
-        formatter_class=argparse.RawDescriptionHelpFormatter,
     )
-    p.add_argument("sweep", metavar="SWEEP.toml", help="sweep file (TOML; see docs/sweeps.md)")
+
+
+def add_many_case_command(sub, name: str, file_help: str, func, **texts):
+    """Register a command that runs many cases of one TOML file and resumes (``sweep``, ``fit``): its
+    file as the positional ``name`` (shown as ``NAME.toml``), :func:`add_many_case_options`, and
+    ``func`` to run it; ``texts``: the parser's help, description and epilog (printed as written)."""
+    p = sub.add_parser(name, formatter_class=argparse.RawDescriptionHelpFormatter, **texts)
+    p.add_argument(name, metavar=f"{name.upper()}.toml", help=file_help)
     add_many_case_options(p)
-    p.set_defaults(func=cmd_sweep)
+    p.set_defaults(func=func)
     return p
 
 
