@@ -62,23 +62,24 @@ class MaterialPair:
     sphere: Material
     flat: Material
 
+    def _sum(self, per_body) -> float:
+        """``per_body(sphere) + per_body(flat)``: the two half-spaces' compliances add (in series)."""
+        return per_body(self.sphere) + per_body(self.flat)
+
     @property
     def E_star(self) -> float:
         """Composite modulus, 1/E* = (1 - nu1^2)/E1 + (1 - nu2^2)/E2 [Pa]."""
-        s, f = self.sphere, self.flat
-        return 1.0 / ((1.0 - s.nu**2) / s.E + (1.0 - f.nu**2) / f.E)
+        return 1.0 / self._sum(lambda m: (1.0 - m.nu**2) / m.E)
 
     @property
     def A(self) -> float:
         """Tangential compliance A = (1 - nu1)/G1 + (1 - nu2)/G2 [1/Pa]."""
-        s, f = self.sphere, self.flat
-        return (1.0 - s.nu) / s.G + (1.0 - f.nu) / f.G
+        return self._sum(lambda m: (1.0 - m.nu) / m.G)
 
     @property
     def B(self) -> float:
         """Tangential compliance B = nu1/G1 + nu2/G2 [1/Pa]."""
-        s, f = self.sphere, self.flat
-        return s.nu / s.G + f.nu / f.G
+        return self._sum(lambda m: m.nu / m.G)
 
     @property
     def D(self) -> float:
@@ -94,8 +95,7 @@ class MaterialPair:
     @property
     def mindlin_compliance(self) -> float:
         """(2 - nu1)/G1 + (2 - nu2)/G2 [1/Pa], the compliance in Mindlin's tangential displacement."""
-        s, f = self.sphere, self.flat
-        return (2.0 - s.nu) / s.G + (2.0 - f.nu) / f.G
+        return self._sum(lambda m: (2.0 - m.nu) / m.G)
 
     @property
     def softer(self) -> Material:
