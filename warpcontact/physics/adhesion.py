@@ -268,8 +268,40 @@ class Dugdale:
                 "ramps": self.ramps, "work_of_adhesion": self.work_of_adhesion}
 
 
+class _WorkAndLength:
+    """What the normal-only laws of a work of adhesion w [J/m^2] and one length [m] share
+    (Exponential, LennardJones93): their checks, the length as their range, the kernel's
+    parameters (w and the length in model units), no tangential opening, and their description.
+    Each names its length's field (``LENGTH``), its name in a case file (``NAME``) and its branch
+    of kernels/adhesive.py (``KERNEL``)."""
+
+    has_shear = False
+    LENGTH = NAME = ""
+    KERNEL = -1
+
+    def __post_init__(self):
+        _positive("adhesion.work_of_adhesion", self.work_of_adhesion)
+        _positive(f"adhesion.{self.LENGTH}", getattr(self, self.LENGTH))
+
+    @property
+    def range(self) -> float:
+        """Gap [m] up to which a cell counts as adhesive contact: the law's length."""
+        return getattr(self, self.LENGTH)
+
+    def normal_law(self, model):
+        L = model.length_scale
+        w = self.work_of_adhesion / (model.traction_scale * L)
+        return int(self.KERNEL), (w, self.range / L, 0.0), self.range / L
+
+    def tangential_opening(self, model, state, out):
+        _no_opening(model, state, out)
+
+    def describe(self) -> dict:
+        return {"law": self.NAME, "work_of_adhesion": self.work_of_adhesion, self.LENGTH: self.range}
+
+
 @dataclass(frozen=True)
-class Exponential:
+class Exponential(_WorkAndLength):
     """Exponential law: tension t(h) = (w / rho) exp(-h / rho), potential -w exp(-h / rho); the
     largest tension w / rho acts at contact (h = 0). The law of Tamaas's exponential adhesion
     functional and of the Adhesion package's exponential potential.
@@ -282,16 +314,7 @@ class Exponential:
     work_of_adhesion: float
     rho: float
 
-    has_shear = False
-
-    def __post_init__(self):
-        _positive("adhesion.work_of_adhesion", self.work_of_adhesion)
-        _positive("adhesion.rho", self.rho)
-
-    @property
-    def range(self) -> float:
-        """Gap [m] up to which a cell counts as adhesive contact: rho."""
-        return self.rho
+    LENGTH, NAME, KERNEL = "rho", "exponential", nk.LAW_EXPONENTIAL
 
     @property
     def peak_tension(self) -> float:
@@ -302,20 +325,9 @@ class Exponential:
         """-dt/dh at contact [Pa/m]: w / rho^2."""
         return self.work_of_adhesion / self.rho**2
 
-    def normal_law(self, model):
-        L = model.length_scale
-        w = self.work_of_adhesion / (model.traction_scale * L)
-        return int(nk.LAW_EXPONENTIAL), (w, self.rho / L, 0.0), self.rho / L
-
-    def tangential_opening(self, model, state, out):
-        _no_opening(model, state, out)
-
-    def describe(self) -> dict:
-        return {"law": "exponential", "work_of_adhesion": self.work_of_adhesion, "rho": self.rho}
-
 
 @dataclass(frozen=True)
-class LennardJones93:
+class LennardJones93(_WorkAndLength):
     """Lennard-Jones 9-3 law measured from its equilibrium distance z0 (z = h + z0; the repulsive
     side is the hard wall at h = 0): t = (8 w / 3 z0) ((z0/z)^3 - (z0/z)^9), potential
     -(4 w / 3) ((z0/z)^2 - (z0/z)^8 / 4), so that the work of separation is w and the largest
@@ -330,16 +342,7 @@ class LennardJones93:
     work_of_adhesion: float
     z0: float
 
-    has_shear = False
-
-    def __post_init__(self):
-        _positive("adhesion.work_of_adhesion", self.work_of_adhesion)
-        _positive("adhesion.z0", self.z0)
-
-    @property
-    def range(self) -> float:
-        """Gap [m] up to which a cell counts as adhesive contact: z0."""
-        return self.z0
+    LENGTH, NAME, KERNEL = "z0", "lj93", nk.LAW_LJ93
 
     @property
     def peak_tension(self) -> float:
@@ -350,14 +353,3 @@ class LennardJones93:
         """Largest -dt/dh [Pa/m]: (8 w / 3 z0^2) max_r (3 r^4 - 9 r^10), r = z0 / z, reached at
         r^6 = 2/15: 1.8 (2/15)^(2/3) (8 / 3) w / z0^2."""
         return 1.8 * (2.0 / 15.0) ** (2.0 / 3.0) * 8.0 / 3.0 * self.work_of_adhesion / self.z0**2
-
-    def normal_law(self, model):
-        L = model.length_scale
-        w = self.work_of_adhesion / (model.traction_scale * L)
-        return int(nk.LAW_LJ93), (w, self.z0 / L, 0.0), self.z0 / L
-
-    def tangential_opening(self, model, state, out):
-        _no_opening(model, state, out)
-
-    def describe(self) -> dict:
-        return {"law": "lj93", "work_of_adhesion": self.work_of_adhesion, "z0": self.z0}
