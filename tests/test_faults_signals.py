@@ -25,6 +25,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from test_faults_writes import case_file, no_temporary_files
 
 ROOT = Path(__file__).resolve().parents[1]
 TABLE2_CASE = (ROOT / "examples" / "table2_k080_dz5e-5.toml").read_text()
@@ -112,17 +113,6 @@ def stop_line(run: Run, name: str) -> str:
     lines = [ln for ln in text.splitlines() if ln.startswith("interrupted")]
     assert len(lines) == 1 and lines[0].startswith(f"interrupted ({name}): "), text
     return lines[0]
-
-
-def no_temporary_files(folder):
-    left = [p.name for p in Path(folder).rglob("*.tmp")]
-    assert not left, left
-
-
-def case_file(tmp_path, text, name="case.toml"):
-    p = tmp_path / name
-    p.write_text(text)
-    return p
 
 
 # --- solve ------------------------------------------------------------------------------------------
