@@ -436,25 +436,20 @@ def test_nan_in_initial_gap_names_the_cell():
         NormalSolver(model).solve(ContactState(model), HERTZ_DZ)
 
 
-def test_nan_in_initial_gap_at_a_contact_cell_on_a_warm_start_names_the_cell():
-    """From a solved state (pressure > 0 at the cell), a NaN gap enters the residual sums: the
-    solve stops with NonFiniteError naming the field and the cell."""
+@pytest.mark.parametrize("name, field_of, cell", [
+    ("gap", lambda model, state: model.initial_gap, (15, 17)),
+    ("pressure", lambda model, state: state.pressure, (14, 16)),
+], ids=["initial gap at a contact cell", "starting pressure"])
+def test_nan_on_a_warm_start_names_the_field_and_the_cell(name, field_of, cell):
+    """From a solved state (pressure > 0 at the cell), a NaN gap enters the residual sums, and a NaN
+    in the pressure a solve starts from spreads through the FFT to every displacement: either way
+    the solve stops with NonFiniteError naming the field and the cell it came from, not the first
+    cell it reached."""
     model = _hertz_model()
     state, solver = ContactState(model), NormalSolver(model)
     assert solver.solve(state, HERTZ_DZ).converged
-    _poison(model.initial_gap, (15, 17))
-    with pytest.raises(NonFiniteError, match=r"gap .*row 15, column 17"):
-        solver.solve(state, HERTZ_DZ)
-
-
-def test_nan_in_starting_pressure_names_the_cell():
-    """A NaN in the pressure a solve starts from spreads through the FFT to every displacement;
-    the error names the pressure cell it came from, not the first cell it reached."""
-    model = _hertz_model()
-    state, solver = ContactState(model), NormalSolver(model)
-    assert solver.solve(state, HERTZ_DZ).converged
-    _poison(state.pressure, (14, 16))
-    with pytest.raises(NonFiniteError, match=r"pressure .*row 14, column 16"):
+    _poison(field_of(model, state), cell)
+    with pytest.raises(NonFiniteError, match=rf"{name} .*row {cell[0]}, column {cell[1]}"):
         solver.solve(state, HERTZ_DZ)
 
 
