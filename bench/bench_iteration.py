@@ -56,22 +56,10 @@ from warpcontact.studies.slip_search import estimate_delta_x_max
 from warpcontact.solvers import NormalSolver
 from warpcontact.solvers.contact import ContactSolver
 from warpcontact.numerics.state import ContactState
+from iteration_parts import best_wall_time  # bench/, beside this script
 
 R, DZ = 10e-6, 1.0e-10
 A = math.sqrt(R * DZ)
-
-
-def best_wall_time(device, fn, repeats):
-    """Best wall time of fn() over ``repeats`` runs after one untimed warm-up [s]."""
-    fn()
-    best = math.inf
-    for _ in range(repeats):
-        wp.synchronize_device(device)
-        t0 = time.perf_counter()
-        fn()
-        wp.synchronize_device(device)
-        best = min(best, time.perf_counter() - t0)
-    return best
 
 
 def unpruned_fft(model):

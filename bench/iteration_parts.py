@@ -47,6 +47,21 @@ def _flush(device):
     wp.copy(dst, src)
 
 
+def best_wall_time(device, fn, repeats: int, warm_up: bool = True) -> float:
+    """Best wall time of fn() over ``repeats`` runs, the device synchronised around each, after one
+    untimed warm-up run unless ``warm_up`` is False [s]."""
+    if warm_up:
+        fn()
+    best = math.inf
+    for _ in range(repeats):
+        wp.synchronize_device(device)
+        t0 = time.perf_counter()
+        fn()
+        wp.synchronize_device(device)
+        best = min(best, time.perf_counter() - t0)
+    return best
+
+
 def _replay_ms(device, fn, best_of: int) -> float:
     fn()
     if device.is_cuda:
@@ -58,14 +73,7 @@ def _replay_ms(device, fn, best_of: int) -> float:
         def run():
             for _ in range(REPEATS):
                 fn()
-    best = math.inf
-    for _ in range(best_of):
-        wp.synchronize_device(device)
-        t0 = time.perf_counter()
-        run()
-        wp.synchronize_device(device)
-        best = min(best, time.perf_counter() - t0)
-    return 1e3 * best / REPEATS
+    return 1e3 * best_wall_time(device, run, best_of, warm_up=False) / REPEATS
 
 
 def timed_ms(device, fn, best_of: int = 3, cold: bool = False) -> float:
