@@ -145,7 +145,7 @@ def parts(n, device, dtype, cold=False, workers=None):
         nk.normal_update, [t, *output, b, s._cap, s.settings], [p, g, Sums(s.sums)]))
     out["normal_advance"] = timed(lambda: m.launch(
         nk.normal_advance, 1, [s.sums, s.settings, s.exact_every, s._column_norm, m.scalar(s.deferral)],
-        [s.scalars, s.history, s.deferred, s.recompute, s.loop, s.refresh]))
+        [s.scalars, s.history, s.deferred, s.recompute, s.loop, s.refresh, s.inner_loop]))
     # what an iteration adds when the gap is made exact (a convolution of p and normal_gap)
     out["exact gap: normal_gap (reduce)"] = timed(lambda: m.launch_reduce(
         nk.normal_gap, [Rows(st.disp_z.flatten()), b, p, s._cap], [g, Sums(s.sums)]))

@@ -380,6 +380,25 @@ def test_solved_hertz_contact_puts_each_maximum_where_hertz_does():
         assert summary[name]["yielded"] is False and summary[name]["margin"] > 1
 
 
+def test_the_yield_check_of_a_state_needs_only_its_nonzero_tractions():
+    """A frictionless, adhesionless state brings one field (the pressure) to the host for its
+    yield check, and the check is the one made from all its fields (the same arrays: equal)."""
+    import warpcontact as wc
+    from warpcontact.numerics.state import ContactState
+    from warpcontact.studies.runner import build
+
+    case, _ = _hertz_case(steps=1)
+    _, solver, state = build(case)
+    solver.step(state, case.load.path()[-1])
+    lean = state.tractions_si(friction=False, adhesion=False)
+    assert list(lean) == ["pressure"]
+    assert set(state.tractions_si()) == set(ContactState.TRACTIONS)
+    args = (case.pair, case.grid)
+    full = st.yield_check(*args, state.to_numpy_si())
+    assert st.yield_check(*args, lean) == full and full["yielded"] is False
+    assert wc.solve(case, fields="none").yield_check == full
+
+
 def test_first_yield_on_the_path():
     """With the sphere's yield strength at 50 MPa (its Hertz maximum is 55.4 MPa at the last of 4
     states) the sphere first yields at the last state and the flat not at all; the interpolated

@@ -580,9 +580,10 @@ class SubsurfaceStress:
 
 def tractions(fields: dict) -> tuple:
     """(p, q_x, q_y) [Pa], the total tractions (elastic and adhesive) of one state's fields (SI,
-    as ``results.state_fields`` or one entry of ``fields.npz``)."""
+    as ``results.state_fields``, one entry of ``fields.npz`` or ``ContactState.tractions_si``: a
+    shear or adhesive field it lacks is zero)."""
     def total(a, b):
-        f = np.asarray(fields[a], dtype=np.float64)
+        f = np.asarray(fields[a], dtype=np.float64) if a in fields else np.zeros(np.shape(fields["pressure"]))
         return f + np.asarray(fields[b], dtype=np.float64) if b in fields else f
 
     return (total("pressure", "adhesive_pressure"), total("shear_x", "adhesive_shear_x"),

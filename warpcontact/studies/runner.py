@@ -195,7 +195,7 @@ def run_path(case, on_state=None, keep_fields: bool = True, fields: str = "all",
 
             # the last state's SI tractions, brought to the host once: the fields kept for the result
             last = result.fields[-1] if result.fields and result.field_states[-1] == len(result.states) - 1 \
-                else state.tractions_si()
+                else state.tractions_si(solver.friction is not None, solver.adhesion is not None)
             result.yield_check = yield_check(case.pair, case.grid, last, model.device, model.dtype_name,
                                              case.solver.fft)
             checks.yielded(result.yield_check, result.states[-1])
