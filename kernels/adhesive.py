@@ -43,7 +43,10 @@ S_CLIPPED = wp.constant(3)  # cells a trial step put against the bound
 S_SLOPE = wp.constant(4)  # g . s of a trial step
 S_DOT = wp.constant(5)  # a dot product (two-loop recursion)
 S_FORCE = wp.constant(6)  # sum of the traction over the physical cells
-N_SUMS = 7
+S_SY = wp.constant(7)  # s . y of a new L-BFGS pair (pair_sums)
+S_SS = wp.constant(8)  # s . s
+S_YY = wp.constant(9)  # y . y
+N_SUMS = 10
 
 
 @wp.func
@@ -275,10 +278,56 @@ def dot_sum(
 
 
 @wp.kernel
-def axpy(alpha: Any, x: wp.array(dtype=Any), y: wp.array(dtype=Any)):
-    """y <- y + alpha x"""
+def pair_sums(
+    s: wp.array(dtype=Any),
+    y: wp.array(dtype=Any),
+    n: int,
+    outer: int,
+    inner: int,
+    per: int,
+    sums: wp.array(dtype=Any),
+):
+    """sums[S_SY] += s . y, sums[S_SS] += s . s, sums[S_YY] += y . y: a new L-BFGS pair (s, y)
+    (step, gradient change), whether its curvature s . y is kept, in one pass."""
+    block, lane = wp.tid()
+    thread = block * wp.block_dim() + lane
+    s_sy = s[0] - s[0]
+    s_ss = s_sy
+    s_yy = s_sy
+    for k in range(per):
+        i = cell_index(thread, outer, inner, k)
+        if i < n:
+            s_sy += s[i] * y[i]
+            s_ss += s[i] * s[i]
+            s_yy += y[i] * y[i]
+    block_add(sums, S_SY, s_sy)
+    block_add(sums, S_SS, s_ss)
+    block_add(sums, S_YY, s_yy)
+
+
+@wp.kernel
+def pair_curvature(sums: wp.array(dtype=Any), one: Any, slot: int, rho: wp.array(dtype=Any)):
+    """rho[slot] <- 1 / (s . y) of the pair just kept (one thread; ``one``: 1 in the float type)."""
+    rho[slot] = one / sums[S_SY]
+
+
+@wp.kernel
+def two_loop_first(dots: wp.array(dtype=Any), k: int, rho: wp.array(dtype=Any), slot: int, y: wp.array(dtype=Any),
+                   q: wp.array(dtype=Any)):
+    """The two-loop recursion's first loop, pair k (stored in ``slot``): alpha_k = rho (s . q)
+    with s . q in dots[k]; q <- q - alpha_k y. On the device: no read on the host."""
     i = wp.tid()
-    y[i] = y[i] + alpha * x[i]
+    q[i] = q[i] - (rho[slot] * dots[k]) * y[i]
+
+
+@wp.kernel
+def two_loop_second(dots: wp.array(dtype=Any), k: int, memory: int, rho: wp.array(dtype=Any), slot: int,
+                    s: wp.array(dtype=Any), d: wp.array(dtype=Any)):
+    """The second loop, pair k: beta = rho (y . d) with y . d in dots[memory + k]; d <- d +
+    (alpha_k - beta) s, alpha_k = rho dots[k] from the first loop."""
+    i = wp.tid()
+    r = rho[slot]
+    d[i] = d[i] + (r * dots[k] - r * dots[memory + k]) * s[i]
 
 
 @wp.kernel
@@ -474,8 +523,9 @@ def spectral_scale(spectrum: wp.array2d(dtype=Any), influence: wp.array2d(dtype=
         spectrum[r, q] = spectrum[r, q] * kval
 
 
-for _k in (adhesive_evaluate, adhesive_free, adhesive_scale, dot_sum, axpy, difference, scaled_copy, adhesive_trial,
-           adhesive_change, adhesive_state, adhesive_start, adhesive_offset, project_to_bound, smc_opening):
+for _k in (adhesive_evaluate, adhesive_free, adhesive_scale, dot_sum, pair_sums, pair_curvature, two_loop_first,
+           two_loop_second, difference, scaled_copy, adhesive_trial, adhesive_change, adhesive_state,
+           adhesive_start, adhesive_offset, project_to_bound, smc_opening):
     register_float_overloads(_k)
 for _vec, _real in ((wp.vec2f, wp.float32), (wp.vec2d, wp.float64)):
     wp.overload(spectral_scale, [wp.array2d(dtype=_vec), wp.array2d(dtype=_real), int])

@@ -166,6 +166,12 @@ class AdhesiveNormalSolver:
         self.opening_t = model.field()
         self.no_displacement = model.field()
         self.sums = model.scalars(ak.N_SUMS)
+        #: the two-loop recursion's dot products (s_k . q in slot k, y_k . d in slot memory + k)
+        #: and each stored pair's 1 / (s . y) (by storage slot): on the device, so that a direction
+        #: costs no read on the host (on a GPU each read is a synchronisation: about 15 an
+        #: iteration before, 2 now)
+        self.two_loop_dots = model.scalars(2 * self.memory)
+        self.rho = model.scalars(self.memory)
         self._reduction = ReductionLaunch.for_cells(self.n_padded, model.device)
         self._self_compliance = model.scalar(model.operator.self_coefficient("zz"))
         self.law_id, params, self.law_length = law.normal_law(model)
@@ -186,11 +192,26 @@ class AdhesiveNormalSolver:
 
     def _evaluate(self, displacement, traction, gradient, eps: float) -> np.ndarray:
         """The gradient and sums (energy, projected gradient, traction, force) at a point."""
-        m = self.model
         self.sums.zero_()
+        self._add_evaluation(displacement, traction, gradient, eps)
+        return self._sums()
+
+    def _add_evaluation(self, displacement, traction, gradient, eps: float):
+        """The gradient at a point, its sums added into ``self.sums`` (not read)."""
+        m = self.model
         self._reduce(ak.adhesive_evaluate,
                      [displacement, traction, self.offset.flatten(), self.opening_t.flatten(), self.law_id,
                       *self._params, m.scalar(eps), m.grid.n], [gradient, self.sums])
+
+    def _add_trial(self, step: float) -> np.ndarray:
+        """The trial point at ``step`` along the direction, its sums added into ``self.sums``;
+        returns them (read)."""
+        m = self.model
+        self._reduce(ak.adhesive_trial,
+                     [self.displacement, self.traction, self.gradient, self.direction, self.direction_traction,
+                      self.offset.flatten(), self.opening_t.flatten(), self.law_id, *self._params,
+                      m.scalar(step), m.grid.n],
+                     [self.trial_displacement, self.trial_traction, self.sums])
         return self._sums()
 
     def _dot(self, x, y) -> float:
@@ -198,29 +219,31 @@ class AdhesiveNormalSolver:
         self._reduce(ak.dot_sum, [x, y, int(ak.S_DOT)], [self.sums])
         return float(self._sums()[ak.S_DOT])
 
-    def _axpy(self, alpha: float, x, y):
-        self._launch(ak.axpy, self.n_padded, [self.model.scalar(alpha), x], [y])
-
     def _direction(self, pairs, eps: float):
-        """self.direction <- -H g: the two-loop recursion over the kept (s, y) pairs with the
-        preconditioner as initial inverse Hessian, on the free cells."""
+        """self.direction <- -H g: the two-loop recursion over the kept (s, y) pairs (``pairs``:
+        their storage slots, oldest first) with the preconditioner as initial inverse Hessian, on
+        the free cells. The recursion's scalars stay on the device (``two_loop_dots``, ``rho``)."""
         m = self.model
         q = self.work
         wp.copy(q, self.gradient)
-        alphas = []
-        for s, y, rho in reversed(pairs):
-            a = rho * self._dot(s, q)
-            alphas.append(a)
-            self._axpy(-a, y, q)
+        dots = self.two_loop_dots
+        newest_first = list(reversed(pairs))
+        if pairs:
+            dots.zero_()
+        for k, slot in enumerate(newest_first):  # alpha_k = rho_k s_k . q; q <- q - alpha_k y_k
+            self._reduce(ak.dot_sum, [self.steps[slot], q, k], [dots])
+            self._launch(ak.two_loop_first, self.n_padded, [dots, k, self.rho, slot, self.gradient_changes[slot]], [q])
         free_in = [self.displacement, self.gradient, self.offset.flatten(), m.scalar(eps), m.grid.n]
         scale_in = [self.displacement, self.gradient, self.offset.flatten(), self.opening_t.flatten(), self.law_id,
                     *self._params, m.scalar(eps), self._self_compliance, m.grid.n]
         self._launch(ak.adhesive_scale, self.n_padded, scale_in, [q])  # J^-1/2, 0 on bound cells
         self.convolution.apply(q, self.direction)
         self._launch(ak.adhesive_scale, self.n_padded, scale_in, [self.direction])
-        for (s, y, rho), a in zip(pairs, reversed(alphas)):
-            b = rho * self._dot(y, self.direction)
-            self._axpy(a - b, s, self.direction)
+        for k in reversed(range(len(newest_first))):  # oldest first: d <- d + (alpha_k - rho_k y_k . d) s_k
+            slot = newest_first[k]
+            self._reduce(ak.dot_sum, [self.gradient_changes[slot], self.direction, self.memory + k], [dots])
+            self._launch(ak.two_loop_second, self.n_padded,
+                         [dots, k, self.memory, self.rho, slot, self.steps[slot]], [self.direction])
         self._launch(ak.adhesive_free, self.n_padded, free_in, [self.direction])
         self._launch(ak.scaled_copy, self.n_padded, [m.scalar(-1.0), self.direction], [self.direction])
 
@@ -258,7 +281,7 @@ class AdhesiveNormalSolver:
         eps_max = 5e-3 * self.law_length
         eps = eps_max
         sums = self._evaluate(self.displacement, self.traction, self.gradient, eps)
-        pairs = []  # (s, y, 1 / s.y), oldest first; the arrays rotate through self.steps
+        pairs = []  # storage slots of the kept (s, y) pairs, oldest first (self.steps, self.gradient_changes)
         history = []
         residual = math.inf
         converged = False
@@ -284,28 +307,28 @@ class AdhesiveNormalSolver:
             if new_eps != eps:  # the free set with the new epsilon
                 eps = new_eps
                 sums = self._evaluate(self.displacement, self.traction, self.gradient, eps)
-            self._direction(pairs, eps)
-            slope = self._dot(self.gradient, self.direction)
-            if not slope < 0:  # not a descent direction: forget the pairs, precondition alone
-                pairs.clear()
+            descent = False
+            for _ in range(2):  # the direction, and the first trial (step 1) read with its slope g . d
                 self._direction(pairs, eps)
-                slope = self._dot(self.gradient, self.direction)
-                if not slope < 0:
+                self.convolution.apply(self.direction, self.direction_traction, inverse=True)
+                transforms += 2
+                self.sums.zero_()
+                self._reduce(ak.dot_sum, [self.gradient, self.direction, int(ak.S_DOT)], [self.sums])
+                t = self._add_trial(1.0)
+                descent = t[ak.S_DOT] < 0
+                if descent or not pairs:
                     break
-            self.convolution.apply(self.direction, self.direction_traction, inverse=True)
-            transforms += 2
+                pairs.clear()  # not a descent direction: forget the pairs, precondition alone
+            if not descent:
+                break
             step = 1.0
             accepted = False
             trial_sums = None
             energy_noise = APPROX_ENERGY * abs(sums[ak.S_ENERGY])
-            for _ in range(MAX_HALVINGS):
-                self.sums.zero_()
-                self._reduce(ak.adhesive_trial,
-                             [self.displacement, self.traction, self.gradient, self.direction, self.direction_traction,
-                              self.offset.flatten(), self.opening_t.flatten(), self.law_id, *self._params,
-                              m.scalar(step), n],
-                             [self.trial_displacement, self.trial_traction, self.sums])
-                t = self._sums()
+            for halving in range(MAX_HALVINGS):
+                if halving > 0:
+                    self.sums.zero_()
+                    t = self._add_trial(step)
                 if t[ak.S_CLIPPED] > 0:  # the bound bent the path: the trial traction made exactly
                     self.convolution.apply(self.trial_displacement, self.trial_traction, inverse=True)
                     transforms += 1
@@ -330,16 +353,23 @@ class AdhesiveNormalSolver:
                 if len(history) > 1 and step < 1e-9:
                     break
                 continue
-            if trial_sums is None:
-                trial_sums = self._evaluate(self.trial_displacement, self.trial_traction, self.trial_gradient, eps)
-            # the new pair (s, y) in the oldest slot
-            slot = self.steps[it % self.memory], self.gradient_changes[it % self.memory]
-            self._launch(ak.difference, self.n_padded, [self.trial_displacement, self.displacement], [slot[0]])
-            self._launch(ak.difference, self.n_padded, [self.trial_gradient, self.gradient], [slot[1]])
-            sy = self._dot(slot[0], slot[1])
-            pairs = [pr for pr in pairs if pr[0].ptr != slot[0].ptr]
-            if sy > 1e-12 * math.sqrt(self._dot(slot[0], slot[0]) * self._dot(slot[1], slot[1])):
-                pairs.append((slot[0], slot[1], 1.0 / sy))
+            # the new pair (s, y) in the oldest slot, its sums read with the trial point's
+            evaluate = trial_sums is None
+            self.sums.zero_()
+            if evaluate:
+                self._add_evaluation(self.trial_displacement, self.trial_traction, self.trial_gradient, eps)
+            slot = it % self.memory
+            self._launch(ak.difference, self.n_padded, [self.trial_displacement, self.displacement], [self.steps[slot]])
+            self._launch(ak.difference, self.n_padded, [self.trial_gradient, self.gradient],
+                         [self.gradient_changes[slot]])
+            self._reduce(ak.pair_sums, [self.steps[slot], self.gradient_changes[slot]], [self.sums])
+            read = self._sums()
+            if evaluate:
+                trial_sums = read
+            pairs = [k for k in pairs if k != slot]
+            if read[ak.S_SY] > 1e-12 * math.sqrt(read[ak.S_SS] * read[ak.S_YY]):
+                self._launch(ak.pair_curvature, 1, [self.sums, m.scalar(1.0), slot], [self.rho])
+                pairs.append(slot)
                 pairs = pairs[-self.memory:]
             self.displacement, self.trial_displacement = self.trial_displacement, self.displacement
             self.traction, self.trial_traction = self.trial_traction, self.traction
