@@ -49,8 +49,15 @@ def main():
     device = wp.get_device(a.device)
     spent = defaultdict(float)
 
+    depth = defaultdict(int)
+
     def timed(name, fn):
+        """``fn`` timed into ``spent[name]``, its outermost calls only (a nested start's coarse
+        steps run inside the fine step: counted once)."""
         def wrapper(*args, **kwargs):
+            if depth[name]:
+                return fn(*args, **kwargs)
+            depth[name] += 1
             wp.synchronize_device(device)
             t0 = time.perf_counter()
             try:
@@ -58,6 +65,7 @@ def main():
             finally:
                 wp.synchronize_device(device)
                 spent[name] += time.perf_counter() - t0
+                depth[name] -= 1
         return wrapper
 
     originals = {k: getattr(runner, k) for k in ("build", "state_summary", "state_fields")}
