@@ -12,11 +12,21 @@ backend's float type (``wp.vec2f`` or ``wp.vec2d``).
 
 from __future__ import annotations
 
+import os
+
 import numpy as np
 import warp as wp
 
 from ..kernels.fft import crop_field, pad_field
 from ..numerics.launch import LaunchCache, Rows
+
+
+def cpu_threads(cells: int, threads_from_cells: int) -> int:
+    """Threads for the CPU transforms of a grid of ``cells`` cells (n x n; the padded transform is
+    of 4 n^2 entries): one per CPU from ``threads_from_cells`` on, one below it, where starting
+    and joining the threads costs more than they save (each backend's ``THREADS_FROM_CELLS``,
+    measured on 2 cores)."""
+    return (os.cpu_count() or 1) if cells >= threads_from_cells else 1
 
 
 class FFTBackend:

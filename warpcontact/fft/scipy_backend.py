@@ -11,23 +11,25 @@ forward pass 2-3x slower than the inverse (measured: 17 against 6-9 ms at n = 51
 
 from __future__ import annotations
 
-import os
-
 import numpy as np
 import scipy.fft as sfft
 import warp as wp
 
-from .base import FFTBackend
+from .base import FFTBackend, cpu_threads
 
 
 class ScipyFFT(FFTBackend):
     name = "scipy"
+    #: worker threads from this many cells on (``base.cpu_threads``). A transform pair on 2 cores,
+    #: 1 / 2 workers: 0.105 / 0.377 ms at n = 64, 1.46 / 1.86 at 256, 7.18 / 8.15 at 512, 43.4 / 25.5
+    #: at 1024 (best of 5, forward + inverse through this backend)
+    THREADS_FROM_CELLS = 1024 * 1024
 
     def __init__(self, ny, nx, device, dtype, workers: int | None = None):
         super().__init__(ny, nx, device, dtype)
         if not self.device.is_cpu:
             raise ValueError(f"fft: the scipy backend runs on the CPU only, not on {self.device}")
-        self.workers = workers or os.cpu_count() or 1
+        self.workers = workers or cpu_threads(ny * nx, self.THREADS_FROM_CELLS)
         # the forward pass's rows, padded: the field goes into the left half, the right half stays
         # zero. Letting scipy pad (``rfft(x, n=2 nx)``) allocated and zeroed a fresh (ny, 2 nx)
         # array per transform: 5.7-6.5 against 3.0-3.6 ms per forward pass at n = 512, 2 cores.

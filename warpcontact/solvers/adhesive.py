@@ -70,13 +70,15 @@ class PaddedConvolution:
             self._fft = cupy.fft
             self._kwargs = {}
         else:
-            import os
-
             import scipy.fft
+
+            from ..fft.base import cpu_threads
+            from ..fft.scipy_backend import ScipyFFT
 
             self._xp = np
             self._fft = scipy.fft
-            self._kwargs = {"workers": os.cpu_count() or 1}
+            # the (2n, 2n) transforms are a ScipyFFT pair's work: threads from the same size on
+            self._kwargs = {"workers": cpu_threads(n * n, ScipyFFT.THREADS_FROM_CELLS)}
         fft = op.fft
         if fft.spectral_shape == (2 * n, n + 1) and fft.half_axis == 1:
             spectrum = self._view(op.influence[0])  # K_zz's (real) spectrum
