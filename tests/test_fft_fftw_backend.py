@@ -112,7 +112,8 @@ def test_small_grids_transform_on_one_thread(monkeypatch):
 
     monkeypatch.setattr(os, "cpu_count", lambda: 8)
     assert FFTWBackend(64, 64, "cpu", wp.float64).workers == 1
-    assert FFTWBackend(192, 192, "cpu", wp.float64).workers == 8
+    assert FFTWBackend(128, 128, "cpu", wp.float64).workers == 1
+    assert FFTWBackend(256, 256, "cpu", wp.float64).workers == 8
     assert ScipyFFT(512, 512, "cpu", wp.float64).workers == 1
     assert ScipyFFT(64, 64, "cpu", wp.float64, workers=3).workers == 3
     assert FFTWBackend.THREADS_FROM_CELLS < ScipyFFT.THREADS_FROM_CELLS

@@ -154,10 +154,11 @@ class FFTWPlans:
 class FFTWBackend(ScipyFFT):
     name = "fftw"
     #: FFTW's threads from this many cells on (``base.cpu_threads``). A transform pair on 2 cores,
-    #: 1 / 2 threads: 0.028 / 0.217 ms at n = 32, 0.069 / 0.215 at 64, 0.345 / 0.454 at 128,
-    #: 0.755 / 0.616 at 192, 8.22 / 4.46 at 512 (best of 5). A table2 column at n = 32 in one process
-    #: (4 cells) took 7.5 s with 2 threads at every size, 3.3 s under OMP_NUM_THREADS=1.
-    THREADS_FROM_CELLS = 192 * 192
+    #: 1 / 2 threads (``bench/fft_threads.py``, best of 5): 0.028 / 0.231 ms at n = 32, 0.361 /
+    #: 0.511 at 128, 0.745 / 0.794 at 192, 1.60 / 1.39 at 256, 6.03 / 5.13 at 512. A table2 column
+    #: at n = 32 in one process (4 cells) took 7.5 s with 2 threads at every size, 3.3 s under
+    #: OMP_NUM_THREADS=1.
+    THREADS_FROM_CELLS = 256 * 256
 
     def __init__(self, ny, nx, device, dtype, workers: int | None = None, measure: bool | None = None):
         super().__init__(ny, nx, device, dtype, workers)
