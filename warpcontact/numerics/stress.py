@@ -649,6 +649,15 @@ COARSE_STRESS_DEPTH_CELLS = 8
 COARSE_STRESS_MIN_RADIUS_CELLS = 32
 
 
+def _restrict_mean(t: np.ndarray) -> np.ndarray:
+    """The mean of each 2 x 2 block of cells of ``t`` (even shape): the half grid's field. Row
+    pairs first, then column pairs: at n = 4096, 0.024 s per field against 0.126 s for numpy's
+    mean over a (h, 2, h, 2) view (2-core machine, warm; 0.22 s on the H100's host, 0.65 s of a
+    1.32 s yield check)."""
+    rows = t[0::2] + t[1::2]
+    return 0.25 * (rows[:, 0::2] + rows[:, 1::2])
+
+
 class _YieldEvaluator:
     """The von Mises maxima of one state's tractions at any depths, each on the fine grid or, from
     ``COARSE_STRESS_DEPTH_CELLS`` down and where the contact ``radius`` [m] spans
@@ -665,7 +674,7 @@ class _YieldEvaluator:
 
             h = n // 2
             self.coarse = SubsurfaceStress(pair, Grid(h, grid.size), depths, device=device, dtype=dtype, fft=fft)
-            self.coarse_tractions = tuple(np.asarray(t).reshape(h, 2, h, 2).mean(axis=(1, 3)) for t in tractions_si)
+            self.coarse_tractions = tuple(_restrict_mean(np.asarray(t)) for t in tractions_si)
 
     def maxima(self, depths) -> dict:
         depths = np.asarray(depths, dtype=np.float64)
