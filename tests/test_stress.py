@@ -380,23 +380,33 @@ def test_solved_hertz_contact_puts_each_maximum_where_hertz_does():
         assert summary[name]["yielded"] is False and summary[name]["margin"] > 1
 
 
-def test_the_yield_check_of_a_state_needs_only_its_nonzero_tractions():
-    """A frictionless, adhesionless state brings one field (the pressure) to the host for its
-    yield check, and the check is the one made from all its fields (the same arrays: equal)."""
+@pytest.mark.parametrize("dtype", ["float64", "float32"])
+def test_the_yield_check_of_a_state_on_the_device_equals_the_one_from_its_fields(dtype, monkeypatch):
+    """The check a solve makes from its state's tractions where they are (totalled, restricted to
+    the half grid and transformed on the device; the pressure alone read on the host) is the one
+    made from the state's SI fields on the host: the same depths, the maxima to the rounding of
+    the float type (the host path scales by E* and back: float64 1e-12, float32 1e-5)."""
     import warpcontact as wc
-    from warpcontact.numerics.state import ContactState
     from warpcontact.studies.runner import build
 
-    case, _ = _hertz_case(steps=1)
+    case, _ = _hertz_case(n=128, steps=1, dtype=dtype)  # a = 43 cells: the deep depths on the half grid
+    grids = []
+    original = st.SubsurfaceStress.__init__
+    monkeypatch.setattr(st.SubsurfaceStress, "__init__",
+                        lambda self, pair, grid, *a, **k: grids.append(grid.n) or original(self, pair, grid, *a, **k))
     _, solver, state = build(case)
     solver.step(state, case.load.path()[-1])
-    lean = state.tractions_si(friction=False, adhesion=False)
-    assert list(lean) == ["pressure"]
-    assert set(state.tractions_si()) == set(ContactState.TRACTIONS)
-    args = (case.pair, case.grid)
-    full = st.yield_check(*args, state.to_numpy_si())
-    assert st.yield_check(*args, lean) == full and full["yielded"] is False
-    assert wc.solve(case, fields="none").yield_check == full
+    host = st.yield_check(case.pair, case.grid, state.to_numpy_si(), state.model.device, state.model.dtype_name,
+                          state.model.fft_name)
+    device = st.state_yield_check(state, friction=False, adhesion=False)
+    assert grids[:4] == [128, 64, 128, 64]  # both checks on the fine and the half grid
+    assert host["yielded"] is False and device["yielded"] is False
+    rel = 1e-12 if state.model.dtype_name == "float64" else 1e-5
+    for body in st.BODIES:
+        assert device[body]["von_mises_max"] == pytest.approx(host[body]["von_mises_max"], rel=rel)
+        assert device[body]["z"] == pytest.approx(host[body]["z"], rel=rel)
+    assert wc.solve(case, fields="none").yield_check["sphere"]["margin"] == pytest.approx(
+        host["sphere"]["margin"], rel=rel)
 
 
 def test_first_yield_on_the_path():

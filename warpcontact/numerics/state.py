@@ -66,17 +66,6 @@ class ContactState:
         self.approach = (0.0, 0.0, 0.0)
         self.info: SolveInfo | None = None
 
-    def tractions_si(self, friction: bool = True, adhesion: bool = True) -> dict:
-        """The traction fields [Pa] as :meth:`to_numpy_si` gives them: what the stress below the
-        surface needs (``numerics.stress.tractions``). Without ``friction`` the contact shear, and
-        without ``adhesion`` the adhesive tractions, are zero and not transferred (their absence
-        stands for zero there): one transfer of the 12 fields' for a frictionless, adhesionless
-        state."""
-        names = ["pressure"] + (["shear_x", "shear_y"] if friction else [])
-        if adhesion:
-            names += ["adhesive_pressure", "adhesive_shear_x", "adhesive_shear_y"]
-        return self.to_numpy_si(names)
-
     def copy_from(self, other: "ContactState"):
         import warp as wp
 

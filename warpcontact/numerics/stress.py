@@ -468,9 +468,19 @@ class SubsurfaceStress:
             self.fft.forward(self._field, self._basis[b])
 
     def _load_tractions(self, pressure, shear_x, shear_y) -> None:
-        """The spectra of the tractions [Pa] ((n, n) arrays, numpy), scaled by E*."""
+        """The spectra of the tractions: (n, n) numpy arrays [Pa], scaled by E* here, or (n, n)
+        Warp arrays on this device in this float type, already scaled by E* (a ContactState's
+        units): transformed where they are, nothing copied."""
+        import warp as wp
+
         n = self.grid.n
         for k, t in enumerate((pressure, shear_x, shear_y)):
+            if isinstance(t, wp.array):
+                if t.shape != (n, n) or t.device != self.device or t.dtype != self.dtype:
+                    raise InputError("tractions", f"expected Warp arrays of shape {(n, n)} on {self.device} in "
+                                                  f"{self.dtype_name}, got {t.shape} on {t.device}")
+                self.fft.forward(t, self._traction[k])
+                continue
             t = np.asarray(t, dtype=np.float64)
             if t.shape != (n, n):
                 raise InputError("tractions", f"expected arrays of shape {(n, n)}, got {t.shape}")
@@ -580,8 +590,8 @@ class SubsurfaceStress:
 
 def tractions(fields: dict) -> tuple:
     """(p, q_x, q_y) [Pa], the total tractions (elastic and adhesive) of one state's fields (SI,
-    as ``results.state_fields``, one entry of ``fields.npz`` or ``ContactState.tractions_si``: a
-    shear or adhesive field it lacks is zero)."""
+    as ``results.state_fields`` or one entry of ``fields.npz``; a shear or adhesive field it
+    lacks is zero)."""
     def total(a, b):
         f = np.asarray(fields[a], dtype=np.float64) if a in fields else np.zeros(np.shape(fields["pressure"]))
         return f + np.asarray(fields[b], dtype=np.float64) if b in fields else f
@@ -663,9 +673,13 @@ class _YieldEvaluator:
     ``COARSE_STRESS_DEPTH_CELLS`` down and where the contact ``radius`` [m] spans
     ``COARSE_STRESS_MIN_RADIUS_CELLS`` cells, on the half grid (``yield_check``)."""
 
-    def __init__(self, pair, grid, tractions_si, depths, device, dtype, fft, radius: float):
+    def __init__(self, pair, grid, totals, depths, device, dtype, fft, radius: float):
+        """``totals``: the total tractions (p, q_x, q_y) as host arrays [Pa] or as Warp arrays on
+        ``device`` scaled by E* (``SubsurfaceStress._load_tractions``)."""
+        import warp as wp
+
         self.grid = grid
-        self.tractions = tractions_si
+        self.tractions = totals
         self.fine = SubsurfaceStress(pair, grid, depths, device=device, dtype=dtype, fft=fft)
         self.coarse = self.coarse_tractions = None
         n = grid.n
@@ -674,7 +688,14 @@ class _YieldEvaluator:
 
             h = n // 2
             self.coarse = SubsurfaceStress(pair, Grid(h, grid.size), depths, device=device, dtype=dtype, fft=fft)
-            self.coarse_tractions = tuple(_restrict_mean(np.asarray(t)) for t in tractions_si)
+            if isinstance(totals[0], wp.array):  # on the device: the half grid's there too
+                from warpcontact.kernels import grids as gk
+
+                self.coarse_tractions = tuple(wp.empty((h, h), dtype=t.dtype, device=t.device) for t in totals)
+                for t, c in zip(totals, self.coarse_tractions):
+                    wp.launch(gk.restrict_mean, dim=(h, h), inputs=[t, t.dtype(1.0)], outputs=[c], device=t.device)
+            else:
+                self.coarse_tractions = tuple(_restrict_mean(np.asarray(t)) for t in totals)
 
     def maxima(self, depths) -> dict:
         depths = np.asarray(depths, dtype=np.float64)
@@ -704,14 +725,43 @@ def yield_check(pair, grid, fields: dict, device="cpu", dtype="float64", fft="au
     and ``margin`` = yield strength / von Mises max (> 1: elastic). The depths put the maximum
     within about 1 % (``reason`` says why the check did not run, when it did not). The surface
     (``SURFACE_DEPTH_IN_CELLS``) is among the depths."""
-    radius = contact_radius(fields, grid.cell_area)
+    return _yield_check(pair, grid, tractions(fields), contact_radius(fields, grid.cell_area), device, dtype, fft)
+
+
+def state_yield_check(state, friction: bool = True, adhesion: bool = True) -> dict:
+    """:func:`yield_check` of one solved ``ContactState`` on its model (pair, grid, device, float
+    type, FFT backend), its tractions totalled and loaded on the device (one field, the pressure,
+    read on the host for the contact radius). Without ``friction`` the contact shear and without
+    ``adhesion`` the adhesive tractions are zero and not read."""
+    import warp as wp
+
+    from warpcontact.kernels import adhesion as ak
+
+    m = state.model
+    totals = []
+    for contact, adhesive, on in ((state.pressure, state.adhesive_pressure, True),
+                                  (state.shear_x, state.adhesive_shear_x, friction),
+                                  (state.shear_y, state.adhesive_shear_y, friction)):
+        total = m.field()
+        if on:
+            wp.copy(total, contact)
+        if adhesion:
+            m.launch(ak.add_to, dim=m.n_cells, inputs=[adhesive.flatten()], outputs=[total.flatten()])
+        totals.append(total)
+    radius = math.sqrt(float(np.count_nonzero(state.pressure.numpy() > 0)) * m.grid.cell_area / math.pi)
+    return _yield_check(m.pair, m.grid, tuple(totals), radius, m.device, m.dtype_name, m.fft_name)
+
+
+def _yield_check(pair, grid, totals, radius: float, device, dtype, fft) -> dict:
+    """:func:`yield_check` from the total tractions (host [Pa] or device, scaled: see
+    ``_YieldEvaluator``) and the contact radius [m]."""
     a = radius if radius > 0 else 16.0 * grid.dx / 2.0
     depths = np.concatenate([[SURFACE_DEPTH_IN_CELLS * grid.dx], np.array(YIELD_CHECK_DEPTHS_IN_A) * a])
     materials = {"sphere": pair.sphere, "flat": pair.flat}
     if not any(math.isfinite(m.yield_strength) for m in materials.values()):
         return {"yielded": None, "reason": "no yield_strength given"}
     try:
-        stress = _YieldEvaluator(pair, grid, tractions(fields), depths, device, dtype, fft, radius)
+        stress = _YieldEvaluator(pair, grid, totals, depths, device, dtype, fft, radius)
         maxima = stress.maxima(depths)
         extra = set()
         for m in maxima.values():  # the midpoints around each body's largest
@@ -751,5 +801,4 @@ def yield_keys(check: dict | None) -> dict:
 def state_yield_keys(state) -> dict:
     """:func:`yield_keys` of one solved ``ContactState`` on its model (pair, grid, device, float
     type, FFT backend): the check a command makes once, on its final state."""
-    m = state.model
-    return yield_keys(yield_check(m.pair, m.grid, state.tractions_si(), m.device, m.dtype_name, m.fft_name))
+    return yield_keys(state_yield_check(state))

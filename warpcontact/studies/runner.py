@@ -191,13 +191,10 @@ def run_path(case, on_state=None, keep_fields: bool = True, fields: str = "all",
                 if on_state is not None:
                     on_state(k, len(path), summary, result)
         if result.states:  # the last state against the bodies' yield strengths (below the surface)
-            from ..numerics.stress import yield_check
+            from ..numerics.stress import state_yield_check
 
-            # the last state's SI tractions, brought to the host once: the fields kept for the result
-            last = result.fields[-1] if result.fields and result.field_states[-1] == len(result.states) - 1 \
-                else state.tractions_si(solver.friction is not None, solver.adhesion is not None)
-            result.yield_check = yield_check(case.pair, case.grid, last, model.device, model.dtype_name,
-                                             case.solver.fft)
+            # from the state's tractions where they are (on the device): nothing copied to the host
+            result.yield_check = state_yield_check(state, solver.friction is not None, solver.adhesion is not None)
             checks.yielded(result.yield_check, result.states[-1])
     except KeyboardInterrupt as e:
         result.interrupted = True
