@@ -5,8 +5,8 @@ delta_x = 2e-11 m with Tabor friction k_tau = 0.8, or frictionless with ``--fric
 Each part of ``runner.run_path`` is timed where it is called (the device synchronised before each
 clock reading, so that a part's kernels are counted in it): ``build`` (model, solvers, state),
 ``step`` (the solves), ``summary`` (``results.state_summary``), ``fields`` (``results.state_fields``:
-the fields brought to the host), ``yield check`` (``stress.yield_check`` with the host copy of the
-last state it takes), and the rest of ``wc.solve``. Second call of two in one process (the first
+the fields brought to the host), ``yield check`` (``stress.state_yield_check``, from the last
+state's tractions on the device), and the rest of ``wc.solve``. Second call of two in one process (the first
 loads the kernels and captures the graphs). Prints a markdown table, one row per n.
 
     python bench/api_parts.py --device cuda:0 --sizes 1024 4096
@@ -74,8 +74,7 @@ def main():
     runner.state_fields = timed("fields", originals["state_fields"])
     import warpcontact.numerics.stress as stress
 
-    stress_yield = stress.yield_check
-    stress.yield_check = timed("yield check", stress_yield)
+    stress.state_yield_check = timed("yield check", stress.state_yield_check)
     from warpcontact.solvers.contact import ContactSolver
 
     contact_step = ContactSolver.step
@@ -94,7 +93,6 @@ def main():
             wp.synchronize_device(device)
             total = time.perf_counter() - t0
             del result
-        # the yield check's own to_numpy_si is inside its argument list: counted in "rest"
         rest = total - sum(spent[p] for p in parts)
         print(f"| {n} | {total:.2f} | " + " | ".join(f"{spent[p]:.2f}" for p in parts) + f" | {rest:.2f} |",
               flush=True)
