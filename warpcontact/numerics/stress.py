@@ -434,8 +434,9 @@ class SubsurfaceStress:
         self.np_dtype = numpy_dtype(self.dtype)
         self.volume = bool(volume)
         n = grid.n
+        # the memory first: an evaluation that does not fit is refused before any plan or buffer
+        self.memory = check_memory(n, self.dtype, self.device, fft, len(self.depths), self.volume)
         self.fft = make_fft(fft, n, n, self.device, self.dtype)
-        self.memory = check_memory(n, self.dtype, self.device, self.fft.name, len(self.depths), self.volume)
         spec = self.fft.spectral_shape
         cplx = self.fft.complex_dtype
         with wp.ScopedDevice(self.device):
