@@ -4,9 +4,10 @@
 
 For each adhesive Table 2 cell (k_tau:delta_z_um, the SMC law of ``Table2Settings``) runs the
 gross-slip search twice in one process: with the minimised turns (each normal solve the whole
-adhesive problem, plain turns over the shear; ``ContactSolver``'s default) and with the lagged
-turns (the adhesive tractions a fixed point of their own, Anderson-mixed across turns; the
-fallback). Both use the solver's inner solves and turn tolerance as they are.
+adhesive problem, plain turns over the shear) and with the lagged turns (the adhesive tractions a
+fixed point of their own, Anderson-mixed across turns), each forced (``ContactSolver.turns``; by
+default the solver picks by the law's Maugis parameter: lagged for these DMT-side cells). Both
+use the solver's inner solves and turn tolerance as they are.
 Prints per cell: states, turns per state (largest and total), inner iterations, time, and
 delta_x_max and mu from each, with their relative difference.
 """
@@ -31,8 +32,7 @@ def run(k_tau, dz_um, settings, lagged: bool):
     model = ContactModel(PAPER_PAIR, Sphere(RADIUS), cell_grid(dz, settings, law), device=settings.device,
                          dtype=settings.dtype)
     solver = ContactSolver(model, TaborVonMises(k_tau, PAPER_PAIR.softer.yield_strength), adhesion=law)
-    if lagged:
-        solver.adhesive = None  # the lagged turns of every step
+    solver.turns = "lagged" if lagged else "minimised"
     turns, iterations = [], []
     step = solver.step
 

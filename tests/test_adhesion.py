@@ -203,3 +203,72 @@ def test_adhesion_enlarges_contact_and_stick_area():
     assert areas["smc"]["contact_area"] > areas["none"]["contact_area"]
     assert areas["smc"]["stick_area"] > areas["none"]["stick_area"]
     assert areas["smc"]["adhesive_area"] > 0 and areas["none"]["adhesive_area"] == 0
+
+
+def test_maugis_parameter_of_the_laws():
+    """lambda = sigma_peak (9 R / (2 pi w E*^2))^(1/3): exactly Maugis's for the Dugdale law (sharp,
+    sigma_0 chosen for lambda = 2), 0.0557 for Table 2's SMC law (DMT side)."""
+    from warpcontact.physics.adhesion import maugis_parameter
+
+    R, W, E = 1e-6, 0.5, PAPER_PAIR.E_star
+    sigma_0 = 2.0 / (9 * R / (2 * math.pi * W * E**2)) ** (1 / 3)
+    assert maugis_parameter(Dugdale(sigma_0=sigma_0, h_0=W / sigma_0, smoothing=0.0), R, E) == pytest.approx(2.0)
+    assert maugis_parameter(SMC(1e6, 1e6, 5e-12, 5e-12), 10e-6, E) == pytest.approx(0.05573, rel=1e-4)
+
+
+def test_the_turns_are_lagged_on_the_dmt_side_and_minimised_towards_jkr():
+    """With adhesion and friction the solver picks the turns by the law's Maugis parameter: lagged
+    under LAGGED_TURNS_MAX_MAUGIS (Table 2's SMC law, 0.056), minimised above it (the same law
+    with a 200x peak tension and a 200x shorter length, the same work: 11), lagged with a hardness
+    cap whatever the law."""
+    from warpcontact.physics.friction import TaborVonMises
+    from warpcontact.solvers import contact
+
+    model = ContactModel(PAPER_PAIR, Sphere(10e-6), Grid(32, 1e-7))
+    friction = TaborVonMises(0.8, PAPER_PAIR.softer.yield_strength)
+    dmt, towards_jkr = SMC(1e6, 1e6, 5e-12, 5e-12), SMC(2e8, 2e8, 2.5e-14, 2.5e-14)
+    assert ContactSolver(model, friction, adhesion=dmt).turns == "lagged"
+    assert ContactSolver(model, friction, adhesion=towards_jkr).turns == "minimised"
+    assert ContactSolver(model, friction, adhesion=towards_jkr, pressure_cap=1e9).turns == "lagged"
+    assert contact.LAGGED_TURNS_MAX_MAUGIS == pytest.approx(0.1)
+
+
+def test_lagged_and_minimised_turns_give_the_same_table2_cell(monkeypatch):
+    """One adhesive Table 2 cell (k_tau 0.8, delta_z 1e-4 um, n = 32) by the lagged turns (the
+    default there) and by the minimised turns: the same delta_x_max (its 1 % bracket lands in the
+    same place) and mu within 1e-4 relative (the two stop on different criteria; 3e-5 at most over
+    the 12 cells at n = 48 and 256, bench/coupled_turns.py). Then a lagged step made to fail is
+    solved by the minimised turns from its iterate (turn_fallbacks)."""
+    from warpcontact.studies import table2 as t2
+    from warpcontact.solvers import contact
+
+    settings = t2.Table2Settings(n=32)
+    lagged = t2.table2_cell(0.8, 1e-4, settings, adhesion=True)
+    original = contact.ContactSolver.__init__
+
+    def minimised(self, *a, **k):
+        original(self, *a, **k)
+        if self.adhesive is not None:
+            self.turns = "minimised"
+
+    monkeypatch.setattr(contact.ContactSolver, "__init__", minimised)
+    other = t2.table2_cell(0.8, 1e-4, settings, adhesion=True)
+    assert lagged["converged"] and other["converged"]
+    assert lagged["delta_x_max_um"] == other["delta_x_max_um"]
+    assert lagged["mu"] == pytest.approx(other["mu"], rel=1e-4)
+
+    monkeypatch.setattr(contact.ContactSolver, "__init__", original)
+    from warpcontact.physics.friction import TaborVonMises
+
+    model = ContactModel(PAPER_PAIR, Sphere(t2.RADIUS), t2.cell_grid(1e-4 * t2.UM, settings, settings.adhesion_law()))
+    solver = ContactSolver(model, TaborVonMises(0.8, PAPER_PAIR.softer.yield_strength), adhesion=settings.adhesion_law())
+    assert solver.turns == "lagged"
+    turns = solver._turns
+
+    def failing_turns(*args):  # the lagged turns as they are, reported as not converged
+        r = turns(*args)
+        return (*r[:3], False, r[4])
+
+    monkeypatch.setattr(solver, "_turns", failing_turns)
+    info = solver.step(ContactState(model), (0.0, 0.0, 1e-4 * t2.UM))
+    assert info.converged and solver.turn_fallbacks == 1

@@ -35,6 +35,16 @@ TOUCHING = 1e-2
 TRAPPING_SOFTENING = 2.0
 
 
+def maugis_parameter(law, radius: float, e_star: float) -> float:
+    """lambda = sigma_peak (9 R / (2 pi w E*^2))^(1/3) [-]: Maugis's transition parameter with the
+    law's peak tension in the place of Dugdale's sigma_0 and its work of adhesion w, for a sphere
+    of radius ``radius`` [m] on the pair's E* [Pa]. DMT below about 0.1, JKR above about 5
+    (Johnson & Greenwood 1997's adhesion map); about 1.16 Tabor's parameter for the smooth laws.
+    Table 2's SMC law: 0.056."""
+    w = law.work_of_adhesion
+    return law.peak_tension * (9.0 * radius / (2.0 * math.pi * w * e_star**2)) ** (1.0 / 3.0)
+
+
 def cell_softening(law, model) -> float:
     """How much faster the law's tension can fall with the gap than one cell's elastic stiffness
     E* / (c0 dx) lets the cell follow (c0: a cell's self-compliance in units of dx / E*):

@@ -29,6 +29,16 @@ ADHESIVE_MAX_ITER = 1000
 #: 107, 1815. Anderson mixing over the turns (depth 2-5) took more turns with loose solves
 #: (199-242) and as many with exact ones, at twice the inner iterations.
 TURN_TOL_CAP = 1e-4
+#: with adhesion and friction, the turns are lagged (the adhesive tractions a fixed point of their
+#: own, updated from the last gap and slip each turn) where the law's Maugis parameter
+#: (``adhesion.maugis_parameter``) is under this, the DMT side, and minimised (each turn's normal
+#: solve the whole adhesive minimisation) from it on. On the DMT side both converge and the lagged
+#: turns cost less: Table 2's adhesive cells (SMC, lambda 0.056), the same delta_x_max and mu
+#: within 3e-5 relative, H100 at n = 256: 1.55-2.05 s against 6.25-12.1 s per cell at delta_z =
+#: 1e-5 um, 1.10 against 1.85 s at 1e-4 um; 2 CPU cores at n = 48, 12 cells: 23.8 against 27.5 s
+#: (``bench/coupled_turns.py``). Towards JKR the lagged turns crawl or diverge (hundreds of turns
+#: per state at Tabor parameter 5.7).
+LAGGED_TURNS_MAX_MAUGIS = 0.1
 TURN_TOL_FACTOR = 1e-3
 
 
@@ -64,13 +74,16 @@ class ContactSolver:
     fixed point below crawls or diverges (large Tabor parameters); where it does not converge in
     ``ADHESIVE_MAX_ITER`` iterations (seen on the DMT side and on coarse grids) the step is solved
     by the fixed point from its iterate.
-    With adhesion and friction, each turn's normal solve is the whole adhesive normal problem
-    (the same minimisation, the shear's coupling held fixed), so that the turns are those of the
-    elastic coupling and of the shear limit's dependence on the pressure; the SMC law's adhesive
-    shear follows the last gap and slip (``_minimised_turns``). Where those turns do not converge
-    in ``max_outer`` (or with a hardness cap, which the minimisation does not know) the lagged
-    turns solve the step: each turn first updates the adhesive tractions from the last gap and
-    slip (Anderson-mixed), and they enter both solves as known tractions (MODEL.md section 6).
+    With adhesion and friction the turns are of two kinds (``turns``, chosen by the law's Maugis
+    parameter against ``LAGGED_TURNS_MAX_MAUGIS``): minimised, each turn's normal solve the whole
+    adhesive normal problem (the same minimisation, the shear's coupling held fixed), so that the
+    turns are those of the elastic coupling and of the shear limit's dependence on the pressure;
+    the SMC law's adhesive shear follows the last gap and slip (``_minimised_turns``); or lagged,
+    on the DMT side where they converge and cost less: each turn first updates the adhesive
+    tractions from the last gap and slip (Anderson-mixed), and they enter both solves as known
+    tractions (MODEL.md section 6). A step whose turns of one kind do not converge in
+    ``max_outer`` is solved by the other from its iterate (the lagged ones alone with a hardness
+    cap, which the minimisation does not know).
     Turns stop when the contact pressure, the shear and the adhesive tractions all change by
     less than ``outer_tol`` (relative, 2-norm) from one turn to the next, in a turn solved at full
     tolerance. Identical materials without adhesion decouple (D = 0): one turn is exact.
@@ -111,8 +124,11 @@ class ContactSolver:
         self.adhesive = None
         #: steps whose minimisation did not converge and were solved by the fixed point instead
         self.adhesive_fallbacks = 0
-        #: steps whose minimised turns did not converge and were solved by the lagged turns instead
+        #: steps whose turns of the chosen kind did not converge and were solved by the other kind
         self.turn_fallbacks = 0
+        #: the turns of a step with adhesion and friction: "minimised" or "lagged" (see the class
+        #: docstring; set from the law's Maugis parameter, and "lagged" with a hardness cap)
+        self.turns = "lagged"
         if adhesion is not None:
             if math.isfinite(pressure_cap) and friction is None:
                 from ..errors import InputError
@@ -122,6 +138,10 @@ class ContactSolver:
             if not math.isfinite(pressure_cap):  # (the lagged turns alone know the cap)
                 self.adhesive = AdhesiveNormalSolver(model, adhesion,
                                                      max_iter=min(int(max_iter), ADHESIVE_MAX_ITER))
+                from ..physics.adhesion import maugis_parameter
+
+                dmt = maugis_parameter(adhesion, model.sphere.radius, model.pair.E_star) < LAGGED_TURNS_MAX_MAUGIS
+                self.turns = "lagged" if dmt else "minimised"
         self.normal = NormalSolver(model, tol, max_iter, pressure_cap=pressure_cap, use_graphs=use_graphs,
                                    preconditioned=True if preconditioned is None else preconditioned)
         self.tol = self.normal.tol
@@ -256,7 +276,7 @@ class ContactSolver:
                 inputs=[state.slip_x.flatten(), state.slip_y.flatten(), m.scalar(dx / L), m.scalar(dy / L)],
                 outputs=[self.target_x.flatten(), self.target_y.flatten()],
             )
-        if self.adhesive is not None and self.friction is not None:  # adhesion with friction: minimised turns
+        if self.adhesive is not None and self.friction is not None and self.turns == "minimised":
             info = self._minimised_turns(state, dx, dy, dz)
             if info.converged or not hasattr(self.adhesion, "tractions"):
                 state.approach = (dx, dy, dz)
@@ -280,6 +300,18 @@ class ContactSolver:
             normal_info, tangential_info, retry_outer, converged_turns, retry_iterations = self._turns(state, dx, dy, dz)
             outer += retry_outer
             iterations += retry_iterations
+            if not converged_turns and self.adhesive is not None and self.friction is not None \
+                    and self.turns == "lagged":  # the minimised turns from this iterate
+                self.turn_fallbacks += 1
+                info = self._minimised_turns(state, dx, dy, dz)
+                if info.converged:
+                    info = SolveInfo(converged=True, iterations=iterations + info.iterations,
+                                     residual=info.residual, outer_iterations=outer + info.outer_iterations,
+                                     history=info.history)
+                    state.approach = (dx, dy, dz)
+                    state.info = info
+                    check_contact_fits(state)
+                    return info
         if self.iterative:  # gap and u_z with the final tractions held fixed
             # known_x, known_y are current: the last turn made them from this pressure before its
             # tangential solve (and nothing reads them without friction)
