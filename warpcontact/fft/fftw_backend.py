@@ -47,12 +47,15 @@ def available() -> bool:
     return True
 
 
-#: grids of at least this many cells get measured plans (``FFTW_MEASURE``), smaller ones estimated
-#: plans. The pair of an iteration, estimated -> measured, 2 cores, float64 (``bench/fftw_planning.py``,
-#: one run; planning in brackets): n = 512 4.64 -> 3.88 ms (0.89 s), 1024 30.8 -> 20.9 ms (1.8 s),
-#: 2048 216 -> 160 ms (4.9 s); at 256 1.07 -> 0.92 ms (0.61 s) and 128 0.25 -> 0.17 ms (0.33 s), too
-#: little for a first run's planning
-MEASURE_FROM_CELLS = 300 * 300
+#: grids of at least this many cells get measured plans (``FFTW_MEASURE``, their wisdom kept on
+#: disk: planned once per machine and size), smaller ones estimated plans. The pair of an iteration,
+#: estimated -> measured, 2 cores, float64 (``bench/fftw_planning.py``, one run; planning in
+#: brackets): on one thread (``THREADS_FROM_CELLS``) n = 56 0.049 -> 0.039 ms (0.14 s), 110 0.260
+#: -> 0.200 ms (0.11 s), 128 0.261 -> 0.199 ms (0.26 s), 192 0.580 -> 0.490 ms (0.68 s); on two
+#: n = 512 4.64 -> 3.88 ms (0.89 s), 1024 30.8 -> 20.9 ms (1.8 s), 2048 216 -> 160 ms (4.9 s). A
+#: Table 2 adhesive cell at n = 48 (grids 56-110) makes about 7000 pairs: 0.4 s saved for a
+#: planning paid once.
+MEASURE_FROM_CELLS = 48 * 48
 #: the folder measured plans are kept in between runs (FFTW's "wisdom", a text per precision), one
 #: file per machine; None: $XDG_CACHE_HOME/warpcontact or ~/.cache/warpcontact. The environment
 #: variable WARPCONTACT_FFTW_WISDOM names another file, or "" for none
