@@ -46,8 +46,9 @@ def main():
     wp.config.quiet = True
     wp.init()
     dtype = getattr(wp, args.dtype)
-    print(f"# DC-FFT pair of an iteration, CPU ({os.cpu_count()} threads), {args.dtype}, {time.strftime('%Y-%m-%d')}")
-    print(f"{'n':>6} {'scipy ms':>9} {'estimate: plan s':>17} {'ms':>8} {'measure: plan s':>16} {'ms':>8} "
+    print(f"# DC-FFT pair of an iteration, CPU ({os.cpu_count()} cores; each backend's default threads: "
+          f"the column 'threads'), {args.dtype}, {time.strftime('%Y-%m-%d')}")
+    print(f"{'n':>6} {'threads':>8} {'scipy ms':>9} {'estimate: plan s':>17} {'ms':>8} {'measure: plan s':>16} {'ms':>8} "
           f"{'estimate/measure':>17}")
     for n in args.sizes:
         repeats = max(3, int(4e6 / n**2))
@@ -64,7 +65,7 @@ def main():
             b._plans_for(s)
             row[measure] = (time.perf_counter() - t0, pair_ms(b, s, repeats))
         (pe, te), (pm, tm) = row[False], row[True]
-        print(f"{n:>6} {row['scipy']:>9.3f} {pe:>17.3f} {te:>8.3f} {pm:>16.3f} {tm:>8.3f} {te / tm:>16.2f}x",
+        print(f"{n:>6} {b.workers:>8} {row['scipy']:>9.3f} {pe:>17.3f} {te:>8.3f} {pm:>16.3f} {tm:>8.3f} {te / tm:>16.2f}x",
               flush=True)
 
 
