@@ -135,6 +135,12 @@ def test_asking_for_fftw_without_pyfftw_says_how_to_install(monkeypatch):
 
 
 def _measured_backend(n, monkeypatch, wisdom_file):
+    """A backend with measured plans and ``wisdom_file`` as the kept wisdom, this process's wisdom
+    forgotten first (earlier tests' grids from 48 cells on have measured plans already, and the
+    wisdom they left would be used instead of measuring)."""
+    import pyfftw
+
+    pyfftw.forget_wisdom()
     monkeypatch.setenv("WARPCONTACT_FFTW_WISDOM", str(wisdom_file))
     monkeypatch.setattr(fftw_backend, "_wisdom_loaded", False)
     return fftw_backend.FFTWBackend(n, n, "cpu", wp.float64, measure=True)
