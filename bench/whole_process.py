@@ -1,0 +1,103 @@
+"""A Hertz solve as a user waits for it: whole processes (interpreter start, imports, set-up, solve,
+output), warpcontact's `warpcontact solve` against Tamaas' own solver, alternating A B A B.
+
+    python bench/whole_process.py [--n 512] [--rounds 3] [--device cpu] [--tamaas-path DIR]
+
+warpcontact: `python -m warpcontact.cli solve CASE --out DIR --quiet --fields none` on
+examples/hertz.toml with n cells per side (the paper's pair, R = 10 um, delta_z = 1e-4 um,
+domain 4a, tolerance 1e-10, float64; the result.json written, no fields). Tamaas 2.9: a script
+that imports tamaas, builds the same problem (``bench_normal.time_tamaas``'s set-up: its
+PolonskyKeerRey solver with the DC-FFT operator on the same domain and grid, tolerance 1e-10,
+driven by the Hertz force) and solves it. ``--tamaas-path``:
+a folder put first on PYTHONPATH for the Tamaas process (e.g. ``pip install --target DIR tamaas``).
+Prints each run and the medians, and the ratio of the medians.
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import statistics
+import subprocess
+import sys
+import tempfile
+import time
+
+HERE = os.path.dirname(os.path.abspath(__file__))
+ROOT = os.path.dirname(HERE)
+
+
+def case_file(n: int, device: str, folder: str) -> str:
+    text = open(os.path.join(ROOT, "examples", "hertz.toml")).read()
+    lines = []
+    for line in text.splitlines():
+        if line.startswith("n = "):
+            line = f"n = {n}"
+        elif line.startswith("device = "):
+            line = f'device = "{device}"'
+        lines.append(line)
+    path = os.path.join(folder, f"hertz{n}.toml")
+    with open(path, "w") as f:
+        f.write("\n".join(lines) + "\n")
+    return path
+
+
+# Tamaas' process imports nothing of warpcontact: the problem of bench_normal.time_tamaas, inline
+TAMAAS = """
+import math
+import numpy as np
+import tamaas as tm
+R, DZ, n = 10e-6, 1.0e-10, {n}
+E_STAR = 1.0 / ((1 - 0.33**2) / 106e9 + (1 - 0.31**2) / 205e9)  # the paper's Table 1 pair
+L = 4 * math.sqrt(R * DZ)
+model = tm.ModelFactory.createModel(tm.model_type.basic_2d, [L, L], [n, n])
+model.E = E_STAR
+model.nu = 0.0  # with nu = 0 Tamaas' E* equals E
+x = (np.arange(n) - 0.5 * (n - 1)) * (L / n)
+X, Y = np.meshgrid(x, x, indexing="ij")
+tm.ModelFactory.registerNonPeriodic(model, "dcfft")
+solver = tm.PolonskyKeerRey(model, -(X**2 + Y**2) / (2 * R), 1e-10)
+solver.setIntegralOperator("dcfft")
+force = 4.0 / 3.0 * E_STAR * math.sqrt(R) * DZ**1.5  # Hertz
+solver.solve(force / L**2)
+print(float(np.asarray(model.traction).sum() * (L / n) ** 2 / force - 1.0))
+"""
+
+
+def timed(cmd, env=None) -> float:
+    t0 = time.perf_counter()
+    r = subprocess.run(cmd, capture_output=True, text=True, env=env)
+    elapsed = time.perf_counter() - t0
+    if r.returncode != 0:
+        raise SystemExit(f"{cmd[:3]} failed ({r.returncode}): {r.stderr[-2000:]}")
+    return elapsed
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--n", type=int, default=512)
+    ap.add_argument("--rounds", type=int, default=3)
+    ap.add_argument("--device", default="cpu")
+    ap.add_argument("--tamaas-path", default=None)
+    a = ap.parse_args()
+    with tempfile.TemporaryDirectory() as folder:
+        case = case_file(a.n, a.device, folder)
+        ours = [sys.executable, "-m", "warpcontact.cli", "solve", case, "--out", os.path.join(folder, "out"),
+                "--quiet", "--fields", "none"]
+        env = dict(os.environ)
+        if a.tamaas_path:
+            env["PYTHONPATH"] = a.tamaas_path + os.pathsep + env.get("PYTHONPATH", "")
+        theirs = [sys.executable, "-c", TAMAAS.format(n=a.n)]
+        times = {"warpcontact": [], "tamaas": []}
+        for k in range(a.rounds):
+            for name, cmd, e in (("warpcontact", ours, None), ("tamaas", theirs, env)):
+                times[name].append(timed(cmd, e))
+                print(f"round {k + 1}: {name} {times[name][-1]:.2f} s", flush=True)
+    w, t = statistics.median(times["warpcontact"]), statistics.median(times["tamaas"])
+    print(f"| n | warpcontact (whole process, median of {a.rounds}) | Tamaas 2.9 (whole process) | Tamaas / warpcontact |")
+    print("|---|---|---|---|")
+    print(f"| {a.n} | {w:.2f} s | {t:.2f} s | {t / w:.1f}x |")
+
+
+if __name__ == "__main__":
+    main()
