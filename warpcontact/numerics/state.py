@@ -74,12 +74,11 @@ class ContactState:
         self.approach = other.approach
         self.info = other.info
 
-    def to_numpy_si(self, names=None) -> dict:
-        """Every field (or those in ``names``) as a float64 numpy array in SI units (Pa for
-        tractions, m for lengths), one transfer each."""
+    def to_numpy_si(self) -> dict:
+        """Every field as a float64 numpy array in SI units (Pa for tractions, m for lengths)."""
         m = self.model
         out = {}
-        for name in self.FIELDS if names is None else names:
+        for name in self.FIELDS:
             scale = m.traction_scale if name in self.TRACTIONS else m.length_scale
             out[name] = host_si(getattr(self, name), scale)
         return out

@@ -591,10 +591,9 @@ class SubsurfaceStress:
 
 def tractions(fields: dict) -> tuple:
     """(p, q_x, q_y) [Pa], the total tractions (elastic and adhesive) of one state's fields (SI,
-    as ``results.state_fields`` or one entry of ``fields.npz``; a shear or adhesive field it
-    lacks is zero)."""
+    as ``results.state_fields`` or one entry of ``fields.npz``)."""
     def total(a, b):
-        f = np.asarray(fields[a], dtype=np.float64) if a in fields else np.zeros(np.shape(fields["pressure"]))
+        f = np.asarray(fields[a], dtype=np.float64)
         return f + np.asarray(fields[b], dtype=np.float64) if b in fields else f
 
     return (total("pressure", "adhesive_pressure"), total("shear_x", "adhesive_shear_x"),
@@ -749,7 +748,7 @@ def state_yield_check(state, friction: bool = True, adhesion: bool = True) -> di
         if adhesion:
             m.launch(ak.add_to, dim=m.n_cells, inputs=[adhesive.flatten()], outputs=[total.flatten()])
         totals.append(total)
-    radius = math.sqrt(float(np.count_nonzero(state.pressure.numpy() > 0)) * m.grid.cell_area / math.pi)
+    radius = contact_radius({"pressure": state.pressure.numpy()}, m.grid.cell_area)
     return _yield_check(m.pair, m.grid, tuple(totals), radius, m.device, m.dtype_name, m.fft_name)
 
 
