@@ -377,3 +377,31 @@ def test_inner_loop_flag_stops_for_a_recompute_or_the_loops_end():
     assert flags(0.02, 0.04, 1.0, it=3) == (1, 1, 0)  # the deferral's bound
     assert flags(0.0, 0.0, 1.0, it=9, chunk=3) == (0, 0, 0)  # the launch's end
     assert flags(0.0, 0.0, 1e-22, it=3) == (0, 0, 0)  # settled
+
+
+@pytest.mark.parametrize("profile", ["sphere", "paraboloid"])
+@pytest.mark.parametrize("dtype", ["float64", "float32"])
+def test_initial_gap_on_the_device_is_the_host_gap(device, dtype, profile):
+    """The model's gap before deformation: on CUDA made by ``kernels/geometry.py``, on the CPU by
+    ``Sphere.initial_gap`` (numpy). The kernel, launched here on the CPU too, against the host's
+    field: within 4 ulp of the largest value in float64 (cell units against metres: the same
+    expression, rounded in another order; measured 4.7e-16), and to the same rounded values in
+    float32 (both computed in float64). A domain past the exact sphere's radius is refused on
+    either path."""
+    from warpcontact.kernels import geometry
+    from warpcontact.errors import InputError
+
+    grid, sphere = Grid(300, 4 * A), Sphere(R, profile)
+    model = ContactModel(PAPER_PAIR, sphere, grid, device=device, dtype=dtype)
+    ref = (sphere.initial_gap(grid) / grid.dx).astype(model.np_dtype)
+    own = wp.zeros(grid.shape, dtype=model.dtype, device=device)
+    wp.launch(geometry.sphere_gap, dim=grid.shape, inputs=[grid.n, wp.float64(R / grid.dx), int(profile == "paraboloid")],
+              outputs=[own], device=device)
+    for gap in (own.numpy(), model.initial_gap.numpy()):
+        if dtype == "float64":
+            assert np.abs(gap - ref).max() < 4 * np.finfo(np.float64).eps * ref.max()
+        else:
+            assert np.array_equal(gap, ref) or np.abs(gap - ref).max() <= np.spacing(ref.max())
+    if profile == "sphere":
+        with pytest.raises(InputError, match="beyond the sphere's radius"):
+            ContactModel(PAPER_PAIR, sphere, Grid(16, 2 * R), device=device, dtype=dtype)

@@ -5,6 +5,8 @@ from __future__ import annotations
 import numpy as np
 import warp as wp
 
+from warpcontact.kernels import geometry
+
 from .device import dtype_name, numpy_dtype, resolve_device, resolve_dtype
 from ..physics.geometry import Grid, Sphere
 from .launch import LaunchCache, ReductionLaunch
@@ -44,7 +46,14 @@ class ContactModel:
         #: launches recorded once and replayed when they repeat (see warpcontact.numerics.launch)
         self.launches = LaunchCache(self.device)
         with wp.ScopedDevice(self.device):
-            self.initial_gap = self.field(sphere.initial_gap(grid) / self.length_scale)
+            if self.device.is_cuda:  # on the device (n = 8192: about 1 s of numpy on the host and the copy)
+                sphere.check_domain(grid)
+                self.initial_gap = self.field()
+                wp.launch(geometry.sphere_gap, dim=grid.shape,
+                          inputs=[grid.n, wp.float64(sphere.radius / grid.dx), int(sphere.profile == "paraboloid")],
+                          outputs=[self.initial_gap])
+            else:
+                self.initial_gap = self.field(sphere.initial_gap(grid) / self.length_scale)
             self.operator = ElasticOperator(pair, grid, self.device, self.dtype, fft, influence)
 
     @property

@@ -88,17 +88,26 @@ class Sphere:
         if self.profile not in ("sphere", "paraboloid"):
             raise InputError("sphere.profile", f"must be 'sphere' or 'paraboloid', got {self.profile!r}")
 
-    def initial_gap(self, grid: Grid) -> np.ndarray:
-        """Gap before deformation h0(x, y) [m] at the cell centres, shape (n, n), float64."""
-        X, Y = grid.mesh()
-        r2 = X**2 + Y**2
+    def check_domain(self, grid: Grid):
+        """Raise InputError("grid.size", ...) where the exact sphere's gap does not exist on the
+        grid (a cell centre at r >= R; the paraboloid has no such limit)."""
         if self.profile == "paraboloid":
-            return r2 / (2.0 * self.radius)
-        if np.max(r2) >= self.radius**2:
+            return
+        corner = 0.5 * (grid.n - 1) * grid.dx  # the farthest cell centre's |x| and |y|
+        if corner * corner + corner * corner >= self.radius**2:
             raise InputError(
                 "grid.size",
                 f"the domain ({grid.size:g} m across) reaches beyond the sphere's radius {self.radius:g} m",
             )
+
+    def initial_gap(self, grid: Grid) -> np.ndarray:
+        """Gap before deformation h0(x, y) [m] at the cell centres, shape (n, n), float64 (on
+        CUDA the model makes it on the device: ``kernels/geometry.py``)."""
+        self.check_domain(grid)
+        X, Y = grid.mesh()
+        r2 = X**2 + Y**2
+        if self.profile == "paraboloid":
+            return r2 / (2.0 * self.radius)
         return r2 / (self.radius + np.sqrt(self.radius**2 - r2))  # = R - sqrt(R^2 - r^2), no cancellation
 
 
