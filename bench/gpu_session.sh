@@ -20,6 +20,9 @@
 #             SIDE_SCRIPT=this: both trees run this tree's bench_iteration.py (the same measurement)
 #   REDUCE=1  bench/reduction_launch.py on cuda:0 (REDUCE_ARGS, default --sizes 1024 2048 4096), warm and --cold
 #   TURNS=1   bench/graph_turns.py on cuda:0 (TURNS_ARGS): what a turn of the device loop costs
+#   SCALING=1 bench/scaling.py on cuda:0 (SCALING_ARGS, default --sizes 256 1024 4096 --dtypes float64
+#             --rows coupled-window coupled-whole): iterations and time per step against n
+#   API=1     bench/api_parts.py on cuda:0 (API_ARGS, default --sizes 4096 --fields none): wc.solve by part
 #   ADH=W     bench/adhesion_sensitivity.py on W CPU workers, in the background while the rest runs
 #             (its cells.jsonl is kept in $OUT/adh; a copy in bench_results/adh/ is resumed)
 set -u
@@ -64,6 +67,15 @@ if [ -n "${SIDE:-}" ]; then
       echo "== $tree, round $k"; tail -n +2 "$OUT/side_${tree}_$k.log"
     done
   done
+fi
+if [ "${SCALING:-0}" = 1 ]; then
+  (cd /tmp && timeout "${SCALING_TIMEOUT:-400}" python3 "$ROOT/bench/scaling.py" --device cuda:0 --fft cupy \
+     ${SCALING_ARGS:---sizes 256 1024 4096 --dtypes float64 --rows coupled-window coupled-whole} \
+     --json "$OUT/scaling_gpu.json" 2>&1 | tee "$OUT/scaling_gpu.log")
+fi
+if [ "${API:-0}" = 1 ]; then
+  (cd /tmp && timeout "${API_TIMEOUT:-300}" python3 "$ROOT/bench/api_parts.py" --device cuda:0 --fft cupy \
+     ${API_ARGS:---sizes 4096 --fields none} 2>&1 | tee "$OUT/api_parts.log")
 fi
 if [ "${REDUCE:-0}" = 1 ]; then
   for mode in "" --cold; do

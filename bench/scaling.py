@@ -16,9 +16,16 @@ delta_z = 1e-10 m then delta_x = 2e-11 m, one step per leg. Rows:
 - ``coupled nested``: ``coupled precond`` with the nested start (``ContactSolver.nested``: each
   step solved first on the grids of n/2, n/4, ... down to 64 cells, its tractions and statuses
   starting the step on n); the coarse grids' iterations are shown after a "+".
+- ``coupled default`` / ``coupled window`` / ``coupled whole``: the solver's defaults (the nested
+  start where ``nested = "auto"`` takes it; the window where ``window = "auto"`` takes it), then
+  with the tangential solves always on the window of the grid that holds the contact
+  (``TangentialSolver.window``), then always on the whole grid, as before the window.
+
+The rows ``coupled-plain`` ... ``coupled-nested`` take the window where ``"auto"`` does.
 
 Columns: the inner iterations (normal and tangential solves together) and turns of each step,
-the tangential iterations among them, the best wall time of each step over ``--repeats`` runs
+the tangential iterations among them, the side of the last tangential solve's window ("w", in
+cells; none where it ran on the whole grid), the best wall time of each step over ``--repeats`` runs
 after one untimed warm-up (kernels loaded, CUDA graphs captured; the device synchronised before
 the clock stops), the model's set-up time, and ``wc.solve`` in process (the whole path through
 the Python API: model, states, summaries and fields, second call of two) unless ``--no-api``.
@@ -50,7 +57,8 @@ import time
 
 R, DZ, DX = 10e-6, 1.0e-10, 2.0e-11
 A = math.sqrt(R * DZ)
-ROWS = ("normal", "coupled-plain", "coupled-precond", "coupled-before", "coupled-nested")
+ROWS = ("normal", "coupled-plain", "coupled-precond", "coupled-before", "coupled-nested", "coupled-default",
+        "coupled-window", "coupled-whole")
 
 
 def configure(solver, row: str):
@@ -58,7 +66,10 @@ def configure(solver, row: str):
     if getattr(solver, "tangential", None) is None:
         return
     solver.tangential.preconditioned = row != "coupled-plain"
-    solver.nested = row == "coupled-nested"
+    if row in ("coupled-window", "coupled-whole"):
+        solver.tangential.window = row == "coupled-window"
+    if row not in ("coupled-default", "coupled-window", "coupled-whole"):
+        solver.nested = row == "coupled-nested"
     if row == "coupled-before":
         solver.normal.preconditioned = False
         solver.turn_tolerance = "change"
@@ -140,7 +151,8 @@ def measure(config: dict) -> dict:
                 best[k] = min(best[k], wall)
             records.append({"iterations": info.iterations, "turns": info.outer_iterations,
                             "coarse_iterations": getattr(solver, "nested_iterations", 0),
-                            "tangential_iterations": counts["tangential"], "converged": bool(info.converged)})
+                            "tangential_iterations": counts["tangential"], "converged": bool(info.converged),
+                            "window": tangential.last_window if tangential is not None else None})
             if cuda:
                 samples.append(in_use() - base)
         out["steps"] = records
@@ -213,7 +225,8 @@ def table(results: list, cuda: bool) -> str:
                 s = r["steps"][k]
                 mark = "" if s["converged"] else " (not converged)"
                 coarse = f" +{s['coarse_iterations']}" if s.get("coarse_iterations") else ""
-                cells += [f"{s['iterations']} ({s['turns']}) [{s['tangential_iterations']}]{coarse}{mark}",
+                window = f" w{s['window']}" if s.get("window") else ""
+                cells += [f"{s['iterations']} ({s['turns']}) [{s['tangential_iterations']}]{coarse}{window}{mark}",
                           f"{s['time_s']:.3f}"]
             else:
                 cells += ["", ""]

@@ -12,6 +12,8 @@ Modules:
     tangential: bounded conjugate gradients for the shear traction (disk bound |q| <= q_max).
     laws: shear limits (Coulomb, Tabor + von Mises).
     coupling: stick targets, slip accumulation, relative changes between coupling turns.
-    grids: transfers between a grid and the grid of half its cells (the nested start of a step).
+    grids: transfers between a grid and the grid of half its cells (the nested start of a step),
+        and a square window of a grid cut out and put back (the tangential solve on its contact).
+    geometry: the sphere's gap before deformation, made on the device.
     fft: row transforms with ``tile_fft`` for the dependency-free FFT backend.
 """

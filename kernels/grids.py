@@ -1,6 +1,7 @@
-"""Transfers between a grid and the grid of half its cells per side over the same domain
-(cell (I, J) of the coarse grid covers cells (2I..2I+1, 2J..2J+1) of the fine one): the nested
-start of a step (``ContactSolver.nested``)."""
+"""Transfers between grids: a grid and the grid of half its cells per side over the same domain
+(cell (I, J) of the coarse grid covers cells (2I..2I+1, 2J..2J+1) of the fine one), for the nested
+start of a step (``ContactSolver.nested``); a square window of a grid cut out and put back, for
+the tangential solve on the cells that can carry shear (``TangentialSolver.window``)."""
 
 from typing import Any
 
@@ -40,3 +41,53 @@ def prolong_constant(coarse: wp.array2d(dtype=Any), fine: wp.array2d(dtype=Any))
 for _k in (restrict_mean, prolong_constant):
     register_float_overloads(_k)
 wp.overload(prolong_constant, {"coarse": wp.array2d(dtype=wp.int32), "fine": wp.array2d(dtype=wp.int32)})
+
+
+# --- a square window of the grid (the tangential solve on the cells that can carry shear) ---
+
+
+@wp.kernel
+def crop(full: wp.array2d(dtype=Any), row0: int, col0: int, window: wp.array2d(dtype=Any)):
+    """window[i, j] <- full[row0 + i, col0 + j]."""
+    i, j = wp.tid()
+    window[i, j] = full[row0 + i, col0 + j]
+
+
+@wp.kernel
+def embed(window: wp.array2d(dtype=Any), row0: int, col0: int, full: wp.array2d(dtype=Any)):
+    """full[row0 + i, col0 + j] <- window[i, j] (the cells outside the window are left as they are)."""
+    i, j = wp.tid()
+    full[row0 + i, col0 + j] = window[i, j]
+
+
+#: rows of one column that a thread of ``support_box`` scans
+SUPPORT_ROWS = wp.constant(64)
+
+
+@wp.kernel
+def support_box(field: wp.array2d(dtype=Any), box: wp.array(dtype=wp.int32)):
+    """The bounding box of the cells where ``field`` > 0: box <- (first row, last row, first
+    column, last column), from box = (n, -1, n, -1). A thread scans SUPPORT_ROWS rows of one
+    column (neighbouring threads read neighbouring cells) and adds its bounds by atomics, once."""
+    block, j = wp.tid()
+    n = field.shape[0]
+    zero = field[0, 0] - field[0, 0]
+    first = n
+    last = int(-1)
+    start = block * SUPPORT_ROWS
+    end = wp.min(start + SUPPORT_ROWS, n)
+    for i in range(start, end):
+        if field[i, j] > zero:
+            first = wp.min(first, i)
+            last = i
+    if last >= 0:
+        wp.atomic_min(box, 0, first)
+        wp.atomic_max(box, 1, last)
+        wp.atomic_min(box, 2, j)
+        wp.atomic_max(box, 3, j)
+
+
+for _k in (crop, embed, support_box):
+    register_float_overloads(_k)
+for _k in (crop, embed):
+    wp.overload(_k, [wp.array2d(dtype=wp.int32), int, int, wp.array2d(dtype=wp.int32)])

@@ -16,8 +16,12 @@ The estimate is counted from the allocations in the code, not fitted:
 - ``NormalSolver``: 4 fields (direction, response, interference, no_displacement) and its scalars (sums,
   scalars, a residual history of max_iter + 1); ``ContactSolver``: 9 fields (known_z/x/y,
   adhesive_z/x/y, previous x 3) and 8 scalars; with friction also ``TangentialSolver``'s 7 fields
-  (grad, dir, resp x/y, no_displacement) with its scalars, and the solver's target_x/y,
-  shear_limit and scratch_x/y (5 fields). With adhesion, ``AndersonMixing`` holds 3 + 2 x DEPTH
+  (no_displacement; grad, dir, resp x/y, made by its first solve on the whole grid) with its
+  scalars, and the solver's target_x/y, shear_limit and scratch_x/y (5 fields). Not counted: the
+  windows of the tangential solves (``TangentialSolver.window``), each a model and about 18
+  fields of its m x m cells (m <= 0.75 n; 8 GiB at n = 8192 float64, m = 4096), made beside
+  these where they fit: on CUDA a window that does not fit in the free memory is not made and
+  the solve runs on the whole grid, within this estimate. With adhesion, ``AndersonMixing`` holds 3 + 2 x DEPTH
   fields per component of the adhesive vector (3; 1 without friction) and 2 + 3 x DEPTH
   scalars; without friction also ``AdhesiveNormalSolver``: ``adhesive.PADDED_FIELDS`` + 2 x
   MEMORY fields on the padded (2n, 2n) grid (4 (n, n) fields each) and 3 (n, n) fields, and its

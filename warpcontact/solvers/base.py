@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import gc
 import math
 from collections import OrderedDict
 
@@ -124,8 +125,17 @@ class ProjectedCG:
         work()
         if not set(needs) <= self._ran_eagerly:
             return
-        with wp.ScopedCapture(device=self.model.device, force_module_load=False) as capture:
-            work()
+        # no garbage collection while capturing: a collected FFT backend's plans destroyed there
+        # (cufftDestroy frees device memory) invalidate the capture (CUDA error 901). Seen on an
+        # H100 when a test's solvers, held in a reference cycle, were collected during a capture.
+        collecting = gc.isenabled()
+        gc.disable()
+        try:
+            with wp.ScopedCapture(device=self.model.device, force_module_load=False) as capture:
+                work()
+        finally:
+            if collecting:
+                gc.enable()
         self._graphs[key] = capture.graph
         while len(self._graphs) > self.max_graphs:
             self._graphs.popitem(last=False)

@@ -203,7 +203,8 @@ class ContactSolver:
         """Displacements of the tractions held fixed in a turn: the coupling of the other unknown,
         plus the adhesive tractions' (computed once per update in ``_update_adhesion``). ``normal``:
         known_z, for a normal solve (from the shear); ``tangential``: known_x, known_y, for a
-        tangential solve (from the pressure). Each solve of a turn needs only its own: half the
+        tangential solve (the adhesive tractions' alone: the tangential solve adds the pressure's
+        K_tp p itself, on the window it solves on). Each solve of a turn needs only its own: half the
         transforms of making all three before each. With the solves' shortcuts of a turn (no
         second convolution where a solve settles at once, ``displacement_current``), a coupled
         step at n = 256 (``bench_iteration.py``'s, CPU) made 855 forward transforms instead of 929,
@@ -216,11 +217,9 @@ class ContactSolver:
                 m.operator.cross_normal(state.shear_x, state.shear_y, self.known_z)
             if self.adhesion is not None:
                 m.launch(ak.add_to, dim=m.n_cells, inputs=[self.adhesive_z.flatten()], outputs=[self.known_z.flatten()])
-        if tangential:
+        if tangential:  # (the pressure's coupling K_tp p: the tangential solve adds it, on its window)
             self.known_x.zero_()
             self.known_y.zero_()
-            if self.coupled:
-                m.operator.cross_tangential(state.pressure, self.known_x, self.known_y)
             if self.adhesion is not None and self.friction is not None:
                 for src, dst in ((self.adhesive_x, self.known_x), (self.adhesive_y, self.known_y)):
                     m.launch(ak.add_to, dim=m.n_cells, inputs=[src.flatten()], outputs=[dst.flatten()])
@@ -231,6 +230,7 @@ class ContactSolver:
         (during the turns state.disp_x/y must stay K_tt q)."""
         m = self.model
         L = m.length_scale
+        self.tangential.whole_displacement(state)  # where the last solve left them on its window
         known_x = self.known_x if self.iterative else self.tangential.no_displacement
         known_y = self.known_y if self.iterative else self.tangential.no_displacement
         m.launch(
@@ -313,8 +313,9 @@ class ContactSolver:
                     check_contact_fits(state)
                     return info
         if self.iterative:  # gap and u_z with the final tractions held fixed
-            # known_x, known_y are current: the last turn made them from this pressure before its
-            # tangential solve (and nothing reads them without friction)
+            # known_x, known_y: the last turn's adhesive part; _update_slip adds the pressure's
+            # K_tp p where the last tangential solve left it to make (and nothing reads them
+            # without friction)
             self._known_displacements(state, tangential=False)
             final = self.normal.solve(state, dz, self.known_z, displacement_current=True)  # as the turns left it
             iterations += final.iterations
@@ -371,6 +372,7 @@ class ContactSolver:
         if pair is None:
             return
         coarse, cstate = pair
+        coarse.tangential.window = self.tangential.window
         m, cm = self.model, coarse.model
         half = cm.grid.shape
         for name, scale in (("slip_x", 0.5), ("slip_y", 0.5), ("pressure", 1.0), ("shear_x", 1.0), ("shear_y", 1.0)):
@@ -425,6 +427,7 @@ class ContactSolver:
                 tangential_info = self.tangential.solve(
                     state, self.target_x, self.target_y, self.shear_limit,
                     self.known_x if self.iterative else None, self.known_y if self.iterative else None, tol=turn_tol,
+                    pressure=state.pressure if self.coupled else None, whole=False,
                 )
                 iterations += tangential_info.iterations
                 if self.adhesion is not None:  # the adhesive shear follows the current slip
@@ -490,7 +493,7 @@ class ContactSolver:
                             [self.previous[0].flatten(), self.change])
             self._tangential_known(state, x)
             tangential_info = self.tangential.solve(state, self.target_x, self.target_y, self.shear_limit,
-                                                    self.known_x, self.known_y, tol=turn_tol)
+                                                    self.known_x, self.known_y, tol=turn_tol, whole=False)
             iterations += tangential_info.iterations
             self._update_slip(state, dx, dy)
             if self.has_adhesive_shear:  # the law's adhesive shear at the turn's gap and slip

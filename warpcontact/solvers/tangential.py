@@ -2,14 +2,53 @@
 
 from __future__ import annotations
 
+from collections import OrderedDict
+
+import numpy as np
 import warp as wp
 
+from warpcontact.kernels import adhesion as ak
+from warpcontact.kernels import grids as gk
 from warpcontact.kernels import reduce
 from warpcontact.kernels import tangential as tk
 
 from ..numerics.launch import Rows, Sums
 from ..numerics.state import SolveInfo
 from .base import ProjectedCG, raise_non_finite
+
+#: window sizes (cells per side): these numbers times a power of two, so that the window's padded
+#: transforms (2m points) have no prime factor over 7
+WINDOW_STEPS = (8, 9, 10, 12, 14, 15, 16)
+#: the largest window, as a share of the grid's cells per side; a contact wider than its window
+#: is solved on the whole grid (a window of 0.75 n transforms 56 % of the whole grid's entries)
+WINDOW_MAX_SHARE = 0.75
+#: window solvers kept (one per size), the least recently used let go
+WINDOW_CACHE = 2
+#: ``window = "auto"`` (the default): windows from these grids on (cells per side), by device
+#: kind, where they were measured to cost less than they save (``bench/scaling.py``, rows
+#: coupled-default and coupled-whole side by side; the issue's coupled problem, two steps).
+#: 2 CPU cores: 0.85x at n = 64, 1.75x at 128, 2.1x at 256, 1.6x at 512 (nested); H100: 0.77x at
+#: 256, 1.25-1.65x at 1024, 2.4-2.9x at 4096, 3.4x at 8192 (float64)
+WINDOW_AUTO_N = {"cpu": 128, "cuda": 1024}
+
+
+def window_cells(extent: int, n: int) -> int | None:
+    """The side of the window (cells) that holds a support ``extent`` cells wide on a grid of n
+    cells per side: the smallest of WINDOW_STEPS times a power of two that is at least ``extent``
+    (and at least 8); None where that is over WINDOW_MAX_SHARE x n."""
+    extent = max(int(extent), WINDOW_STEPS[0])
+    scale = 1
+    while WINDOW_STEPS[-1] * scale < extent:
+        scale *= 2
+    cells = next(step * scale for step in WINDOW_STEPS if step * scale >= extent)
+    return cells if cells <= WINDOW_MAX_SHARE * n else None
+
+
+def window_origin(first: int, last: int, cells: int, n: int) -> int:
+    """First row (or column) of a window of ``cells`` that holds rows ``first`` .. ``last`` of a
+    grid of n: the support centred in it, the window moved inside the grid where it would leave it."""
+    start = first - (cells - (last - first + 1)) // 2
+    return min(max(start, 0), n - cells)
 
 
 class TangentialSolver(ProjectedCG):
@@ -52,6 +91,20 @@ class TangentialSolver(ProjectedCG):
     ``preconditioned=False``: the iteration as Chen & Wang publish it, with Jacobi scaling: K q
     for the exact gradient and K t for the step at every iteration (two applications).
 
+    The window (``window``; by default from ``WINDOW_AUTO_N`` cells per side on, where it was
+    measured to pay): the shear lives on the cells where q_max > 0 (the
+    contact), and a solve is the same problem on any grid of the same cells that holds them all,
+    the tractions outside it being zero. A solve therefore runs on the smallest square window of
+    the grid that holds the contact (``window_cells``: 8, 9, 10, 12, 14, 15 or 16 times a power of
+    two), with an operator of its own (the same cell size: the same influence coefficients, padded
+    to 2m instead of 2n), where that window is at most ``WINDOW_MAX_SHARE`` of the grid per side;
+    the shear and statuses are put back (zero outside it), and the whole grid's K_tt q is made
+    once at the end. Only the preconditioner differs (the circulant inverse on the smaller padded
+    grid), and with it the iterates' rounding and the iteration count by a few. A contact half the
+    domain wide (domain 4 sqrt(R delta_z)) takes a window of 9/16 n: each iteration's transforms
+    have 32 % of the entries. Windows are kept per size (``WINDOW_CACHE``); on CUDA a window whose
+    arrays would not fit in the free memory is not made (the solve runs on the whole grid).
+
     Args:
         model: the :class:`~warpcontact.numerics.model.ContactModel`.
         tol: relative residual to reach (default: 1e-10 in float64, 1e-5 in float32).
@@ -66,9 +119,9 @@ class TangentialSolver(ProjectedCG):
                  preconditioned: bool = True):
         super().__init__(model, tk.N_SUMS_PRECONDITIONED, tk.N_SCALARS, tol, max_iter, use_graphs)
         f = model.field
-        self.grad_x, self.grad_y = f(), f()
-        self.dir_x, self.dir_y = f(), f()
-        self.resp_x, self.resp_y = f(), f()
+        #: the iteration's fields on the whole grid (gradient, direction, response), made by the
+        #: first solve that runs on the whole grid (solves on a window use the window's)
+        self.grad_x = self.grad_y = self.dir_x = self.dir_y = self.resp_x = self.resp_y = None
         self.no_displacement = f()
         # self-influence of the tangential kernel (scaled): the Jacobi preconditioner of stick
         # cells, and 1 / it the step of released cells when no conjugate step is defined
@@ -96,8 +149,20 @@ class TangentialSolver(ProjectedCG):
         #: launches of the last preconditioned solve that settled on a carried g whose exact
         #: value did not meet the tolerance (the loop then went on from the exact g)
         self.disagreements = 0
+        #: solve on the window of the grid that holds the contact (class docstring): True, False
+        #: (on the whole grid always) or "auto": from WINDOW_AUTO_N cells per side on
+        self.window: bool | str = "auto"
+        #: the side of the last solve's window in cells, None where it ran on the whole grid
+        self.last_window: int | None = None
+        self._windows: OrderedDict = OrderedDict()  # cells -> _Window
+        self._refused: set = set()  # window sizes that did not fit in the device's memory
+        self._box = wp.zeros(4, dtype=wp.int32, device=model.device)
+        #: (state, pressure, known_x, known_y) of the last solve on a window whose whole-grid
+        #: displacements are still to make (``whole_displacement``)
+        self._pending = None
 
-    def solve(self, state, target_x, target_y, shear_limit, known_x=None, known_y=None, tol=None) -> SolveInfo:
+    def solve(self, state, target_x, target_y, shear_limit, known_x=None, known_y=None, tol=None, pressure=None,
+              whole: bool = True) -> SolveInfo:
         """Solve for ``state.shear_x/y`` and ``state.status``.
 
         Args:
@@ -105,14 +170,109 @@ class TangentialSolver(ProjectedCG):
                 ``disp_x/y`` receive K_tt q.
             target_x, target_y: delta - s_prev [scaled]: where stick cells must stay.
             shear_limit: q_max per cell [scaled].
-            known_x, known_y: tangential displacement from other tractions held fixed (the
-                pressure's coupling term K_tp p), scaled; zero if None.
+            known_x, known_y: tangential displacement from other tractions held fixed, scaled;
+                zero if None.
+            pressure: the contact pressure [scaled] whose tangential displacement K_tp p (the
+                coupling of dissimilar materials) is held fixed beside ``known_x/y``, made by the
+                solver on the grid it solves on (the window holds the pressure's cells too).
+                ``known_x/y`` (then required) receive the sum on the whole grid: at once where
+                the solve runs on it, else by :meth:`whole_displacement`.
+            whole: make ``state.disp_x/y`` (and the sum above) on the whole grid at the end of a
+                solve on a window; False: leave that to :meth:`whole_displacement`, which a caller
+                that solves in turns calls only where it reads them (four or seven transforms of
+                the whole padded grid saved per solve).
         """
+        self._pending = None  # (a window's displacements left to make belong to the tractions this solve replaces)
+        if pressure is not None and (known_x is None or known_y is None):
+            raise ValueError("TangentialSolver.solve: pass known_x and known_y to receive K_tp p with pressure")
         known_x = known_x if known_x is not None else self.no_displacement
         known_y = known_y if known_y is not None else self.no_displacement
+        window = self._window_for(shear_limit, pressure) if self.uses_window else None
+        self.last_window = None if window is None else window.cells
+        if window is not None:
+            info = window.solve(self, state, target_x, target_y, shear_limit, known_x, known_y, tol, pressure)
+            self._pending = (state, pressure, known_x, known_y)
+            if whole:
+                self.whole_displacement(state)
+            return info
+        self.make_whole_grid_fields()
+        if pressure is not None:
+            self._add_coupling(state, pressure, known_x, known_y)
         if self.preconditioned:
             return self._solve_preconditioned(state, target_x, target_y, shear_limit, known_x, known_y, tol)
         return self._solve_plain(state, target_x, target_y, shear_limit, known_x, known_y, tol)
+
+    def whole_displacement(self, state):
+        """Where the last solve ran on a window for ``state`` with ``whole`` False: make
+        ``state.disp_x/y`` = K_tt q on the whole grid, and add K_tp p of its ``pressure`` (as it is
+        now) to its ``known_x/y``. Nothing otherwise (and nothing a second time)."""
+        if self._pending is None or state is None or self._pending[0] is not state:
+            return
+        _, pressure, known_x, known_y = self._pending
+        self._pending = None
+        if pressure is not None:
+            self._add_coupling(state, pressure, known_x, known_y)
+        self.model.operator.tangential(state.shear_x, state.shear_y, state.disp_x, state.disp_y)
+
+    def _add_coupling(self, state, pressure, known_x, known_y):
+        """known_x/y += K_tp p on the whole grid, made in ``state.disp_x/y`` (free: K_tt q is made
+        there next)."""
+        m = self.model
+        m.operator.cross_tangential(pressure, state.disp_x, state.disp_y)
+        for src, dst in ((state.disp_x, known_x), (state.disp_y, known_y)):
+            m.launch(ak.add_to, dim=m.n_cells, inputs=[src.flatten()], outputs=[dst.flatten()])
+
+    def make_whole_grid_fields(self):
+        """Make the iteration's fields on the whole grid (gradient, direction, response) if they
+        are not there: the first solve on the whole grid does. ``resources.breakdown`` counts them
+        (the arrays a solve on the whole grid holds)."""
+        if self.grad_x is None:
+            f = self.model.field
+            self.grad_x, self.grad_y, self.dir_x, self.dir_y, self.resp_x, self.resp_y = (f() for _ in range(6))
+
+    @property
+    def uses_window(self) -> bool:
+        """Whether solves may run on a window (``window``; "auto": n of at least WINDOW_AUTO_N of
+        the device's kind)."""
+        if self.window == "auto":
+            return self.model.grid.n >= WINDOW_AUTO_N["cuda" if self.model.device.is_cuda else "cpu"]
+        return bool(self.window)
+
+    @property
+    def graph_count(self) -> int:
+        """CUDA graphs captured and kept, its windows' included."""
+        return len(self._graphs) + sum(w.solver.graph_count for w in self._windows.values())
+
+    def _window_for(self, shear_limit, pressure=None):
+        """The window of the contact (cells where ``shear_limit`` > 0, or ``pressure`` > 0),
+        placed over it; None where the solve runs on the whole grid (no contact, a contact wider
+        than the largest window, a window that does not fit). One read of the device: the
+        contact's bounding box."""
+        m = self.model
+        n = m.grid.n
+        self._box.assign(np.array([n, -1, n, -1], dtype=np.int32))
+        for field in (shear_limit, pressure):
+            if field is not None:
+                wp.launch(gk.support_box, dim=(-(-n // int(gk.SUPPORT_ROWS)), n), inputs=[field],
+                          outputs=[self._box], device=m.device)
+        first_row, last_row, first_col, last_col = (int(v) for v in self._box.numpy())
+        if last_row < 0:
+            return None
+        cells = window_cells(max(last_row - first_row, last_col - first_col) + 1, n)
+        if cells is None or cells in self._refused:
+            return None
+        window = self._windows.get(cells)
+        if window is None:
+            if m.device.is_cuda and not _Window.fits(m, cells):
+                self._refused.add(cells)
+                return None
+            window = self._windows[cells] = _Window(self, cells)
+            while len(self._windows) > WINDOW_CACHE:
+                self._windows.popitem(last=False)
+        self._windows.move_to_end(cells)
+        window.row0 = window_origin(first_row, last_row, cells, n)
+        window.col0 = window_origin(first_col, last_col, cells, n)
+        return window
 
     def _fields(self, state, target_x, target_y, shear_limit, known_x, known_y):
         """The fields flattened, marked as the CPU splits the reducing passes over its threads."""
@@ -233,3 +393,76 @@ class TangentialSolver(ProjectedCG):
         key = self._key(state, target_x, target_y, shear_limit, known_x, known_y)
         return self._run(key, start, gradient, body, self._on_non_finite(state))
 
+
+
+class _Window:
+    """A square window of ``cells`` per side of a solver's grid (``TangentialSolver.window``): a
+    model of its own (the same materials and cell size), a tangential solver on it, and the
+    fields of a solve, cut out of the whole grid's at ``(row0, col0)`` and put back."""
+
+    #: the fields a solve reads, by the names of ``TangentialSolver.solve``'s arguments
+    INPUTS = ("target_x", "target_y", "shear_limit", "known_x", "known_y")
+
+    def __init__(self, parent: TangentialSolver, cells: int):
+        from ..numerics.model import ContactModel
+        from ..physics.geometry import Grid
+
+        m = parent.model
+        self.cells = int(cells)
+        self.row0 = self.col0 = 0
+        model = ContactModel(m.pair, m.sphere, Grid(self.cells, self.cells * m.grid.dx), device=m.device,
+                             dtype=m.dtype_name, fft=m.fft_name)
+        self.solver = TangentialSolver(model, parent.tol, parent.max_iter, use_graphs=parent.use_graphs,
+                                       preconditioned=parent.preconditioned)
+        self.solver.window = False
+        f = model.field
+        # the state the window's solve works on (the attributes of ContactState it reads and writes)
+        self.shear_x, self.shear_y, self.disp_x, self.disp_y = f(), f(), f(), f()
+        self.status = wp.zeros(model.grid.shape, dtype=wp.int32, device=model.device)
+        for name in self.INPUTS:
+            setattr(self, name, f())
+        self._pressure = None
+
+    @property
+    def pressure(self):
+        """The pressure cut out for the coupling's known displacement (made when first needed)."""
+        if self._pressure is None:
+            self._pressure = self.solver.model.field()
+        return self._pressure
+
+    @staticmethod
+    def fits(model, cells: int) -> bool:
+        """Whether a window of ``cells`` fits in the free memory of the model's (CUDA) device
+        (``resources.breakdown`` of a friction problem of that size, which counts more fields than
+        a window holds)."""
+        from ..numerics import resources
+
+        need = resources.breakdown(cells, model.dtype_name, "cuda", True, model.fft_name, states=0)["total"]
+        return need <= resources.memory_limit(model.device)[0]
+
+    def _transfer(self, kernel, pairs):
+        m = self.solver.model
+        for src, dst in pairs:
+            wp.launch(kernel, dim=m.grid.shape, inputs=[src, self.row0, self.col0], outputs=[dst], device=m.device)
+
+    def solve(self, parent: TangentialSolver, state, target_x, target_y, shear_limit, known_x, known_y, tol,
+              pressure) -> SolveInfo:
+        """``parent.solve`` on the window: its fields cut out (with ``pressure``, K_tp p made on
+        the window and added to the known displacement there), solved, the shear and statuses put
+        back (zero and out of contact outside). The whole grid's displacements are the parent's
+        to make (``whole_displacement``)."""
+        solver = self.solver
+        for name in ("preconditioned", "exact_every", "deferral", "iterations_per_launch", "restart_every"):
+            setattr(solver, name, getattr(parent, name))
+        whole = (state.shear_x, state.shear_y, state.status, target_x, target_y, shear_limit, known_x, known_y)
+        own = (self.shear_x, self.shear_y, self.status, *(getattr(self, name) for name in self.INPUTS))
+        self._transfer(gk.crop, zip(whole, own))
+        if pressure is not None:
+            self._transfer(gk.crop, [(pressure, self.pressure)])
+            solver._add_coupling(self, self.pressure, self.known_x, self.known_y)
+        info = solver.solve(self, *own[3:], tol=tol)
+        parent.disagreements = solver.disagreements
+        for a in whole[:3]:
+            a.zero_()
+        self._transfer(gk.embed, zip(own[:3], whole[:3]))
+        return info
