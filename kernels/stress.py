@@ -9,9 +9,10 @@ scaled units (divided by E*).
 Basis functions. The stress of a uniform traction on a cell is a combination (``stress.py``,
 ``STRESS_TABLE``) of 14 functions ``corner_term(b, x, y, z)``, each an antiderivative in x and y
 of a derivative of Love's potential Omega = z ln(rho + z) - rho; the integral over a cell is their
-sum over its four corners with signs (+ - - +). ``basis_quadrant`` evaluates one of them for the
-offsets (0..n-1) x (0..n-1) of the cells, weighted for the spectral reconstruction of the whole
-padded kernel from this quadrant (``stress_spectra``): each basis kernel is even or odd in x and
+sum over its four corners with signs (+ - - +). ``basis_corners`` evaluates one of them on the
+(n + 1) x (n + 1) corners of the quadrant's cells, once per corner (each is shared by four
+cells), and ``basis_quadrant`` sums them for the offsets (0..n-1) x (0..n-1) of the cells,
+weighted for the spectral reconstruction of the whole padded kernel from this quadrant (``stress_spectra``): each basis kernel is even or odd in x and
 in y (``BASIS_PARITY``), so the quadrant holds all of it.
 """
 
@@ -80,22 +81,27 @@ def corner_term(basis: int, x: wp.float64, y: wp.float64, z: wp.float64) -> wp.f
     return v
 
 
-@wp.func
-def cell_integral(basis: int, x: wp.float64, y: wp.float64, z: wp.float64) -> wp.float64:
-    """The basis kernel integrated over the cell [x - 1/2, x + 1/2] x [y - 1/2, y + 1/2] (cells)."""
+@wp.kernel
+def basis_corners(basis: int, depth: wp.float64, row0: int, corners: wp.array2d(dtype=wp.float64)):
+    """corners[i, j] <- ``corner_term`` of basis ``basis`` at the cell corner (x, y) = (j - 1/2,
+    i - 1/2) cells and ``depth`` (cells), for the (n + 1) x (n + 1) corners of the quadrant's
+    cells; row i = row0 + the thread's row (a part of the rows: ``SubsurfaceStress._rows``)."""
+    r, j = wp.tid()
+    i = r + row0
     h = wp.float64(0.5)
-    return (corner_term(basis, x + h, y + h, z) - corner_term(basis, x + h, y - h, z)
-            - corner_term(basis, x - h, y + h, z) + corner_term(basis, x - h, y - h, z))
+    corners[i, j] = corner_term(basis, wp.float64(j) - h, wp.float64(i) - h, depth)
 
 
 @wp.kernel
-def basis_quadrant(basis: int, depth: wp.float64, weighted: int, out: wp.array2d(dtype=Any)):
-    """out[i, j] <- the cell integral of basis kernel ``basis`` at offset (x, y) = (j, i) cells and
-    ``depth`` (cells), in float64 and then cast to out's type. With ``weighted``: times w(i) w(j),
-    w(0) = 1 and 2 elsewhere (each offset off an axis stands for its mirror images too:
-    ``stress_spectra``)."""
-    i, j = wp.tid()
-    v = cell_integral(basis, wp.float64(j), wp.float64(i), depth)
+def basis_quadrant(corners: wp.array2d(dtype=wp.float64), weighted: int, row0: int, out: wp.array2d(dtype=Any)):
+    """out[i, j] <- the integral of a basis kernel over the cell at offset (x, y) = (j, i) cells,
+    [x - 1/2, x + 1/2] x [y - 1/2, y + 1/2]: its corner terms (``basis_corners``) summed over the
+    cell's corners with signs (+ - - +), in float64 and then cast to out's type; row i = row0 +
+    the thread's row. With ``weighted``: times w(i) w(j), w(0) = 1 and 2 elsewhere (each offset
+    off an axis stands for its mirror images too: ``stress_spectra``)."""
+    r, j = wp.tid()
+    i = r + row0
+    v = corners[i + 1, j + 1] - corners[i, j + 1] - corners[i + 1, j] + corners[i, j]
     if weighted != 0:
         if i > 0:
             v = v * wp.float64(2.0)
@@ -114,21 +120,28 @@ def times_i(a: Any):
 def stress_spectra(
     basis_spectra: wp.array3d(dtype=Any),
     traction_spectra: wp.array3d(dtype=Any),
-    coefficients: wp.array3d(dtype=Any),
+    terms: wp.array(dtype=wp.vec3i),
+    weights: wp.array(dtype=Any),
+    count: int,
     parity: wp.array(dtype=int),
     half_axis: int,
+    row0: int,
     stress: wp.array3d(dtype=Any),
 ):
     """The spectra of the six stress components of one body at one depth, from the spectra of
-    the weighted basis quadrants (``basis_quadrant``) and of the three tractions acting on it.
+    the weighted basis quadrants (``basis_quadrant``) and of the tractions acting on it.
 
     For basis b with spectrum F of its weighted quadrant, the spectrum of the whole kernel on the
     padded grid (offsets -(n-1)..n-1 each way) is, with Fm = F at (kx, -ky) (the full axis of the
     real transform's layout is y; ``half_axis`` is x's axis in the array):
     even/even 1/2 Re(F + Fm); odd in x 1/2 i Im(F + Fm); odd in y 1/2 i Im(F - Fm);
-    odd/odd 1/2 Re(F - Fm) (``parity`` 0, 1, 2, 3). Then stress[c] = sum over loads l and bases b
-    of coefficients[c, l, b] K_b t_l (a DC-FFT product, Liu, Wang & Liu 2000)."""
-    i, j = wp.tid()
+    odd/odd 1/2 Re(F - Fm) (``parity`` 0, 1, 2, 3). Then stress[c] = sum of weights[t] K_b t_l
+    over the ``count`` terms t = (c, l, b) (``terms``, sorted by basis b, then load l): the
+    non-zero coefficients of the stress table (44 of its 6 x 3 x 14 entries; 14 for a pressure
+    alone), so each basis is read once and each product K_b t_l made once (a DC-FFT product, Liu,
+    Wang & Liu 2000). Row i = row0 + the thread's row."""
+    r, j = wp.tid()
+    i = r + row0
     mi = i
     mj = j
     if half_axis == 1:
@@ -145,27 +158,47 @@ def stress_spectra(
     s3 = s0
     s4 = s0
     s5 = s0
-    for b in range(basis_spectra.shape[0]):
-        f = basis_spectra[b, i, j]
-        fm = basis_spectra[b, mi, mj]
-        kind = parity[b]
-        kappa = half * (f[0] + fm[0])
-        if kind == 1:
-            kappa = half * (f[1] + fm[1])
-        elif kind == 2:
-            kappa = half * (f[1] - fm[1])
-        elif kind == 3:
-            kappa = half * (f[0] - fm[0])
-        for l in range(3):
+    kt = s0
+    kappa = half * (t0[0] - t0[0])
+    kind = int(0)
+    last_b = int(-1)
+    last_l = int(-1)
+    for t in range(count):
+        term = terms[t]
+        c = term[0]
+        l = term[1]
+        b = term[2]
+        if b != last_b:
+            f = basis_spectra[b, i, j]
+            fm = basis_spectra[b, mi, mj]
+            kind = parity[b]
+            kappa = half * (f[0] + fm[0])
+            if kind == 1:
+                kappa = half * (f[1] + fm[1])
+            elif kind == 2:
+                kappa = half * (f[1] - fm[1])
+            elif kind == 3:
+                kappa = half * (f[0] - fm[0])
+            last_b = b
+            last_l = -1
+        if l != last_l:
             kt = kappa * traction_spectra[l, i, j]
             if kind == 1 or kind == 2:
                 kt = times_i(kt)
-            s0 += coefficients[0, l, b] * kt
-            s1 += coefficients[1, l, b] * kt
-            s2 += coefficients[2, l, b] * kt
-            s3 += coefficients[3, l, b] * kt
-            s4 += coefficients[4, l, b] * kt
-            s5 += coefficients[5, l, b] * kt
+            last_l = l
+        w = weights[t]
+        if c == 0:
+            s0 += w * kt
+        elif c == 1:
+            s1 += w * kt
+        elif c == 2:
+            s2 += w * kt
+        elif c == 3:
+            s3 += w * kt
+        elif c == 4:
+            s4 += w * kt
+        else:
+            s5 += w * kt
     stress[0, i, j] = s0
     stress[1, i, j] = s1
     stress[2, i, j] = s2
@@ -259,10 +292,12 @@ def take_line(fields: wp.array3d(dtype=Any), index: int, along_x: int, out: wp.a
 
 
 for _r, _v in ((wp.float32, wp.vec2f), (wp.float64, wp.vec2d)):
-    wp.overload(basis_quadrant, {"basis": int, "depth": wp.float64, "weighted": int, "out": wp.array2d(dtype=_r)})
+    wp.overload(basis_quadrant, {"corners": wp.array2d(dtype=wp.float64), "weighted": int, "row0": int,
+                                 "out": wp.array2d(dtype=_r)})
     wp.overload(stress_spectra, {"basis_spectra": wp.array3d(dtype=_v), "traction_spectra": wp.array3d(dtype=_v),
-                                 "coefficients": wp.array3d(dtype=_r), "parity": wp.array(dtype=int),
-                                 "half_axis": int, "stress": wp.array3d(dtype=_v)})
+                                 "terms": wp.array(dtype=wp.vec3i), "weights": wp.array(dtype=_r), "count": int,
+                                 "parity": wp.array(dtype=int), "half_axis": int, "row0": int,
+                                 "stress": wp.array3d(dtype=_v)})
     wp.overload(derived_fields, {"stress": wp.array3d(dtype=_r), "derived": wp.array3d(dtype=_r)})
     wp.overload(von_mises_field, {"stress": wp.array3d(dtype=_r), "derived": wp.array3d(dtype=_r)})
     wp.overload(row_maxima, {"fields": wp.array3d(dtype=_r), "field": int, "values": wp.array(dtype=_r),

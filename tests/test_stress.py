@@ -6,6 +6,7 @@ tolerance says where it comes from.
 
 import json
 import math
+import os
 
 import numpy as np
 import pytest
@@ -281,6 +282,38 @@ def test_symmetry_of_the_frictionless_field():
         assert np.abs(v["sigma_xy"] + flip_x(v["sigma_xy"])).max() <= tol
         assert np.abs(v["sigma_xy"] + flip_y(v["sigma_xy"])).max() <= tol
         assert np.abs(v["sigma_yy"] - v["sigma_xx"].transpose(0, 2, 1)).max() <= tol
+
+
+def test_zero_shear_left_out_and_rows_split_change_no_bit():
+    """The evaluation leaves out the terms of a zero traction (a shear given as None, or as numpy
+    zeros: neither transformed nor summed, and the basis kernels only the pressure uses are the
+    ones made) and splits its kernels' rows over the CPU's threads (n = 256: 65536 entries). Each
+    entry is computed alone and the terms left out only add zeros, so every stress is the same to
+    the last bit as with the shear's spectra (Warp arrays of zeros, summed) and on one thread."""
+    import warp as wp
+
+    a = 1e-6
+    grid = Grid(256, 3 * a)
+    p = _hertz_pressure(grid, a, 1e9)
+    depths = [0.02 * a, 0.5 * a]
+    results = []
+    for shear, threads in (("none", None), ("numpy", None), ("warp", None), ("none", 1)):
+        evaluator = st.SubsurfaceStress(PAIR, grid, depths, volume=True)
+        if threads:
+            evaluator._threads = threads
+        if shear == "warp":  # (device arrays are loaded as they are: their terms are summed)
+            zero = wp.zeros(grid.shape, dtype=wp.float64)
+            pressure = wp.array(p / PAIR.E_star, dtype=wp.float64)
+            results.append(evaluator.evaluate(pressure, zero, zero))
+            assert evaluator._loads == (True, True, True)
+            continue
+        q = None if shear == "none" else 0 * p
+        results.append(evaluator.evaluate(p, q, q))
+        assert evaluator._loads == (True, False, False) and evaluator._threads == (threads or os.cpu_count())
+    for other in results[1:]:
+        for name in st.BODIES:
+            for f in st.FIELDS:
+                assert np.array_equal(other.bodies[name].volume[f], results[0].bodies[name].volume[f]), (name, f)
 
 
 def test_sphere_carries_minus_the_shear():

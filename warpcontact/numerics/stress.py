@@ -46,6 +46,7 @@ corner sums cancel to 1/r^2 of the corner terms' size far from the load).
 from __future__ import annotations
 
 import math
+import os
 import time
 from dataclasses import dataclass, field
 
@@ -66,6 +67,10 @@ BASIS = ((1, 1, 1), (1, 2, 0), (2, 1, 0), (1, 2, 1), (2, 1, 1), (1, 1, 2), (2, 0
          (0, 2, 2), (1, 0, 2), (0, 1, 2), (1, 0, 3), (0, 1, 3))
 #: parity of each basis kernel: 0 even in x and y, 1 odd in x, 2 odd in y, 3 odd in both
 BASIS_PARITY = tuple((a % 2) + 2 * (b % 2) for a, b, _ in BASIS)
+#: on the CPU the stress kernels' launches split their rows over the CPU's threads from this many
+#: entries on (``SubsurfaceStress._rows``; smaller launches cost less than the threads' start),
+#: as the solvers' launches do (``LaunchCache.min_split_entries``)
+SPLIT_ROWS_FROM_CELLS = 2**16
 #: default number of depths and the deepest one in contact radii (``default_depths``)
 DEFAULT_LAYERS = 32
 DEFAULT_MAX_DEPTH_IN_A = 2.0
@@ -123,10 +128,12 @@ def cell_kernels(nu: float, z_cells: float, size: int, device="cpu") -> np.ndarr
     from warpcontact.kernels import stress as ks
 
     basis = np.empty((len(BASIS), size, size))
+    corners = wp.zeros((size + 1, size + 1), dtype=wp.float64, device=device)
     out = wp.zeros((size, size), dtype=wp.float64, device=device)
     for b in range(len(BASIS)):
-        wp.launch(ks.basis_quadrant, dim=(size, size), inputs=[b, wp.float64(z_cells), 0], outputs=[out],
+        wp.launch(ks.basis_corners, dim=(size + 1, size + 1), inputs=[b, wp.float64(z_cells), 0], outputs=[corners],
                   device=device)
+        wp.launch(ks.basis_quadrant, dim=(size, size), inputs=[corners, 0, 0], outputs=[out], device=device)
         basis[b] = out.numpy()
     return np.einsum("clb,bij->clij", stress_table(nu, z_cells), basis)
 
@@ -441,41 +448,91 @@ class SubsurfaceStress:
         cplx = self.fft.complex_dtype
         with wp.ScopedDevice(self.device):
             self._field = wp.zeros((n, n), dtype=self.dtype)
+            self._corners = wp.zeros((n + 1, n + 1), dtype=wp.float64)
             self._basis = wp.zeros((len(BASIS), *spec), dtype=cplx)
             self._traction = wp.zeros((3, *spec), dtype=cplx)
             self._stress_spectra = wp.zeros((6, *spec), dtype=cplx)
             self._stress = wp.zeros((6, n, n), dtype=self.dtype)
             self._derived = wp.zeros((6, n, n), dtype=self.dtype)
             self._parity = wp.array(np.array(BASIS_PARITY, dtype=np.int32), dtype=int)
-            self._coefficients = wp.zeros((6, 3, len(BASIS)), dtype=self.dtype)
+            # the non-zero terms of a body's stress table (``_body_stress``), at most all of them
+            self._terms = wp.zeros(6 * 3 * len(BASIS), dtype=wp.vec3i)
+            self._weights = wp.zeros(6 * 3 * len(BASIS), dtype=self.dtype)
             self._row_values = wp.zeros(n, dtype=self.dtype)
             self._row_columns = wp.zeros(n, dtype=int)
             self._line = wp.zeros((6, n), dtype=self.dtype)
+        #: which of the tractions (p, q_x, q_y) the last ``_load_tractions`` loaded as non-zero
+        self._loads = (True, True, True)
+        #: threads the CPU's launches are split over (``_rows``; one on CUDA), and their pool
+        self._threads = 1 if self.device.is_cuda else (os.cpu_count() or 1)
+        self._pool = None
 
     def _launch(self, kernel, dim, inputs, outputs=()):
         import warp as wp
 
         wp.launch(kernel, dim=dim, inputs=inputs, outputs=list(outputs), device=self.device)
 
-    def _basis_spectra(self, z_cells: float):
-        """The spectra of the 14 weighted basis quadrants at depth ``z_cells``."""
+    def _rows(self, kernel, shape, inputs, outputs):
+        """``kernel`` over a (rows, columns) ``shape``, its last input the first row of the launch
+        (``row0``): on the CPU, where Warp runs a launch on one thread and lets go of the GIL, the
+        rows split in blocks over the CPU's threads (from ``SPLIT_ROWS_FROM_CELLS`` entries on);
+        else one launch."""
+        rows, columns = shape
+        parts = min(self._threads, rows) if rows * columns >= SPLIT_ROWS_FROM_CELLS else 1
+        if parts < 2:
+            self._launch(kernel, shape, [*inputs, 0], outputs)
+            return
+        if self._pool is None:
+            from concurrent.futures import ThreadPoolExecutor
+
+            self._pool = ThreadPoolExecutor(self._threads, thread_name_prefix="warpcontact-stress")
+        edges = [rows * k // parts for k in range(parts + 1)]
+        jobs = [self._pool.submit(self._launch, kernel, (r1 - r0, columns), [*inputs, r0], outputs)
+                for r0, r1 in zip(edges[:-1], edges[1:])]
+        for job in jobs:
+            job.result()
+
+    def _tables(self, z_cells: float) -> dict:
+        """Each body's stress table at depth ``z_cells`` ((6, 3, 14): component, load, basis), the
+        sphere's shear columns negated (it carries -q), the loads that were not loaded zeroed."""
+        materials = {"sphere": self.pair.sphere, "flat": self.pair.flat}
+        tables = {}
+        for name in BODIES:
+            table = stress_table(materials[name].nu, z_cells)
+            if name == "sphere":
+                table[:, 1:, :] *= -1.0
+            table[:, [not on for on in self._loads], :] = 0.0
+            tables[name] = table
+        return tables
+
+    def _basis_spectra(self, z_cells: float, tables: dict):
+        """The spectra of the weighted basis quadrants at depth ``z_cells`` that ``tables`` use
+        (a pressure alone uses 8 of the 14)."""
         import warp as wp
 
         from warpcontact.kernels import stress as ks
 
         n = self.grid.n
-        for b in range(len(BASIS)):
-            self._launch(ks.basis_quadrant, (n, n), [b, wp.float64(z_cells), 1], [self._field])
+        used = np.any([(t != 0).any(axis=(0, 1)) for t in tables.values()], axis=0)
+        for b in (int(k) for k in np.flatnonzero(used)):
+            self._rows(ks.basis_corners, (n + 1, n + 1), [b, wp.float64(z_cells)], [self._corners])
+            self._rows(ks.basis_quadrant, (n, n), [self._corners, 1], [self._field])
             self.fft.forward(self._field, self._basis[b])
 
     def _load_tractions(self, pressure, shear_x, shear_y) -> None:
         """The spectra of the tractions: (n, n) numpy arrays [Pa], scaled by E* here, or (n, n)
         Warp arrays on this device in this float type, already scaled by E* (a ContactState's
-        units): transformed where they are, nothing copied."""
+        units): transformed where they are, nothing copied. A traction that is None or a numpy
+        array of zeros is not transformed, and its terms are left out of the stress
+        (``_loads``)."""
         import warp as wp
 
         n = self.grid.n
+        loads = []
         for k, t in enumerate((pressure, shear_x, shear_y)):
+            loads.append(t is not None and (isinstance(t, wp.array) or bool(np.any(t))))
+            if not loads[-1]:  # zero: no transform, and the terms of this load are left out
+                continue
             if isinstance(t, wp.array):
                 if t.shape != (n, n) or t.device != self.device or t.dtype != self.dtype:
                     raise InputError("tractions", f"expected Warp arrays of shape {(n, n)} on {self.device} in "
@@ -487,22 +544,30 @@ class SubsurfaceStress:
                 raise InputError("tractions", f"expected arrays of shape {(n, n)}, got {t.shape}")
             self._field.assign(np.ascontiguousarray(t / self.pair.E_star, dtype=self.np_dtype))
             self.fft.forward(self._field, self._traction[k])
+        self._loads = tuple(loads)
 
-    def _body_stress(self, name: str, nu: float, z_cells: float) -> None:
-        """The six stress components of body ``name`` (Poisson's ratio ``nu``) at depth
-        ``z_cells`` into ``self._stress`` (scaled by E*), from the loaded traction spectra and the
-        basis spectra of that depth (:meth:`_basis_spectra`)."""
+    def _body_stress(self, table: np.ndarray) -> None:
+        """The six stress components of a body into ``self._stress`` (scaled by E*) from the
+        loaded traction spectra and the basis spectra of its depth (:meth:`_basis_spectra`):
+        ``table`` its stress table there (:meth:`_tables`), of which the non-zero terms are
+        summed, sorted by basis and load (``kernels/stress.py``, ``stress_spectra``)."""
         from warpcontact.kernels import stress as ks
 
-        table = stress_table(nu, z_cells)
-        if name == "sphere":  # the sphere carries -q
-            table[:, 1:, :] *= -1.0
-        self._coefficients.assign(table.astype(self.np_dtype))
-        self._launch(ks.stress_spectra, self.fft.spectral_shape,
-                     [self._basis, self._traction, self._coefficients, self._parity, self.fft.half_axis],
-                     [self._stress_spectra])
-        for c in range(6):
-            self.fft.inverse(self._stress_spectra[c], self._stress[c])
+        c, l, b = np.nonzero(table)
+        order = np.lexsort((c, l, b))
+        count = len(order)
+        terms = np.zeros((self._terms.shape[0], 3), dtype=np.int32)
+        terms[:count] = np.stack([c, l, b], axis=1)[order]
+        weights = np.zeros(self._weights.shape[0])
+        weights[:count] = table[c, l, b][order]
+        self._terms.assign(terms)
+        self._weights.assign(weights.astype(self.np_dtype))
+        self._rows(ks.stress_spectra, self.fft.spectral_shape,
+                   [self._basis, self._traction, self._terms, self._weights, count, self._parity,
+                    self.fft.half_axis],
+                   [self._stress_spectra])
+        for k in range(6):
+            self.fft.inverse(self._stress_spectra[k], self._stress[k])
 
     def von_mises_maxima(self, pressure, shear_x, shear_y, depths) -> dict:
         """The largest von Mises stress of each body at each of ``depths`` [m] under the total
@@ -513,12 +578,12 @@ class SubsurfaceStress:
         n, dx = self.grid.n, self.grid.dx
         self._load_tractions(pressure, shear_x, shear_y)
         depths = check_depths(depths)
-        materials = {"sphere": self.pair.sphere, "flat": self.pair.flat}
         out = {name: np.zeros((len(depths), 3)) for name in BODIES}
         for k, z in enumerate(depths):
-            self._basis_spectra(z / dx)
+            tables = self._tables(z / dx)
+            self._basis_spectra(z / dx, tables)
             for name in BODIES:
-                self._body_stress(name, materials[name].nu, z / dx)
+                self._body_stress(tables[name])
                 self._launch(ks.von_mises_field, (n, n), [self._stress], [self._derived])
                 v, r, col = self._row_max(0)
                 out[name][k] = (v * self.pair.E_star, self.grid.x[col], self.grid.y[r])
@@ -535,7 +600,8 @@ class SubsurfaceStress:
 
     def evaluate(self, pressure, shear_x, shear_y, section_axis: str = "x") -> StressResult:
         """The stress of the total tractions ``pressure``, ``shear_x``, ``shear_y`` [Pa] ((n, n)
-        arrays on the grid, numpy; shear: the traction the sphere exerts on the flat), in both
+        arrays on the grid, numpy, or None for zero; shear: the traction the sphere exerts on the
+        flat), in both
         bodies at every depth. ``section_axis``: the direction of the section through the centre
         ("x" or "y")."""
         import warp as wp
@@ -562,10 +628,11 @@ class SubsurfaceStress:
         xs, ys = self.grid.x, self.grid.y
         for k, z in enumerate(self.depths):
             z_cells = z / dx
-            self._basis_spectra(z_cells)
+            tables = self._tables(z_cells)
+            self._basis_spectra(z_cells, tables)
             for name in BODIES:
                 body = bodies[name]
-                self._body_stress(name, body.nu, z_cells)
+                self._body_stress(tables[name])
                 self._launch(ks.derived_fields, (n, n), [self._stress], [self._derived])
                 for which, key in ((0, "von_mises"), (1, "tresca")):
                     v, r, col = self._row_max(which)
@@ -675,7 +742,7 @@ class _YieldEvaluator:
 
     def __init__(self, pair, grid, totals, depths, device, dtype, fft, radius: float):
         """``totals``: the total tractions (p, q_x, q_y) as host arrays [Pa] or as Warp arrays on
-        ``device`` scaled by E* (``SubsurfaceStress._load_tractions``)."""
+        ``device`` scaled by E* (``SubsurfaceStress._load_tractions``); None for a zero one."""
         import warp as wp
 
         self.grid = grid
@@ -691,11 +758,14 @@ class _YieldEvaluator:
             if isinstance(totals[0], wp.array):  # on the device: the half grid's there too
                 from warpcontact.kernels import grids as gk
 
-                self.coarse_tractions = tuple(wp.empty((h, h), dtype=t.dtype, device=t.device) for t in totals)
+                self.coarse_tractions = tuple(None if t is None else wp.empty((h, h), dtype=t.dtype, device=t.device)
+                                              for t in totals)
                 for t, c in zip(totals, self.coarse_tractions):
-                    wp.launch(gk.restrict_mean, dim=(h, h), inputs=[t, t.dtype(1.0)], outputs=[c], device=t.device)
+                    if t is not None:
+                        wp.launch(gk.restrict_mean, dim=(h, h), inputs=[t, t.dtype(1.0)], outputs=[c],
+                                  device=t.device)
             else:
-                self.coarse_tractions = tuple(_restrict_mean(np.asarray(t)) for t in totals)
+                self.coarse_tractions = tuple(None if t is None else _restrict_mean(np.asarray(t)) for t in totals)
 
     def maxima(self, depths) -> dict:
         depths = np.asarray(depths, dtype=np.float64)
@@ -732,7 +802,8 @@ def state_yield_check(state, friction: bool = True, adhesion: bool = True) -> di
     """:func:`yield_check` of one solved ``ContactState`` on its model (pair, grid, device, float
     type, FFT backend), its tractions totalled and loaded on the device (one field, the pressure,
     read on the host for the contact radius). Without ``friction`` the contact shear and without
-    ``adhesion`` the adhesive tractions are zero and not read."""
+    ``adhesion`` the adhesive tractions are zero and not read; with neither, the shear is left out
+    of the evaluation (None: its terms are not summed)."""
     import warp as wp
 
     from warpcontact.kernels import adhesion as ak
@@ -742,6 +813,9 @@ def state_yield_check(state, friction: bool = True, adhesion: bool = True) -> di
     for contact, adhesive, on in ((state.pressure, state.adhesive_pressure, True),
                                   (state.shear_x, state.adhesive_shear_x, friction),
                                   (state.shear_y, state.adhesive_shear_y, friction)):
+        if not (on or adhesion):
+            totals.append(None)
+            continue
         total = m.field()
         if on:
             wp.copy(total, contact)
