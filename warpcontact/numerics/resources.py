@@ -14,10 +14,11 @@ The estimate is counted from the allocations in the code, not fitted:
   ``cupy_backend.prune_by_default`` says which).
 - ``ContactState``: ``len(ContactState.FIELDS)`` fields and the int32 ``status``.
 - ``NormalSolver``: 4 fields (direction, response, interference, no_displacement) and its scalars (sums,
-  scalars, a residual history of max_iter + 1); ``ContactSolver``: 9 fields (known_z/x/y,
-  adhesive_z/x/y, previous x 3) and 8 scalars; with friction also ``TangentialSolver``'s 7 fields
+  scalars, a residual history of max_iter + 1); ``ContactSolver``: 6 fields (known_z/x/y,
+  previous x 3), 3 more with adhesion (adhesive_z/x/y), and 8 scalars; with friction also
+  ``TangentialSolver``'s 7 fields
   (no_displacement; grad, dir, resp x/y, made by its first solve on the whole grid) with its
-  scalars, and the solver's target_x/y, shear_limit and scratch_x/y (5 fields). Not counted: the
+  scalars, and the solver's target_x/y and shear_limit (3 fields; with adhesion scratch_x/y too). Not counted: the
   windows of the tangential solves (``TangentialSolver.window``), each a model and about 18
   fields of its m x m cells (m <= 0.75 n; 8 GiB at n = 8192 float64, m = 4096), made beside
   these where they fit: on CUDA a window that does not fit in the free memory is not made and
@@ -69,13 +70,16 @@ N_INFLUENCE_SPECTRA = 6
 N_SPECTRAL_BUFFERS = 3
 #: (n, n) fields of the solvers (counted in solvers/normal.py, contact.py, tangential.py)
 NORMAL_SOLVER_FIELDS = 4
-CONTACT_SOLVER_FIELDS = 9
+CONTACT_SOLVER_FIELDS = 6  # known_z/x/y, previous x 3
+#: with adhesion: ContactSolver's adhesive_z/x/y, and with friction too its scratch_x/y
+ADHESION_FIELDS = 3
+ADHESION_FRICTION_FIELDS = 2
 #: (n, n) fields of the minimised turns (adhesion with friction, solvers/contact.py): the coupling
 #: shear and the adhesive shear held in a turn (4 with the SMC law, 2 with a normal-only law),
 #: the total normal traction and a scratch field; counted for the SMC law (the larger)
 MINIMISED_TURN_FIELDS = 6
 TANGENTIAL_SOLVER_FIELDS = 7
-FRICTION_FIELDS = 5  # ContactSolver.target_x, target_y, shear_limit, scratch_x, scratch_y
+FRICTION_FIELDS = 3  # ContactSolver.target_x, target_y, shear_limit
 CONTACT_SOLVER_SCALARS = 6  # change
 #: the adhesive solve's padded convolution (adhesion without friction): the library's spectrum,
 #: one more for its intermediates, and its (2n, 2n) real output (4 (n, n) fields)
@@ -253,7 +257,8 @@ def breakdown(n: int, dtype="float64", device_kind="cpu", friction: bool = True,
         n_fields += TANGENTIAL_SOLVER_FIELDS + FRICTION_FIELDS
         n_scalars += tk.N_SUMS + tk.N_SCALARS + (max_iter + 1)
     if adhesion:
-        n_fields += (3 if friction else 1) * (3 + 2 * DEPTH)
+        n_fields += (3 if friction else 1) * (3 + 2 * DEPTH) + ADHESION_FIELDS
+        n_fields += ADHESION_FRICTION_FIELDS if friction else 0
         n_scalars += 2 + 3 * DEPTH
     if adhesion:  # the adhesive minimisation (with friction: the normal solve of each turn)
         n_fields += 4 * (PADDED_FIELDS + 2 * MEMORY) + 3 + (MINIMISED_TURN_FIELDS if friction else 0)

@@ -175,16 +175,21 @@ class ContactSolver:
         self._coarse = None  # (ContactSolver, ContactState) of the half grid, made when first needed
         f = model.field
         self.known_z, self.known_x, self.known_y = f(), f(), f()
-        self.adhesive_z, self.adhesive_x, self.adhesive_y = f(), f(), f()
         self.previous = [f(), f(), f()]
         self.change = model.scalars(6)
+        #: the adhesive tractions' displacements of a turn, and the scratch of a turn's slip and
+        #: of the minimised turns' coupling shear: with adhesion only (n = 8192 float64: 0.5 GiB
+        #: each)
+        self.adhesive_z = self.adhesive_x = self.adhesive_y = self.scratch_x = self.scratch_y = None
         if adhesion is not None:  # the adhesive fixed point over the pressure (and the shears with friction)
             self.mixing = AndersonMixing(model, 3 if friction is not None else 1, beta=self.relax)
+            self.adhesive_z, self.adhesive_x, self.adhesive_y = f(), f(), f()
         if friction is not None:
             self.tangential = TangentialSolver(model, tol, max_iter, use_graphs=use_graphs)
             self.target_x, self.target_y = f(), f()
             self.shear_limit = f()
-            self.scratch_x, self.scratch_y = f(), f()
+            if adhesion is not None:
+                self.scratch_x, self.scratch_y = f(), f()
             if self.adhesive is not None:  # the minimised turns: the shear their normal solves hold fixed
                 self.has_adhesive_shear = adhesion.has_shear
                 self.coupling_shear = [f() for _ in range(4 if self.has_adhesive_shear else 2)]
