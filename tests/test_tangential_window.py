@@ -191,3 +191,28 @@ def test_auto_window_from_the_measured_grids_on():
         target_x, target_y, q_max = shear_problem(model, state, 0.5 * DX)
         assert solver.solve(state, target_x, target_y, q_max).converged
         assert solver.last_window == expected, (cells, solver.last_window)
+
+
+def test_case_files_set_the_window():
+    """``[solver] window`` of a case file reaches the tangential solver (true, false, "auto" by
+    default); anything else is refused with a message naming the key."""
+    from warpcontact.errors import InputError
+    from warpcontact.records.case import case_from_dict
+    from warpcontact.studies.runner import build
+
+    def material(m):
+        return {"E": m.E, "nu": m.nu, "yield_strength": m.yield_strength}
+
+    def case(**solver):
+        return case_from_dict({"sphere": {"radius": R, **material(PAPER_PAIR.sphere)},
+                               "flat": material(PAPER_PAIR.flat), "grid": {"n": 32, "size": 4 * A},
+                               "load": {"delta_z": DZ, "delta_x": DX, "steps": 1},
+                               "friction": {"law": "tabor", "k_tau": 0.8}, "solver": solver})
+
+    assert case().solver.window == "auto"
+    for value in (True, False, "auto"):
+        _, solver, _ = build(case(window=value))
+        assert solver.tangential.window == value
+        assert case(window=value).solver.to_dict()["window"] == value
+    with pytest.raises(InputError, match="solver.window"):
+        case(window="sometimes")

@@ -70,6 +70,7 @@ VALUES = {
     "solver.max_turns": _integer(1),
     "solver.fft": _enum(C.FFT_BACKENDS),
     "solver.nested": {"enum": [True, False, "auto"]},
+    "solver.window": {"enum": [True, False, "auto"]},
     "friction.law": _enum(C.FRICTION_KEYS),
     "friction.mu": {"type": "number", "minimum": 0},
     "friction.k_tau": {"type": "number", "exclusiveMinimum": 0, "exclusiveMaximum": 1},

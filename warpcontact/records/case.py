@@ -53,7 +53,7 @@ SPHERE_KEYS = ("radius", "E", "nu", "yield_strength", "hardness", "profile")
 FLAT_KEYS = ("E", "nu", "yield_strength", "hardness")
 GRID_KEYS = ("n", "size")
 LOAD_KEYS = ("delta_z", "delta_x", "delta_y", "steps", "path")
-SOLVER_KEYS = ("device", "dtype", "tol", "max_iter", "max_turns", "fft", "nested")
+SOLVER_KEYS = ("device", "dtype", "tol", "max_iter", "max_turns", "fft", "nested", "window")
 FRICTION_KEYS = {"coulomb": ("law", "mu"), "tabor": ("law", "k_tau", "k_vm", "hardness_cap")}
 ADHESION_KEYS = {"smc": ("law", "sigma_max", "tau_max", "delta_n", "delta_t"),
                  "dugdale": ("law", "sigma_0", "h_0", "smoothing", "ramps"),
@@ -398,6 +398,10 @@ class SolverSpec:
         nested: start each step with friction (no adhesion) from its solution on the grid of half
             the cells per side (``ContactSolver.nested``): fewer iterations on large grids. true,
             false or "auto" (the default: from 512 cells per side on the CPU, 2048 on CUDA).
+        window: solve each step's shear on the smallest window of the grid that holds the contact
+            (``TangentialSolver.window``): the same answer, smaller transforms where the contact
+            is a fraction of the domain. true, false or "auto" (the default: from 128 cells per
+            side on the CPU, 1024 on CUDA).
         tol_default: True when ``tol`` came from the dtype's default; such a tol follows a dtype
             override (see :meth:`with_overrides`). Not compared, not written by ``to_dict``.
     """
@@ -409,6 +413,7 @@ class SolverSpec:
     max_turns: int = DEFAULT_MAX_TURNS
     fft: str = "auto"
     nested: bool | str = "auto"
+    window: bool | str = "auto"
     tol_default: bool = field(default=False, compare=False, repr=False)
 
     def __post_init__(self):
@@ -427,8 +432,10 @@ class SolverSpec:
         _set(self, "max_iter", _integer("solver.max_iter", self.max_iter, 1))
         _set(self, "max_turns", _integer("solver.max_turns", self.max_turns, 1))
         _choice("solver.fft", self.fft, FFT_BACKENDS)
-        if not (_is_bool(self.nested) or self.nested == "auto"):
-            raise InputError("solver.nested", f"must be true, false or \"auto\", {_got(self.nested)}")
+        for key in ("nested", "window"):
+            value = getattr(self, key)
+            if not (_is_bool(value) or value == "auto"):
+                raise InputError(f"solver.{key}", f"must be true, false or \"auto\", {_got(value)}")
         kind = FFT_DEVICE_KIND.get(self.fft)
         if kind is not None and not self.device.startswith(kind):
             raise InputError(
@@ -453,7 +460,7 @@ class SolverSpec:
     def to_dict(self) -> dict:
         """All settings, the tol in effect included (so a record pins the run down)."""
         return {"device": self.device, "dtype": self.dtype, "tol": self.tol, "max_iter": self.max_iter,
-                "max_turns": self.max_turns, "fft": self.fft, "nested": self.nested}
+                "max_turns": self.max_turns, "fft": self.fft, "nested": self.nested, "window": self.window}
 
 
 @dataclass(frozen=True)

@@ -64,6 +64,8 @@ def build(case, model=None):
     solver = ContactSolver(model, friction_law(case), tol=s.tol, max_iter=s.max_iter, max_outer=s.max_turns,
                            pressure_cap=cap, adhesion=adhesion_law(case))
     solver.nested = s.nested
+    if case.friction is not None:
+        solver.tangential.window = s.window
     solver.on_turn = show_turn  # a long step's turns on the progress line open now (solve, gross-slip, pull-off)
     return model, solver, ContactState(model)
 
