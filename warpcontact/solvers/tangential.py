@@ -98,12 +98,14 @@ class TangentialSolver(ProjectedCG):
     the grid that holds the contact (``window_cells``: 8, 9, 10, 12, 14, 15 or 16 times a power of
     two), with an operator of its own (the same cell size: the same influence coefficients, padded
     to 2m instead of 2n), where that window is at most ``WINDOW_MAX_SHARE`` of the grid per side;
-    the shear and statuses are put back (zero outside it), and the whole grid's K_tt q is made
-    once at the end. Only the preconditioner differs (the circulant inverse on the smaller padded
-    grid), and with it the iterates' rounding and the iteration count by a few. A contact half the
-    domain wide (domain 4 sqrt(R delta_z)) takes a window of 9/16 n: each iteration's transforms
-    have 32 % of the entries. Windows are kept per size (``WINDOW_CACHE``); on CUDA a window whose
-    arrays would not fit in the free memory is not made (the solve runs on the whole grid).
+    the shear and statuses are put back (zero outside it), and the whole grid's K_tt q (and K_tp p
+    of the ``pressure``) is made at the end of the solve, or later by :meth:`whole_displacement`
+    where the caller defers it (``whole``). Only the preconditioner differs (the circulant inverse
+    on the smaller padded grid), and with it the iterates' rounding and the iteration count by a
+    few. A contact half the domain wide (domain 4 sqrt(R delta_z)) takes a window of n/2 (9n/16
+    where it passes n/2 by a cell): each iteration's transforms have 25-32 % of the entries.
+    Windows are kept per size (``WINDOW_CACHE``); on CUDA a window whose arrays would not fit in
+    the free memory is not made (the solve runs on the whole grid).
 
     Args:
         model: the :class:`~warpcontact.numerics.model.ContactModel`.
@@ -206,7 +208,7 @@ class TangentialSolver(ProjectedCG):
         """Where the last solve ran on a window for ``state`` with ``whole`` False: make
         ``state.disp_x/y`` = K_tt q on the whole grid, and add K_tp p of its ``pressure`` (as it is
         now) to its ``known_x/y``. Nothing otherwise (and nothing a second time)."""
-        if self._pending is None or state is None or self._pending[0] is not state:
+        if self._pending is None or self._pending[0] is not state:
             return
         _, pressure, known_x, known_y = self._pending
         self._pending = None
@@ -392,7 +394,6 @@ class TangentialSolver(ProjectedCG):
 
         key = self._key(state, target_x, target_y, shear_limit, known_x, known_y)
         return self._run(key, start, gradient, body, self._on_non_finite(state))
-
 
 
 class _Window:
