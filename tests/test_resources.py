@@ -67,6 +67,7 @@ def build(n, dtype="float64", fft="scipy", friction=True, adhesion=False):
     solver = ContactSolver(model, law, adhesion=adhesive)
     if friction:  # the estimate counts the fields a tangential solve on the whole grid makes
         solver.tangential.make_whole_grid_fields()
+        assert solver.tangential.no_displacement is not None  # (made when first needed)
     return model, ContactState(model), solver
 
 

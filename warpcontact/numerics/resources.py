@@ -17,7 +17,8 @@ The estimate is counted from the allocations in the code, not fitted:
   scalars, a residual history of max_iter + 1); ``ContactSolver``: 6 fields (known_z/x/y,
   previous x 3), 3 more with adhesion (adhesive_z/x/y), and 8 scalars; with friction also
   ``TangentialSolver``'s 7 fields
-  (no_displacement; grad, dir, resp x/y, made by its first solve on the whole grid) with its
+  (no_displacement, made when a solve is given no known displacement; grad, dir, resp x/y, made
+  by its first solve on the whole grid) with its
   scalars, and the solver's target_x/y and shear_limit (3 fields; with adhesion scratch_x/y too). Not counted: the
   windows of the tangential solves (``TangentialSolver.window``), each a model and about 18
   fields of its m x m cells (m <= 0.75 n; 8 GiB at n = 8192 float64, m = 4096), made beside

@@ -124,7 +124,7 @@ class TangentialSolver(ProjectedCG):
         #: the iteration's fields on the whole grid (gradient, direction, response), made by the
         #: first solve that runs on the whole grid (solves on a window use the window's)
         self.grad_x = self.grad_y = self.dir_x = self.dir_y = self.resp_x = self.resp_y = None
-        self.no_displacement = f()
+        self._no_displacement = None
         # self-influence of the tangential kernel (scaled): the Jacobi preconditioner of stick
         # cells, and 1 / it the step of released cells when no conjugate step is defined
         k_self = 0.5 * (model.operator.self_coefficient("xx") + model.operator.self_coefficient("yy"))
@@ -223,6 +223,14 @@ class TangentialSolver(ProjectedCG):
         m.operator.cross_tangential(pressure, state.disp_x, state.disp_y)
         for src, dst in ((state.disp_x, known_x), (state.disp_y, known_y)):
             m.launch(ak.add_to, dim=m.n_cells, inputs=[src.flatten()], outputs=[dst.flatten()])
+
+    @property
+    def no_displacement(self):
+        """A zero field: the known displacement of a solve given none (made when first needed: a
+        solver of coupled turns, or a window's, always gets one)."""
+        if self._no_displacement is None:
+            self._no_displacement = self.model.field()
+        return self._no_displacement
 
     def make_whole_grid_fields(self):
         """Make the iteration's fields on the whole grid (gradient, direction, response) if they
