@@ -21,6 +21,10 @@ delta_z = 1e-10 m then delta_x = 2e-11 m, one step per leg. Rows:
   with the tangential solves always on the window of the grid that holds the contact
   (``TangentialSolver.window``), then always on the whole grid, as before the window.
 
+- ``coupled exact``: the solver's defaults, every turn's solves at the full tolerance
+  (``ContactSolver.turn_tolerance = "exact"``: fewer, more exact turns) instead of loose early
+  turns.
+
 The rows ``coupled-plain`` ... ``coupled-nested`` take the window where ``"auto"`` does.
 
 Columns: the inner iterations (normal and tangential solves together) and turns of each step,
@@ -58,7 +62,7 @@ import time
 R, DZ, DX = 10e-6, 1.0e-10, 2.0e-11
 A = math.sqrt(R * DZ)
 ROWS = ("normal", "coupled-plain", "coupled-precond", "coupled-before", "coupled-nested", "coupled-default",
-        "coupled-window", "coupled-whole")
+        "coupled-window", "coupled-whole", "coupled-exact")
 
 
 def configure(solver, row: str):
@@ -68,7 +72,9 @@ def configure(solver, row: str):
     solver.tangential.preconditioned = row != "coupled-plain"
     if row in ("coupled-window", "coupled-whole"):
         solver.tangential.window = row == "coupled-window"
-    if row not in ("coupled-default", "coupled-window", "coupled-whole"):
+    if row == "coupled-exact":
+        solver.turn_tolerance = "exact"
+    if row not in ("coupled-default", "coupled-window", "coupled-whole", "coupled-exact"):
         solver.nested = row == "coupled-nested"
     if row == "coupled-before":
         solver.normal.preconditioned = False

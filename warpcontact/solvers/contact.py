@@ -153,7 +153,8 @@ class ContactSolver:
         #: tangential solve's start where the turn's change confirms it; never looser than the
         #: turn before) or "change" (TURN_TOL_RATIO x the last turn's change, the schedule before:
         #: a turn whose solves started converged measured no change, so the next one solved at
-        #: full tolerance; bench/scaling.py's row coupled-before)
+        #: full tolerance; bench/scaling.py's row coupled-before) or "exact" (every turn at the
+        #: solvers' own tolerance: fewer, more exact turns; bench/scaling.py's row coupled-exact)
         self.turn_tolerance = "residual"
         #: called after each turn of a step as ``on_turn(turn, change)``: the turn (from 1 in each
         #: run of the turns: a retry or a fallback counts afresh) and its relative change [-], the
@@ -410,7 +411,7 @@ class ContactSolver:
             interrupts.check()
             outer += 1
             # inexact turns: early ones solve loosely, the last one at full tolerance
-            if not self.iterative:
+            if not self.iterative or self.turn_tolerance == "exact":
                 turn_tol = self.tol
             elif self.turn_tolerance == "change":  # 1/100 of the last turn's change
                 turn_tol = max(self.tol, min(TURN_TOL_START, TURN_TOL_RATIO * change))
