@@ -56,6 +56,11 @@ class ContactModel:
                 self.initial_gap = self.field(sphere.initial_gap(grid) / self.length_scale)
             self.operator = ElasticOperator(pair, grid, self.device, self.dtype, fft, influence)
 
+    def on_grid(self, grid: Grid) -> "ContactModel":
+        """A model of the same materials, sphere, device, float type and FFT backend on ``grid``
+        (the nested start's coarse grid, a tangential solve's window)."""
+        return ContactModel(self.pair, self.sphere, grid, device=self.device, dtype=self.dtype_name, fft=self.fft_name)
+
     @property
     def dtype_name(self) -> str:
         return dtype_name(self.dtype)

@@ -354,11 +354,9 @@ class ContactSolver:
             return None
         if self._coarse is None:
             from ..physics.geometry import Grid
-            from ..numerics.model import ContactModel
             from ..numerics.state import ContactState
 
-            coarse_model = ContactModel(m.pair, m.sphere, Grid(n // 2, m.grid.size), device=m.device,
-                                        dtype=m.dtype_name, fft=m.fft_name)
+            coarse_model = m.on_grid(Grid(n // 2, m.grid.size))
             tol = max(self.tol, NESTED_COARSE_TOL)
             coarse = ContactSolver(coarse_model, self.friction, tol=tol, max_iter=self.normal.max_iter,
                                    max_outer=self.max_outer, pressure_cap=self.normal.pressure_cap,

@@ -413,14 +413,12 @@ class _Window:
     INPUTS = ("target_x", "target_y", "shear_limit", "known_x", "known_y")
 
     def __init__(self, parent: TangentialSolver, cells: int):
-        from ..numerics.model import ContactModel
         from ..physics.geometry import Grid
 
         m = parent.model
         self.cells = int(cells)
         self.row0 = self.col0 = 0
-        model = ContactModel(m.pair, m.sphere, Grid(self.cells, self.cells * m.grid.dx), device=m.device,
-                             dtype=m.dtype_name, fft=m.fft_name)
+        model = m.on_grid(Grid(self.cells, self.cells * m.grid.dx))
         self.solver = TangentialSolver(model, parent.tol, parent.max_iter, use_graphs=parent.use_graphs,
                                        preconditioned=parent.preconditioned)
         self.solver.window = False
