@@ -250,3 +250,22 @@ def test_adhesive_coupled_steps_on_the_window(turns):
                    ("adhesive_pressure", 1e-5), ("adhesive_shear_x", 1e-5)):
         scale = np.abs(out[False][k]).max()
         assert np.abs(out[True][k] - out[False][k]).max() < tol * scale, (k, np.abs(out[True][k] - out[False][k]).max() / scale)
+
+
+def test_a_non_finite_value_in_a_window_names_the_whole_grids_cell():
+    """A NaN in the shear a solve starts from, at a contact cell: the solve on the window stops
+    with NonFiniteError naming the field and the cell by its row and column on the whole grid (the
+    window's own indices plus its place), as the solve on the whole grid does."""
+    from warpcontact.errors import NonFiniteError
+
+    for window in (False, True):
+        model, state = hertz_state(64, "cpu", "float64")
+        solver = TangentialSolver(model)
+        solver.window = window
+        target_x, target_y, q_max = shear_problem(model, state, 0.5 * DX)
+        values = state.shear_x.numpy().copy()
+        values[30, 35] = np.nan  # inside the contact (cells 16..47 each way)
+        state.shear_x.assign(values)
+        with pytest.raises(NonFiniteError, match=r"shear_x .*row 30, column 35"):
+            solver.solve(state, target_x, target_y, q_max)
+        assert solver.last_window == (32 if window else None)

@@ -232,13 +232,14 @@ class ProjectedCG:
 
 
 def raise_non_finite(solver_name: str, state, names, iteration: int):
-    """Raise NonFiniteError naming the first non-finite field and cell."""
+    """Raise NonFiniteError naming the first non-finite field and cell (of the whole grid: a window
+    of it, ``TangentialSolver.window``, adds its first row and column ``row0``, ``col0``)."""
     from ..errors import NonFiniteError
 
     for name in names:
         a = getattr(state, name).numpy()
         bad = np.argwhere(~np.isfinite(a))
         if bad.size:
-            iy, ix = bad[0]
+            iy, ix = bad[0] + (getattr(state, "row0", 0), getattr(state, "col0", 0))
             raise NonFiniteError(f"{solver_name}: non-finite {name} at iteration {iteration}, cell (row {iy}, column {ix})")
     raise NonFiniteError(f"{solver_name}: non-finite residual at iteration {iteration}")
