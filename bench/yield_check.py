@@ -55,7 +55,7 @@ def main():
     def init(self, *a, **k):  # the one-thread variant: the evaluators' threads set to one
         original(self, *a, **k)
         if threads["value"] is not None:
-            self._threads = threads["value"]
+            self.launches.workers = threads["value"]
 
     stress.SubsurfaceStress.__init__ = init
     print(f"<!-- python bench/yield_check.py --device {args.device} --sizes {' '.join(map(str, args.sizes))} "

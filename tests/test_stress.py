@@ -300,7 +300,7 @@ def test_zero_shear_left_out_and_rows_split_change_no_bit():
     for shear, threads in (("none", None), ("numpy", None), ("warp", None), ("none", 1)):
         evaluator = st.SubsurfaceStress(PAIR, grid, depths, volume=True)
         if threads:
-            evaluator._threads = threads
+            evaluator.launches.workers = threads
         if shear == "warp":  # (device arrays are loaded as they are: their terms are summed)
             zero = wp.zeros(grid.shape, dtype=wp.float64)
             pressure = wp.array(p / PAIR.E_star, dtype=wp.float64)
@@ -309,7 +309,7 @@ def test_zero_shear_left_out_and_rows_split_change_no_bit():
             continue
         q = None if shear == "none" else 0 * p
         results.append(evaluator.evaluate(p, q, q))
-        assert evaluator._loads == (True, False, False) and evaluator._threads == (threads or os.cpu_count())
+        assert evaluator._loads == (True, False, False) and evaluator.launches.workers == (threads or os.cpu_count())
     for other in results[1:]:
         for name in st.BODIES:
             for f in st.FIELDS:

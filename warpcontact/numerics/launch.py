@@ -220,12 +220,14 @@ class LaunchCache:
     def split(self, kernel, shape, part_launch, inputs, outputs=(), block_dim=None):
         """On the CPU, launch ``kernel`` as parts of the (rows, columns) ``shape`` on the
         ``workers`` threads, each part a block of rows [r0, r1) of every :class:`Rows` argument
-        (and a copy of every :class:`Sums` argument); whole when it has fewer than
-        ``min_split_entries`` entries or no Rows argument. ``part_launch(r0, r1)`` returns the
-        launch dimensions and inputs of the rows [r0, r1) (the Rows arguments as given)."""
+        (and a copy of every :class:`Sums` argument, and the part's first row for a
+        :class:`FirstRow` argument: a kernel that indexes whole arrays by the absolute row may be
+        split by it alone); whole when it has fewer than ``min_split_entries`` entries or no Rows
+        or FirstRow argument. ``part_launch(r0, r1)`` returns the launch dimensions and inputs of
+        the rows [r0, r1) (the Rows arguments as given)."""
         rows, columns = shape
         parts = min(self.workers, rows)
-        marked = any(isinstance(a, Rows) for a in [*inputs, *outputs])
+        marked = any(isinstance(a, (Rows, FirstRow)) for a in [*inputs, *outputs])
         if parts < 2 or rows * columns < self.min_split_entries or not marked:
             dim, part_inputs = part_launch(0, rows)
             self.launch(kernel, dim, part_inputs, outputs, block_dim)

@@ -46,7 +46,6 @@ corner sums cancel to 1/r^2 of the corner terms' size far from the load).
 from __future__ import annotations
 
 import math
-import os
 import time
 from dataclasses import dataclass, field
 
@@ -67,10 +66,6 @@ BASIS = ((1, 1, 1), (1, 2, 0), (2, 1, 0), (1, 2, 1), (2, 1, 1), (1, 1, 2), (2, 0
          (0, 2, 2), (1, 0, 2), (0, 1, 2), (1, 0, 3), (0, 1, 3))
 #: parity of each basis kernel: 0 even in x and y, 1 odd in x, 2 odd in y, 3 odd in both
 BASIS_PARITY = tuple((a % 2) + 2 * (b % 2) for a, b, _ in BASIS)
-#: on the CPU the stress kernels' launches split their rows over the CPU's threads from this many
-#: entries on (``SubsurfaceStress._rows``; smaller launches cost less than the threads' start),
-#: as the solvers' launches do (``LaunchCache.min_split_entries``)
-SPLIT_ROWS_FROM_CELLS = 2**16
 #: default number of depths and the deepest one in contact radii (``default_depths``)
 DEFAULT_LAYERS = 32
 DEFAULT_MAX_DEPTH_IN_A = 2.0
@@ -463,9 +458,10 @@ class SubsurfaceStress:
             self._line = wp.zeros((6, n), dtype=self.dtype)
         #: which of the tractions (p, q_x, q_y) the last ``_load_tractions`` loaded as non-zero
         self._loads = (True, True, True)
-        #: threads the CPU's launches are split over (``_rows``; one on CUDA), and their pool
-        self._threads = 1 if self.device.is_cuda else (os.cpu_count() or 1)
-        self._pool = None
+        from .launch import LaunchCache
+
+        #: the stress kernels' launches, split by rows over the CPU's threads (``_rows``)
+        self.launches = LaunchCache(self.device)
 
     def _launch(self, kernel, dim, inputs, outputs=()):
         import warp as wp
@@ -475,22 +471,13 @@ class SubsurfaceStress:
     def _rows(self, kernel, shape, inputs, outputs):
         """``kernel`` over a (rows, columns) ``shape``, its last input the first row of the launch
         (``row0``): on the CPU, where Warp runs a launch on one thread and lets go of the GIL, the
-        rows split in blocks over the CPU's threads (from ``SPLIT_ROWS_FROM_CELLS`` entries on);
-        else one launch."""
-        rows, columns = shape
-        parts = min(self._threads, rows) if rows * columns >= SPLIT_ROWS_FROM_CELLS else 1
-        if parts < 2:
-            self._launch(kernel, shape, [*inputs, 0], outputs)
-            return
-        if self._pool is None:
-            from concurrent.futures import ThreadPoolExecutor
+        rows split in blocks over the CPU's threads as the solvers' launches are
+        (``LaunchCache.split``, its threshold and threads); one launch on CUDA."""
+        from .launch import FirstRow
 
-            self._pool = ThreadPoolExecutor(self._threads, thread_name_prefix="warpcontact-stress")
-        edges = [rows * k // parts for k in range(parts + 1)]
-        jobs = [self._pool.submit(self._launch, kernel, (r1 - r0, columns), [*inputs, r0], outputs)
-                for r0, r1 in zip(edges[:-1], edges[1:])]
-        for job in jobs:
-            job.result()
+        columns = shape[1]
+        args = [*inputs, FirstRow()]
+        self.launches.split(kernel, shape, lambda r0, r1: ((r1 - r0, columns), args), args, outputs)
 
     def _tables(self, z_cells: float) -> dict:
         """Each body's stress table at depth ``z_cells`` ((6, 3, 14): component, load, basis), the
