@@ -5,6 +5,7 @@ import subprocess
 import sys
 
 import numpy as np
+import pytest
 
 from warpcontact import files
 from warpcontact.records import results
@@ -33,6 +34,24 @@ def test_a_cuda_case_resolves_its_fft_backend_without_the_cpu_backends():
     backend_limit, imported = r.stdout.splitlines()
     assert backend_limit.split()[0] in ("cupy", "warp") and int(backend_limit.split()[1]) == 11584
     assert imported == "", f"imported: {imported}"
+
+
+def test_the_fftw_backend_imports_neither_scipy_nor_dask():
+    """A CPU solve with FFTW (the default where pyFFTW is installed) imports neither scipy.fft nor
+    dask: pyFFTW's package would import scipy.fftpack and dask.array for interfaces this backend does
+    not use (0.5 s), and the scipy backend's module, whose layout it shares, imports scipy.fft where
+    a transform is first made. Both stay importable after."""
+    pytest.importorskip("pyfftw")
+    code = ("import sys, numpy as np; from warpcontact.fft import make_fft\n"
+            "import warp as wp; f = make_fft('fftw', 8, 8, 'cpu', wp.float64)\n"
+            "s = f.spectrum_of_padded(np.ones((16, 16)))\n"
+            "print(','.join(m for m in ('scipy', 'dask') if m in sys.modules), abs(s[0, 0]))\n"
+            "import dask.array, scipy.fftpack, pyfftw.interfaces.scipy_fft; print('importable')")
+    r = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
+    assert r.returncode == 0, r.stderr
+    imported, importable = r.stdout.splitlines()[-2:]  # after Warp's start-up lines
+    assert imported == " 256.0", f"imported: {imported}"  # the spectrum's mean term: 16 x 16 ones
+    assert importable == "importable"
 
 
 def test_the_package_names_load_on_first_use():

@@ -7,12 +7,15 @@ field, or into the kept (ny, nx) ``padded_output``). Spectral layout: (2 ny, nx 
 passes run in place on the spectrum (the forward pass writes its rows into the top half and zeros the bottom
 half first): letting scipy pad the columns allocated and copied a second spectrum, and made the
 forward pass 2-3x slower than the inverse (measured: 17 against 6-9 ms at n = 512, 2 cores).
+
+scipy.fft is imported where a transform is first made, not with this module: the FFTW backend
+shares this one's layout and buffers (it subclasses it) but not its transforms, and the import
+costs about 0.2 s of every process's start (2 cores).
 """
 
 from __future__ import annotations
 
 import numpy as np
-import scipy.fft as sfft
 import warp as wp
 
 from .base import FFTBackend, cpu_threads
@@ -47,12 +50,16 @@ class ScipyFFT(FFTBackend):
         return (2 * self.ny, self.nx + 1)
 
     def spectrum_of_padded(self, padded):
+        import scipy.fft as sfft
+
         return sfft.rfft2(np.asarray(padded, dtype=np.float64), workers=self.workers)
 
     def _complex_view(self, spectrum: wp.array2d) -> np.ndarray:
         return spectrum.numpy().view(self.np_complex).reshape(spectrum.shape)
 
     def transform_input(self, spectrum):
+        import scipy.fft as sfft
+
         s = self._complex_view(spectrum)
         s[: self.ny] = sfft.rfft(self._rows, axis=1, workers=self.workers)
         s[self.ny :] = 0
@@ -62,6 +69,8 @@ class ScipyFFT(FFTBackend):
 
     def _inverse_rows(self, spectrum) -> np.ndarray:
         """The (ny, 2 nx) rows of the normalised inverse transform (a new array from scipy)."""
+        import scipy.fft as sfft
+
         s = self._complex_view(spectrum)
         cols = sfft.ifft(s, axis=0, workers=self.workers, overwrite_x=True)[: self.ny]
         return sfft.irfft(cols, n=2 * self.nx, axis=1, workers=self.workers)
