@@ -444,11 +444,16 @@ class SubsurfaceStress:
         with wp.ScopedDevice(self.device):
             self._field = wp.zeros((n, n), dtype=self.dtype)
             self._corners = wp.zeros((n + 1, n + 1), dtype=wp.float64)
-            self._basis = wp.zeros((len(BASIS), *spec), dtype=cplx)
+            # written before they are read, so not zeroed (a CPU page is then touched only where
+            # written: a pressure alone uses 8 of the 14 basis spectra, the lean pass one of the
+            # six derived fields): the basis spectra a depth's terms use (``_basis_spectra``), the
+            # stress spectra and stresses every component, the derived fields those a pass reads
+            self._basis = wp.empty((len(BASIS), *spec), dtype=cplx)
+            # zeroed: ``stress_spectra`` takes its zero from the first traction's spectrum, loaded or not
             self._traction = wp.zeros((3, *spec), dtype=cplx)
-            self._stress_spectra = wp.zeros((6, *spec), dtype=cplx)
-            self._stress = wp.zeros((6, n, n), dtype=self.dtype)
-            self._derived = wp.zeros((6, n, n), dtype=self.dtype)
+            self._stress_spectra = wp.empty((6, *spec), dtype=cplx)
+            self._stress = wp.empty((6, n, n), dtype=self.dtype)
+            self._derived = wp.empty((6, n, n), dtype=self.dtype)
             self._parity = wp.array(np.array(BASIS_PARITY, dtype=np.int32), dtype=int)
             # the non-zero terms of a body's stress table (``_body_stress``), at most all of them
             self._terms = wp.zeros(6 * 3 * len(BASIS), dtype=wp.vec3i)
