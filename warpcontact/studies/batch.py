@@ -10,15 +10,19 @@ Where the cases run:
 - ``workers=1`` and no scheduler: in this process, one after another; no cluster is started and
   the states of the running case are shown on a terminal.
 - ``workers=N`` (N > 1), or ``workers=None`` (sized to the machine: one worker per GPU when the
-  cases run on CUDA, one per CPU core otherwise): a local cluster of N worker processes started
-  for the run and closed at its end (dask.distributed's ``SpecCluster`` of ``Nanny`` workers, as
-  ``LocalCluster`` builds it, with one thread per worker). On CUDA each worker is pinned to one GPU
-  (``CUDA_VISIBLE_DEVICES``; the workers take the GPUs in turn when there are more workers than
-  GPUs) and a case's ``cuda`` or ``cuda:N`` runs on its worker's GPU.
+  cases run on CUDA, one per CPU core otherwise): N workers, of which the first is the run's own
+  process and the others a local cluster of N - 1 worker processes started for the run and closed
+  at its end (dask.distributed's ``SpecCluster`` of ``Nanny`` workers, as ``LocalCluster`` builds
+  it, with one thread per worker). The run's process computes cases from the start, while the
+  cluster starts in a thread (a worker's start, interpreter, imports and CUDA, takes seconds), and
+  takes the next case whenever no worker process is free; a cluster that fails to start leaves
+  the run to this process. On CUDA each worker is pinned to one GPU (the run's process to the
+  first, the worker processes by ``CUDA_VISIBLE_DEVICES``; the workers take the GPUs in turn when
+  there are more workers than GPUs) and a case's ``cuda`` or ``cuda:N`` runs on its worker's GPU.
 - ``scheduler="tcp://host:8786"``: the workers of a cluster started by hand (``dask scheduler``,
   ``dask worker``; several GPUs, several hosts: docs/scaling.md).
 
-A worker that dies while computing a case (killed, out of memory, its host lost) has its case
+A worker process that dies while computing a case (killed, out of memory, its host lost) has its case
 computed again by another worker (dask's scheduler does it; a case whose workers die
 ``distributed.scheduler.allowed-failures`` + 1 times, 4 by default, is given up and reported as
 :class:`LostTask`). The cases finished before are on disk already.
@@ -308,9 +312,10 @@ def worker_environments(placement: Placement, pending: int) -> list[dict]:
 
 
 class _Cluster:
-    """A dask client on a scheduler given by address, or on a local cluster started here."""
+    """A dask client on a scheduler given by address, or on a local cluster started here (its
+    workers' environments ``envs``; default :func:`worker_environments`)."""
 
-    def __init__(self, placement: Placement, pending: int):
+    def __init__(self, placement: Placement, pending: int, envs: list | None = None):
         import logging
 
         try:
@@ -333,7 +338,7 @@ class _Cluster:
                                                 f"{e}") from None
             self.where = f"the cluster at {placement.scheduler}"
             return
-        envs = worker_environments(placement, pending)
+        envs = worker_environments(placement, pending) if envs is None else envs
         quiet = logging.ERROR
         nanny_log = logging.getLogger("distributed.nanny")
         if _quiet_restart_after_stop not in nanny_log.filters:
@@ -390,6 +395,69 @@ class _Cluster:
                 self.cluster.close(timeout=CLOSE_TIMEOUT_S)
             except Exception:
                 _abandon(self.cluster)
+
+
+class _ClusterStart:
+    """A local cluster of the workers ``envs`` started in a thread of its own, while the run's
+    process computes cases itself (:func:`_run_on_cluster`): dask is imported there too. Once the
+    cluster has started, the thread hands the workers their first cases (``submit_first``), so that
+    none waits for the case the run's process is computing."""
+
+    def __init__(self, placement: Placement, pending: int, envs: list, submit_first: Callable):
+        import threading
+
+        self.cluster: _Cluster | None = None
+        self.error: BaseException | None = None
+        self.start_s = 0.0
+        self._ended = False
+        self._before: set | None = None
+        self._t0 = time.perf_counter()
+        self._thread = threading.Thread(target=self._start, args=(placement, pending, envs, submit_first),
+                                        name="warpcontact-cluster-start", daemon=True)
+        self._thread.start()
+
+    def _start(self, placement, pending, envs, submit_first) -> None:
+        try:
+            from distributed.deploy.spec import SpecCluster
+
+            self._before = set(SpecCluster._instances)
+            cluster = _Cluster(placement, pending, envs)
+        except BaseException as e:  # the run goes on in its own process (``_run_on_cluster``)
+            self.error = e
+            return
+        if self._ended:  # the run ended while the workers started
+            cluster.close(finished=False)
+            return
+        self.start_s = time.perf_counter() - self._t0
+        try:
+            submit_first(cluster)
+        except BaseException as e:
+            self.error = e
+            cluster.close(finished=False)
+            return
+        self.cluster = cluster
+
+    def ready(self) -> _Cluster | None:
+        """The cluster once started (its first cases submitted), else None (still starting, or
+        failed: ``error``)."""
+        if self._thread.is_alive():
+            return None
+        return self.cluster
+
+    def end(self, futures=(), finished: bool = True) -> None:
+        """Close the cluster (:meth:`_Cluster.close`). One still starting is not waited for: the
+        worker processes started so far are killed (``_abandon``), and the thread closes the
+        cluster once it has started."""
+        self._ended = True
+        if self._thread.is_alive():
+            if self._before is not None:
+                from distributed.deploy.spec import SpecCluster
+
+                for cluster in set(SpecCluster._instances) - self._before:
+                    _abandon(cluster)
+            return
+        if self.cluster is not None:
+            self.cluster.close(futures, finished)
 
 
 def _abandon(cluster) -> None:
@@ -523,91 +591,150 @@ def run_tasks(tasks, on_result: Callable, placement: Placement | None = None, pr
             tally.failed += 1
         return on_result(task, value) is not False
 
-    if placement.in_process(len(tasks)):
-        t0 = time.perf_counter()
-        built = _cache_stats["built"]
+    def run_here(task) -> bool:
+        """Compute ``task`` in this process and hand it back; False ends the run."""
+        kwargs = {} if on_state is None else {"on_state": lambda *a, task=task: on_state(task, *a)}
+        t1 = time.perf_counter()
         try:
+            value = task.fn(*task.args, **kwargs)
+        except Exception as e:
+            from ..errors import ConvergenceError, InputError, NonFiniteError
+
+            if not isinstance(e, (InputError, ConvergenceError, NonFiniteError)):
+                raise
+            return error(task, e)
+        stats.task_times.append(time.perf_counter() - t1)
+        return hand_back(task, value)
+
+    t0 = time.perf_counter()
+    built = _cache_stats["built"]
+    try:
+        if placement.in_process(len(tasks)):
             for task in tasks:
                 tally.running = 1
                 show(task.label)
-                kwargs = {} if on_state is None else {"on_state": lambda *a, task=task: on_state(task, *a)}
-                t1 = time.perf_counter()
-                try:
-                    value = task.fn(*task.args, **kwargs)
-                except Exception as e:
-                    from ..errors import ConvergenceError, InputError, NonFiniteError
-
-                    if not isinstance(e, (InputError, ConvergenceError, NonFiniteError)):
-                        raise
-                    tally.running = 0
-                    if not error(task, e):
-                        break
-                    continue
-                stats.task_times.append(time.perf_counter() - t1)
+                go_on = run_here(task)
                 tally.running = 0
-                if not hand_back(task, value):
+                if not go_on:
                     break
                 show()
-        finally:
-            stats.models_built = _cache_stats["built"] - built
-            if not keep_models:
-                clear_models()
-        stats.wall_s = time.perf_counter() - t0
-        stats.task_s = sum(stats.task_times)
-        return stats
-
-    from distributed import as_completed
-    from distributed.client import FutureCancelledError
-
-    try:
-        from distributed.scheduler import KilledWorker
-    except ImportError:  # pragma: no cover - older distributed
-        from distributed import KilledWorker
-
-    t0 = time.perf_counter()
-    show("starting the workers")
-    cluster = _Cluster(placement, len(tasks))
-    futures: dict = {}
-    finished = False
-    try:
-        stats.start_s = time.perf_counter() - t0
-        stats.workers = cluster.threads()
-        stats.where = cluster.where
-        t0 = time.perf_counter()
-        token = os.urandom(4).hex()  # a rerun's tasks are new tasks on a long-lived cluster
-        for task in tasks:
-            fut = cluster.client.submit(call_task, task.fn, task.args, key=f"warpcontact-{task.key}-{token}",
-                                        pure=False)
-            futures[fut] = task
-        tally.running = min(len(futures), stats.workers)
-        show(f"on {cluster.where}")
-        for fut in as_completed(list(futures)):
-            task = futures.pop(fut)
-            try:
-                outcome = fut.result()
-            except KilledWorker as e:
-                if not error(task, LostTask(f"the case {task.label} was given up: the workers computing it died "
-                                            f"({e})")):
-                    break
-                continue
-            except FutureCancelledError:
-                continue
-            if isinstance(outcome, _Raised):
-                if not error(task, outcome.error()):
-                    break
-                continue
-            stats.task_times.append(outcome.seconds)
-            tally.running = cluster.running(len(futures)) if progress is not None and progress.live \
-                else min(len(futures), stats.workers)
-            if not hand_back(task, outcome.value):
-                break
-            show()
-        finished = not futures
+        else:
+            _run_on_cluster(tasks, placement, stats, tally, show, error, hand_back, run_here)
     finally:
-        stats.wall_s = time.perf_counter() - t0
-        cluster.close(futures, finished)
+        stats.models_built = _cache_stats["built"] - built
+        if not keep_models:
+            clear_models()
+    stats.wall_s = time.perf_counter() - t0
     stats.task_s = sum(stats.task_times)
     return stats
+
+
+def _run_on_cluster(tasks, placement, stats, tally, show, error, hand_back, run_here) -> None:
+    """:func:`run_tasks` on a cluster. On one given by address, every case runs there. Beside a
+    local cluster the run's process computes cases too, in the place of its first worker (the GPU
+    of that worker, or a CPU core): it starts at once, while the other workers start in a thread
+    (:class:`_ClusterStart`; they take a few seconds: interpreter, imports, CUDA), and it takes
+    the next case whenever no worker is free. Cases are handed back in the order they finish."""
+    import threading
+    from collections import deque
+
+    # dask is imported where it is first needed (in the starting thread, beside a local cluster):
+    # about a second of this process's time on 2 cores
+    queue = deque(tasks)
+    futures: dict = {}
+    lock = threading.Lock()  # the queue and the futures, shared with the starting thread
+    token = os.urandom(4).hex()  # a rerun's tasks are new tasks on a long-lived cluster
+    slots = [0]
+
+    def submit(cluster) -> None:
+        """Fill the workers' free places from the front of the queue."""
+        with lock:
+            while queue and len(futures) < slots[0]:
+                task = queue.popleft()
+                fut = cluster.client.submit(call_task, task.fn, task.args, key=f"warpcontact-{task.key}-{token}",
+                                            pure=False)
+                futures[fut] = task
+
+    def collect(fut) -> bool:
+        """Hand back one finished future's case; False ends the run."""
+        from distributed.client import FutureCancelledError
+
+        try:
+            from distributed.scheduler import KilledWorker
+        except ImportError:  # pragma: no cover - older distributed
+            from distributed import KilledWorker
+
+        with lock:
+            task = futures.pop(fut)
+        try:
+            outcome = fut.result()
+        except KilledWorker as e:
+            return error(task, LostTask(f"the case {task.label} was given up: the workers computing it died ({e})"))
+        except FutureCancelledError:
+            return True
+        if isinstance(outcome, _Raised):
+            return error(task, outcome.error())
+        stats.task_times.append(outcome.seconds)
+        return hand_back(task, outcome.value)
+
+    here = placement.scheduler is None
+    t0 = time.perf_counter()
+    start = cluster = None
+    if here:
+        envs = worker_environments(placement, len(tasks))[1:]  # the first worker's place is this process's
+        slots[0] = len(envs)
+
+        show(f"this process, and {len(envs)} local worker(s) starting")
+        start = _ClusterStart(placement, len(tasks), envs, submit)
+        stats.where = "this process"
+    else:
+        show("reaching the workers")
+        cluster = _Cluster(placement, len(tasks))
+        slots[0] = cluster.threads()
+        stats.start_s = time.perf_counter() - t0
+        stats.workers = slots[0]
+        stats.where = cluster.where
+        submit(cluster)
+    finished = False
+    try:
+        while True:
+            if start is not None and cluster is None:
+                cluster = start.ready()
+                if cluster is not None:
+                    stats.start_s = start.start_s
+                    stats.workers = slots[0] + 1
+                    stats.where = f"this process and {cluster.where}"
+                elif start.error is not None and stats.where == "this process":  # computed here, all
+                    stats.where = f"this process alone (its local workers did not start: {start.error})"
+            if cluster is not None:
+                with lock:
+                    done = [f for f in futures if f.done()]
+                if not all(collect(f) for f in done):
+                    break
+                submit(cluster)
+            with lock:
+                task = queue.popleft() if here and queue else None
+                remote = len(futures)
+            tally.running = remote + (task is not None)
+            if task is not None:
+                show(task.label)
+                if not run_here(task):
+                    break
+                continue
+            if not remote:
+                break
+            show(f"on {stats.where}")
+            from distributed import wait
+
+            with lock:
+                pending = list(futures)
+            wait(pending, return_when="FIRST_COMPLETED")
+        finished = not futures and not queue
+    finally:
+        if start is not None:
+            start.end(list(futures), finished)
+        elif cluster is not None:
+            cluster.close(list(futures), finished)
 
 
 @contextlib.contextmanager
