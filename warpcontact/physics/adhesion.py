@@ -353,8 +353,8 @@ class LennardJones93(_WorkAndLength):
     side is the hard wall at h = 0): t = (8 w / 3 z0) ((z0/z)^3 - (z0/z)^9), potential
     -(4 w / 3) ((z0/z)^2 - (z0/z)^8 / 4), so that the work of separation is w and the largest
     tension 16 w / (9 sqrt(3) z0) acts at z = 3^(1/6) z0 (Greenwood, Proc. R. Soc. A 453 (1997)
-    1277; the Adhesion package's Lj93 potential). The largest -dt/dh, (8 w / 3 z0^2) max_r (3 r^4
-    - 9 r^10) with r = z0 / z, is reached at r^6 = 2/15: 1.8 (2/15)^(2/3) (8 / 3) w / z0^2.
+    1277; the Adhesion package's Lj93 potential). The largest -dt/dh, (8 w / 3 z0^2) max_r
+    (3 r^4 - 9 r^10) with r = z0 / z, is reached at r^6 = 2/15: 1.8 (2/15)^(2/3) (8 / 3) w / z0^2.
 
     Attributes:
         z0: equilibrium distance [m].
