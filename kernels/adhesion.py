@@ -22,23 +22,16 @@ wp.set_module_options({"enable_backward": False})
 
 
 @wp.func
-def smc_normal(gap: Any, slip: Any, sigma_max: Any, delta_n: Any, delta_t: Any):
-    """SMC (McGarry et al. 2014) normal traction: -sigma_max x_n exp(1 - m), m = |(x_n, x_t)|."""
+def smc_law(gap: Any, slip: Any, sigma_max: Any, tau_max: Any, delta_n: Any, delta_t: Any):
+    """SMC (McGarry et al. 2014) tractions at gap h and slip magnitude s: the normal traction
+    -sigma_max x_n exp(1 - m) and the shear traction's magnitude tau_max x_t exp(1 - m), along the
+    slip; x_n = max(h, 0) / delta_n, x_t = s / delta_t, m = |(x_n, x_t)|."""
     zero = type(gap)(0.0)
     xn = wp.max(gap, zero) / delta_n
     xt = slip / delta_t
     m = wp.sqrt(xn * xn + xt * xt)
-    return -sigma_max * xn * wp.exp(type(gap)(1.0) - m)
-
-
-@wp.func
-def smc_shear(gap: Any, slip: Any, tau_max: Any, delta_n: Any, delta_t: Any):
-    """SMC shear traction magnitude tau_max x_t exp(1 - m), along the slip."""
-    zero = type(gap)(0.0)
-    xn = wp.max(gap, zero) / delta_n
-    xt = slip / delta_t
-    m = wp.sqrt(xn * xn + xt * xt)
-    return tau_max * xt * wp.exp(type(gap)(1.0) - m)
+    decay = wp.exp(type(gap)(1.0) - m)
+    return -sigma_max * xn * decay, tau_max * xt * decay
 
 
 @wp.func
@@ -113,9 +106,8 @@ def smc_tractions(
         sx = slip_x[i]
         sy = slip_y[i]
         s = wp.sqrt(sx * sx + sy * sy)
-        p = smc_normal(gap[i], s, sigma_max, delta_n, delta_t)
+        p, q = smc_law(gap[i], s, sigma_max, tau_max, delta_n, delta_t)
         if s > zero:
-            q = smc_shear(gap[i], s, tau_max, delta_n, delta_t)
             qx = q * sx / s
             qy = q * sy / s
         if gap[i] <= touching:

@@ -40,7 +40,7 @@ from .overloads import register_float_overloads
 from .reduce import (  # noqa: F401  (shared slots)
     C_DELTA, C_G_OLD, C_ITER, N_SCALARS, N_SETTINGS, P_APPROACH, P_CHUNK, P_EXACT, P_MAX_ITER, P_TOL, S_G, S_GT, S_RHS,
     S_RT, S_VIOL, advance, residual_of, stop_loop,
-    block_add, block_add_vector, block_max, cell_index, cg_converged, cg_step_length,
+    block_add, block_add_vector, block_max, cell_index, cg_converged, cg_step_length, conjugacy,
 )
 from .reduce import S_RESTART as S_IOL  # cells that re-enter contact (or leave the cap)
 
@@ -134,16 +134,6 @@ def normal_gap(
 
 
 @wp.func
-def direction_beta(sums: wp.array(dtype=Any), scalars: wp.array(dtype=Any)):
-    """delta G / G_old: the conjugacy factor (0 on a restart and at the first iteration)."""
-    zero = sums[S_G] - sums[S_G]
-    beta = zero
-    if scalars[C_G_OLD] > zero:
-        beta = scalars[C_DELTA] * sums[S_G] / scalars[C_G_OLD]
-    return beta
-
-
-@wp.func
 def is_free(pressure: Any, pressure_cap: Any):
     """Whether a cell is in the free set 0 < p < cap, where the gap must close."""
     return pressure > type(pressure)(0.0) and pressure < pressure_cap
@@ -207,7 +197,7 @@ def normal_direction(
     chunks) (``LaunchCache.launch_rows``): the CPU's path, where ``normal_step_sums`` follows the
     convolution."""
     i, c = wp.tid()
-    beta = direction_beta(sums, scalars)
+    beta = conjugacy(sums, scalars)
     for j in range(c * per, wp.min((c + 1) * per, width)):
         t, gt = conjugate_direction(pressure, gap, preconditioned, output_scale, precondition, direction,
                                     i * width + j, width, beta, pressure_cap)
@@ -238,7 +228,7 @@ def normal_direction_sum(
     ``normal_step_sums`` does not run."""
     block, lane = wp.tid()
     thread = block * wp.block_dim() + lane
-    beta = direction_beta(sums, scalars)
+    beta = conjugacy(sums, scalars)
     s_gt = beta - beta
     for k in range(per):
         i = cell_index(thread, outer, inner, k)

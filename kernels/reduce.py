@@ -82,6 +82,17 @@ def cg_step_length(sums: wp.array(dtype=Any)):
 
 
 @wp.func
+def conjugacy(sums: wp.array(dtype=Any), scalars: wp.array(dtype=Any)):
+    """The conjugacy factor beta = delta G / G_old of the next direction (0 on a restart and at
+    the first iteration), G = ``sums[S_G]`` (g . M g, M the solver's preconditioner)."""
+    zero = sums[S_G] - sums[S_G]
+    beta = zero
+    if scalars[C_G_OLD] > zero:
+        beta = scalars[C_DELTA] * sums[S_G] / scalars[C_G_OLD]
+    return beta
+
+
+@wp.func
 def cg_converged(sums: wp.array(dtype=Any), tol: Any):
     """Whether the iterate this iteration started from already meets the relative tolerance:
     then it is left as it is (near the solution tau is a ratio of rounding noise)."""

@@ -45,6 +45,40 @@ def spectral_normal(influence: wp.array3d(dtype=Any), spectrum: wp.array2d(dtype
         spectrum[i, j] = influence[ZZ, i, j] * spectrum[i, j]
 
 
+@wp.func
+def first_entry(thread: int, outer: int, inner: int, width: int):
+    """The (row, column) of a reducing thread's first entry of a row-major 2-D array ``width``
+    wide (entry e = ``cell_index(thread, outer, inner, 0)``), and the (rows, columns) its entries
+    advance by (``inner``): a thread carries (i, j) from one entry to the next
+    (:func:`next_entry`), one integer division per thread, not per entry (the CPU's sweep: n =
+    512, 2.4 -> 1.0 ms)."""
+    first = cell_index(thread, outer, inner, 0)
+    i = first // width
+    di = inner // width
+    return i, first - i * width, di, inner - di * width
+
+
+@wp.func
+def next_entry(i: int, j: int, di: int, dj: int, width: int):
+    """The (row, column) of a reducing thread's next entry after (i, j) (:func:`first_entry`)."""
+    i += di
+    j += dj
+    if j >= width:
+        i += 1
+        j -= width
+    return i, j
+
+
+@wp.func
+def parseval_weight(i: int, j: int, first_row: int, half_axis: int, half_length: int, energy_scale: Any):
+    """The weight of spectrum entry (i, j) in a sum over the padded grid by Parseval's identity:
+    ``energy_scale`` where the index along ``half_axis`` (the real transform's non-negative
+    frequencies, of length ``half_length`` in real space; rows counted from ``first_row``) is 0
+    or half_length / 2, twice it elsewhere."""
+    f = wp.where(half_axis == 0, first_row + i, j)
+    return wp.where(f == 0 or 2 * f == half_length, energy_scale, energy_scale + energy_scale)
+
+
 @wp.kernel
 def spectral_normal_energy(
     influence: wp.array3d(dtype=Any),
@@ -82,13 +116,7 @@ def spectral_normal_energy(
     width = spectrum.shape[1]
     zero = energy_scale - energy_scale
     energy = zero
-    # the entry (i, j) of e, carried from one k to the next (e grows by ``inner``): one integer
-    # division per thread, not per entry (the CPU's sweep: n = 512, 2.4 -> 1.0 ms)
-    first = cell_index(thread, outer, inner, 0)
-    i = first // width
-    j = first - i * width
-    di = inner // width
-    dj = inner - di * width
+    i, j, di, dj = first_entry(thread, outer, inner, width)
     for k in range(per):
         e = cell_index(thread, outer, inner, k)
         if e < n:
@@ -104,14 +132,9 @@ def spectral_normal_energy(
             if inverse != 0:
                 kzz = wp.where(kzz > zero, type(zero)(1.0) / kzz, zero)
             spectrum[i, j] = kzz * s
-            f = wp.where(half_axis == 0, first_row + i, j)
-            weight = wp.where(f == 0 or 2 * f == half_length, energy_scale, energy_scale + energy_scale)
+            weight = parseval_weight(i, j, first_row, half_axis, half_length, energy_scale)
             energy += weight * kzz * wp.dot(s, s)
-        i += di
-        j += dj
-        if j >= width:
-            i += 1
-            j -= width
+        i, j = next_entry(i, j, di, dj, width)
     block_add(sums, slot, energy)
 
 
@@ -287,11 +310,7 @@ def spectral_tangential_inverse_energy(
     width = spectrum_x.shape[1]
     zero = energy_scale - energy_scale
     energy = zero
-    first = cell_index(thread, outer, inner, 0)
-    i = first // width
-    j = first - i * width
-    di = inner // width
-    dj = inner - di * width
+    i, j, di, dj = first_entry(thread, outer, inner, width)
     for k in range(per):
         e = cell_index(thread, outer, inner, k)
         if e < n:
@@ -302,14 +321,9 @@ def spectral_tangential_inverse_energy(
             zy = m[2] * gx + m[1] * gy
             spectrum_x[i, j] = zx
             spectrum_y[i, j] = zy
-            f = wp.where(half_axis == 0, first_row + i, j)
-            weight = wp.where(f == 0 or 2 * f == half_length, energy_scale, energy_scale + energy_scale)
+            weight = parseval_weight(i, j, first_row, half_axis, half_length, energy_scale)
             energy += weight * (wp.dot(gx, zx) + wp.dot(gy, zy))
-        i += di
-        j += dj
-        if j >= width:
-            i += 1
-            j -= width
+        i, j = next_entry(i, j, di, dj, width)
     block_add(sums, slot, energy)
 
 

@@ -208,6 +208,12 @@ def stress_spectra(
 
 
 @wp.func
+def stress_at(stress: wp.array3d(dtype=Any), i: int, j: int):
+    """The six components (xx, yy, zz, xy, xz, yz) of ``stress[0..5, i, j]``."""
+    return stress[0, i, j], stress[1, i, j], stress[2, i, j], stress[3, i, j], stress[4, i, j], stress[5, i, j]
+
+
+@wp.func
 def principal_stresses(sxx: Any, syy: Any, szz: Any, sxy: Any, sxz: Any, syz: Any):
     """(s1, s2, s3), s1 >= s2 >= s3: the eigenvalues of the symmetric stress tensor by Warp's
     ``eig3`` (Jacobi rotations: accurate where two coincide, as on the Hertz axis, where the
@@ -232,12 +238,7 @@ def derived_fields(stress: wp.array3d(dtype=Any), derived: wp.array3d(dtype=Any)
     s1 >= s2 >= s3, hydrostatic (sxx + syy + szz) / 3, from stress[0..5, i, j] (xx, yy, zz, xy,
     xz, yz)."""
     i, j = wp.tid()
-    sxx = stress[0, i, j]
-    syy = stress[1, i, j]
-    szz = stress[2, i, j]
-    sxy = stress[3, i, j]
-    sxz = stress[4, i, j]
-    syz = stress[5, i, j]
+    sxx, syy, szz, sxy, sxz, syz = stress_at(stress, i, j)
     half = type(sxx)(0.5)
     third = type(sxx)(1.0) / type(sxx)(3.0)
     p = principal_stresses(sxx, syy, szz, sxy, sxz, syz)
@@ -254,12 +255,7 @@ def von_mises_field(stress: wp.array3d(dtype=Any), derived: wp.array3d(dtype=Any
     """derived[0, i, j] <- von Mises sqrt(3 J2) of stress[0..5, i, j] (xx, yy, zz, xy, xz, yz):
     ``derived_fields``' first field alone (no principal stresses), for the yield check."""
     i, j = wp.tid()
-    sxx = stress[0, i, j]
-    syy = stress[1, i, j]
-    szz = stress[2, i, j]
-    sxy = stress[3, i, j]
-    sxz = stress[4, i, j]
-    syz = stress[5, i, j]
+    sxx, syy, szz, sxy, sxz, syz = stress_at(stress, i, j)
     derived[0, i, j] = von_mises(sxx, syy, szz, sxy, sxz, syz)
 
 

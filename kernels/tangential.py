@@ -22,7 +22,7 @@ Cell status: 0 out of contact (q_max = 0), 1 stick, 2 slip.
 
 Two iterations share these rules (``TangentialSolver.preconditioned``):
 
-- plain (Chen & Wang): ``tangential_gradient`` (the exact g from K q) and ``tangential_direction``
+- plain (Chen & Wang): ``tangential_residual`` (the exact g from K q) and ``tangential_direction``
   (Jacobi scaling by the self-influence, plus lambda / q_max on slip cells), then K t,
   ``tangential_step_sums``, ``tangential_update`` and ``reduce.cg_advance``: two applications of
   K_tt per iteration;
@@ -42,7 +42,7 @@ import warp as wp
 from .overloads import register_float_overloads
 from .reduce import (  # noqa: F401  (shared slots)
     C_DELTA, C_G_OLD, N_SCALARS, N_SETTINGS, P_EXACT, P_TOL, S_G, S_GT, S_RHS, S_RT, S_VIOL, advance, block_add,
-    block_add_vector, cell_index, cg_converged, cg_step_length, residual_of, stop_loop,
+    block_add_vector, cell_index, cg_converged, cg_step_length, conjugacy, residual_of, stop_loop,
 )
 from .reduce import S_RESTART as S_RELEASED  # slip cells released into stick by the last step
 
@@ -111,8 +111,29 @@ def tangential_classify(
         status[i] = STICK
 
 
+@wp.func
+def residual_terms(gx: Any, gy: Any, qx: Any, qy: Any, q_max: Any, status: int, stiffness: Any):
+    """One cell's shares of the sums S_G and S_VIOL: on slip cells g_t . g_t / (``stiffness`` +
+    lambda / q_max) (the Jacobi part of g . M g) and the violation |g_t|^2 + max(g.e, 0)^2; on
+    stick cells the violation |g|^2 and no share of S_G (the plain iteration adds their Jacobi
+    share, ``tangential_residual``; the preconditioned one takes it from the spectral product)."""
+    zero = type(gx)(0.0)
+    s_g = zero
+    s_viol = zero
+    if status == STICK:
+        s_viol = gx * gx + gy * gy
+    elif status == SLIP:
+        e = slip_frame(qx, qy)
+        normal = gx * e[0] + gy * e[1]
+        tx = gx - normal * e[0]
+        ty = gy - normal * e[1]
+        s_g = (tx * tx + ty * ty) / (stiffness + wp.max(-normal, zero) / q_max)
+        s_viol = tx * tx + ty * ty + wp.max(normal, zero) * wp.max(normal, zero)
+    return s_g, s_viol
+
+
 @wp.kernel
-def tangential_gradient(
+def tangential_residual(
     disp_x: wp.array(dtype=Any),
     disp_y: wp.array(dtype=Any),
     known_x: wp.array(dtype=Any),
@@ -124,6 +145,7 @@ def tangential_gradient(
     shear_limit: wp.array(dtype=Any),
     status: wp.array(dtype=wp.int32),
     stiffness: Any,
+    jacobi_stick: int,
     n: int,
     outer: int,
     inner: int,
@@ -132,10 +154,14 @@ def tangential_gradient(
     grad_y: wp.array(dtype=Any),
     sums: wp.array(dtype=Any),
 ):
-    """g = K q + u_known - target (= minus the slip increment) and the residual sums."""
+    """The exact g = K q + u_known - target (= minus the slip increment) from ``disp`` = K q, and
+    the iterate's residual sums: slots S_VIOL, S_RHS, S_STICK (the stick cells) and S_G, the slip
+    cells' part (:func:`residual_terms`) plus, with ``jacobi_stick`` = 1 (the plain iteration),
+    the stick cells' Jacobi part |g|^2 / ``stiffness``; with 0 (the preconditioned iteration) the
+    spectral product adds theirs."""
     block, lane = wp.tid()
     thread = block * wp.block_dim() + lane
-    zero = disp_x[0] - disp_x[0]
+    zero = stiffness - stiffness
     s_g = zero
     s_viol = zero
     s_rhs = zero
@@ -152,20 +178,14 @@ def tangential_gradient(
             st = status[i]
             if st != OUT:
                 s_rhs += rx * rx + ry * ry
-            if st == STICK:
-                s_g += (gx * gx + gy * gy) / stiffness
-                s_viol += gx * gx + gy * gy
-                s_stick += type(zero)(1.0)
-            elif st == SLIP:
-                e = slip_frame(shear_x[i], shear_y[i])
-                normal = gx * e[0] + gy * e[1]
-                tx = gx - normal * e[0]
-                ty = gy - normal * e[1]
-                s_g += (tx * tx + ty * ty) / (stiffness + wp.max(-normal, zero) / shear_limit[i])
-                s_viol += tx * tx + ty * ty + wp.max(normal, zero) * wp.max(normal, zero)
-    block_add(sums, S_G, s_g)
-    block_add(sums, S_VIOL, s_viol)
-    block_add(sums, S_RHS, s_rhs)
+                dg, dv = residual_terms(gx, gy, shear_x[i], shear_y[i], shear_limit[i], st, stiffness)
+                if st == STICK:
+                    s_stick += type(zero)(1.0)
+                    if jacobi_stick != 0:
+                        dg = (gx * gx + gy * gy) / stiffness
+                s_g += dg
+                s_viol += dv
+    block_add_vector(sums, S_G, wp.vector(s_g, s_viol, s_rhs), lane)  # slots S_G, S_VIOL, S_RHS
     block_add(sums, S_STICK, s_stick)
 
 
@@ -204,9 +224,7 @@ def tangential_direction(
     ``stiffness`` plus, on slip cells, the curvature lambda / q_max."""
     i = wp.tid()
     zero = sums[S_G] - sums[S_G]
-    beta = zero
-    if scalars[C_G_OLD] > zero:
-        beta = scalars[C_DELTA] * sums[S_G] / scalars[C_G_OLD]
+    beta = conjugacy(sums, scalars)
     st = status[i]
     tx = grad_x[i] / stiffness + beta * dir_x[i]
     ty = grad_y[i] / stiffness + beta * dir_y[i]
@@ -263,6 +281,33 @@ def tangential_step_sums(
     block_add(sums, S_RT, s_rt)
 
 
+@wp.func
+def disk_step(status: int, qx: Any, qy: Any, gx: Any, gy: Any, tx: Any, ty: Any, q_max: Any, tau: Any,
+              tau_release: Any):
+    """One contact cell's step q <- q - tau t under the disk bound |q| <= q_max: a stick cell
+    that leaves the disk is projected onto it and slips; a slip cell is retracted onto its circle,
+    or, where its slip would reverse (g.q > 0), leaves the circle inwards with P(q - tau_release g)
+    and sticks where that lands inside. Returns the new q, the new status and |q - (q_old - tau
+    t)|, what the projection changed (which K t misses)."""
+    zero = type(qx)(0.0)
+    fx = qx - tau * tx  # what K t accounts for
+    fy = qy - tau * ty
+    new = status
+    q = wp.vector(fx, fy)
+    if status == SLIP and gx * qx + gy * qy > zero:
+        # the slip would reverse: leave the circle inwards
+        q = project_disk(qx - tau_release * gx, qy - tau_release * gy, q_max)
+        if q[0] * q[0] + q[1] * q[1] < q_max * q_max:
+            new = STICK
+    elif status == SLIP:
+        e = slip_frame(fx, fy)
+        q = wp.vector(q_max * e[0], q_max * e[1])
+    elif fx * fx + fy * fy >= q_max * q_max:
+        q = project_disk(fx, fy, q_max)
+        new = SLIP
+    return q, new, wp.sqrt((q[0] - fx) * (q[0] - fx) + (q[1] - fy) * (q[1] - fy))
+
+
 @wp.kernel
 def tangential_update(
     grad_x: wp.array(dtype=Any),
@@ -301,31 +346,14 @@ def tangential_update(
         if i < n and not done:
             st = status[i]
             if st != OUT:
-                q_max = shear_limit[i]
-                qx = shear_x[i]
-                qy = shear_y[i]
-                if st == SLIP and grad_x[i] * qx + grad_y[i] * qy > zero:
-                    # the slip would reverse: leave the circle inwards
-                    q = project_disk(qx - tau_release * grad_x[i], qy - tau_release * grad_y[i], q_max)
-                    qx = q[0]
-                    qy = q[1]
-                    if qx * qx + qy * qy < q_max * q_max:
-                        status[i] = STICK
+                q, new, change = disk_step(st, shear_x[i], shear_y[i], grad_x[i], grad_y[i], dir_x[i], dir_y[i],
+                                           shear_limit[i], tau, tau_release)
+                if new != st:
+                    status[i] = new
+                    if new == STICK:
                         released += type(zero)(1.0)
-                elif st == SLIP:
-                    e = slip_frame(qx - tau * dir_x[i], qy - tau * dir_y[i])
-                    qx = q_max * e[0]
-                    qy = q_max * e[1]
-                else:
-                    qx = qx - tau * dir_x[i]
-                    qy = qy - tau * dir_y[i]
-                    if qx * qx + qy * qy >= q_max * q_max:
-                        q = project_disk(qx, qy, q_max)
-                        qx = q[0]
-                        qy = q[1]
-                        status[i] = SLIP
-                shear_x[i] = qx
-                shear_y[i] = qy
+                shear_x[i] = q[0]
+                shear_y[i] = q[1]
     block_add(sums, S_RELEASED, released)
 
 
@@ -339,74 +367,6 @@ S_NEXT_VIOL = wp.constant(9)
 N_SUMS_PRECONDITIONED = 10
 
 
-@wp.func
-def residual_terms(gx: Any, gy: Any, qx: Any, qy: Any, q_max: Any, status: int, stiffness: Any):
-    """One cell's shares of the sums S_G and S_VIOL in the preconditioned iteration: on slip cells
-    g_t . g_t / (``stiffness`` + lambda / q_max) (the Jacobi part of g . M g; the stick cells'
-    part comes from the spectral product) and the violation |g_t|^2 + max(g.e, 0)^2; on stick
-    cells the violation |g|^2."""
-    zero = type(gx)(0.0)
-    s_g = zero
-    s_viol = zero
-    if status == STICK:
-        s_viol = gx * gx + gy * gy
-    elif status == SLIP:
-        e = slip_frame(qx, qy)
-        normal = gx * e[0] + gy * e[1]
-        tx = gx - normal * e[0]
-        ty = gy - normal * e[1]
-        s_g = (tx * tx + ty * ty) / (stiffness + wp.max(-normal, zero) / q_max)
-        s_viol = tx * tx + ty * ty + wp.max(normal, zero) * wp.max(normal, zero)
-    return s_g, s_viol
-
-
-@wp.kernel
-def tangential_residual(
-    disp_x: wp.array(dtype=Any),
-    disp_y: wp.array(dtype=Any),
-    known_x: wp.array(dtype=Any),
-    known_y: wp.array(dtype=Any),
-    target_x: wp.array(dtype=Any),
-    target_y: wp.array(dtype=Any),
-    shear_x: wp.array(dtype=Any),
-    shear_y: wp.array(dtype=Any),
-    shear_limit: wp.array(dtype=Any),
-    status: wp.array(dtype=wp.int32),
-    stiffness: Any,
-    n: int,
-    outer: int,
-    inner: int,
-    per: int,
-    grad_x: wp.array(dtype=Any),
-    grad_y: wp.array(dtype=Any),
-    sums: wp.array(dtype=Any),
-):
-    """The exact g = K q + u_known - target from ``disp`` = K q, and slots S_G (the slip cells'
-    part), S_VIOL, S_RHS of the iterate."""
-    block, lane = wp.tid()
-    thread = block * wp.block_dim() + lane
-    zero = stiffness - stiffness
-    s_g = zero
-    s_viol = zero
-    s_rhs = zero
-    for k in range(per):
-        i = cell_index(thread, outer, inner, k)
-        if i < n:
-            rx = target_x[i] - known_x[i]
-            ry = target_y[i] - known_y[i]
-            gx = disp_x[i] - rx
-            gy = disp_y[i] - ry
-            grad_x[i] = gx
-            grad_y[i] = gy
-            st = status[i]
-            if st != OUT:
-                s_rhs += rx * rx + ry * ry
-                dg, dv = residual_terms(gx, gy, shear_x[i], shear_y[i], shear_limit[i], st, stiffness)
-                s_g += dg
-                s_viol += dv
-    block_add_vector(sums, S_G, wp.vector(s_g, s_viol, s_rhs), lane)  # slots S_G, S_VIOL, S_RHS
-
-
 @wp.kernel
 def tangential_stick_gradient(grad: wp.array(dtype=Any), status: wp.array(dtype=wp.int32), width: int, per: int,
                               padded_input: wp.array2d(dtype=Any)):
@@ -417,16 +377,6 @@ def tangential_stick_gradient(grad: wp.array(dtype=Any), status: wp.array(dtype=
     for j in range(c * per, wp.min((c + 1) * per, width)):
         cell = i * width + j
         padded_input[i, j] = wp.where(status[cell] == STICK, grad[cell], type(grad[cell])(0.0))
-
-
-@wp.func
-def conjugacy(sums: wp.array(dtype=Any), scalars: wp.array(dtype=Any)):
-    """beta = delta G / G_old (0 on a restart and at the first iteration), G = g . M g."""
-    zero = sums[S_G] - sums[S_G]
-    beta = zero
-    if scalars[C_G_OLD] > zero:
-        beta = scalars[C_DELTA] * sums[S_G] / scalars[C_G_OLD]
-    return beta
 
 
 @wp.kernel
@@ -547,25 +497,10 @@ def tangential_carried_update(
                 rx = resp_x[i]
                 ry = resp_y[i]
                 if not done:
-                    fx = qx - tau * tx  # what K t accounts for
-                    fy = qy - tau * ty
-                    new = st
-                    q = wp.vector(fx, fy)
-                    if st == SLIP and gx * qx + gy * qy > zero:
-                        # the slip would reverse: leave the circle inwards
-                        q = project_disk(qx - tau_release * gx, qy - tau_release * gy, q_max)
-                        if q[0] * q[0] + q[1] * q[1] < q_max * q_max:
-                            new = STICK
-                            released += type(zero)(1.0)
-                    elif st == SLIP:
-                        e = slip_frame(fx, fy)
-                        q = wp.vector(q_max * e[0], q_max * e[1])
-                    elif fx * fx + fy * fy >= q_max * q_max:
-                        q = project_disk(fx, fy, q_max)
-                        new = SLIP
+                    q, new, change = disk_step(st, qx, qy, gx, gy, tx, ty, q_max, tau, tau_release)
                     qx = q[0]
                     qy = q[1]
-                    corrected += wp.sqrt((qx - fx) * (qx - fx) + (qy - fy) * (qy - fy))
+                    corrected += change
                     gx = gx - tau * rx
                     gy = gy - tau * ry
                     shear_x[i] = qx
@@ -574,6 +509,8 @@ def tangential_carried_update(
                     grad_y[i] = gy
                     if new != st:
                         status[i] = new
+                        if new == STICK:
+                            released += type(zero)(1.0)
                         st = new
                 dg, dv = residual_terms(gx, gy, qx, qy, q_max, st, stiffness)
                 s_g += dg
@@ -634,11 +571,10 @@ def tangential_advance(sums: wp.array(dtype=Any), settings: wp.array(dtype=Any),
 
 for _k in (
     tangential_classify,
-    tangential_gradient,
+    tangential_residual,
     tangential_direction,
     tangential_step_sums,
     tangential_update,
-    tangential_residual,
     tangential_stick_gradient,
     tangential_direction_stick,
     tangential_direction_rest,

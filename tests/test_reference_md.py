@@ -239,6 +239,17 @@ def test_load_control_minimum_lies_on_displacement_stable_part(lam):
     assert crit["Delta_jump_out"] < crit["Delta_pull_off_load_control"]
 
 
+def _assert_jump(crit, point, on_noncontact_branch, C, P, rel):
+    """The critical point ``point`` of ``maugis_dugdale_critical_points``: on the no-contact branch
+    (A = 0) at the closed-form radius C and load P, or else on the contact branch (A > 0)."""
+    if on_noncontact_branch:
+        assert crit[f"A_{point}"] == 0.0
+        assert crit[f"C_{point}"] == pytest.approx(C, rel=rel)
+        assert crit[f"P_{point}"] == pytest.approx(P, rel=rel)
+    else:
+        assert crit[f"A_{point}"] > 0.0
+
+
 @pytest.mark.parametrize("lam", [0.05, 0.3, 0.9, 0.95, 1.0, 3.0])
 def test_jump_out_point(lam):
     """Displacement-controlled jump-out: below LAMBDA_JUMP_OUT_ON_CONTACT_BRANCH on the no-contact
@@ -247,12 +258,9 @@ def test_jump_out_point(lam):
     crit = maugis_dugdale_critical_points(lam)
     C_0 = maugis_dugdale_noncontact_curve(LAMBDA_JUMP_OUT_ON_CONTACT_BRANCH)["C_0"]
     assert C_0 == pytest.approx(8 * LAMBDA_JUMP_OUT_ON_CONTACT_BRANCH / (3 * math.pi), rel=1e-12)
-    if lam < LAMBDA_JUMP_OUT_ON_CONTACT_BRANCH:
-        assert crit["A_jump_out"] == 0.0
-        assert crit["C_jump_out"] == pytest.approx(8 * lam / (3 * math.pi), rel=1e-6)
-        assert crit["P_jump_out"] == pytest.approx(-32 * lam**3 / (9 * math.pi), rel=1e-6)
-    else:
-        assert crit["A_jump_out"] > 0.0
+    _assert_jump(crit, "jump_out", lam < LAMBDA_JUMP_OUT_ON_CONTACT_BRANCH,
+                 8 * lam / (3 * math.pi), -32 * lam**3 / (9 * math.pi), rel=1e-6)
+    if crit["A_jump_out"] > 0.0:
         assert abs(_dDelta_dA(lam, crit["A_jump_out"])) < 1e-4
 
 
@@ -265,12 +273,8 @@ def test_jump_in_and_the_two_paths(lam):
     crit = maugis_dugdale_critical_points(lam)
     D_in, D_out = crit["Delta_jump_in"], crit["Delta_jump_out"]
     assert D_in == pytest.approx(-2 / (math.pi * lam), rel=1e-15)
-    if lam < LAMBDA_JUMP_IN_ON_NONCONTACT_BRANCH:
-        assert crit["A_after_jump_in"] == 0.0
-        assert crit["C_after_jump_in"] == pytest.approx(16 * lam / (3 * math.pi), rel=1e-9)
-        assert crit["P_after_jump_in"] == pytest.approx(-128 * lam**3 / (9 * math.pi), rel=1e-9)
-    else:
-        assert crit["A_after_jump_in"] > 0.0
+    _assert_jump(crit, "after_jump_in", lam < LAMBDA_JUMP_IN_ON_NONCONTACT_BRANCH,
+                 16 * lam / (3 * math.pi), -128 * lam**3 / (9 * math.pi), rel=1e-9)
     approach = maugis_dugdale_force_at(lam, np.array([D_in - 1e-9, D_in + 1e-9]), "approach")
     assert approach[0] == 0.0 and approach[1] == pytest.approx(crit["P_after_jump_in"], abs=1e-6)
     retract = maugis_dugdale_force_at(lam, np.array([D_out - 1e-9, D_out + 1e-9]), "retract")

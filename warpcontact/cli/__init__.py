@@ -49,6 +49,15 @@ def _common(p):
     p.add_argument("--quiet", action="store_true", help="no progress output")
 
 
+def _case_command(sub, name: str, case_help: str = "case file (TOML)", **texts):
+    """Register a command of one case file (``solve``, ``gross-slip``, ``pull-off``): its parser,
+    ``texts`` its help, description and epilog (printed as written), and the positional ``case``;
+    returns the parser."""
+    p = sub.add_parser(name, formatter_class=argparse.RawDescriptionHelpFormatter, **texts)
+    p.add_argument("case", help=case_help)
+    return p
+
+
 def _parser():
     parser = argparse.ArgumentParser(
         prog="warpcontact",
@@ -58,29 +67,25 @@ def _parser():
 
     parser.add_argument("--version", action="version", version=f"warpcontact {__version__}")
     sub = parser.add_subparsers(dest="command", required=True)
-    p = sub.add_parser(
-        "solve",
+    p = _case_command(
+        sub, "solve",
         help="solve every state of a case's load path",
         description="Solve every state of the load path of CASE (a TOML file, SI units; see docs/case-files.md).",
         epilog=EXAMPLE_SOLVE,
-        formatter_class=argparse.RawDescriptionHelpFormatter,
     )
-    p.add_argument("case", help="case file (TOML)")
     p.add_argument("--fields", choices=FIELDS_CHOICES, default="all",
                    help="whose fields OUT/fields.npz holds: every state's (all, the default), the last state's "
                    "(last: 1/n_states of the size) or none (no fields.npz)")
     _common(p)
 
-    g = sub.add_parser(
-        "gross-slip",
+    g = _case_command(
+        sub, "gross-slip",
         help="find delta_x at gross slip and the static friction coefficient",
         description="Load the case's delta_z in [load] steps with friction active, then raise delta_x until no "
         "cell sticks; bisect to 1 %. The case needs a [friction] table; its delta_x, delta_y are not used.",
         epilog="example:\n  warpcontact gross-slip examples/table2_k080_dz5e-5.toml --out out/gs\n\n"
         "writes OUT/result.json with delta_x_max [m], mu, the force at delta_x_max [N] and every state of the path.",
-        formatter_class=argparse.RawDescriptionHelpFormatter,
     )
-    g.add_argument("case", help="case file (TOML)")
     _common(g)
 
     t = sub.add_parser(
@@ -109,16 +114,14 @@ def _parser():
     from .sweep import add_batch_options
 
     add_batch_options(t, "1", default=1)  # warpcontact.studies.batch
-    po = sub.add_parser(
-        "pull-off",
+    po = _case_command(
+        sub, "pull-off", "case file (TOML) with an [adhesion] table",
         help="approach and retract the sphere: force-displacement curve and pull-off force",
         description="Needs an [adhesion] table. delta_z runs from -2 ranges of the law up to the case's delta_z and "
         "back down to --retract-to (default: -(4 ranges of the law)), in --steps steps each way.",
         epilog="example:\n  warpcontact pull-off examples/pull_off_dmt.toml --out out/pull\n\n"
         "writes OUT/result.json (pull_off_force [N], the most tensile total F_z, and the curve) and OUT/pull_off.png.",
-        formatter_class=argparse.RawDescriptionHelpFormatter,
     )
-    po.add_argument("case", help="case file (TOML) with an [adhesion] table")
     po.add_argument("--steps", type=int, default=20, help="steps each way (default 20)")
     po.add_argument("--retract-to", type=float, help="last delta_z [m] (default: -4 ranges of the law)")
     _common(po)

@@ -202,40 +202,20 @@ class WarpTileFFT(FFTBackend):
 
     def _launch_forward(self, field, spectrum):
         # x: ny rows of the field (zero-padded to Lx) -> first Lx/2 + 1 frequencies, as columns
-        wp.launch_tiled(
-            self._kx["forward_real"],
-            dim=(self.ny,),
-            inputs=[field],
-            outputs=[self._rows_q_t],
-            block_dim=self._block_x,
-            device=self.device,
-        )
+        self._row_pass("x", "forward_real", [field], self._rows_q_t)
         # y: Lx/2 + 1 rows of Ly (zero beyond ny) -> spectrum rows
-        wp.launch_tiled(
-            self._ky["forward"],
-            dim=(self.hx,),
-            inputs=[self._rows_q],
-            outputs=[spectrum],
-            block_dim=self._block_y,
-            device=self.device,
-        )
+        self._row_pass("y", "forward", [self._rows_q], spectrum)
 
     def _launch_inverse(self, spectrum, field):
         # y: inverse of each spectrum row, first ny values, weighted and normalised, as columns
-        wp.launch_tiled(
-            self._ky["inverse_scaled"],
-            dim=(self.hx,),
-            inputs=[spectrum, self._row_scale],
-            outputs=[self._half_r_t],
-            block_dim=self._block_y,
-            device=self.device,
-        )
+        self._row_pass("y", "inverse_scaled", [spectrum, self._row_scale], self._half_r_t)
         # x: ny half rows (zero-padded to Lx) -> real part of the inverse, first nx values
-        wp.launch_tiled(
-            self._kx["inverse_real"],
-            dim=(self.ny,),
-            inputs=[self._half_r],
-            outputs=[field],
-            block_dim=self._block_x,
-            device=self.device,
-        )
+        self._row_pass("x", "inverse_real", [self._half_r], field)
+
+    def _row_pass(self, axis: str, name: str, inputs: list, output):
+        """One tiled launch of the row transform ``name`` (of ``row_fft_kernels``) along ``axis``:
+        "x" over the ny rows of Lx points, "y" over the Lx/2 + 1 rows of Ly points; one row a block."""
+        kernels, rows, block_dim = ((self._kx, self.ny, self._block_x) if axis == "x"
+                                    else (self._ky, self.hx, self._block_y))
+        wp.launch_tiled(kernels[name], dim=(rows,), inputs=inputs, outputs=[output], block_dim=block_dim,
+                        device=self.device)

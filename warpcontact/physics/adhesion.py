@@ -278,16 +278,26 @@ class Dugdale:
                 "ramps": self.ramps, "work_of_adhesion": self.work_of_adhesion}
 
 
+@dataclass(frozen=True)
 class _WorkAndLength:
-    """What the normal-only laws of a work of adhesion w [J/m^2] and one length [m] share
+    """What the normal-only laws of a work of adhesion w [J/m^2] and one length L [m] share
     (Exponential, LennardJones93): their checks, the length as their range, the kernel's
-    parameters (w and the length in model units), no tangential opening, and their description.
-    Each names its length's field (``LENGTH``), its name in a case file (``NAME``) and its branch
-    of kernels/adhesive.py (``KERNEL``)."""
+    parameters (w and the length in model units), no tangential opening, their description, and
+    the scales of their tension: w / L for the largest tension, w / L^2 for the steepest
+    softening. Each names its length's field (``LENGTH``), its name in a case file (``NAME``), its
+    branch of kernels/adhesive.py (``KERNEL``) and its largest tension and steepest softening in
+    those scales (``PEAK``, ``SOFTENING``, dimensionless).
+
+    Attributes:
+        work_of_adhesion: w [J/m^2].
+    """
+
+    work_of_adhesion: float
 
     has_shear = False
     LENGTH = NAME = ""
     KERNEL = -1
+    PEAK = SOFTENING = math.nan
 
     def __post_init__(self):
         _positive("adhesion.work_of_adhesion", self.work_of_adhesion)
@@ -297,6 +307,16 @@ class _WorkAndLength:
     def range(self) -> float:
         """Gap [m] up to which a cell counts as adhesive contact: the law's length."""
         return getattr(self, self.LENGTH)
+
+    @property
+    def peak_tension(self) -> float:
+        """The largest tension [Pa]: PEAK w / L."""
+        return self.PEAK * self.work_of_adhesion / self.range
+
+    @property
+    def steepest_softening(self) -> float:
+        """The largest -dt/dh [Pa/m]: SOFTENING w / L^2."""
+        return self.SOFTENING * self.work_of_adhesion / self.range**2
 
     def normal_law(self, model):
         L = model.length_scale
@@ -313,27 +333,18 @@ class _WorkAndLength:
 @dataclass(frozen=True)
 class Exponential(_WorkAndLength):
     """Exponential law: tension t(h) = (w / rho) exp(-h / rho), potential -w exp(-h / rho); the
-    largest tension w / rho acts at contact (h = 0). The law of Tamaas's exponential adhesion
-    functional and of the Adhesion package's exponential potential.
+    largest tension w / rho acts at contact (h = 0), where it softens fastest, -dt/dh = w / rho^2.
+    The law of Tamaas's exponential adhesion functional and of the Adhesion package's exponential
+    potential.
 
     Attributes:
-        work_of_adhesion: w [J/m^2].
         rho: decay length [m].
     """
 
-    work_of_adhesion: float
     rho: float
 
     LENGTH, NAME, KERNEL = "rho", "exponential", nk.LAW_EXPONENTIAL
-
-    @property
-    def peak_tension(self) -> float:
-        return self.work_of_adhesion / self.rho
-
-    @property
-    def steepest_softening(self) -> float:
-        """-dt/dh at contact [Pa/m]: w / rho^2."""
-        return self.work_of_adhesion / self.rho**2
+    PEAK = SOFTENING = 1.0
 
 
 @dataclass(frozen=True)
@@ -342,24 +353,15 @@ class LennardJones93(_WorkAndLength):
     side is the hard wall at h = 0): t = (8 w / 3 z0) ((z0/z)^3 - (z0/z)^9), potential
     -(4 w / 3) ((z0/z)^2 - (z0/z)^8 / 4), so that the work of separation is w and the largest
     tension 16 w / (9 sqrt(3) z0) acts at z = 3^(1/6) z0 (Greenwood, Proc. R. Soc. A 453 (1997)
-    1277; the Adhesion package's Lj93 potential).
+    1277; the Adhesion package's Lj93 potential). The largest -dt/dh, (8 w / 3 z0^2) max_r
+    (3 r^4 - 9 r^10) with r = z0 / z, is reached at r^6 = 2/15: 1.8 (2/15)^(2/3) (8 / 3) w / z0^2.
 
     Attributes:
-        work_of_adhesion: w [J/m^2].
         z0: equilibrium distance [m].
     """
 
-    work_of_adhesion: float
     z0: float
 
     LENGTH, NAME, KERNEL = "z0", "lj93", nk.LAW_LJ93
-
-    @property
-    def peak_tension(self) -> float:
-        return 16.0 * self.work_of_adhesion / (9.0 * math.sqrt(3.0) * self.z0)
-
-    @property
-    def steepest_softening(self) -> float:
-        """Largest -dt/dh [Pa/m]: (8 w / 3 z0^2) max_r (3 r^4 - 9 r^10), r = z0 / z, reached at
-        r^6 = 2/15: 1.8 (2/15)^(2/3) (8 / 3) w / z0^2."""
-        return 1.8 * (2.0 / 15.0) ** (2.0 / 3.0) * 8.0 / 3.0 * self.work_of_adhesion / self.z0**2
+    PEAK = 16.0 / (9.0 * math.sqrt(3.0))
+    SOFTENING = 1.8 * (2.0 / 15.0) ** (2.0 / 3.0) * 8.0 / 3.0

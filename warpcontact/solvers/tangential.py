@@ -319,8 +319,8 @@ class TangentialSolver(ProjectedCG):
             m.launch_cells(tk.tangential_classify, [limit, 1], [qx, qy, st])
 
         def residual():  # g and slots S_G (slip part), S_VIOL, S_RHS from state.disp = K q
-            m.launch_reduce(tk.tangential_residual, [ux, uy, kx, ky, tgx, tgy, qx, qy, limit, st, self.stiffness],
-                            [gx, gy, sums])
+            m.launch_reduce(tk.tangential_residual,
+                            [ux, uy, kx, ky, tgx, tgy, qx, qy, limit, st, self.stiffness, 0], [gx, gy, sums])
 
         def displacement():
             m.operator.tangential(state.shear_x, state.shear_y, state.disp_x, state.disp_y)
@@ -385,8 +385,8 @@ class TangentialSolver(ProjectedCG):
 
         def gradient():
             m.operator.tangential(state.shear_x, state.shear_y, state.disp_x, state.disp_y)
-            m.launch_reduce(tk.tangential_gradient, [ux, uy, kx, ky, tgx, tgy, qx, qy, limit, st, self.stiffness],
-                            [gx, gy, sums])
+            m.launch_reduce(tk.tangential_residual,  # S_G with the stick cells' Jacobi part
+                            [ux, uy, kx, ky, tgx, tgy, qx, qy, limit, st, self.stiffness, 1], [gx, gy, sums])
 
         def body():
             self.sums.zero_()

@@ -53,26 +53,22 @@ def paper_table(path=None) -> dict:
                     rows[(float(r["k_tau"]), float(r["delta_z_um"]), r["adhesion"] == "yes")] = (
                         float(r["delta_x_max_um"]), float(r["mu"]))
             return rows
-    for (k, dz, adh), v in _PAPER.items():
-        rows[(k, dz, adh)] = v
-    return rows
+    return dict(_PAPER)
 
 
-# transcription of the paper's Table 2, used when the CSV is not beside us
-_PAPER = {
-    (0.50, 1.0e-5, False): (4.2e-6, 0.332), (0.50, 5.0e-5, False): (2.1e-5, 0.332),
-    (0.50, 1.0e-4, False): (4.2e-5, 0.332), (0.50, 1.5e-4, False): (5.5e-5, 0.308),
-    (0.80, 1.0e-5, False): (9.6e-6, 0.769), (0.80, 5.0e-5, False): (4.8e-5, 0.769),
-    (0.80, 1.0e-4, False): (7.3e-5, 0.665), (0.80, 1.5e-4, False): (7.7e-5, 0.495),
-    (0.95, 1.0e-5, False): (2.2e-5, 1.755), (0.95, 5.0e-5, False): (6.7e-5, 1.250),
-    (0.95, 1.0e-4, False): (8.2e-5, 0.827), (0.95, 1.5e-4, False): (8.5e-5, 0.583),
-    (0.50, 1.0e-5, True): (4.4e-6, 0.340), (0.50, 5.0e-5, True): (2.4e-5, 0.350),
-    (0.50, 1.0e-4, True): (4.9e-5, 0.357), (0.50, 1.5e-4, True): (6.5e-5, 0.325),
-    (0.80, 1.0e-5, True): (1.0e-5, 0.788), (0.80, 5.0e-5, True): (5.4e-5, 0.809),
-    (0.80, 1.0e-4, True): (8.5e-5, 0.688), (0.80, 1.5e-4, True): (8.8e-5, 0.502),
-    (0.95, 1.0e-5, True): (2.3e-5, 1.798), (0.95, 5.0e-5, True): (7.5e-5, 1.277),
-    (0.95, 1.0e-4, True): (9.5e-5, 0.843), (0.95, 1.5e-4, True): (9.8e-5, 0.587),
+# transcription of the paper's Table 2, used when the CSV is not beside us, laid out as the paper
+# prints it: per column (adhesion) and k_tau (K_TAU), the (delta_x_max_um, mu) of each delta_z in
+# DELTA_Z_UM
+_PAPER_ROWS = {
+    (False, 0.50): ((4.2e-6, 0.332), (2.1e-5, 0.332), (4.2e-5, 0.332), (5.5e-5, 0.308)),
+    (False, 0.80): ((9.6e-6, 0.769), (4.8e-5, 0.769), (7.3e-5, 0.665), (7.7e-5, 0.495)),
+    (False, 0.95): ((2.2e-5, 1.755), (6.7e-5, 1.250), (8.2e-5, 0.827), (8.5e-5, 0.583)),
+    (True, 0.50): ((4.4e-6, 0.340), (2.4e-5, 0.350), (4.9e-5, 0.357), (6.5e-5, 0.325)),
+    (True, 0.80): ((1.0e-5, 0.788), (5.4e-5, 0.809), (8.5e-5, 0.688), (8.8e-5, 0.502)),
+    (True, 0.95): ((2.3e-5, 1.798), (7.5e-5, 1.277), (9.5e-5, 0.843), (9.8e-5, 0.587)),
 }
+_PAPER = {(k, dz, adh): cell for (adh, k), cells in _PAPER_ROWS.items()
+          for dz, cell in zip(DELTA_Z_UM, cells, strict=True)}
 
 
 @dataclass(frozen=True)
