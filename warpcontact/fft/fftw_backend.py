@@ -204,11 +204,14 @@ class FFTWBackend(ScipyFFT):
 
     def spectrum_of_padded(self, padded):
         """The scipy backend's spectrum (layout (2 ny, nx + 1)), made by FFTW with an estimated
-        plan (once per influence array: measuring would cost more than it saves)."""
+        plan (once per influence array: measuring would cost more than it saves), from the array
+        where it is (unaligned plans: no aligned copy) into a new spectrum, its only temporary."""
         pyfftw = import_pyfftw()
-        transform = pyfftw.builders.rfft2(np.asarray(padded, dtype=np.float64), threads=self.workers,
-                                          planner_effort="FFTW_ESTIMATE")
-        return transform()
+        padded = np.asarray(padded, dtype=np.float64)
+        spectrum = pyfftw.empty_aligned((padded.shape[0], padded.shape[1] // 2 + 1), dtype=np.complex128)
+        pyfftw.FFTW(padded, spectrum, axes=(0, 1), direction="FFTW_FORWARD", threads=self.workers,
+                    flags=("FFTW_ESTIMATE", "FFTW_UNALIGNED"))()
+        return spectrum
 
     def _plans_for(self, spectrum: wp.array2d) -> FFTWPlans:
         plans = self._plans.get(spectrum.ptr)
