@@ -121,6 +121,25 @@ def test_solution_meets_the_contact_and_law_conditions(name, device):
     assert np.linalg.norm(u - f["disp_z"]) < 1e-6 * np.linalg.norm(u)
 
 
+@pytest.mark.gpu
+@pytest.mark.skipif(wp.get_cuda_device_count() < 2, reason="needs two CUDA devices")
+def test_the_solve_runs_on_its_models_gpu_whatever_cupys_current_device():
+    """On a host of several GPUs, CuPy's current device need not be the model's: the solve on
+    cuda:0 with CuPy's current device 1 gives the answer it gives with 0, to 1e-6 of the largest
+    pressure (the solve's tolerance is 1e-8 of the traction's norm; two runs on a GPU differ in
+    their last bits, whose block sums add in no fixed order). Before, CuPy made the inverse
+    spectrum on device 1 and Warp's kernels on cuda:0 read it: CUDA error 700."""
+    cupy = pytest.importorskip("cupy")
+    law = LAWS["exponential"]
+    answers = []
+    for current in (0, 1):
+        with cupy.cuda.Device(current):
+            _, _, state, info = _solve_at(law, 48, 1e-9, device="cuda:0")
+        assert info.converged, info
+        answers.append(state.to_numpy_si()["pressure"])
+    assert np.abs(answers[1] - answers[0]).max() <= 1e-6 * np.abs(answers[0]).max()
+
+
 def test_an_iteration_reads_the_device_at_most_three_times(monkeypatch):
     """The two-loop recursion keeps its scalars on the device: an iteration reads the device's
     sums only for its trial step (once per halving of it) and for the accepted point with its new

@@ -6,6 +6,7 @@ together, with non-penetration as a bound (kernels/adhesive.py states the proble
 
 from __future__ import annotations
 
+import contextlib
 import math
 
 import numpy as np
@@ -69,6 +70,10 @@ class PaddedConvolution:
             self._xp = cupy
             self._fft = cupy.fft
             self._kwargs = {}
+            # CuPy works on its current device, which need not be the model's on a host of several
+            # GPUs: its arrays would be made on another GPU and read by Warp's kernels on this one
+            # (seen on two H200s: CUDA error 700, an illegal address, at the next launch)
+            self._on_device = lambda: cupy.cuda.Device(device.ordinal)
         else:
             import scipy.fft
 
@@ -77,19 +82,21 @@ class PaddedConvolution:
 
             self._xp = np
             self._fft = scipy.fft
+            self._on_device = contextlib.nullcontext
             # the (2n, 2n) transforms are a ScipyFFT pair's work: threads from the same size on
             self._kwargs = {"workers": cpu_threads(n * n, ScipyFFT.THREADS_FROM_CELLS)}
         fft = op.fft
-        if fft.spectral_shape == (2 * n, n + 1) and fft.half_axis == 1:
-            spectrum = self._view(op.influence[0])  # K_zz's (real) spectrum
-        else:  # the warp backend's layout: made once on the host
-            from ..physics.influence import influence_coefficients
+        with self._on_device():
+            if fft.spectral_shape == (2 * n, n + 1) and fft.half_axis == 1:
+                spectrum = self._view(op.influence[0])  # K_zz's (real) spectrum
+            else:  # the warp backend's layout: made once on the host
+                from ..physics.influence import influence_coefficients
 
-            coeffs = influence_coefficients(model.pair, n, n, model.grid.dx, model.grid.dy)["zz"]
-            coeffs *= model.pair.E_star / model.grid.dx
-            spectrum = self._xp.asarray(np.fft.rfft2(coeffs).real.astype(model.np_dtype))
-        self._spectrum = spectrum
-        self._inverse_spectrum = 1.0 / spectrum
+                coeffs = influence_coefficients(model.pair, n, n, model.grid.dx, model.grid.dy)["zz"]
+                coeffs *= model.pair.E_star / model.grid.dx
+                spectrum = self._xp.asarray(np.fft.rfft2(coeffs).real.astype(model.np_dtype))
+            self._spectrum = spectrum
+            self._inverse_spectrum = 1.0 / spectrum
 
     def _view(self, a: wp.array):
         """A zero-copy view of a Warp array in the library's array type."""
@@ -99,11 +106,12 @@ class PaddedConvolution:
 
     def apply(self, source: wp.array, out: wp.array, inverse: bool = False):
         """out <- C source (or C^-1 source), both flat padded fields of 4 n^2 entries."""
-        x = self._view(source).reshape(self.shape)
-        spectrum = self._fft.rfft2(x, **self._kwargs)
-        spectrum *= self._inverse_spectrum if inverse else self._spectrum
-        y = self._fft.irfft2(spectrum, s=self.shape, **self._kwargs)
-        self._view(out).reshape(self.shape)[...] = y
+        with self._on_device():
+            x = self._view(source).reshape(self.shape)
+            spectrum = self._fft.rfft2(x, **self._kwargs)
+            spectrum *= self._inverse_spectrum if inverse else self._spectrum
+            y = self._fft.irfft2(spectrum, s=self.shape, **self._kwargs)
+            self._view(out).reshape(self.shape)[...] = y
 
 
 class AdhesiveNormalSolver:
