@@ -8,6 +8,8 @@ one JSON line: total_s (the solve, after one untimed warm-up solve at the same s
 force_err (against Hertz).
 
     /path/to/slippy-venv/bin/python bench/slippy_hertz.py 512
+    /path/to/slippy-venv/bin/python bench/slippy_hertz.py 512 --once   # no warm-up: as a user's
+                                                                         # whole process runs it
 """
 
 import json
@@ -38,7 +40,8 @@ def solve(n, tag):
 
 def main():
     n = int(sys.argv[1])
-    solve(n, "warm-up")  # numba compilation, FFT plans
+    if "--once" not in sys.argv[2:]:
+        solve(n, "warm-up")  # numba compilation, FFT plans
     total, force, converged = solve(n, "timed")
     e_star = 1.0 / ((1 - NU1**2) / E1 + (1 - NU2**2) / E2)
     hertz = 4.0 / 3.0 * e_star * math.sqrt(R) * DZ**1.5

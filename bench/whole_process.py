@@ -2,6 +2,7 @@
 output), warpcontact's `warpcontact solve` against Tamaas' own solver, alternating A B A B.
 
     python bench/whole_process.py [--n 512] [--rounds 3] [--device cpu] [--tamaas-path DIR]
+        [--slippy-python VENV/bin/python]
 
 warpcontact: `python -m warpcontact.cli solve CASE --out DIR --quiet --fields none` on
 examples/hertz.toml with n cells per side (the paper's pair, R = 10 um, delta_z = 1e-4 um,
@@ -10,6 +11,9 @@ that imports tamaas, builds the same problem (``bench_normal.time_tamaas``'s set
 PolonskyKeerRey solver with the DC-FFT operator on the same domain and grid, tolerance 1e-10,
 driven by the Hertz force) and solves it. ``--tamaas-path``:
 a folder put first on PYTHONPATH for the Tamaas process (e.g. ``pip install --target DIR tamaas``).
+``--slippy-python``: slippy 0.5.2's interpreter (a venv of its own: ``bench/slippy_hertz.py`` says
+how to make it), whose process runs ``bench/slippy_hertz.py N --once`` (the same problem,
+displacement-driven, tolerance 1e-10, one solve): a third column.
 Prints each run and the medians, and the ratio of the medians.
 """
 
@@ -79,6 +83,7 @@ def main():
     ap.add_argument("--rounds", type=int, default=3)
     ap.add_argument("--device", default="cpu")
     ap.add_argument("--tamaas-path", default=None)
+    ap.add_argument("--slippy-python", default=None, help="slippy's interpreter: a third column")
     a = ap.parse_args()
     with tempfile.TemporaryDirectory() as folder:
         case = case_file(a.n, a.device, folder)
@@ -87,16 +92,21 @@ def main():
         env = dict(os.environ)
         if a.tamaas_path:
             env["PYTHONPATH"] = a.tamaas_path + os.pathsep + env.get("PYTHONPATH", "")
-        theirs = [sys.executable, "-c", TAMAAS.format(n=a.n)]
-        times = {"warpcontact": [], "tamaas": []}
+        runs = [("warpcontact", ours, None), ("tamaas", [sys.executable, "-c", TAMAAS.format(n=a.n)], env)]
+        if a.slippy_python:
+            runs.append(("slippy", [a.slippy_python, os.path.join(HERE, "slippy_hertz.py"), str(a.n), "--once"], None))
+        times = {name: [] for name, _, _ in runs}
         for k in range(a.rounds):
-            for name, cmd, e in (("warpcontact", ours, None), ("tamaas", theirs, env)):
+            for name, cmd, e in runs:
                 times[name].append(timed(cmd, e))
                 print(f"round {k + 1}: {name} {times[name][-1]:.2f} s", flush=True)
-    w, t = statistics.median(times["warpcontact"]), statistics.median(times["tamaas"])
-    print(f"| n | warpcontact (whole process, median of {a.rounds}) | Tamaas 2.9 (whole process) | Tamaas / warpcontact |")
-    print("|---|---|---|---|")
-    print(f"| {a.n} | {w:.2f} s | {t:.2f} s | {t / w:.1f}x |")
+    med = {name: statistics.median(t) for name, t in times.items()}
+    w = med["warpcontact"]
+    peers = [("tamaas", "Tamaas 2.9")] + ([("slippy", "slippy 0.5.2")] if a.slippy_python else [])
+    print(f"| n | warpcontact (whole process, median of {a.rounds}) | "
+          + " | ".join(f"{label} (whole process) | {label} / warpcontact" for _, label in peers) + " |")
+    print("|---|---|" + "---|---|" * len(peers))
+    print(f"| {a.n} | {w:.2f} s | " + " | ".join(f"{med[k]:.2f} s | {med[k] / w:.1f}x" for k, _ in peers) + " |")
 
 
 if __name__ == "__main__":
