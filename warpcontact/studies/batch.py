@@ -641,19 +641,33 @@ def _run_on_cluster(tasks, placement, stats, tally, show, error, hand_back, run_
     # dask is imported where it is first needed (in the starting thread, beside a local cluster):
     # about a second of this process's time on 2 cores
     queue = deque(tasks)
-    futures: dict = {}
-    lock = threading.Lock()  # the queue and the futures, shared with the starting thread
+    futures: dict = {}  # submitted and not yet handed back
+    lock = threading.Lock()  # the queue, the futures and the count, shared with dask's threads
     token = os.urandom(4).hex()  # a rerun's tasks are new tasks on a long-lived cluster
-    slots = [0]
+    slots = [0]  # cases the workers may hold at once
+    computing = [0]  # cases submitted and not yet finished there
+    ending = [False]
 
     def submit(cluster) -> None:
-        """Fill the workers' free places from the front of the queue."""
+        """Fill the workers' free places from the front of the queue. Each case submitted submits
+        the next when it finishes (its done callback, which dask runs in a thread of its own), so
+        that a worker is not kept waiting for a case this process is computing."""
         with lock:
-            while queue and len(futures) < slots[0]:
+            while queue and computing[0] < slots[0] and not ending[0]:
                 task = queue.popleft()
                 fut = cluster.client.submit(call_task, task.fn, task.args, key=f"warpcontact-{task.key}-{token}",
                                             pure=False)
                 futures[fut] = task
+                computing[0] += 1
+                fut.add_done_callback(lambda f: finished_there(cluster))
+
+    def finished_there(cluster) -> None:
+        with lock:
+            computing[0] -= 1
+        try:
+            submit(cluster)
+        except Exception:  # the run is ending (its client closed): nothing more to submit
+            pass
 
     def collect(fut) -> bool:
         """Hand back one finished future's case; False ends the run."""
@@ -690,9 +704,9 @@ def _run_on_cluster(tasks, placement, stats, tally, show, error, hand_back, run_
     else:
         show("reaching the workers")
         cluster = _Cluster(placement, len(tasks))
-        slots[0] = cluster.threads()
+        slots[0] = len(tasks)  # every case at once: they wait at the scheduler for a free worker
         stats.start_s = time.perf_counter() - t0
-        stats.workers = slots[0]
+        stats.workers = cluster.threads()
         stats.where = cluster.where
         submit(cluster)
     finished = False
@@ -731,6 +745,8 @@ def _run_on_cluster(tasks, placement, stats, tally, show, error, hand_back, run_
             wait(pending, return_when="FIRST_COMPLETED")
         finished = not futures and not queue
     finally:
+        with lock:
+            ending[0] = True
         if start is not None:
             start.end(list(futures), finished)
         elif cluster is not None:
