@@ -294,6 +294,22 @@ def test_errors_of_warpcontact_cross_the_process_boundary_whole():
     assert done.value == 2 and done.seconds >= 0
 
 
+def test_a_local_cluster_that_does_not_start_leaves_the_run_to_this_process(monkeypatch, tmp_path):
+    """Beside a local cluster this process computes too; when the cluster cannot start (here its
+    start raises at once), every case is still computed, here, and a warning says why (the
+    cases take 0.3 s each, so the start has failed before the first ends)."""
+    def no_cluster(self, placement, pending, envs=None):
+        raise RuntimeError("no worker could start")
+
+    monkeypatch.setattr(batch._Cluster, "__init__", no_cluster)
+    seen = []
+    tasks = [Task(f"c{i}", f"case {i}", marked_task, (str(tmp_path), f"c{i}", 0.3)) for i in range(3)]
+    with pytest.warns(RuntimeWarning, match="did not start .no worker could start.; the cases run in this process"):
+        stats = run_tasks(tasks, lambda t, v: seen.append((t.key, v["pid"])), Placement(workers=2))
+    assert sorted(seen) == [("c0", os.getpid()), ("c1", os.getpid()), ("c2", os.getpid())]
+    assert stats.where.startswith("this process alone") and len(stats.task_times) == 3
+
+
 def test_in_process_errors_go_to_on_error_and_the_run_goes_on():
     seen, errors = [], []
     tasks = [Task("a", "a", raise_input_error, ("k", "bad")), Task("b", "b", lambda: 2)]

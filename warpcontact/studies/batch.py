@@ -719,7 +719,11 @@ def _run_on_cluster(tasks, placement, stats, tally, show, error, hand_back, run_
                     stats.workers = slots[0] + 1
                     stats.where = f"this process and {cluster.where}"
                 elif start.error is not None and stats.where == "this process":  # computed here, all
+                    import warnings
+
                     stats.where = f"this process alone (its local workers did not start: {start.error})"
+                    warnings.warn(f"the {slots[0]} local worker process(es) did not start ({start.error}); "
+                                  f"the cases run in this process alone", RuntimeWarning, stacklevel=2)
             if cluster is not None:
                 with lock:
                     done = [f for f in futures if f.done()]
