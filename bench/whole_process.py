@@ -68,9 +68,9 @@ print(float(np.asarray(model.traction).sum() * (L / n) ** 2 / force - 1.0))
 """
 
 
-def timed(cmd, env=None) -> float:
+def timed(cmd, env=None, cwd=None) -> float:
     t0 = time.perf_counter()
-    r = subprocess.run(cmd, capture_output=True, text=True, env=env)
+    r = subprocess.run(cmd, capture_output=True, text=True, env=env, cwd=cwd)
     elapsed = time.perf_counter() - t0
     if r.returncode != 0:
         raise SystemExit(f"{cmd[:3]} failed ({r.returncode}): {r.stderr[-2000:]}")
@@ -98,7 +98,7 @@ def main():
         times = {name: [] for name, _, _ in runs}
         for k in range(a.rounds):
             for name, cmd, e in runs:
-                times[name].append(timed(cmd, e))
+                times[name].append(timed(cmd, e, cwd=folder))  # slippy writes its logs where it runs
                 print(f"round {k + 1}: {name} {times[name][-1]:.2f} s", flush=True)
     med = {name: statistics.median(t) for name, t in times.items()}
     w = med["warpcontact"]
