@@ -84,9 +84,10 @@ def add_batch_options(p, default_workers: str, default: int | None = None):
     """``--workers`` (``default``: None sizes a local cluster to the machine) and ``--scheduler`` of a
     command of many cases (:mod:`warpcontact.studies.batch`); ``default_workers`` says the default in words."""
     p.add_argument("--workers", type=int, metavar="N", default=default,
-                   help="cases computed at once: 1 computes them in this process, one after another; N > 1 in N "
-                   f"worker processes of a local cluster (default: {default_workers}). On CUDA the workers take "
-                   "the GPUs in turn; several may share one GPU (small grids leave a GPU mostly idle)")
+                   help="cases computed at once: 1 computes them in this process, one after another; N > 1 in "
+                   "this process and N - 1 worker processes of a local cluster, which start beside it "
+                   f"(default: {default_workers}). On CUDA the workers take the GPUs in turn (this process the "
+                   "first)")
     p.add_argument("--scheduler", metavar="ADDRESS",
                    help="run the cases on the workers of a running dask scheduler (tcp://host:8786) instead of a "
                    "local cluster; see docs/scaling.md")
