@@ -642,7 +642,7 @@ def _run_on_cluster(tasks, placement, stats, tally, show, error, hand_back, run_
     # about a second of this process's time on 2 cores
     queue = deque(tasks)
     futures: dict = {}  # submitted and not yet handed back
-    lock = threading.Lock()  # the queue, the futures and the count, shared with dask's threads
+    lock = threading.RLock()  # the queue, the futures and the count, shared with dask's threads
     token = os.urandom(4).hex()  # a rerun's tasks are new tasks on a long-lived cluster
     slots = [0]  # cases the workers may hold at once
     computing = [0]  # cases submitted and not yet finished there
