@@ -16,6 +16,7 @@ from __future__ import annotations
 import argparse
 import errno
 import math
+import os
 import sys
 from pathlib import Path
 
@@ -641,5 +642,30 @@ def main(argv=None) -> int:
         return interrupts.exit_status(e)
 
 
+def end_process(status: int):
+    """End the process with ``status`` once a command has returned: the streams flushed and the
+    exit functions run (logging's, multiprocessing's, dask's: what registered one), then
+    ``os._exit``. The interpreter's own teardown is skipped: freeing every object and unloading
+    Warp, LLVM and FFTW took 0.4-0.6 s of a 2.5 s `warpcontact solve` on 2 cores (the same process
+    ending through ``os._exit``: 1.88-1.93 s against 2.39-2.49 s) and does nothing a finished
+    command needs; every output is written and closed by then."""
+    import atexit
+
+    for stream in (sys.stdout, sys.stderr):
+        try:
+            stream.flush()
+        except (OSError, ValueError):  # a closed pipe: nothing more to say there
+            pass
+    atexit._run_exitfuncs()
+    os._exit(status)
+
+
+def run():
+    """The ``warpcontact`` command: :func:`main` on the process's arguments, then
+    :func:`end_process` with its exit status (an error that escapes ``main`` ends the process as
+    Python does, with its traceback)."""
+    end_process(main())
+
+
 if __name__ == "__main__":
-    sys.exit(main())
+    run()

@@ -1,7 +1,5 @@
-"""``python -m warpcontact.cli``: the command line (warpcontact.cli.main)."""
+"""``python -m warpcontact.cli``: the command line (warpcontact.cli.run)."""
 
-import sys
+from warpcontact.cli import run
 
-from warpcontact.cli import main
-
-sys.exit(main())
+run()
