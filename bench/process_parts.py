@@ -7,7 +7,7 @@ are called (the device synchronised at each clock reading): ``model`` (``runner.
 solvers, state), ``solve`` (the contact solver's steps), ``yield check``
 (``stress.state_yield_check``) and the rest of the command (the case read and checked, the
 summaries, result.json). ``interpreter`` is the process's wall time, measured from outside, less
-what it measured inside. Prints the median of each part over the rounds, as a markdown table.
+what it measured inside: the interpreter's start and the process's end (``cli.end_process``). Prints the median of each part over the rounds, as a markdown table.
 
     python bench/process_parts.py --n 512                       # the CPU
     python bench/process_parts.py --n 1024 --device cuda --rounds 5
@@ -73,6 +73,7 @@ import json
 print(json.dumps({"status": status, "inside": t4 - t0, "import numpy": t1 - t0, "import warp, wp.init()": t2 - t1,
                   "import warpcontact": t3 - t2, **spent,
                   "rest of the command": (t4 - t3) - sum(spent.values())}))
+warpcontact.cli.end_process(status)  # as the command ends
 """
 
 
