@@ -660,11 +660,11 @@ def end_process(status: int):
     os._exit(status)
 
 
-def run():
-    """The ``warpcontact`` command: :func:`main` on the process's arguments, then
-    :func:`end_process` with its exit status (an error that escapes ``main`` ends the process as
-    Python does, with its traceback)."""
-    end_process(main())
+def run(argv=None):
+    """The ``warpcontact`` command: :func:`main` on ``argv`` (default: the process's arguments),
+    then :func:`end_process` with its exit status (an error that escapes ``main``, or the
+    SystemExit of ``--help``, ends the process as Python does)."""
+    end_process(main(argv))
 
 
 if __name__ == "__main__":
