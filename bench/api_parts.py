@@ -25,6 +25,32 @@ from collections import defaultdict
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 
 
+def part_timer(spent: dict, device):
+    """``timed(name, fn)``: ``fn`` wrapped so that its time goes into ``spent[name]`` [s], the
+    device synchronised at each clock reading, its outermost calls only (a nested start's coarse
+    steps run inside the fine step: counted once). Also bench/process_parts.py's."""
+    import warp as wp
+
+    depth = defaultdict(int)
+
+    def timed(name, fn):
+        def wrapper(*args, **kwargs):
+            if depth[name]:
+                return fn(*args, **kwargs)
+            depth[name] += 1
+            wp.synchronize_device(device)
+            t0 = time.perf_counter()
+            try:
+                return fn(*args, **kwargs)
+            finally:
+                wp.synchronize_device(device)
+                spent[name] = spent.get(name, 0.0) + time.perf_counter() - t0
+                depth[name] -= 1
+        return wrapper
+
+    return timed
+
+
 def main():
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--device", default="cpu")
@@ -48,25 +74,7 @@ def main():
 
     device = wp.get_device(a.device)
     spent = defaultdict(float)
-
-    depth = defaultdict(int)
-
-    def timed(name, fn):
-        """``fn`` timed into ``spent[name]``, its outermost calls only (a nested start's coarse
-        steps run inside the fine step: counted once)."""
-        def wrapper(*args, **kwargs):
-            if depth[name]:
-                return fn(*args, **kwargs)
-            depth[name] += 1
-            wp.synchronize_device(device)
-            t0 = time.perf_counter()
-            try:
-                return fn(*args, **kwargs)
-            finally:
-                wp.synchronize_device(device)
-                spent[name] += time.perf_counter() - t0
-                depth[name] -= 1
-        return wrapper
+    timed = part_timer(spent, device)
 
     originals = {k: getattr(runner, k) for k in ("build", "state_summary", "state_fields")}
     runner.build = timed("build", originals["build"])

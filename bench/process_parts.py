@@ -43,27 +43,11 @@ t2 = time.perf_counter()
 import warpcontact.cli, warpcontact.cli.solve, warpcontact.studies.runner as runner
 import warpcontact.records.results, warpcontact.solvers.contact as contact, warpcontact.numerics.stress as stress
 t3 = time.perf_counter()
+import sys
+sys.path.insert(0, HERE)
+from api_parts import part_timer  # bench/, beside this script
 spent = {"model": 0.0, "solve": 0.0, "yield check": 0.0}
-depth = {k: 0 for k in spent}
-device = wp.get_device(DEVICE)
-
-
-def timed(name, fn):
-    def wrapper(*args, **kwargs):
-        if depth[name]:  # a nested call (the nested start's coarse steps): counted once
-            return fn(*args, **kwargs)
-        depth[name] += 1
-        wp.synchronize_device(device)
-        s = time.perf_counter()
-        try:
-            return fn(*args, **kwargs)
-        finally:
-            wp.synchronize_device(device)
-            spent[name] += time.perf_counter() - s
-            depth[name] -= 1
-    return wrapper
-
-
+timed = part_timer(spent, wp.get_device(DEVICE))
 runner.build = timed("model", runner.build)
 contact.ContactSolver.step = timed("solve", contact.ContactSolver.step)
 stress.state_yield_check = timed("yield check", stress.state_yield_check)
@@ -89,7 +73,7 @@ def main():
     with tempfile.TemporaryDirectory() as folder:
         case = case_file(a.n, a.device, folder)
         code = CHILD.replace("DEVICE", repr(a.device)).replace("CASE", repr(case)).replace(
-            "OUT", repr(os.path.join(folder, "out")))
+            "OUT", repr(os.path.join(folder, "out"))).replace("HERE", repr(HERE))
         for k in range(a.rounds + 1):  # the first round, not counted, fills the kernel cache
             t0 = time.perf_counter()
             r = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, cwd=folder)

@@ -12,6 +12,11 @@ from warpcontact import files
 from warpcontact.records import results
 
 
+def _fresh(code: str) -> subprocess.CompletedProcess:
+    """``code`` run by a fresh interpreter (nothing imported yet), its output captured."""
+    return subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
+
+
 def test_the_parser_imports_neither_warp_nor_scipy():
     """`warpcontact --help` and argument parsing load no Warp, SciPy, dask or solver module (they
     cost about a second; bench/batch_overhead.py times --help)."""
@@ -19,7 +24,7 @@ def test_the_parser_imports_neither_warp_nor_scipy():
             "heavy = [m for m in ('warp', 'scipy', 'distributed', 'matplotlib', 'warpcontact.numerics.model', "
             "'warpcontact.solvers', 'warpcontact.kernels') if m in sys.modules]\n"
             "print(','.join(heavy))")
-    r = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
+    r = _fresh(code)
     assert r.returncode == 0, r.stderr
     assert r.stdout.strip() == "", f"imported by the parser: {r.stdout.strip()}"
 
@@ -30,7 +35,7 @@ def test_a_cuda_case_resolves_its_fft_backend_without_the_cpu_backends():
     code = ("import sys; from warpcontact.numerics import resources as r\n"
             "print(r._resolve_fft('auto', 'cuda'), r.index_limit('float64', 'auto'))\n"
             "print(','.join(m for m in ('scipy', 'pyfftw', 'warpcontact.fft.scipy_backend') if m in sys.modules))")
-    r = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
+    r = _fresh(code)
     assert r.returncode == 0, r.stderr
     backend_limit, imported = r.stdout.splitlines()
     assert backend_limit.split()[0] in ("cupy", "warp") and int(backend_limit.split()[1]) == 11584
@@ -48,7 +53,7 @@ def test_the_fftw_backend_imports_neither_scipy_nor_dask():
             "s = f.spectrum_of_padded(np.ones((16, 16)))\n"
             "print(','.join(m for m in ('scipy', 'dask') if m in sys.modules), abs(s[0, 0]))\n"
             "import dask.array, scipy.fftpack, pyfftw.interfaces.scipy_fft; print('importable')")
-    r = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
+    r = _fresh(code)
     assert r.returncode == 0, r.stderr
     imported, importable = r.stdout.splitlines()[-2:]  # after Warp's start-up lines
     assert imported == " 256.0", f"imported: {imported}"  # the spectrum's mean term: 16 x 16 ones
@@ -85,7 +90,7 @@ def test_the_command_ends_its_process_with_its_status_after_the_exit_functions()
             "atexit.register(lambda: print('exit function ran'))\n"
             "print('printed before', end=''); sys.stdout.write(' and buffered\\n'); end_process(3)\n"
             "print('never')")
-    r = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
+    r = _fresh(code)
     assert r.returncode == 3, r.stderr
     assert r.stdout.splitlines() == ["printed before and buffered", "exit function ran"], r.stdout
 

@@ -368,13 +368,6 @@ class _Cluster:
     def threads(self) -> int:
         return max(1, sum(self.client.nthreads().values()))
 
-    def running(self, pending: int) -> int:
-        """Cases on workers now (the scheduler's tasks in processing), at most ``pending``."""
-        try:
-            return min(pending, sum(len(keys) for keys in self.client.processing().values()))
-        except Exception:  # a progress count: never a reason to fail the run
-            return min(pending, self.threads())
-
     def close(self, futures=(), finished: bool = True) -> None:
         """Close the client. A local cluster is closed in order when the run ``finished``; otherwise
         (a stop, an error) its worker processes are killed at once, their cases abandoned. A cluster
@@ -724,16 +717,15 @@ def _run_on_cluster(tasks, placement, stats, tally, show, error, hand_back, run_
                     stats.where = f"this process alone (its local workers did not start: {start.error})"
                     warnings.warn(f"the {slots[0]} local worker process(es) did not start ({start.error}); "
                                   f"the cases run in this process alone", RuntimeWarning, stacklevel=2)
-            if cluster is not None:
+            if cluster is not None:  # the workers' next cases are submitted by their done callbacks
                 with lock:
                     done = [f for f in futures if f.done()]
                 if not all(collect(f) for f in done):
                     break
-                submit(cluster)
             with lock:
                 task = queue.popleft() if here and queue else None
                 remote = len(futures)
-            tally.running = remote + (task is not None)
+                tally.running = computing[0] + (task is not None)
             if task is not None:
                 show(task.label)
                 if not run_here(task):
