@@ -255,8 +255,8 @@ def _with(**tables):
 
 #: (id, call, expected exception, expected key or None for a TypeError).
 API_CALLS = [
-    ("solve-not-a-case", lambda: api.solve("examples/hertz.toml"), TypeError, None),
-    ("gross-slip-dict-not-a-case", lambda: api.gross_slip(paper_dict()), TypeError, None),
+    ("solve-not-a-case", lambda: api.solve(42), TypeError, None),
+    ("gross-slip-list-not-a-case", lambda: api.gross_slip([paper_dict()]), TypeError, None),
     ("solve-device-unknown", lambda: api.solve(_paper(), device="tpu"), InputError, "solver.device"),
     ("solve-device-cuda-99", lambda: api.solve(_paper(), device="cuda:99"), InputError, "solver.device"),
     ("solve-dtype-float16", lambda: api.solve(_paper(), dtype="float16"), InputError, "solver.dtype"),

@@ -108,3 +108,35 @@ def test_a_solve_through_the_command_writes_everything_and_exits_0(tmp_path):
     with np.load(tmp_path / "out" / "fields.npz") as f:
         assert f["pressure"].shape[-2:] == (32, 32)
 
+
+
+def test_a_cpu_run_prints_no_notice_about_a_missing_cuda_driver():
+    """Warp's native start-up writes "Could not find or load the NVIDIA CUDA driver" to standard
+    error where no driver is installed (this machine in CI): a CPU user's every command would show
+    it. ``init_warp`` leaves that line out (on a GPU machine Warp does not print it)."""
+    from warpcontact.numerics.device import NO_DRIVER_NOTICE
+
+    r = _fresh("from warpcontact.numerics.device import resolve_device; print(resolve_device('cpu'))")
+    assert r.returncode == 0, r.stderr
+    assert r.stdout.strip() == "cpu"
+    assert NO_DRIVER_NOTICE not in r.stderr, r.stderr
+
+
+def test_init_warp_keeps_whatever_else_the_native_start_up_prints(monkeypatch, capfd):
+    """Only the driver notice is dropped: another line the native library writes to file
+    descriptor 2 during ``wp.init`` still reaches standard error."""
+    import os
+
+    import warp as wp
+
+    from warpcontact.numerics import device
+
+    def native_init():
+        os.write(2, f"{device.NO_DRIVER_NOTICE}. GPU execution will not be available.\n".encode())
+        os.write(2, b"Warp error: something the user must see\n")
+
+    monkeypatch.setattr(wp, "init", native_init)
+    monkeypatch.setattr(device, "_initialised", False)
+    device.init_warp()
+    err = capfd.readouterr().err
+    assert err == "Warp error: something the user must see\n", err

@@ -14,20 +14,20 @@ The dicts returned are the result.json of the matching command less the run's re
 software, case, complete): one builder per kind of result (:func:`run_gross_slip`,
 :func:`run_pull_off`), shared with the command line and the sweep rows (:func:`result_row`).
 
-Every function takes a :class:`~warpcontact.records.case.Case` (SI units throughout) and optional
-``device``, ``dtype`` and ``fft`` overrides; mistakes raise ``InputError`` (a ValueError) naming the
+Every function takes a case (SI units throughout): a :class:`~warpcontact.records.case.Case`, the
+path of a case file or a dict of its tables; and optional ``device``, ``dtype`` and ``fft`` overrides; mistakes raise ``InputError`` (a ValueError) naming the
 key.
 """
 
 from __future__ import annotations
 
-from .records.case import Case
 from .errors import InputError
 
 # the builders of a case's task live in the studies (warpcontact.studies.tasks), where the sweeps, the fits
 # and the stress study use them too; their names here are those of the Python API and the command line
 from .studies.tasks import (
     STATE_LISTS,
+    CaseLike,
     check_gross_slip_case,
     check_pull_off_case,
     gross_slip_summary,
@@ -39,7 +39,7 @@ from .studies.tasks import (
 from .studies.tasks import prepare as _prepare
 
 
-def solve(case: Case, device=None, dtype=None, fft=None, on_state=None, model=None, fields: str = "all"):
+def solve(case: CaseLike, device=None, dtype=None, fft=None, on_state=None, model=None, fields: str = "all"):
     """Solve every state of the case's load path in order.
 
     Returns a :class:`~warpcontact.studies.runner.PathResult`: ``states`` (one summary dict per state:
@@ -60,7 +60,7 @@ def solve(case: Case, device=None, dtype=None, fft=None, on_state=None, model=No
     return run_path(_prepare(case, device, dtype, fft), on_state=on_state, model=model, fields=fields)
 
 
-def path(case: Case, device=None, dtype=None, fft=None):
+def path(case: CaseLike, device=None, dtype=None, fft=None):
     """Iterate over the solved states of the load path: yields one summary dict per state (as in
     :func:`solve`), each as soon as it is solved; the slip history is carried along. Warns as
     :func:`solve` does (a coarse grid, a pressure above a yield strength: once each)."""
@@ -78,7 +78,7 @@ def path(case: Case, device=None, dtype=None, fft=None):
         yield summary
 
 
-def gross_slip(case: Case, device=None, dtype=None, fft=None, rel_tol: float = 0.01, on_state=None,
+def gross_slip(case: CaseLike, device=None, dtype=None, fft=None, rel_tol: float = 0.01, on_state=None,
                model=None) -> dict:
     """delta_x at gross slip [m] and the static friction coefficient mu = F_x / F_z there.
 
@@ -93,7 +93,7 @@ def gross_slip(case: Case, device=None, dtype=None, fft=None, rel_tol: float = 0
     return gross_slip_summary(_prepare(case, device, dtype, fft), rel_tol=rel_tol, on_state=on_state, model=model)
 
 
-def pull_off(case: Case, steps: int = 20, retract_to: float | None = None, device=None, dtype=None, fft=None,
+def pull_off(case: CaseLike, steps: int = 20, retract_to: float | None = None, device=None, dtype=None, fft=None,
              on_state=None, model=None) -> dict:
     """Approach to the case's delta_z and retract to ``retract_to`` [m] (default: -4 ranges of the
     adhesion law), ``steps`` steps each way. The case needs ``[adhesion]``. Returns the summary of

@@ -7,7 +7,8 @@ class InputError(ValueError):
     def __init__(self, key: str, problem: str):
         self.key = key
         self.problem = problem
-        super().__init__(f"{key}: {problem}")
+        # "sphere.E = 310 Pa is ...": a problem that starts with the value reads on from the key
+        super().__init__(f"{key} {problem}" if problem.startswith("= ") else f"{key}: {problem}")
 
 
 class ConvergenceError(RuntimeError):

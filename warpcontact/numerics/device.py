@@ -2,7 +2,10 @@
 
 from __future__ import annotations
 
+import os
 import re
+import sys
+import tempfile
 
 import numpy as np
 import warp as wp
@@ -12,12 +15,45 @@ from ..errors import InputError
 _DTYPES = {"float64": wp.float64, "float32": wp.float32}
 
 
+# what Warp's native start-up prints on a machine without an NVIDIA driver: noise for a CPU run;
+# a case that asks for CUDA there is refused by resolve_device with the key to change
+NO_DRIVER_NOTICE = "Warp CUDA warning: Could not find or load the NVIDIA CUDA driver"
+
+_initialised = False
+
+
 def init_warp(quiet: bool = True):
-    """Initialise Warp once, quietly."""
+    """Initialise Warp once, quietly: without its banner and, where no NVIDIA driver is installed,
+    without its notice that GPU execution is not available (anything else it prints is kept)."""
+    global _initialised
     wp.config.quiet = quiet
     if quiet:
         wp.config.log_level = wp.LOG_WARNING
-    wp.init()
+    if _initialised or not quiet:
+        wp.init()
+    else:
+        _init_without_driver_notice()
+    _initialised = True
+
+
+def _init_without_driver_notice():
+    """``wp.init()`` with the native library's standard error caught in a file (it writes to file
+    descriptor 2, below Python) and written back but for :data:`NO_DRIVER_NOTICE`."""
+    sys.stderr.flush()
+    with tempfile.TemporaryFile() as caught:
+        saved = os.dup(2)
+        os.dup2(caught.fileno(), 2)
+        try:
+            wp.init()
+        finally:
+            os.dup2(saved, 2)
+            os.close(saved)
+        caught.seek(0)
+        text = caught.read().decode(errors="replace")
+    kept = [line for line in text.splitlines(keepends=True) if not line.startswith(NO_DRIVER_NOTICE)]
+    if kept:
+        sys.stderr.write("".join(kept))
+        sys.stderr.flush()
 
 
 def resolve_device(name) -> "wp.context.Device":

@@ -432,7 +432,7 @@ def _row_case(fit_base: dict, row: Row, values: Mapping, overrides: Mapping, dat
         return case.with_overrides(**overrides)
     except InputError as e:
         if e.key in row.conditions:
-            raise InputError(f"{data_name} line {row.line}", f"column {e.key}: {e.problem}") from None
+            raise InputError(f"{data_name} line {row.line}", f"column {e}") from None
         key = f"fit.{e.key}" if e.key in values else e.key
         raise InputError(key, f"{e.problem} (the case of {data_name} line {row.line} at {_show(values)})") from None
 

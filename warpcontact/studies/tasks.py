@@ -6,19 +6,31 @@ summary, shared by the Python API (``warpcontact.api``), the command line, the s
 
 from __future__ import annotations
 
-from ..records.case import Case
+from collections.abc import Mapping
+from os import PathLike
+
+from ..records.case import Case, case_from_dict, load_case
 from ..errors import InputError
+
+#: What the Python API takes as a case: a Case, a case file's path, or a dict of its tables.
+CaseLike = Case | str | PathLike | Mapping
 
 #: What a case may run: its load path, the gross-slip search, the approach-retract curve.
 TASKS = ("solve", "gross-slip", "pull-off")
 
 
-def prepare(case: Case, device=None, dtype=None, fft=None) -> Case:
+def prepare(case: CaseLike, device=None, dtype=None, fft=None) -> Case:
     """``case`` with the given solver overrides (None: the case's own): the ``device``, ``dtype``
-    and ``fft`` arguments of every function of the Python API. TypeError if ``case`` is not a
-    :class:`~warpcontact.records.case.Case` (a path or a dict: load it first)."""
-    if not isinstance(case, Case):
-        raise TypeError(f"expected a warpcontact Case (see load_case / case_from_dict), got {type(case).__name__}")
+    and ``fft`` arguments of every function of the Python API. ``case``: a
+    :class:`~warpcontact.records.case.Case`, the path of a case file (:func:`load_case`) or a dict
+    of its tables (:func:`case_from_dict`); TypeError for anything else."""
+    if isinstance(case, (str, PathLike)):
+        case = load_case(case)
+    elif isinstance(case, Mapping):
+        case = case_from_dict(case)
+    elif not isinstance(case, Case):
+        raise TypeError(f"expected a warpcontact Case, a case file's path or a dict of its tables, "
+                        f"got {type(case).__name__}")
     return case.with_overrides(device=device, dtype=dtype, fft=fft)
 
 
