@@ -1,8 +1,8 @@
 """A Hertz solve as a user waits for it: whole processes (interpreter start, imports, set-up, solve,
-output), warpcontact's `warpcontact solve` against Tamaas' own solver, alternating A B A B.
+output), warpcontact's `warpcontact solve` against Tamaas' own solver (or another warpcontact), alternating A B A B.
 
     python bench/whole_process.py [--n 512] [--rounds 3] [--device cpu] [--tamaas-path DIR]
-        [--slippy-python VENV/bin/python]
+        [--slippy-python VENV/bin/python] [--no-tamaas] [--other DIR]
 
 warpcontact: `python -m warpcontact.cli solve CASE --out DIR --quiet --fields none` on
 examples/hertz.toml with n cells per side (the paper's pair, R = 10 um, delta_z = 1e-4 um,
@@ -84,7 +84,13 @@ def main():
     ap.add_argument("--device", default="cpu")
     ap.add_argument("--tamaas-path", default=None)
     ap.add_argument("--slippy-python", default=None, help="slippy's interpreter: a third column")
+    ap.add_argument("--no-tamaas", action="store_true", help="leave Tamaas out (a machine without it)")
+    ap.add_argument("--other", default=None, metavar="DIR",
+                    help="a folder holding another warpcontact (`pip install --no-deps --target DIR` of an "
+                    "earlier commit), put first on PYTHONPATH: a column timed alternating with this one")
     a = ap.parse_args()
+    if a.other and not os.path.isfile(os.path.join(a.other, "warpcontact", "__init__.py")):
+        raise SystemExit(f"--other {a.other}: no warpcontact package there (pip install --no-deps --target {a.other} TREE)")
     with tempfile.TemporaryDirectory() as folder:
         case = case_file(a.n, a.device, folder)
         ours = [sys.executable, "-m", "warpcontact.cli", "solve", case, "--out", os.path.join(folder, "out"),
@@ -92,7 +98,12 @@ def main():
         env = dict(os.environ)
         if a.tamaas_path:
             env["PYTHONPATH"] = a.tamaas_path + os.pathsep + env.get("PYTHONPATH", "")
-        runs = [("warpcontact", ours, None), ("tamaas", [sys.executable, "-c", TAMAAS.format(n=a.n)], env)]
+        runs = [("warpcontact", ours, None)]
+        if a.other:
+            other_env = dict(os.environ, PYTHONPATH=os.path.abspath(a.other) + os.pathsep + os.environ.get("PYTHONPATH", ""))
+            runs.append(("other", ours, other_env))
+        if not a.no_tamaas:
+            runs.append(("tamaas", [sys.executable, "-c", TAMAAS.format(n=a.n)], env))
         if a.slippy_python:
             runs.append(("slippy", [a.slippy_python, os.path.join(HERE, "slippy_hertz.py"), str(a.n), "--once"], None))
         times = {name: [] for name, _, _ in runs}
@@ -102,7 +113,8 @@ def main():
                 print(f"round {k + 1}: {name} {times[name][-1]:.2f} s", flush=True)
     med = {name: statistics.median(t) for name, t in times.items()}
     w = med["warpcontact"]
-    peers = [("tamaas", "Tamaas 2.9")] + ([("slippy", "slippy 0.5.2")] if a.slippy_python else [])
+    peers = ([("other", f"warpcontact from {a.other}")] if a.other else []) + \
+        ([] if a.no_tamaas else [("tamaas", "Tamaas 2.9")]) + ([("slippy", "slippy 0.5.2")] if a.slippy_python else [])
     print(f"| n | warpcontact (whole process, median of {a.rounds}) | "
           + " | ".join(f"{label} (whole process) | {label} / warpcontact" for _, label in peers) + " |")
     print("|---|---|" + "---|---|" * len(peers))
