@@ -26,6 +26,7 @@ delta_z = 1e-10 m then delta_x = 2e-11 m, one step per leg. Rows:
   turns.
 
 The rows ``coupled-plain`` ... ``coupled-nested`` take the window where ``"auto"`` does.
+``--adhesion`` adds the SMC law (``SMC_LAW``) to every row: the adhesive coupled step.
 
 Columns: the inner iterations (normal and tangential solves together) and turns of each step,
 the tangential iterations among them, the side of the last tangential solve's window ("w", in
@@ -61,6 +62,9 @@ import time
 
 R, DZ, DX = 10e-6, 1.0e-10, 2.0e-11
 A = math.sqrt(R * DZ)
+#: ``--adhesion``: the SMC law of ``bench_iteration.py --adhesion`` (sigma_max = tau_max = 2e7 Pa,
+#: delta_n = delta_t = 5e-12 m: the DMT side, the lagged turns)
+SMC_LAW = {"law": "smc", "sigma_max": 2e7, "tau_max": 2e7, "delta_n": 5e-12, "delta_t": 5e-12}
 ROWS = ("normal", "coupled-plain", "coupled-precond", "coupled-before", "coupled-nested", "coupled-default",
         "coupled-window", "coupled-whole", "coupled-exact")
 
@@ -83,7 +87,7 @@ CPU_SIZES = [64, 128, 256, 512, 1024]
 GPU_SIZES = [256, 512, 1024, 2048, 4096, 8192]
 
 
-def case_dict(n: int, friction: bool, device: str, dtype: str, fft: str) -> dict:
+def case_dict(n: int, friction: bool, device: str, dtype: str, fft: str, adhesion: bool = False) -> dict:
     """The problem as a case for ``wc.solve``: the paper's pair as Table 1 gives it."""
     from warpcontact.physics.materials import PAPER_PAIR
 
@@ -96,6 +100,8 @@ def case_dict(n: int, friction: bool, device: str, dtype: str, fft: str) -> dict
          "solver": {"device": device, "dtype": dtype, "fft": fft}}
     if friction:
         d["friction"] = {"law": "tabor", "k_tau": 0.8}
+    if adhesion:
+        d["adhesion"] = dict(SMC_LAW)
     return d
 
 
@@ -127,7 +133,12 @@ def measure(config: dict) -> dict:
     wp.synchronize_device(device)
     setup = time.perf_counter() - t0
     friction = TaborVonMises(0.8, PAPER_PAIR.softer.yield_strength) if row != "normal" else None
-    solver = ContactSolver(model, friction)
+    adhesion = None
+    if config.get("adhesion"):
+        from warpcontact.physics.adhesion import SMC
+
+        adhesion = SMC(*(SMC_LAW[k] for k in ("sigma_max", "tau_max", "delta_n", "delta_t")))
+    solver = ContactSolver(model, friction, adhesion=adhesion)
     tangential = getattr(solver, "tangential", None)
     counts = {"tangential": 0}
     configure(solver, row)
@@ -170,7 +181,8 @@ def measure(config: dict) -> dict:
         from warpcontact.records.case import case_from_dict
         import warpcontact.studies.runner as runner
 
-        case = case_from_dict(case_dict(n, row != "normal", config["device"], dtype, config["fft"]))
+        case = case_from_dict(case_dict(n, row != "normal", config["device"], dtype, config["fft"],
+                                        bool(config.get("adhesion"))))
         original = runner.ContactSolver
 
         def contact_solver(*args, **kwargs):  # the tangential solver of the row
@@ -255,6 +267,7 @@ def main():
     ap.add_argument("--repeats", type=int, default=2, help="timed runs of each step after the warm-up (best kept)")
     ap.add_argument("--no-api", dest="api", action="store_false", help="skip the wc.solve timing")
     ap.add_argument("--timeout", type=float, default=None, help="seconds per configuration (default: none)")
+    ap.add_argument("--adhesion", action="store_true", help="every row with the SMC law (SMC_LAW) added")
     ap.add_argument("--json", help="write every number here")
     ap.add_argument("--one", help=argparse.SUPPRESS)
     args = ap.parse_args()
@@ -268,7 +281,7 @@ def main():
         for dtype in args.dtypes:
             for row in args.rows:
                 config = {"row": row, "n": n, "dtype": dtype, "device": args.device, "fft": args.fft,
-                          "repeats": args.repeats, "api": args.api}
+                          "repeats": args.repeats, "api": args.api, "adhesion": args.adhesion}
                 r = run_one(config, args.timeout)
                 results.append(r)
                 print(f"# {row} n={n} {dtype}: " + (r["error"] if "error" in r else ", ".join(
