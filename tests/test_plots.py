@@ -395,3 +395,18 @@ def test_case_caption_names_the_laws_as_a_figure_caption_would(tmp_path):
     (tmp_path / "result.json").write_text(json.dumps({"case": case}))
     assert case_caption(tmp_path / "fields.npz") == "Coulomb, $\\mu$ = 0.3;  no adhesion"
     assert case_caption(tmp_path / "elsewhere" / "fields.npz") == ""  # no result.json: no caption
+
+
+def test_field_maps_says_a_state_without_shear_has_none(fields):
+    """A frictionless state (shear zero everywhere) gets a note on its shear map, not a colour scale
+    of 1e-12 MPa; a state with shear keeps its scale up to the largest |q|."""
+    sheared = plots.field_maps(fields)
+    assert not any("no shear" in t.get_text() for ax in sheared.axes for t in ax.texts)
+    flat = {k: (np.zeros_like(v) if k in ("shear_x", "shear_y", "adhesive_shear_x", "adhesive_shear_y") else v)
+            for k, v in fields.items()}
+    fig = plots.field_maps(flat)
+    shear_map = fig.axes[1]  # the 2 x 2 maps first (row by row), their colour bars after them
+    assert "shear" in shear_map.get_title()
+    assert any(t.get_text() == "no shear in this state" for t in shear_map.texts)
+    bar = next(ax for ax in fig.axes if "shear magnitude" in ax.get_ylabel())
+    assert list(bar.get_yticks()) == [0.0]

@@ -191,7 +191,7 @@ def _nm(v: float) -> str:
 
 def _state_title(fields, k) -> str:
     n = _n_states(fields)
-    s = f"state {k} (of 0-{n - 1})"
+    s = f"state {k} (of 0-{n - 1})" if n > 1 else f"state {k}"  # (one state: no range to name)
     if "delta" in fields:
         d = np.asarray(fields["delta"])
         if d.ndim == 2 and d.shape[0] == n and d.shape[1] >= 3:
@@ -300,8 +300,13 @@ def field_maps(fields: dict, index: int = -1) -> Figure:
     qy, _ = _total(fields, "shear_y", "adhesive_shear_y", k)
     q = np.hypot(qx, qy) * MPA
     ax = axs[0, 1]
-    im = _imshow(ax, fields, q, cmap="plasma", vmin=0.0, vmax=max(float(q.max()), 1e-12))
-    fig.colorbar(im, ax=ax, label="shear magnitude $|q|$ [MPa]", shrink=0.9)
+    sheared = bool(q.max() > 0)
+    im = _imshow(ax, fields, q, cmap="plasma", vmin=0.0, vmax=float(q.max()) if sheared else 1.0)
+    bar = fig.colorbar(im, ax=ax, label="shear magnitude $|q|$ [MPa]", shrink=0.9)
+    if not sheared:  # a frictionless state without adhesive shear: say so, not a scale of rounding
+        bar.set_ticks([0.0])
+        ax.text(0.5, 0.5, "no shear in this state", transform=ax.transAxes, ha="center", va="center",
+                color="white", fontsize="large")
     ax.set_title("shear $|q|$, adhesive part included" if with_adh else "shear $|q| = \\sqrt{q_x^2 + q_y^2}$",
                  fontsize="medium")
     _nm_axes(ax, fields, k)
