@@ -480,3 +480,23 @@ def test_the_python_api_takes_a_case_files_path_or_a_dict_as_it_takes_a_case(tmp
         assert got["force"] == by_case["force"], (type(given).__name__, got["force"], by_case["force"])
     with pytest.raises(InputError, match="no such file"):
         warpcontact.solve(tmp_path / "missing.toml")
+
+
+@pytest.mark.parametrize("key, table, value, expected", [
+    ("radius", "sphere", "10 um", "write 1e-05 (10 um in m)"),
+    ("E", "flat", "130 GPa", "write 1.3e+11 (130 GPa in Pa)"),
+    ("yield_strength", "flat", "4 GPa", "write 4e+09 (4 GPa in Pa)"),
+    ("delta_z", "load", "0.1 nm", "write 1e-10 (0.1 nm in m)"),
+    ("radius", "sphere", "2e-8", "write it without quotes: 2e-08"),
+    ("radius", "sphere", "20 GPa", "case files take bare numbers in SI units (m)"),
+])
+def test_a_number_written_with_its_unit_is_refused_with_the_si_number_to_write(key, table, value, expected):
+    """Case files take bare SI numbers; a quoted number with a unit ("10 um") is refused naming the
+    key, with the SI number to write where the unit is the key's (a unit of another quantity: the
+    SI unit expected)."""
+    d = afm_dict()
+    d[table][key] = value
+    with pytest.raises(InputError) as e:
+        case_from_dict(d)
+    assert e.value.key == f"{table}.{key}"
+    assert f"got string {value!r}" in str(e.value) and expected in str(e.value), str(e.value)

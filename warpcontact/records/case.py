@@ -129,10 +129,41 @@ def _got(v) -> str:
     return f"got {_type_name(v)} {_show(v)}" if v is not None else "got nothing"
 
 
-def _number(key: str, v, *, allow_inf: bool = False) -> float:
-    """A real number (int accepted, bool refused), finite unless ``allow_inf`` (+inf only)."""
+#: units a value may be written with by mistake ("10 um"): the factor to SI and the SI unit named
+#: in the hint (case files take bare numbers in SI units)
+_UNITS = {
+    "m": (1.0, "m"), "mm": (1e-3, "m"), "um": (1e-6, "m"), "\u00b5m": (1e-6, "m"), "\u03bcm": (1e-6, "m"),
+    "nm": (1e-9, "m"), "pm": (1e-12, "m"), "A": (1e-10, "m"), "\u00c5": (1e-10, "m"),
+    "Pa": (1.0, "Pa"), "kPa": (1e3, "Pa"), "MPa": (1e6, "Pa"), "GPa": (1e9, "Pa"),
+    "J/m^2": (1.0, "J/m^2"), "J/m2": (1.0, "J/m^2"), "mJ/m^2": (1e-3, "J/m^2"), "mJ/m2": (1e-3, "J/m^2"),
+    "N/m": (1.0, "J/m^2"), "mN/m": (1e-3, "J/m^2"),
+}
+_WITH_UNIT = re.compile(r"\s*([-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?)\s*([^\s\d].*?)?\s*")
+
+
+def _string_hint(v: str, unit: str = "") -> str:
+    """What to write instead of a number given as a string: the number itself, in SI units where
+    the string carries one of ``_UNITS`` ("10 um" -> 1e-05 m) of the key's ``unit`` (any, where
+    not given); "" when the string is no number."""
+    m = _WITH_UNIT.fullmatch(v)
+    if not m:
+        return ""
+    expected = unit
+    value, unit = float(m.group(1)), m.group(2)
+    if unit is None:
+        return f"; write it without quotes: {value!r}"
+    if unit in _UNITS and _UNITS[unit][1] == (expected or _UNITS[unit][1]):
+        factor, si = _UNITS[unit]
+        return f"; case files take SI numbers: write {value * factor:.6g} ({v.strip()} in {si})"
+    return f"; case files take bare numbers in SI units ({expected})" if expected else ""
+
+
+def _number(key: str, v, *, allow_inf: bool = False, unit: str = "") -> float:
+    """A real number (int accepted, bool refused), finite unless ``allow_inf`` (+inf only);
+    ``unit``: the key's SI unit, for the hint where the number came as a string with a unit."""
     if _is_bool(v) or not isinstance(v, numbers.Real):
-        raise InputError(key, f"must be a number, {_got(v)}")
+        hint = _string_hint(v, unit) if isinstance(v, str) else ""
+        raise InputError(key, f"must be a number, {_got(v)}{hint}")
     try:
         x = float(v)
     except OverflowError:
@@ -145,7 +176,7 @@ def _number(key: str, v, *, allow_inf: bool = False) -> float:
 
 
 def _positive(key: str, v, unit: str, *, allow_inf: bool = False) -> float:
-    x = _number(key, v, allow_inf=allow_inf)
+    x = _number(key, v, allow_inf=allow_inf, unit=unit)
     if not x > 0.0:
         raise InputError(key, f"must be > 0{' ' + unit if unit else ''}, got {x!r}")
     return x
@@ -156,7 +187,7 @@ def _strength(key: str, v) -> float:
     if isinstance(v, str) and v.strip().lower() in ("inf", "+inf"):
         return math.inf
     if isinstance(v, str):
-        raise InputError(key, f'must be a number in Pa or "inf" (no limit), {_got(v)}')
+        raise InputError(key, f'must be a number in Pa or "inf" (no limit), {_got(v)}{_string_hint(v, "Pa")}')
     return _positive(key, v, "Pa", allow_inf=True)
 
 
@@ -316,9 +347,9 @@ class LoadSpec:
             return
         if self.delta_z is None:
             raise InputError("load.delta_z", "is required (or give load.path)")
-        _set(self, "delta_z", _number("load.delta_z", self.delta_z))
-        _set(self, "delta_x", _number("load.delta_x", self.delta_x))
-        _set(self, "delta_y", _number("load.delta_y", self.delta_y))
+        _set(self, "delta_z", _number("load.delta_z", self.delta_z, unit="m"))
+        _set(self, "delta_x", _number("load.delta_x", self.delta_x, unit="m"))
+        _set(self, "delta_y", _number("load.delta_y", self.delta_y, unit="m"))
         _set(self, "steps", _integer("load.steps", self.steps, 1, MAX_STEPS))
 
     @property
@@ -806,9 +837,9 @@ def _load_from(ld: Mapping) -> LoadSpec:
     if "delta_z" not in ld:
         raise InputError("load.delta_z", "is required (or give load.path)")
     return LoadSpec(
-        delta_z=_number("load.delta_z", ld["delta_z"]),
-        delta_x=_number("load.delta_x", ld.get("delta_x", 0.0)),
-        delta_y=_number("load.delta_y", ld.get("delta_y", 0.0)),
+        delta_z=_number("load.delta_z", ld["delta_z"], unit="m"),
+        delta_x=_number("load.delta_x", ld.get("delta_x", 0.0), unit="m"),
+        delta_y=_number("load.delta_y", ld.get("delta_y", 0.0), unit="m"),
         steps=_integer("load.steps", ld.get("steps", 1), 1, MAX_STEPS),
     )
 
