@@ -24,6 +24,8 @@ delta_z = 1e-10 m then delta_x = 2e-11 m, one step per leg. Rows:
 - ``coupled exact``: the solver's defaults, every turn's solves at the full tolerance
   (``ContactSolver.turn_tolerance = "exact"``: fewer, more exact turns) instead of loose early
   turns.
+- ``coupled unmixed``: ``coupled precond`` with the minimised turns (adhesion towards JKR) as the
+  plain fixed point x <- G(x) instead of Anderson-mixed (``ContactSolver.turn_mixing``).
 
 The rows ``coupled-plain`` ... ``coupled-nested`` take the window where ``"auto"`` does.
 ``--adhesion`` adds the SMC law (``SMC_LAW``) to every row: the adhesive coupled step.
@@ -63,10 +65,10 @@ import time
 R, DZ, DX = 10e-6, 1.0e-10, 2.0e-11
 A = math.sqrt(R * DZ)
 #: ``--adhesion``: the SMC law of ``bench_iteration.py --adhesion`` (sigma_max = tau_max = 2e7 Pa,
-#: delta_n = delta_t = 5e-12 m: the DMT side, the lagged turns)
+#: delta_n = delta_t = 5e-12 m: Maugis parameter 0.41, the minimised turns)
 SMC_LAW = {"law": "smc", "sigma_max": 2e7, "tau_max": 2e7, "delta_n": 5e-12, "delta_t": 5e-12}
 ROWS = ("normal", "coupled-plain", "coupled-precond", "coupled-before", "coupled-nested", "coupled-default",
-        "coupled-window", "coupled-whole", "coupled-exact")
+        "coupled-window", "coupled-whole", "coupled-exact", "coupled-unmixed")
 
 
 def configure(solver, row: str):
@@ -78,6 +80,8 @@ def configure(solver, row: str):
         solver.tangential.window = row == "coupled-window"
     if row == "coupled-exact":
         solver.turn_tolerance = "exact"
+    if row == "coupled-unmixed":  # the minimised turns (adhesion) as the plain fixed point
+        solver.turn_mixing = False
     if row not in ("coupled-default", "coupled-window", "coupled-whole", "coupled-exact"):
         solver.nested = row == "coupled-nested"
     if row == "coupled-before":

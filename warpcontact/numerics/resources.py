@@ -24,7 +24,8 @@ The estimate is counted from the allocations in the code, not fitted:
   fields of its m x m cells (m <= 0.75 n; 8 GiB at n = 8192 float64, m = 4096), made beside
   these where they fit: on CUDA a window that does not fit in the free memory is not made and
   the solve runs on the whole grid, within this estimate. With adhesion, ``AndersonMixing`` holds 3 + 2 x DEPTH
-  fields per component of the adhesive vector (3; 1 without friction) and 2 + 3 x DEPTH
+  fields per component of its vector (4 with friction and the SMC law: the minimised turns' shears
+  and adhesive shears; 3 with friction otherwise; 1 without friction) and 2 + 3 x DEPTH
   scalars; without friction also ``AdhesiveNormalSolver``: ``adhesive.PADDED_FIELDS`` + 2 x
   MEMORY fields on the padded (2n, 2n) grid (4 (n, n) fields each) and 3 (n, n) fields, and its
   padded convolution's library temporaries, about one (2n, 2n) field and two spectra
@@ -75,6 +76,9 @@ CONTACT_SOLVER_FIELDS = 6  # known_z/x/y, previous x 3
 #: with adhesion: ContactSolver's adhesive_z/x/y, and with friction too its scratch_x/y
 ADHESION_FIELDS = 3
 ADHESION_FRICTION_FIELDS = 2
+#: components of ContactSolver's AndersonMixing with friction: the minimised turns' shears and the
+#: SMC law's adhesive shears (4; the lagged turns use 3 of them); counted for the SMC law (the larger)
+MIXING_COMPONENTS_FRICTION = 4
 #: (n, n) fields of the minimised turns (adhesion with friction, solvers/contact.py): the coupling
 #: shear and the adhesive shear held in a turn (4 with the SMC law, 2 with a normal-only law),
 #: the total normal traction and a scratch field; counted for the SMC law (the larger)
@@ -258,7 +262,7 @@ def breakdown(n: int, dtype="float64", device_kind="cpu", friction: bool = True,
         n_fields += TANGENTIAL_SOLVER_FIELDS + FRICTION_FIELDS
         n_scalars += tk.N_SUMS + tk.N_SCALARS + (max_iter + 1)
     if adhesion:
-        n_fields += (3 if friction else 1) * (3 + 2 * DEPTH) + ADHESION_FIELDS
+        n_fields += (MIXING_COMPONENTS_FRICTION if friction else 1) * (3 + 2 * DEPTH) + ADHESION_FIELDS
         n_fields += ADHESION_FRICTION_FIELDS if friction else 0
         n_scalars += 2 + 3 * DEPTH
     if adhesion:  # the adhesive minimisation (with friction: the normal solve of each turn)

@@ -171,6 +171,10 @@ class ContactSolver:
         #: Needs an even n with n / 2 >= NESTED_MIN_N; otherwise the step starts as without.
         #: True, False, or "auto": from NESTED_AUTO_N cells per side on (by device kind).
         self.nested: bool | str = "auto"
+        #: the minimised turns' shear mixed by Anderson's method (``_minimised_turns``); False: the
+        #: plain fixed point x <- G(x) (``bench/scaling.py --adhesion``, rows coupled-precond and
+        #: coupled-unmixed)
+        self.turn_mixing = True
         #: inner iterations of the coarse grids in the last nested start (0 without)
         self.nested_iterations = 0
         self._coarse = None  # (ContactSolver, ContactState) of the half grid, made when first needed
@@ -182,8 +186,12 @@ class ContactSolver:
         #: of the minimised turns' coupling shear: with adhesion only (n = 8192 float64: 0.5 GiB
         #: each)
         self.adhesive_z = self.adhesive_x = self.adhesive_y = self.scratch_x = self.scratch_y = None
-        if adhesion is not None:  # the adhesive fixed point over the pressure (and the shears with friction)
-            self.mixing = AndersonMixing(model, 3 if friction is not None else 1, beta=self.relax)
+        if adhesion is not None:
+            # the lagged turns' adhesive fixed point over the pressure (and the shears with friction);
+            # the minimised turns' fixed point over the shears (4 fields with the SMC law): one
+            # mixing for both, as a step runs one kind of turns at a time
+            self.mixing = AndersonMixing(model, (4 if adhesion.has_shear else 3) if friction is not None else 1,
+                                         beta=self.relax)
             self.adhesive_z, self.adhesive_x, self.adhesive_y = f(), f(), f()
         if friction is not None:
             self.tangential = TangentialSolver(model, tol, max_iter, use_graphs=use_graphs)
@@ -257,6 +265,7 @@ class ContactSolver:
         m = self.model
         dx, dy, dz = (float(a) for a in approach)
         L = m.length_scale
+        spent_iterations = spent_turns = 0  # of a first attempt that did not converge (reported in the step's)
         if self.adhesive is not None and self.friction is None:  # adhesion without friction: one adhesive solve
             for a in (state.shear_x, state.shear_y, state.adhesive_shear_x, state.adhesive_shear_y):
                 a.zero_()
@@ -272,6 +281,7 @@ class ContactSolver:
             # (measured: at Tabor parameter 0.07, n = 64, and at n = 32 the minimisation stalls on
             # some states where the fixed point converges: the DMT side)
             self.adhesive_fallbacks += 1
+            spent_iterations += info.iterations
         if self.friction is None:
             state.shear_x.zero_()
             state.shear_y.zero_()
@@ -289,12 +299,16 @@ class ContactSolver:
                 state.info = info
                 check_contact_fits(state)
                 return info
-            # not converged: the lagged turns below from its iterate
+            # not converged: the lagged turns below from its iterate (its work counted in the step's)
             self.turn_fallbacks += 1
+            spent_iterations += info.iterations
+            spent_turns += info.outer_iterations
         self.nested_iterations = 0
         if self.uses_nested and self.friction is not None and self.adhesion is None:
             self._nested_start(state, (dx, dy, dz))
         normal_info, tangential_info, outer, converged_turns, iterations = self._turns(state, dx, dy, dz)
+        iterations += spent_iterations
+        outer += spent_turns
         if self.adhesion is not None and not converged_turns:
             # The warm start can sit where a solution no longer exists (the jump out of contact
             # after pull-off): the same step once more from zero tractions. At Tabor parameter 5.7
@@ -462,12 +476,15 @@ class ContactSolver:
 
         A turn maps the shear x that its normal solve holds fixed (with the SMC law: and the
         adhesive shear) to the shear its tangential solve returns (and the law's adhesive shear
-        at the new gap and slip), and the next turn starts from that: x <- G(x). The change of a
-        turn is the larger of |G(x) - x| / max(|G(x)|, |p|) and the relative change of the total
-        normal traction p. Early turns solve loosely (tolerance ``TURN_TOL_FACTOR`` x the last
-        change, at most ``TURN_TOL_CAP``); the turns end when the change is under ``outer_tol``
-        in a turn solved at full tolerance, and the normal solve is then made once more against
-        the final shear."""
+        at the new gap and slip); the next turn's x is Anderson's combination of the turns so far
+        (``AndersonMixing`` with beta = 1: the first turn's is G(x)). The plain iteration x <- G(x)
+        contracts by a constant factor per turn (about 0.62 on ``bench/scaling.py --adhesion``'s
+        problem: 30-34 turns at n = 128), which Anderson's least squares removes (12-14 turns:
+        ``turn_mixing``). The change of a turn is the larger of |G(x) - x| / max(|G(x)|, |p|) and
+        the relative change of the total normal traction p. Early turns solve loosely (tolerance
+        ``TURN_TOL_FACTOR`` x the last change, at most ``TURN_TOL_CAP``); the turns end when the
+        change is under ``outer_tol`` in a turn solved at full tolerance, and the normal solve is
+        then made once more against the final shear G(x)."""
         m = self.model
         x = self.coupling_shear
         sources = [state.shear_x, state.shear_y]
@@ -475,6 +492,8 @@ class ContactSolver:
             sources += [state.adhesive_shear_x, state.adhesive_shear_y]
         for src, dst in zip(sources, x):
             wp.copy(dst, src)
+        mixing = self.mixing
+        mixing.reset()
         iterations = outer = 0
         change = math.inf
         converged = False
@@ -504,19 +523,29 @@ class ContactSolver:
                 self.adhesion.tractions(m, state, self.scratch_z, self.scratch_x, self.scratch_y)
                 wp.copy(state.adhesive_shear_x, self.scratch_x)
                 wp.copy(state.adhesive_shear_y, self.scratch_y)
-            # (slots 2, 3) |G(x) - x|^2 and |G(x)|^2; x <- G(x)
-            for src, dst in zip(sources, x):
-                m.launch_reduce(ck.change_sums, [src.flatten(), 2], [dst.flatten(), self.change])
+            # x <- the next iterate from G(x) (the mixing's norms: |G(x) - x|^2 and |G(x)|^2)
+            if self.turn_mixing:
+                for src, image in zip(sources, mixing.residual):
+                    wp.copy(image, src.flatten())
+                mixing.step([a.flatten() for a in x], beta=1.0)
+                shear_sums = mixing.norms
+            else:  # (slots 2, 3) of the change, and x <- G(x)
+                for src, dst in zip(sources, x):
+                    m.launch_reduce(ck.change_sums, [src.flatten(), 2], [dst.flatten(), self.change])
             sums = self.change.numpy().astype(np.float64)
+            if not self.turn_mixing:
+                shear_sums = (sums[2], sums[3])
             pressure_change = math.sqrt(sums[0] / sums[1]) if sums[1] > 0 else 0.0
-            scale = max(sums[3], sums[1])
-            shear_change = math.sqrt(sums[2] / scale) if scale > 0 else 0.0
+            scale = max(shear_sums[1], sums[1])
+            shear_change = math.sqrt(shear_sums[0] / scale) if scale > 0 else 0.0
             change = max(pressure_change, shear_change)
             if self.on_turn is not None:
                 self.on_turn(outer, change)
             if change < self.outer_tol and turn_tol == self.tol and normal_info.converged:
                 converged = tangential_info.converged
                 break
+        for src, dst in zip(sources, x):  # the final normal solve against the shear G(x) the state holds
+            wp.copy(dst, src)
         final = self._adhesive_normal(state, dz, x, self.adhesive.tol, warm=True)
         iterations += final.iterations
         self._update_slip(state, dx, dy, final=True)
@@ -568,7 +597,7 @@ class ContactSolver:
             mixing.reset()
         if self.friction is not None:
             iterates = (state.adhesive_pressure, state.adhesive_shear_x, state.adhesive_shear_y)
-            self.adhesion.tractions(m, state, *mixing.residual)
+            self.adhesion.tractions(m, state, *mixing.residual[:3])
         else:  # the adhesive shear does not act back without friction: taken as the law gives it
             iterates = (state.adhesive_pressure,)
             self.adhesion.tractions(m, state, mixing.residual[0], state.adhesive_shear_x, state.adhesive_shear_y)

@@ -55,6 +55,8 @@ class AndersonMixing:
         self.iterate_diff = [z(self.depth, n) for _ in range(components)]
         self.sums = z(fk.GRAM_SLOTS + 2 * self.depth)
         self.gamma = z(self.depth)
+        #: |G(x) - x|^2 and |G(x)|^2 of the last step, summed over its components
+        self.norms = (0.0, 0.0)
         self.reset()
 
     def reset(self):
@@ -68,10 +70,13 @@ class AndersonMixing:
         self._has_previous = False
         self._next = 0
 
-    def step(self, iterates) -> float:
-        """x <- the next iterate, from ``self.residual`` = G(x) filled by the caller; returns the
-        residual |G(x) - x| / |G(x)| before the step (0 when G(x) = 0)."""
+    def step(self, iterates, beta: float | None = None) -> float:
+        """x <- the next iterate, from ``self.residual`` = G(x) filled by the caller (its first
+        ``len(iterates)`` components); returns the residual |G(x) - x| / |G(x)| before the step (0
+        when G(x) = 0); ``norms`` then holds |G(x) - x|^2 and |G(x)|^2. ``beta``: this step's
+        mixing of the residual (default: the mixing's own)."""
         m = self.model
+        beta = self.beta if beta is None else float(beta)
         column = self._next
         self.sums.zero_()
         for k, x in enumerate(iterates):
@@ -100,9 +105,10 @@ class AndersonMixing:
         for k, x in enumerate(iterates):
             m.launch(fk.anderson_update, dim=m.n_cells,
                      inputs=[self.residual[k], self.residual_diff[k], self.iterate_diff[k], self.gamma, self.depth,
-                             m.scalar(self.beta)],
+                             m.scalar(beta)],
                      outputs=[x.flatten()])
         self._has_previous = True
+        self.norms = (float(s[fk.S_RESIDUAL]), float(s[fk.S_IMAGE]))
         residual = math.sqrt(s[fk.S_RESIDUAL] / s[fk.S_IMAGE]) if s[fk.S_IMAGE] > 0 else 0.0
         self.best = min(self.best, residual)
         if residual > RESTART_GROWTH * self.best:  # the mixing has gone astray: start it again from here
