@@ -99,7 +99,7 @@ def used_bytes(device) -> int:
     return int(device.total_memory - device.free_memory)
 
 
-def bench(n, device, dtype, fft, repeats, adhesion: bool, compare_up_to: int = 2048):
+def bench(n, device, dtype, fft, repeats, adhesion: bool, compare_up_to: int = 2048, turn_mixing: bool = True):
     base = used_bytes(device)
     model = ContactModel(PAPER_PAIR, Sphere(R, "paraboloid"), Grid(n, 4 * A), device=device, dtype=dtype, fft=fft)
     row = {"n": n, "dtype": dtype, "fft": model.operator.fft.name if hasattr(model.operator.fft, "name") else fft}
@@ -122,6 +122,7 @@ def bench(n, device, dtype, fft, repeats, adhesion: bool, compare_up_to: int = 2
     law = TaborVonMises(0.8, PAPER_PAIR.softer.yield_strength)
     adh = SMC(2e7, 2e7, 5e-12, 5e-12) if adhesion else None
     solver = ContactSolver(model, law, adhesion=adh)
+    solver.turn_mixing = turn_mixing  # the minimised turns (this law's) Anderson-mixed, or plain
     start = ContactState(model)
     solver.step(start, (0.0, 0.0, DZ))
     dx = 0.5 * estimate_delta_x_max(PAPER_PAIR, R, DZ, law)
@@ -168,6 +169,8 @@ def main():
     ap.add_argument("--dtype", nargs="*", default=["float64"])
     ap.add_argument("--repeats", type=int, default=2)
     ap.add_argument("--adhesion", action="store_true", help="the coupled step with the SMC law (2e7 Pa, 5e-12 m)")
+    ap.add_argument("--no-turn-mixing", dest="turn_mixing", action="store_false",
+                    help="the adhesive step's minimised turns as the plain fixed point (ContactSolver.turn_mixing)")
     ap.add_argument("--compare-up-to", type=int, default=2048,
                     help="largest N with the eager, 2-conv and 2-D fft columns (CUDA)")
     ap.add_argument("--json")
@@ -185,7 +188,7 @@ def main():
     rows = []
     for n in sizes:
         for dtype in args.dtype:
-            r = bench(n, device, dtype, args.fft, args.repeats, args.adhesion, args.compare_up_to)
+            r = bench(n, device, dtype, args.fft, args.repeats, args.adhesion, args.compare_up_to, args.turn_mixing)
             rows.append({"device": str(device), **r})
             side = " ".join(f"{r[k]:>7.3f}" if k in r else f"{'-':>7}" for k in ("eager_ms", "two_conv_ms", "strict_ms", "fft2d_ms"))
             print(f"{n:>6} {dtype:>8} {r['normal_iters']:>5} {r['normal_ms']:>8.3f} {r['floor1_ms']:>7.3f} "
