@@ -76,8 +76,8 @@ CONTACT_SOLVER_FIELDS = 6  # known_z/x/y, previous x 3
 #: with adhesion: ContactSolver's adhesive_z/x/y, and with friction too its scratch_x/y
 ADHESION_FIELDS = 3
 ADHESION_FRICTION_FIELDS = 2
-#: components of ContactSolver's AndersonMixing with friction: the minimised turns' shears and the
-#: SMC law's adhesive shears (4; the lagged turns use 3 of them); counted for the SMC law (the larger)
+#: components of ContactSolver's AndersonMixing with friction: 4 for the SMC law's minimised turns
+#: (the shears and adhesive shears), 3 otherwise; counted as 4 (the larger)
 MIXING_COMPONENTS_FRICTION = 4
 #: (n, n) fields of the minimised turns (adhesion with friction, solvers/contact.py): the coupling
 #: shear and the adhesive shear held in a turn (4 with the SMC law, 2 with a normal-only law),

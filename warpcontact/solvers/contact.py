@@ -173,7 +173,9 @@ class ContactSolver:
         self.nested: bool | str = "auto"
         #: the minimised turns' shear mixed by Anderson's method (``_minimised_turns``); False: the
         #: plain fixed point x <- G(x) (``bench/scaling.py --adhesion``, rows coupled-precond and
-        #: coupled-unmixed)
+        #: coupled-unmixed). With the SMC law the mixing holds the fourth field it needs only where
+        #: the solver chose the minimised turns (``turns``) itself; turns set to "minimised" later,
+        #: or reached as a fallback from the lagged ones, run plain
         self.turn_mixing = True
         #: inner iterations of the coarse grids in the last nested start (0 without)
         self.nested_iterations = 0
@@ -189,9 +191,13 @@ class ContactSolver:
         if adhesion is not None:
             # the lagged turns' adhesive fixed point over the pressure (and the shears with friction);
             # the minimised turns' fixed point over the shears (4 fields with the SMC law): one
-            # mixing for both, as a step runs one kind of turns at a time
-            self.mixing = AndersonMixing(model, (4 if adhesion.has_shear else 3) if friction is not None else 1,
-                                         beta=self.relax)
+            # mixing for both, as a step runs one kind of turns at a time (a fourth component only
+            # where the minimised turns are the solver's own: a lagged solver's fallback to them
+            # runs them plain)
+            components = 1
+            if friction is not None:
+                components = 4 if adhesion.has_shear and self.turns == "minimised" else 3
+            self.mixing = AndersonMixing(model, components, beta=self.relax)
             self.adhesive_z, self.adhesive_x, self.adhesive_y = f(), f(), f()
         if friction is not None:
             self.tangential = TangentialSolver(model, tol, max_iter, use_graphs=use_graphs)
@@ -494,6 +500,7 @@ class ContactSolver:
             wp.copy(dst, src)
         mixing = self.mixing
         mixing.reset()
+        mixed = self.turn_mixing and len(mixing.residual) >= len(x)
         iterations = outer = 0
         change = math.inf
         converged = False
@@ -524,7 +531,7 @@ class ContactSolver:
                 wp.copy(state.adhesive_shear_x, self.scratch_x)
                 wp.copy(state.adhesive_shear_y, self.scratch_y)
             # x <- the next iterate from G(x) (the mixing's norms: |G(x) - x|^2 and |G(x)|^2)
-            if self.turn_mixing:
+            if mixed:
                 for src, image in zip(sources, mixing.residual):
                     wp.copy(image, src.flatten())
                 mixing.step([a.flatten() for a in x], beta=1.0)
@@ -533,7 +540,7 @@ class ContactSolver:
                 for src, dst in zip(sources, x):
                     m.launch_reduce(ck.change_sums, [src.flatten(), 2], [dst.flatten(), self.change])
             sums = self.change.numpy().astype(np.float64)
-            if not self.turn_mixing:
+            if not mixed:
                 shear_sums = (sums[2], sums[3])
             pressure_change = math.sqrt(sums[0] / sums[1]) if sums[1] > 0 else 0.0
             scale = max(shear_sums[1], sums[1])
