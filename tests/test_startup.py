@@ -17,6 +17,13 @@ def _fresh(code: str) -> subprocess.CompletedProcess:
     return subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
 
 
+def _fresh_ok(code: str) -> subprocess.CompletedProcess:
+    """:func:`_fresh`, which must exit 0 (its standard error shown where it does not)."""
+    r = _fresh(code)
+    assert r.returncode == 0, r.stderr
+    return r
+
+
 def test_the_parser_imports_neither_warp_nor_scipy():
     """`warpcontact --help` and argument parsing load no Warp, SciPy, dask or solver module (they
     cost about a second; bench/batch_overhead.py times --help)."""
@@ -24,8 +31,7 @@ def test_the_parser_imports_neither_warp_nor_scipy():
             "heavy = [m for m in ('warp', 'scipy', 'distributed', 'matplotlib', 'warpcontact.numerics.model', "
             "'warpcontact.solvers', 'warpcontact.kernels') if m in sys.modules]\n"
             "print(','.join(heavy))")
-    r = _fresh(code)
-    assert r.returncode == 0, r.stderr
+    r = _fresh_ok(code)
     assert r.stdout.strip() == "", f"imported by the parser: {r.stdout.strip()}"
 
 
@@ -35,8 +41,7 @@ def test_a_cuda_case_resolves_its_fft_backend_without_the_cpu_backends():
     code = ("import sys; from warpcontact.numerics import resources as r\n"
             "print(r._resolve_fft('auto', 'cuda'), r.index_limit('float64', 'auto'))\n"
             "print(','.join(m for m in ('scipy', 'pyfftw', 'warpcontact.fft.scipy_backend') if m in sys.modules))")
-    r = _fresh(code)
-    assert r.returncode == 0, r.stderr
+    r = _fresh_ok(code)
     backend_limit, imported = r.stdout.splitlines()
     assert backend_limit.split()[0] in ("cupy", "warp") and int(backend_limit.split()[1]) == 11584
     assert imported == "", f"imported: {imported}"
@@ -53,8 +58,7 @@ def test_the_fftw_backend_imports_neither_scipy_nor_dask():
             "s = f.spectrum_of_padded(np.ones((16, 16)))\n"
             "print(','.join(m for m in ('scipy', 'dask') if m in sys.modules), abs(s[0, 0]))\n"
             "import dask.array, scipy.fftpack, pyfftw.interfaces.scipy_fft; print('importable')")
-    r = _fresh(code)
-    assert r.returncode == 0, r.stderr
+    r = _fresh_ok(code)
     imported, importable = r.stdout.splitlines()[-2:]  # after Warp's start-up lines
     assert imported == " 256.0", f"imported: {imported}"  # the spectrum's mean term: 16 x 16 ones
     assert importable == "importable"
@@ -116,8 +120,7 @@ def test_a_cpu_run_prints_no_notice_about_a_missing_cuda_driver():
     it. ``init_warp`` leaves that line out (on a GPU machine Warp does not print it)."""
     from warpcontact.numerics.device import NO_DRIVER_NOTICE
 
-    r = _fresh("from warpcontact.numerics.device import resolve_device; print(resolve_device('cpu'))")
-    assert r.returncode == 0, r.stderr
+    r = _fresh_ok("from warpcontact.numerics.device import resolve_device; print(resolve_device('cpu'))")
     assert r.stdout.strip() == "cpu"
     assert NO_DRIVER_NOTICE not in r.stderr, r.stderr
 

@@ -42,7 +42,7 @@ from ..fft.names import DEVICE_KIND as FFT_DEVICE_KIND  # those that run on one 
 from ..physics.geometry import MIN_CELLS, Grid, Sphere
 from .guards import profile_note
 from ..physics.materials import Material, MaterialPair
-from .plausibility import check_case
+from .plausibility import PREFIXES, check_case
 
 #: Tables of a case file, in the order they are documented and written.
 TABLES = ("sphere", "flat", "grid", "load", "solver", "friction", "adhesion")
@@ -131,13 +131,10 @@ def _got(v) -> str:
 
 #: units a value may be written with by mistake ("10 um"): the factor to SI and the SI unit named
 #: in the hint (case files take bare numbers in SI units)
-_UNITS = {
-    "m": (1.0, "m"), "mm": (1e-3, "m"), "um": (1e-6, "m"), "\u00b5m": (1e-6, "m"), "\u03bcm": (1e-6, "m"),
-    "nm": (1e-9, "m"), "pm": (1e-12, "m"), "A": (1e-10, "m"), "\u00c5": (1e-10, "m"),
-    "Pa": (1.0, "Pa"), "kPa": (1e3, "Pa"), "MPa": (1e6, "Pa"), "GPa": (1e9, "Pa"),
-    "J/m^2": (1.0, "J/m^2"), "J/m2": (1.0, "J/m^2"), "mJ/m^2": (1e-3, "J/m^2"), "mJ/m2": (1e-3, "J/m^2"),
-    "N/m": (1.0, "J/m^2"), "mN/m": (1e-3, "J/m^2"),
-}
+_UNITS = {prefix + written: (factor, si)
+          for written, si in {"m": "m", "Pa": "Pa", "J/m^2": "J/m^2", "J/m2": "J/m^2", "N/m": "J/m^2"}.items()
+          for factor, prefix in {1.0: "", **PREFIXES}.items()}
+_UNITS |= {"\u00b5m": (1e-6, "m"), "\u03bcm": (1e-6, "m"), "A": (1e-10, "m"), "\u00c5": (1e-10, "m")}
 _WITH_UNIT = re.compile(r"\s*([-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?)\s*([^\s\d].*?)?\s*")
 
 
@@ -148,14 +145,13 @@ def _string_hint(v: str, unit: str = "") -> str:
     m = _WITH_UNIT.fullmatch(v)
     if not m:
         return ""
-    expected = unit
-    value, unit = float(m.group(1)), m.group(2)
-    if unit is None:
+    value, written = float(m.group(1)), m.group(2)
+    if written is None:
         return f"; write it without quotes: {value!r}"
-    if unit in _UNITS and _UNITS[unit][1] == (expected or _UNITS[unit][1]):
-        factor, si = _UNITS[unit]
+    if written in _UNITS and _UNITS[written][1] == (unit or _UNITS[written][1]):
+        factor, si = _UNITS[written]
         return f"; case files take SI numbers: write {value * factor:.6g} ({v.strip()} in {si})"
-    return f"; case files take bare numbers in SI units ({expected})" if expected else ""
+    return f"; case files take bare numbers in SI units ({unit})" if unit else ""
 
 
 def _number(key: str, v, *, allow_inf: bool = False, unit: str = "") -> float:

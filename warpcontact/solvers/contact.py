@@ -535,13 +535,11 @@ class ContactSolver:
                 for src, image in zip(sources, mixing.residual):
                     wp.copy(image, src.flatten())
                 mixing.step([a.flatten() for a in x], beta=1.0)
-                shear_sums = mixing.norms
             else:  # (slots 2, 3) of the change, and x <- G(x)
                 for src, dst in zip(sources, x):
                     m.launch_reduce(ck.change_sums, [src.flatten(), 2], [dst.flatten(), self.change])
             sums = self.change.numpy().astype(np.float64)
-            if not mixed:
-                shear_sums = (sums[2], sums[3])
+            shear_sums = mixing.norms if mixed else (sums[2], sums[3])
             pressure_change = math.sqrt(sums[0] / sums[1]) if sums[1] > 0 else 0.0
             scale = max(shear_sums[1], sums[1])
             shear_change = math.sqrt(shear_sums[0] / scale) if scale > 0 else 0.0
