@@ -118,15 +118,16 @@ def times_i(a: Any):
 
 @wp.kernel
 def stress_spectra(
-    basis_spectra: wp.array3d(dtype=Any),
-    traction_spectra: wp.array3d(dtype=Any),
+    basis_spectra: wp.array2d(dtype=Any),
+    traction_spectra: wp.array2d(dtype=Any),
     terms: wp.array(dtype=wp.vec3i),
     weights: wp.array(dtype=Any),
     count: int,
     parity: wp.array(dtype=int),
     half_axis: int,
+    rows: int,
     row0: int,
-    stress: wp.array3d(dtype=Any),
+    stress: wp.array2d(dtype=Any),
 ):
     """The spectra of the six stress components of one body at one depth, from the spectra of
     the weighted basis quadrants (``basis_quadrant``) and of the tractions acting on it.
@@ -139,18 +140,21 @@ def stress_spectra(
     over the ``count`` terms t = (c, l, b) (``terms``, sorted by basis b, then load l): the
     non-zero coefficients of the stress table (44 of its 6 x 3 x 14 entries; 14 for a pressure
     alone), so each basis is read once and each product K_b t_l made once (a DC-FFT product, Liu,
-    Wang & Liu 2000). Row i = row0 + the thread's row."""
+    Wang & Liu 2000). Row i = row0 + the thread's row.
+
+    Each stack of spectra is one 2-D array of ``rows``-row blocks, spectrum k in rows k rows ..
+    (k + 1) rows - 1: Warp keeps strides as 32-bit ints, and a (k, rows, cols) array's first
+    stride, one whole spectrum, passes 2^31 bytes at n = 8192 in complex128."""
     r, j = wp.tid()
     i = r + row0
     mi = i
     mj = j
     if half_axis == 1:
-        rows = basis_spectra.shape[1]
         mi = (rows - i) % rows
     else:
-        cols = basis_spectra.shape[2]
+        cols = basis_spectra.shape[1]
         mj = (cols - j) % cols
-    t0 = traction_spectra[0, i, j]
+    t0 = traction_spectra[i, j]
     half = type(t0[0])(0.5)
     s0 = t0 - t0
     s1 = s0
@@ -169,8 +173,8 @@ def stress_spectra(
         l = term[1]
         b = term[2]
         if b != last_b:
-            f = basis_spectra[b, i, j]
-            fm = basis_spectra[b, mi, mj]
+            f = basis_spectra[b * rows + i, j]
+            fm = basis_spectra[b * rows + mi, mj]
             kind = parity[b]
             kappa = half * (f[0] + fm[0])
             if kind == 1:
@@ -182,7 +186,7 @@ def stress_spectra(
             last_b = b
             last_l = -1
         if l != last_l:
-            kt = kappa * traction_spectra[l, i, j]
+            kt = kappa * traction_spectra[l * rows + i, j]
             if kind == 1 or kind == 2:
                 kt = times_i(kt)
             last_l = l
@@ -199,12 +203,12 @@ def stress_spectra(
             s4 += w * kt
         else:
             s5 += w * kt
-    stress[0, i, j] = s0
-    stress[1, i, j] = s1
-    stress[2, i, j] = s2
-    stress[3, i, j] = s3
-    stress[4, i, j] = s4
-    stress[5, i, j] = s5
+    stress[i, j] = s0
+    stress[rows + i, j] = s1
+    stress[2 * rows + i, j] = s2
+    stress[3 * rows + i, j] = s3
+    stress[4 * rows + i, j] = s4
+    stress[5 * rows + i, j] = s5
 
 
 @wp.func
@@ -290,10 +294,10 @@ def take_line(fields: wp.array3d(dtype=Any), index: int, along_x: int, out: wp.a
 for _r, _v in ((wp.float32, wp.vec2f), (wp.float64, wp.vec2d)):
     wp.overload(basis_quadrant, {"corners": wp.array2d(dtype=wp.float64), "weighted": int, "row0": int,
                                  "out": wp.array2d(dtype=_r)})
-    wp.overload(stress_spectra, {"basis_spectra": wp.array3d(dtype=_v), "traction_spectra": wp.array3d(dtype=_v),
+    wp.overload(stress_spectra, {"basis_spectra": wp.array2d(dtype=_v), "traction_spectra": wp.array2d(dtype=_v),
                                  "terms": wp.array(dtype=wp.vec3i), "weights": wp.array(dtype=_r), "count": int,
-                                 "parity": wp.array(dtype=int), "half_axis": int, "row0": int,
-                                 "stress": wp.array3d(dtype=_v)})
+                                 "parity": wp.array(dtype=int), "half_axis": int, "rows": int, "row0": int,
+                                 "stress": wp.array2d(dtype=_v)})
     wp.overload(derived_fields, {"stress": wp.array3d(dtype=_r), "derived": wp.array3d(dtype=_r)})
     wp.overload(von_mises_field, {"stress": wp.array3d(dtype=_r), "derived": wp.array3d(dtype=_r)})
     wp.overload(row_maxima, {"fields": wp.array3d(dtype=_r), "field": int, "values": wp.array(dtype=_r),

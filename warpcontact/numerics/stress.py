@@ -448,10 +448,13 @@ class SubsurfaceStress:
             # written: a pressure alone uses 8 of the 14 basis spectra, the lean pass one of the
             # six derived fields): the basis spectra a depth's terms use (``_basis_spectra``), the
             # stress spectra and stresses every component, the derived fields those a pass reads
-            self._basis = wp.empty((len(BASIS), *spec), dtype=cplx)
+            # (each stack one 2-D array of spectra one above the other, ``_spectrum``: Warp's
+            # strides are 32-bit, and a (k, rows, cols) array's first stride, one spectrum, passes
+            # 2^31 bytes at n = 8192 in complex128, where the kernels then read outside the array)
+            self._basis = wp.empty((len(BASIS) * spec[0], spec[1]), dtype=cplx)
             # zeroed: ``stress_spectra`` takes its zero from the first traction's spectrum, loaded or not
-            self._traction = wp.zeros((3, *spec), dtype=cplx)
-            self._stress_spectra = wp.empty((6, *spec), dtype=cplx)
+            self._traction = wp.zeros((3 * spec[0], spec[1]), dtype=cplx)
+            self._stress_spectra = wp.empty((6 * spec[0], spec[1]), dtype=cplx)
             self._stress = wp.empty((6, n, n), dtype=self.dtype)
             self._derived = wp.empty((6, n, n), dtype=self.dtype)
             self._parity = wp.array(np.array(BASIS_PARITY, dtype=np.int32), dtype=int)
@@ -509,7 +512,13 @@ class SubsurfaceStress:
         for b in (int(k) for k in np.flatnonzero(used)):
             self._rows(ks.basis_corners, (n + 1, n + 1), [b, wp.float64(z_cells)], [self._corners])
             self._rows(ks.basis_quadrant, (n, n), [self._corners, 1], [self._field])
-            self.fft.forward(self._field, self._basis[b])
+            self.fft.forward(self._field, self._spectrum(self._basis, b))
+
+    def _spectrum(self, stack, k: int):
+        """Spectrum ``k`` of a stack of spectra (rows k rows .. (k + 1) rows - 1 of its 2-D array):
+        a view, (rows, cols) as the FFT backend lays out one spectrum."""
+        rows = self.fft.spectral_shape[0]
+        return stack[k * rows:(k + 1) * rows]
 
     def _load_tractions(self, pressure, shear_x, shear_y) -> None:
         """The spectra of the tractions: (n, n) numpy arrays [Pa], scaled by E* here, or (n, n)
@@ -529,13 +538,13 @@ class SubsurfaceStress:
                 if t.shape != (n, n) or t.device != self.device or t.dtype != self.dtype:
                     raise InputError("tractions", f"expected Warp arrays of shape {(n, n)} on {self.device} in "
                                                   f"{self.dtype_name}, got {t.shape} on {t.device}")
-                self.fft.forward(t, self._traction[k])
+                self.fft.forward(t, self._spectrum(self._traction, k))
                 continue
             t = np.asarray(t, dtype=np.float64)
             if t.shape != (n, n):
                 raise InputError("tractions", f"expected arrays of shape {(n, n)}, got {t.shape}")
             self._field.assign(np.ascontiguousarray(t / self.pair.E_star, dtype=self.np_dtype))
-            self.fft.forward(self._field, self._traction[k])
+            self.fft.forward(self._field, self._spectrum(self._traction, k))
         self._loads = tuple(loads)
 
     def _body_stress(self, table: np.ndarray) -> None:
@@ -556,10 +565,10 @@ class SubsurfaceStress:
         self._weights.assign(weights.astype(self.np_dtype))
         self._rows(ks.stress_spectra, self.fft.spectral_shape,
                    [self._basis, self._traction, self._terms, self._weights, count, self._parity,
-                    self.fft.half_axis],
+                    self.fft.half_axis, self.fft.spectral_shape[0]],
                    [self._stress_spectra])
         for k in range(6):
-            self.fft.inverse(self._stress_spectra[k], self._stress[k])
+            self.fft.inverse(self._spectrum(self._stress_spectra, k), self._stress[k])
 
     def von_mises_maxima(self, pressure, shear_x, shear_y, depths) -> dict:
         """The largest von Mises stress of each body at each of ``depths`` [m] under the total
@@ -841,6 +850,8 @@ def _yield_check(pair, grid, totals, radius: float, device, dtype, fft) -> dict:
             maxima = {b: np.concatenate([maxima[b], more_maxima[b]])[order] for b in maxima}
     except InputError as e:  # the evaluation does not fit beside the solve: say so, do not fail the run
         return {"yielded": None, "reason": str(e)}
+    except (MemoryError, RuntimeError) as e:  # an allocation the device refused (Warp raises RuntimeError)
+        return {"yielded": None, "reason": f"the yield check could not run: {e}"}
     out = {}
     for name in BODIES:
         vm = depth_maximum(maxima[name], depths)
