@@ -1,0 +1,234 @@
+"""Robustness along whole load paths: every shipped example path, Table 2's cells and paths a user
+would try besides, at several grid sizes, with each "auto" choice as chosen and forced on and off.
+
+Each path runs in a process of its own under a time limit (a path that stalls is cut off and
+reported as such, not waited for): the case file with ``grid.n`` and the solver's choices replaced,
+everything else as shipped. Per path: the states solved, whether every state converged, the largest
+and the total inner iterations of a state, the most turns of a state, and the time of the path's
+solve (the process's imports, model and compile excluded: ``solve``'s own clock; the first state
+includes the kernels' compile on a cold cache). A table in Markdown on stdout, one JSON line per
+run under ``bench_results/paths/``.
+
+Paths (``--paths``, names or "all"; default: the examples and the extras):
+
+- the examples: ``examples/figure1a-d.toml``, ``figure2a-d.toml`` (16 states: 8 normal steps with
+  friction, then 8 tangential; 1b-d and 2b, 2d with SMC adhesion) and
+  ``table2_k080_dz5e-5.toml``;
+- ``steel``: figure2c's path for steel on steel (E 210 GPa, nu 0.3, S_Y 400 MPa: another pair,
+  identical materials, no coupling);
+- ``hardness``: figure2a's path at 4 times its approach with the hardness cap on;
+- ``float32``: figure2c's path in float32;
+- ``dugdale`` / ``exponential``: figure2c's path with friction and Dugdale (sigma_0 2 MPa, h_0 5 pm)
+  or exponential (w 1.36e-5 J/m^2, rho 5 pm) adhesion;
+- ``unload``: figure2c's normal leg up in 8 steps, 4 tangential steps, and back down to a quarter of
+  the approach in 4 steps (the contact recedes under a shear history);
+- ``table2:K:DZ`` (``:adh`` at the end: with adhesion): a Table 2 cell's path to the paper's delta_x_max (k_tau K, delta_z DZ um; the
+  cell's domain as ``table2`` builds it, n replaced), ``--table2`` adds all 24 (both columns).
+
+Usage (the ratios between choices matter, not the seconds: run them in one call):
+
+    python bench/paths.py --device cuda --sizes 256 1024 2048 4096 --choices auto nested-off
+    python bench/paths.py --device cpu --sizes 256 512 1024 --paths figure2c --choices all
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+EXAMPLES = ROOT / "examples"
+EXAMPLE_PATHS = ["figure1a", "figure1b", "figure1c", "figure1d", "figure2a", "figure2b", "figure2c", "figure2d",
+                 "table2_k080_dz5e-5"]
+EXTRA_PATHS = ["steel", "hardness", "float32", "dugdale", "exponential", "unload"]
+#: the solver's choices a run forces: (nested, window)
+CHOICES = {
+    "auto": ("auto", "auto"),
+    "nested-on": (True, "auto"),
+    "nested-off": (False, "auto"),
+    "window-on": ("auto", True),
+    "window-off": ("auto", False),
+    "both-off": (False, False),
+}
+
+
+def load_toml(path: Path) -> dict:
+    try:
+        import tomllib
+    except ModuleNotFoundError:  # Python 3.10
+        import tomli as tomllib
+    with open(path, "rb") as f:
+        return tomllib.load(f)
+
+
+def case_dict(name: str) -> dict:
+    """The case (a dict as a case file reads) of a path by its name."""
+    if name in EXAMPLE_PATHS:
+        return load_toml(EXAMPLES / f"{name}.toml")
+    if name.startswith("table2:"):
+        return table2_case(name)
+    base = load_toml(EXAMPLES / "figure2c.toml")
+    if name == "steel":
+        steel = {"E": 210e9, "nu": 0.3, "yield_strength": 400e6, "hardness": 2.0e9}
+        base["sphere"].update(steel)
+        base["flat"] = dict(steel)
+    elif name == "hardness":
+        base = load_toml(EXAMPLES / "figure2a.toml")
+        base["load"]["delta_z"] *= 4.0
+        base["load"]["delta_x"] *= 4.0
+        base["grid"]["size"] *= 2.0
+        base["friction"]["hardness_cap"] = True
+    elif name == "float32":
+        base["solver"]["dtype"] = "float32"
+    elif name == "dugdale":
+        base["adhesion"] = {"law": "dugdale", "sigma_0": 2.0e6, "h_0": 5.0e-12}
+    elif name == "exponential":
+        base["adhesion"] = {"law": "exponential", "w": 1.36e-5, "rho": 5.0e-12}
+    elif name == "unload":
+        load = base.pop("load")
+        dz, dx = load["delta_z"], load["delta_x"]
+        up = [[0.0, 0.0, dz * k / 8] for k in range(1, 9)]
+        shear = [[dx * k / 8, 0.0, dz] for k in range(1, 5)]
+        down = [[dx / 2, 0.0, dz * (1.0 - 0.75 * k / 4)] for k in range(1, 5)]
+        base["load"] = {"path": up + shear + down}
+    else:
+        raise SystemExit(f"paths.py: no path named {name!r}")
+    return base
+
+
+def table2_case(name: str) -> dict:
+    """``table2:K:DZ`` (K: k_tau, DZ: delta_z in um; ":adh" at the end: with the SMC law of
+    ``table2``'s defaults): the paper's pair and sphere, the cell's domain as ``table2`` builds it at
+    its default resolution (``cell_grid``; n is replaced), Tabor + von Mises, 8 normal steps and 8
+    tangential steps up to the paper's delta_x_max."""
+    from warpcontact.studies import table2 as t2
+
+    parts = name.split(":")
+    adhesion = parts[-1] == "adh"
+    k_tau, dz_um = float(parts[1]), float(parts[2])
+    settings = t2.Table2Settings()
+    law = settings.adhesion_law() if adhesion else None
+    dz = dz_um * t2.UM
+    grid = t2.cell_grid(dz, settings, law)
+    dx_max_um = t2.paper_table()[(k_tau, dz_um, adhesion)][0]
+    base = load_toml(EXAMPLES / "figure2c.toml")
+    base["grid"] = {"n": grid.n, "size": grid.size}
+    base["load"] = {"delta_z": dz, "delta_x": dx_max_um * t2.UM, "steps": 8}
+    base["friction"] = {"law": "tabor", "k_tau": k_tau}
+    if adhesion:
+        base["adhesion"] = {"law": "smc", "sigma_max": settings.sigma_max, "tau_max": settings.tau_max,
+                            "delta_n": settings.delta_n, "delta_t": settings.delta_t}
+    return base
+
+
+def table2_names() -> list[str]:
+    from warpcontact.studies import table2 as t2
+
+    return [f"table2:{k}:{dz}{':adh' if adh else ''}" for adh in (False, True) for k, dz in t2.cells()]
+
+
+def child(args) -> None:
+    """One path in this process: print one JSON line."""
+    d = json.loads(args.child)
+    import warpcontact as wc
+
+    t0 = time.perf_counter()
+    result = wc.solve(d, fields="none")
+    elapsed = time.perf_counter() - t0
+    states = result.states
+    print("RESULT " + json.dumps({
+        "states": len(states),
+        "converged": all(bool(s["converged"]) for s in states),
+        "max_iterations": max(int(s["iterations"]) for s in states),
+        "total_iterations": sum(int(s["iterations"]) for s in states),
+        "max_turns": max(int(s["outer_iterations"]) for s in states),
+        "iterations": [int(s["iterations"]) for s in states],
+        "solve_s": elapsed,
+    }), flush=True)
+
+
+def run_one(name: str, n: int, choice: str, device: str, timeout: float) -> dict:
+    d = case_dict(name)
+    d["grid"]["n"] = int(n)
+    nested, window = CHOICES[choice]
+    solver = d.setdefault("solver", {})
+    solver.update({"device": device, "nested": nested, "window": window})
+    row = {"path": name, "n": n, "choice": choice, "device": device, "dtype": solver.get("dtype", "float64")}
+    t0 = time.perf_counter()
+    try:
+        p = subprocess.run([sys.executable, __file__, "--child", json.dumps(d)], capture_output=True, text=True,
+                           timeout=timeout, env={**os.environ, "PYTHONUNBUFFERED": "1"})
+    except subprocess.TimeoutExpired:
+        row.update(status=f"cut off after {timeout:.0f} s", process_s=time.perf_counter() - t0)
+        return row
+    row["process_s"] = time.perf_counter() - t0
+    line = next((ln for ln in p.stdout.splitlines() if ln.startswith("RESULT ")), None)
+    if p.returncode != 0 or line is None:
+        tail = (p.stderr.strip().splitlines() or ["(no output)"])[-1]
+        row.update(status=f"failed: {tail[:120]}")
+        return row
+    row.update(json.loads(line[len("RESULT "):]))
+    row["status"] = "ok" if row["converged"] else "not converged"
+    return row
+
+
+def table(rows: list[dict]) -> str:
+    head = ("| path | n | choice | states | all converged | largest state (inner it.) | total | most turns "
+            "| solve [s] | process [s] |\n|---|---|---|---|---|---|---|---|---|---|")
+    lines = [head]
+    for r in rows:
+        if "states" not in r:
+            lines.append(f"| {r['path']} | {r['n']} | {r['choice']} | - | {r['status']} | - | - | - | - | "
+                         f"{r.get('process_s', 0):.1f} |")
+            continue
+        lines.append(f"| {r['path']} | {r['n']} | {r['choice']} | {r['states']} | "
+                     f"{'yes' if r['converged'] else 'NO'} | {r['max_iterations']} | {r['total_iterations']} | "
+                     f"{r['max_turns']} | {r['solve_s']:.2f} | {r['process_s']:.1f} |")
+    return "\n".join(lines)
+
+
+def main(argv=None):
+    p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    p.add_argument("--device", default="cpu")
+    p.add_argument("--sizes", type=int, nargs="+", default=[256, 512])
+    p.add_argument("--paths", nargs="+", default=["all"])
+    p.add_argument("--table2", action="store_true", help="add Table 2's 24 cells")
+    p.add_argument("--choices", nargs="+", default=["auto"], help=f"of {list(CHOICES)} or 'all'")
+    p.add_argument("--timeout", type=float, default=300.0, help="seconds a path may take (its whole process)")
+    p.add_argument("--out", default=str(ROOT / "bench_results" / "paths"))
+    p.add_argument("--child", help=argparse.SUPPRESS)
+    args = p.parse_args(argv)
+    if args.child:
+        return child(args)
+    names = EXAMPLE_PATHS + EXTRA_PATHS if args.paths == ["all"] else args.paths
+    if args.table2:
+        names = names + table2_names()
+    choices = list(CHOICES) if args.choices == ["all"] else args.choices
+    for c in choices:
+        if c not in CHOICES:
+            raise SystemExit(f"paths.py: --choices takes {list(CHOICES)} or all, not {c!r}")
+    out = Path(args.out)
+    out.mkdir(parents=True, exist_ok=True)
+    log = out / f"paths_{args.device.replace(':', '')}_{time.strftime('%Y%m%d_%H%M%S')}.jsonl"
+    rows = []
+    for n in args.sizes:
+        for name in names:
+            for choice in choices:
+                row = run_one(name, n, choice, args.device, args.timeout)
+                rows.append(row)
+                with open(log, "a") as f:
+                    f.write(json.dumps(row) + "\n")
+                print(f"{name} n={n} {choice}: {row['status']}"
+                      + (f", largest state {row['max_iterations']}, {row['solve_s']:.2f} s" if "states" in row else ""),
+                      file=sys.stderr, flush=True)
+    print(table(rows))
+    print(f"\n(one JSON line a run: {log})")
+
+
+if __name__ == "__main__":
+    main()
