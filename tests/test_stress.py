@@ -302,8 +302,8 @@ def test_zero_shear_left_out_and_rows_split_change_no_bit():
         if threads:
             evaluator.launches.workers = threads
         if shear == "warp":  # (device arrays are loaded as they are: their terms are summed)
-            zero = wp.zeros(grid.shape, dtype=wp.float64)
-            pressure = wp.array(p / PAIR.E_star, dtype=wp.float64)
+            zero = wp.zeros(grid.shape, dtype=wp.float64, device="cpu")
+            pressure = wp.array(p / PAIR.E_star, dtype=wp.float64, device="cpu")
             results.append(evaluator.evaluate(pressure, zero, zero))
             assert evaluator._loads == (True, True, True)
             continue
