@@ -4,12 +4,16 @@ n = 8192 (its stacked spectra pass 2^31 bytes there: Warp's 32-bit strides, ``Su
 CUDA only; the CPU's share of the same methods is tests/test_warm_start.py."""
 
 import math
-import tomllib
 from pathlib import Path
 
 import numpy as np
 import pytest
 import warp as wp
+
+try:
+    import tomllib
+except ModuleNotFoundError:  # Python 3.10
+    import tomli as tomllib
 
 from conftest import DEVICES
 
