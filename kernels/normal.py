@@ -310,9 +310,10 @@ def projected_step(pressure: Any, gap: Any, direction: Any, response: Any, tau: 
     elif g < zero:
         if direction != zero:  # stepped with the free set (preconditioned: ``conjugate_direction``)
             p = wp.min(wp.max(unprojected, zero), pressure_cap)
+            count = wp.where(p > zero, type(zero)(1.0), zero)
         else:  # Polonsky and Keer's re-entry
             p = wp.min(-tau * g, pressure_cap)
-        count = wp.where(p > zero, type(zero)(1.0), zero)
+            count = type(zero)(1.0)
     return p, g - tau * response, count, wp.abs(p - unprojected)
 
 

@@ -850,7 +850,9 @@ def _yield_check(pair, grid, totals, radius: float, device, dtype, fft) -> dict:
             maxima = {b: np.concatenate([maxima[b], more_maxima[b]])[order] for b in maxima}
     except InputError as e:  # the evaluation does not fit beside the solve: say so, do not fail the run
         return {"yielded": None, "reason": str(e)}
-    except (MemoryError, RuntimeError) as e:  # an allocation the device refused (Warp raises RuntimeError)
+    except (MemoryError, RuntimeError) as e:  # an allocation the device refused; any other error is raised
+        if isinstance(e, RuntimeError) and not str(e).startswith("Failed to allocate"):
+            raise
         return {"yielded": None, "reason": f"the yield check could not run: {e}"}
     out = {}
     for name in BODIES:
