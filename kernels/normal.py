@@ -147,18 +147,37 @@ def is_entering(pressure: Any, gap: Any):
     return pressure <= zero and gap < zero
 
 
+@wp.func
+def is_leaving(pressure: Any, gap: Any, pressure_cap: Any):
+    """Whether a cell at the cap opens (p >= cap, g > 0): the preconditioned iteration steps it
+    with the free set as it does a penetrating cell (:func:`is_entering`)."""
+    return pressure >= pressure_cap and gap > type(pressure)(0.0)
+
+
+@wp.func
+def is_stepped(pressure: Any, gap: Any, pressure_cap: Any, precondition: int):
+    """Whether a cell takes part in the conjugate direction: the free set, and with
+    ``precondition`` the cells that would leave their bound (:func:`is_entering`,
+    :func:`is_leaving`)."""
+    if is_free(pressure, pressure_cap):
+        return True
+    if precondition != 0:
+        return is_entering(pressure, gap) or is_leaving(pressure, gap, pressure_cap)
+    return False
+
+
 @wp.kernel
 def normal_free_gap(gap: wp.array(dtype=Any), pressure: wp.array(dtype=Any), pressure_cap: Any, width: int, per: int,
                     padded_input: wp.array2d(dtype=Any)):
-    """The gap on the free set, 0 elsewhere, into the FFT backend's ``padded_input``: what the
-    preconditioner transforms (``NormalSolver.preconditioned``). Launched over (rows, chunks)
+    """The gap on the stepped cells (:func:`is_stepped`), 0 elsewhere, into the FFT backend's
+    ``padded_input``: what the preconditioner transforms (``NormalSolver.preconditioned``). Launched over (rows, chunks)
     (``LaunchCache.launch_rows``)."""
     i, c = wp.tid()
     for j in range(c * per, wp.min((c + 1) * per, width)):
         cell = i * width + j
         g = pressure_cap - pressure_cap
         p = pressure[cell]
-        if is_free(p, pressure_cap) or is_entering(p, gap[cell]):
+        if is_stepped(p, gap[cell], pressure_cap, 1):
             g = gap[cell]
         padded_input[i, j] = g
 
@@ -170,13 +189,14 @@ def conjugate_direction(pressure: wp.array(dtype=Any), gap: wp.array(dtype=Any),
     """(t, g t) of a cell: t = z + beta t_last on the free set 0 < p < cap, 0 elsewhere, with
     z = g, or with ``precondition`` z = M g, the preconditioned gap, read from ``preconditioned``
     (the FFT backend's padded output, times ``output_scale``); g, z and t_last are read only there.
-    With ``precondition`` the penetrating cells out of contact (:func:`is_entering`) take part as
-    well: M g is a pressure, and their step -tau z (``projected_step``) enters them at the
-    pressure the preconditioner gives them, in the step whose length the line search chose for
-    all. Polonsky and Keer's re-entry p = -tau g is a gap taken for a pressure: with the plain
-    iteration's tau (about 1 / K's largest eigenvalue) a small start; with the preconditioned
-    one's (about 1) a penetrating band of w cells enters at about w times its pressure, and the
-    residual of a warm start jumped 10-50 fold at its first iteration and took hundreds of
+    With ``precondition`` the penetrating cells out of contact (:func:`is_entering`) and the
+    opening cells at the cap (:func:`is_leaving`) take part as well: M g is a pressure, and their
+    step -tau z (``projected_step``) moves them off their bound by the pressure the
+    preconditioner gives them, in the step whose length the line search chose for all. Polonsky
+    and Keer's rules, p = -tau g to re-enter and p = cap - tau g to leave the cap, take a gap for
+    a pressure: with the plain iteration's tau (about 1 / K's largest eigenvalue) a small move;
+    with the preconditioned one's (about 1) a band of w cells moves by about w times its pressure,
+    and the residual of a warm start jumped 10-50 fold at its first iteration and took hundreds of
     iterations to recover, more the wider the band (the grid finer, the load step longer).
 
     t_last is read only on cells of the working set now; when beta != 0 those were in it then
@@ -186,7 +206,7 @@ def conjugate_direction(pressure: wp.array(dtype=Any), gap: wp.array(dtype=Any),
     t = zero
     gt = zero
     p = pressure[cell]
-    if is_free(p, pressure_cap) or (precondition != 0 and is_entering(p, gap[cell])):
+    if is_stepped(p, gap[cell], pressure_cap, precondition):
         g = gap[cell]
         z = g
         if precondition != 0:
@@ -303,8 +323,12 @@ def projected_step(pressure: Any, gap: Any, direction: Any, response: Any, tau: 
     unprojected = p - tau * direction  # what K t accounts for (t = 0 off the free set)
     if p >= pressure_cap:
         if g > zero:
-            p = wp.max(pressure_cap - tau * g, zero)
-            count = type(zero)(1.0)
+            if direction != zero:  # stepped with the free set (preconditioned)
+                p = wp.min(wp.max(unprojected, zero), pressure_cap)
+                count = wp.where(p < pressure_cap, type(zero)(1.0), zero)
+            else:  # Polonsky and Keer's rule
+                p = wp.max(pressure_cap - tau * g, zero)
+                count = type(zero)(1.0)
     elif p > zero:
         p = wp.min(wp.max(unprojected, zero), pressure_cap)
     elif g < zero:
@@ -334,8 +358,9 @@ def normal_update(
     gap: wp.array(dtype=Any),
     sums: wp.array(dtype=Any),
 ):
-    """p <- clip(p - tau t, 0, cap); penetrating cells with p = 0 re-enter with p = -tau g, and
-    opening cells at the cap leave it with p = cap - tau g (Polonsky-Keer's re-entry rule). The
+    """p <- clip(p - tau t, 0, cap); without the preconditioner, penetrating cells with p = 0
+    re-enter with p = -tau g, and opening cells at the cap leave it with p = cap - tau g
+    (Polonsky-Keer's rules; preconditioned, they step with the free set). The
     gap is carried, g <- g - tau K t (K t from the padded output): exact where no cell was
     projected; what the projections changed (their L1 norm, slot S_CORRECTION) it misses until
     the next exact gap. The residual sums of the new iterate with that gap go to the S_NEXT_*

@@ -106,6 +106,14 @@ FFT_TEMPORARY_SPECTRA = {"scipy": 1.0, "warp": 0.0}  # cupy: cufft_work_spectra(
 FFTW_PLAN_BYTES = 2 * 2**20
 
 
+def allocation_refused(error: BaseException) -> bool:
+    """Whether ``error`` is an allocation the device refused (MemoryError, or Warp's RuntimeError
+    "Failed to allocate ..."), not some other failure, which the caller should raise."""
+    if isinstance(error, MemoryError):
+        return True
+    return isinstance(error, RuntimeError) and str(error).startswith("Failed to allocate")
+
+
 def _largest_prime_factor(m: int) -> int:
     largest, p = 1, 2
     while p * p <= m:

@@ -12,6 +12,7 @@ from warpcontact.kernels import adhesion as ak
 from warpcontact.kernels import coupling as ck
 
 from .. import interrupts
+from ..numerics.resources import allocation_refused
 from ..numerics.state import EDGE_SHARE_AT_FIRST_TURN, SolveInfo, check_contact_fits
 from .adhesive import AdhesiveNormalSolver
 from .fixed_point import AndersonMixing
@@ -40,6 +41,23 @@ TURN_TOL_CAP = 1e-4
 #: per state at Tabor parameter 5.7).
 LAGGED_TURNS_MAX_MAUGIS = 0.1
 TURN_TOL_FACTOR = 1e-3
+
+
+#: the lagged turns stall (``stalled``) where their change has not halved in STALL_TURNS
+#: turns; from there the shear is mixed by Anderson's method over the last STALL_MIXING_DEPTH
+#: turns. The plain turns converge linearly; near the von Mises crossover (p -> S_Y) q_max(p) has
+#: an unbounded slope, and a few cells there can hold the plain turns in a cycle for ever
+#: (docs/model.md, "The turns").
+STALL_TURNS = 10
+STALL_MIXING_DEPTH = 5
+
+
+def stalled(changes) -> bool:
+    """Whether the last ``STALL_TURNS`` turns failed to halve the change (the least of the 4
+    turns before them against the least of the last 4: a cycle's changes go up and down)."""
+    if len(changes) < STALL_TURNS + 4:
+        return False
+    return min(changes[-4:]) > 0.5 * min(changes[-STALL_TURNS - 4:-STALL_TURNS])
 
 
 def starting_residual(info) -> float:
@@ -180,6 +198,7 @@ class ContactSolver:
         #: inner iterations of the coarse grids in the last nested start (0 without)
         self.nested_iterations = 0
         self._coarse = None  # (ContactSolver, ContactState) of the half grid, made when first needed
+        self._turn_mixing = None  # the lagged turns' mixing after a stall (``_stall_mixing``)
         f = model.field
         self.known_z, self.known_x, self.known_y = f(), f(), f()
         self.previous = [f(), f(), f()]
@@ -425,6 +444,8 @@ class ContactSolver:
         coupled = math.inf  # the coupled residual (below)
         outer = 0
         converged_turns = not self.iterative
+        changes = []  # each turn's change (the stall test)
+        mixing = None  # Anderson mixing of the shear, from a stall on
         while outer < self.max_outer:
             interrupts.check()
             outer += 1
@@ -460,7 +481,10 @@ class ContactSolver:
                     self._update_slip(state, dx, dy, final=True)
             if not self.iterative:
                 break
-            change = max(self._relative_change(state), adhesive_change)
+            if mixing is not None:  # x <- Anderson's next shear from G(x) (the state's shear)
+                change = max(self._mixed_change(state, mixing), adhesive_change)
+            else:
+                change = max(self._relative_change(state), adhesive_change)
             # the coupled residual: where the normal solve started (how far the last tangential
             # update moved its problem), and where the tangential one started, as far as the
             # turn's change confirms it (the plain tangential solve reclassifies its slip cells
@@ -472,7 +496,42 @@ class ContactSolver:
             if change < self.outer_tol and turn_tol == self.tol:
                 converged_turns = True
                 break
+            if mixing is not None:  # not converged: the next turn from the mixed shear
+                wp.copy(state.shear_x, self.previous[1])
+                wp.copy(state.shear_y, self.previous[2])
+            elif self.friction is not None:
+                changes.append(change)
+                if stalled(changes):
+                    mixing = self._stall_mixing()
         return normal_info, tangential_info, outer, converged_turns, iterations
+
+    def _stall_mixing(self):
+        """The Anderson mixing of the lagged turns' shear after a stall (``stalled``), made when
+        first needed; None where the device has no room for it (the turns go on unmixed)."""
+        if self._turn_mixing is None:
+            try:
+                self._turn_mixing = AndersonMixing(self.model, 2, beta=1.0, depth=STALL_MIXING_DEPTH)
+            except (MemoryError, RuntimeError) as e:
+                if not allocation_refused(e):
+                    raise
+                return None
+        self._turn_mixing.reset()
+        return self._turn_mixing
+
+    def _mixed_change(self, state, mixing) -> float:
+        """A turn's change with the shear mixed: the larger of the pressure's relative change and
+        |G(x) - x| / |G(x)| of the shear (G(x): the shear the turn's tangential solve returned, in
+        ``state``; x: the shear it started from, in ``self.previous``, which then holds Anderson's
+        next shear)."""
+        m = self.model
+        self.change.zero_()
+        m.launch_reduce(ck.change_sums, [state.pressure.flatten(), 0], [self.previous[0].flatten(), self.change])
+        for image, shear in zip(mixing.residual, (state.shear_x, state.shear_y)):
+            wp.copy(image, shear.flatten())
+        shear_change = mixing.step([self.previous[1].flatten(), self.previous[2].flatten()], beta=1.0)
+        s = self.change.numpy().astype(np.float64)
+        dp = math.sqrt(s[0] / s[1]) if s[1] > 0 else 0.0
+        return max(dp, shear_change)
 
     def _minimised_turns(self, state, dx: float, dy: float, dz: float) -> SolveInfo:
         """A step with adhesion and friction: turns whose normal solve is the whole adhesive
