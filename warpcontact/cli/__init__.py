@@ -22,8 +22,9 @@ from pathlib import Path
 
 from .. import interrupts
 from ..records.case import FFT_BACKENDS
-from .solve import EXIT_NOT_CONVERGED, _earlier_run, _remove_stale, _turns_hint, cmd_solve
+from .solve import EXIT_CHECK_FAILED, EXIT_NOT_CONVERGED, _earlier_run, _remove_stale, _turns_hint, cmd_solve
 from ..errors import ConvergenceError, InputError, NonFiniteError, OutputError
+from ..records.guards import check_failure
 from ..records.progress import Progress, end_line, write_above
 
 EXIT_INPUT = 2
@@ -197,6 +198,8 @@ def cmd_gross_slip(args) -> int:
         print(f"not converged: a state of the gross-slip path did not converge{_turns_hint(r['states'], case)}; "
               f"see {out / 'result.json'}", file=sys.stderr)
         return EXIT_NOT_CONVERGED
+    if check_failure(r.get("yield_check")) is not None:
+        return EXIT_CHECK_FAILED
     if not args.quiet:
         mu = "undefined (F_z <= 0: adhesion holds the sphere in tension)" if r["mu"] is None else f"{r['mu']:.4f}"
         print(f"delta_x_max = {r['delta_x_max']:.4e} m, mu = {mu}  [{r['elapsed_s']:.1f} s] -> {out}", file=sys.stderr)
@@ -474,7 +477,9 @@ def cmd_table2(args) -> int:
     if interrupted:
         print(f"{interrupts.describe()}: {len(records)} cell(s) written to {out}; rerun to finish", file=sys.stderr)
         return interrupts.exit_status()
-    return 0 if all(r["converged"] for r in records) else EXIT_NOT_CONVERGED
+    if not all(r["converged"] for r in records):
+        return EXIT_NOT_CONVERGED
+    return EXIT_CHECK_FAILED if any(check_failure(r.get("yield_check")) for r in records) else 0
 
 
 def _table2_resolution(todo, size_in_a: float, law: dict) -> None:

@@ -18,10 +18,13 @@ from ..errors import OutputError
 from ..records.progress import Progress
 
 EXIT_NOT_CONVERGED = 3
+#: the solve's results written, a check after it (the yield check) failed (its warning says why)
+EXIT_CHECK_FAILED = 4
 
 
 def cmd_solve(args) -> int:
     from ..records.case import load_case
+    from ..records.guards import check_failure
     from ..records.results import atomic_write_json, atomic_write_npz
     from ..studies.runner import run_path
 
@@ -74,6 +77,8 @@ def cmd_solve(args) -> int:
             file=sys.stderr,
         )
         return EXIT_NOT_CONVERGED
+    if check_failure(result.yield_check) is not None:
+        return EXIT_CHECK_FAILED
     if not args.quiet:
         last = result.states[-1]
         print(

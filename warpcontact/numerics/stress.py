@@ -52,6 +52,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..errors import InputError
+from .resources import allocation_refused
 
 #: stress components, in the order of the kernels' arrays
 COMPONENTS = ("sigma_xx", "sigma_yy", "sigma_zz", "sigma_xy", "sigma_xz", "sigma_yz")
@@ -804,7 +805,20 @@ def state_yield_check(state, friction: bool = True, adhesion: bool = True) -> di
     type, FFT backend), its tractions totalled and loaded on the device (one field, the pressure,
     read on the host for the contact radius). Without ``friction`` the contact shear and without
     ``adhesion`` the adhesive tractions are zero and not read; with neither, the shear is left out
-    of the evaluation (None: its terms are not summed)."""
+    of the evaluation (None: its terms are not summed).
+
+    It runs after the solve, whose results are the run's: an error of the check itself (a device
+    error, say) does not end the run but is returned, ``{"yielded": None, "failed": True,
+    "reason": ...}``, for the commands to report in one line and in their exit status
+    (``records.guards.check_failure``)."""
+    try:
+        return _state_yield_check(state, friction, adhesion)
+    except Exception as e:  # noqa: BLE001 - reported in the result, the line and the exit status
+        return {"yielded": None, "failed": True,
+                "reason": f"the yield check failed after the solve ({type(e).__name__}: {e})"}
+
+
+def _state_yield_check(state, friction: bool, adhesion: bool) -> dict:
     import warp as wp
 
     from warpcontact.kernels import adhesion as ak
@@ -851,7 +865,7 @@ def _yield_check(pair, grid, totals, radius: float, device, dtype, fft) -> dict:
     except InputError as e:  # the evaluation does not fit beside the solve: say so, do not fail the run
         return {"yielded": None, "reason": str(e)}
     except (MemoryError, RuntimeError) as e:  # an allocation the device refused; any other error is raised
-        if isinstance(e, RuntimeError) and not str(e).startswith("Failed to allocate"):
+        if not allocation_refused(e):
             raise
         return {"yielded": None, "reason": f"the yield check could not run: {e}"}
     out = {}

@@ -64,6 +64,18 @@ class YieldWarning(UserWarning):
     """The contact pressure passes a body's yield strength: a real contact yields there."""
 
 
+class CheckFailedWarning(UserWarning):
+    """A check made after the solve (the yield check) failed; the solve's results stand."""
+
+
+def check_failure(check: dict | None) -> str | None:
+    """The reason a yield check failed (``numerics.stress.state_yield_check``), or None where it
+    ran or was skipped."""
+    if isinstance(check, dict) and check.get("failed"):
+        return str(check.get("reason"))
+    return None
+
+
 class AdhesionAtEdgeWarning(UserWarning):
     """The adhesive law still pulls hard on the domain's edge: the domain cuts off the law's tail."""
 
@@ -201,6 +213,11 @@ class RunChecks:
         state's summary, or words naming it): the yield warning (:func:`yield_below_text`), unless
         this run warned of yield already (the contact pressure above a yield strength): one warning
         of yield per run."""
+        failure = check_failure(check)
+        if failure is not None:
+            warnings.warn(f"{failure} {self._where(where) if isinstance(where, dict) else where}; the solve's results "
+                          "stand, yielded = null", CheckFailedWarning, stacklevel=3)
+            return
         if self.yield_warned:
             return
         text = yield_below_text(check, self._where(where) if isinstance(where, dict) else where)
