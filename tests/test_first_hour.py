@@ -1,5 +1,4 @@
-"""A real user's first hour (issue 32): each row of its table, as a test that fails if the row's
-problem comes back.
+"""A real user's first hour: each problem a new user met, as a test that fails if it comes back.
 
 The user: an AFM tip (Si3N4, R = 20 nm, E = 310 GPa, yield 8 GPa) on Si (E = 130 GPa, yield
 4 GPa, hardness 11 GPa), 20 nm domain, delta_z = 0.1 nm, delta_x = 20 pm, Tabor k_tau = 0.6,
@@ -95,6 +94,47 @@ def test_approach_in_nm_written_as_m_is_refused(capsys, tmp_path, key, value, me
     d["load"]["delta_z"] = value
     line = refused(capsys, tmp_path, d)
     assert f"{key} = {value} m" in line and meant in line, line
+
+
+def test_yield_strength_in_gpa_written_as_pa_is_refused_with_the_unit(capsys, tmp_path):
+    """S_Y / E = 1e-11 is no solid (they yield at 1e-4 to 0.05): a unit slip, not a warning."""
+    d = afm_dict()
+    d["sphere"]["yield_strength"] = 8.0  # meant GPa
+    line = refused(capsys, tmp_path, d)
+    assert "sphere.yield_strength = 8 Pa" in line and "(8 GPa)?" in line, line
+
+
+def test_hardness_in_gpa_written_as_pa_is_refused_with_the_unit(capsys, tmp_path):
+    d = afm_dict()
+    d["flat"]["hardness"] = 11.0  # meant GPa
+    line = refused(capsys, tmp_path, d)
+    assert "flat.hardness = 11 Pa" in line and "(11 GPa)?" in line, line
+
+
+def test_adhesive_stress_in_mpa_written_as_pa_warns_with_the_unit():
+    """w = 1e-7 J/m^2: the law hardly acts, and nothing said so; now a warning names the unit."""
+    d = afm_dict()
+    d["adhesion"]["sigma_max"] = d["adhesion"]["tau_max"] = 122.6  # meant MPa
+    with pytest.warns(PlausibilityWarning) as record:
+        case_from_dict(d)
+    text = " ".join(str(w.message) for w in record)
+    assert "w = e sigma_max delta_n = 9.998e-8 J/m^2" in text and "1.226e8 Pa (122.6 MPa)" in text and "hardly acts" in text, text
+
+
+def test_tangential_shift_in_nm_written_as_m_is_refused_with_the_unit(capsys, tmp_path):
+    d = afm_dict()
+    d["load"]["delta_x"] = 0.02  # meant nm
+    line = refused(capsys, tmp_path, d)
+    assert "load.delta_x" in line and "beyond the domain's half-width 1e-8 m" in line, line
+    assert "2e-11 m (0.02 nm)?" in line, line
+
+
+def test_an_explicit_path_beyond_the_domain_is_refused():
+    d = afm_dict()
+    del d["load"]
+    d["load"] = {"path": [[0.0, 0.0, 1e-10], [0.0, 0.02, 1e-10]]}  # meant nm
+    with pytest.raises(InputError, match=r"load.path.*0.02 m.*\(0.02 nm\)\?"):
+        case_from_dict(d)
 
 
 def test_radius_in_um_written_as_m_is_refused():

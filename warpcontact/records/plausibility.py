@@ -41,6 +41,13 @@ MAX_WORK_OF_ADHESION = 10.0
 TYPICAL_WORK_OF_ADHESION = 0.05
 #: Theoretical strength of a solid over its modulus [-]: an adhesive stress above it is warned about.
 THEORETICAL_STRENGTH = 0.1
+#: A strength (yield strength, hardness) under this fraction of its body's E is refused: solids
+#: yield at S_Y / E of 1e-4 to 0.05 [-]; the unit guess aims at TYPICAL_STRENGTH_OVER_E.
+MIN_STRENGTH_OVER_E = 1e-5
+TYPICAL_STRENGTH_OVER_E = 3e-3
+#: An adhesive force scale 2 pi R w under this fraction of the contact's Hertz force is warned
+#: about [-]: the law hardly acts (a stress in MPa written as Pa gives a millionth of it).
+WEAK_ADHESION = 1e-6
 #: A contact radius sqrt(R delta_z) over the domain's half-width above which the case is refused
 #: with a unit hint (between 1 and this, Case's own check asks for a wider domain) [-].
 FAR_WIDER = 3.0
@@ -131,6 +138,14 @@ def check_moduli(bodies: dict) -> None:
         E, _, yield_strength, hardness = bodies[name]
         other_E = bodies[names[1 - names.index(name)]][0] if len(names) == 2 else 1e11
         for key, strength in (("yield_strength", yield_strength), ("hardness", hardness)):
+            if math.isfinite(strength) and 0.0 < strength < MIN_STRENGTH_OVER_E * E:
+                g = _closest(strength, UP, TYPICAL_STRENGTH_OVER_E * E,
+                             lambda v: MIN_STRENGTH_OVER_E * E <= v <= THEORETICAL_STRENGTH * E)
+                hint = f"; did you mean {_meant(strength, g, 'Pa')}?" if g else ""
+                raise InputError(f"{name}.{key}", f"= {_num(strength)} Pa is {_num(strength / E)} of {name}.E = "
+                                                  f"{_num(E)} Pa: the body would yield at a strain of "
+                                                  f"{_num(strength / E)}, and solids yield at S_Y / E of 1e-4 to 0.05; "
+                                                  f"expected at least {_num(MIN_STRENGTH_OVER_E * E)} Pa{hint}")
             if not (math.isfinite(strength) and strength > E):
                 continue
             why = (f"= {_num(strength)} Pa is above {name}.E = {_num(E)} Pa: the body would yield at a strain above "
@@ -208,6 +223,44 @@ def check_adhesion(adhesion, E_star: float, bodies: dict) -> None:
         warnings.warn(text, PlausibilityWarning, stacklevel=4)
 
 
+def check_adhesion_force(adhesion, E_star: float, radius: float, delta_z_max: float) -> None:
+    """Warn where the adhesive law hardly acts: its force scale 2 pi R w under WEAK_ADHESION of the
+    Hertz force at the deepest approach (a stress in MPa written as Pa makes w a millionth of what
+    was meant), naming the unit slip that gives a work of adhesion of 0.01-1 J/m^2 where one does.
+    Judged against the contact, not by w alone: cells adhere with w of 1e-7 J/m^2 at forces that
+    matter to them."""
+    w = adhesion.work_of_adhesion
+    if not (delta_z_max > 0.0 and 0.0 < w):
+        return
+    hertz = 4.0 / 3.0 * E_star * math.sqrt(radius) * delta_z_max**1.5
+    force = 2.0 * math.pi * radius * w
+    if not force < WEAK_ADHESION * hertz:
+        return
+    text = (f"the adhesive force scale 2 pi R w = {_num(force)} N is {_num(force / hertz)} of the Hertz force "
+            f"{_num(hertz)} N at delta_z = {_num(delta_z_max)} m: the law hardly acts")
+    typical = lambda v: 1e-2 <= v <= 1.0  # noqa: E731 - works of adhesion of van der Waals and capillary contacts
+    if adhesion.law in ADHESION_LENGTH_KEYS:
+        text = f"adhesion.w = {_num(w)} J/m^2: {text}"
+        g = _closest(w, (1e3, 1e6), TYPICAL_WORK_OF_ADHESION, typical)
+        if g is not None:
+            text += f"; did you mean {_num(w * g)} J/m^2?"
+    elif adhesion.law in ADHESION_STRESS_KEYS:
+        normal_key, shear_key, length_key = ADHESION_STRESS_KEYS[adhesion.law]
+        formula = "e sigma_max delta_n" if adhesion.law == "smc" else "sigma_0 h_0"
+        stress, length = getattr(adhesion, normal_key), getattr(adhesion, length_key)
+        text = (f"adhesion: w = {formula} = {_num(w)} J/m^2 (adhesion.{normal_key} = {_num(stress)} Pa, "
+                f"adhesion.{length_key} = {_num(length)} m); {text}")
+        g = _closest(stress, UP, TYPICAL_WORK_OF_ADHESION / (w / stress),
+                     lambda v: v <= THEORETICAL_STRENGTH * E_star and typical(w * v / stress))
+        h = _closest(length, UP, TYPICAL_WORK_OF_ADHESION / (w / length), lambda v: typical(w * v / length))
+        if g is not None:
+            shear = f", and adhesion.{shear_key} in {PREFIXES[g]}Pa too" if shear_key is not None else ""
+            text += f"; did you mean adhesion.{normal_key} = {_meant(stress, g, 'Pa')}{shear}?"
+        elif h is not None:
+            text += f"; did you mean adhesion.{length_key} = {_meant(length, h, 'm')}?"
+    warnings.warn(text, PlausibilityWarning, stacklevel=4)
+
+
 def _check_work_and_length(adhesion, E_star: float) -> None:
     """A law given by w and a length (exponential, lj93): w within what solids have, and the
     peak tension it implies (w over the length) below E*."""
@@ -268,6 +321,27 @@ def check_contact_scale(radius: float, profile: str, size: float, delta_z_max: f
                                   f"(all in m)")
 
 
+def check_shift(load, size: float) -> None:
+    """Refuse a tangential shift larger than the domain's half-width, with the unit that makes it
+    a shift of the contact's scale. The model is one of small displacements: the contact stays
+    where the sphere's profile puts it on the grid, and a shift beyond the domain (the sphere off
+    the grid) is a unit slip, not a path this model describes."""
+    half = 0.5 * size
+    if load.explicit:
+        key = "load.path"
+        shift = max(max(abs(dx), abs(dy)) for dx, dy, _ in load.states)
+    else:
+        key, shift = max((("load.delta_x", abs(load.delta_x)), ("load.delta_y", abs(load.delta_y))),
+                         key=lambda item: item[1])
+    if not shift > half:
+        return
+    g = _closest(shift, DOWN, 1e-2 * half, lambda v: v <= 0.5 * half)
+    hint = f"; did you mean {_meant(shift, g, 'm')}?" if g else ""
+    raise InputError(key, f"shifts the sphere by {_num(shift)} m, beyond the domain's half-width {_num(half)} m "
+                          f"(grid.size = {_num(size)} m): the sphere would leave the grid (tangential shifts are "
+                          f"in m, like every length){hint}")
+
+
 def check_case(sphere, flat, grid, load, adhesion=None) -> None:
     """Every plausibility check of a case's parts, in the order a user reads them: the bodies, the
     contact's scale against the domain, the adhesive law. ``sphere``: SphereSpec; ``flat``:
@@ -277,8 +351,11 @@ def check_case(sphere, flat, grid, load, adhesion=None) -> None:
     check_moduli(bodies)
     key = "load.path" if load.explicit else "load.delta_z"
     check_contact_scale(sphere.radius, sphere.profile, grid.size, load.delta_z_max, key)
+    check_shift(load, grid.size)
     if adhesion is not None:
-        check_adhesion(adhesion, _e_star(sphere.E, sphere.nu, flat.E, flat.nu), bodies)
+        E_star = _e_star(sphere.E, sphere.nu, flat.E, flat.nu)
+        check_adhesion(adhesion, E_star, bodies)
+        check_adhesion_force(adhesion, E_star, sphere.radius, load.delta_z_max)
 
 
-__all__ = ["PlausibilityWarning", "check_adhesion", "check_case", "check_contact_scale", "check_moduli"]
+__all__ = ["PlausibilityWarning", "check_adhesion", "check_adhesion_force", "check_case", "check_contact_scale", "check_moduli", "check_shift"]
