@@ -42,7 +42,7 @@ from .studies.tasks import prepare as _prepare
 def solve(case: CaseLike, device=None, dtype=None, fft=None, on_state=None, model=None, fields: str = "all"):
     """Solve every state of the case's load path in order.
 
-    Returns a :class:`~warpcontact.studies.runner.PathResult`: ``states`` (one summary dict per state:
+    Returns a [`PathResult`][warpcontact.studies.runner.PathResult]: ``states`` (one summary dict per state:
     force [N], contact/stick/adhesive areas [m^2], max pressure [Pa], convergence) and
     ``fields`` (per state, numpy arrays (n, n) in SI units: pressure, shear_x, shear_y, gap,
     slip_x, slip_y, ..., contact_mask, stick_mask, adhesive_mask). ``fields``: whose fields are
@@ -50,8 +50,8 @@ def solve(case: CaseLike, device=None, dtype=None, fft=None, on_state=None, mode
     ("none": the summaries alone, which are reduced on the device; on a GPU at n = 8192 a
     state's fields are about 5 GiB of host memory and most of the call's time).
     ``on_state(index, total, summary, result)`` is called after each state. ``model``: a
-    :class:`~warpcontact.numerics.model.ContactModel` of the same materials, sphere, grid, device, float
-    type and FFT backend to reuse (many cases of one grid: :mod:`warpcontact.studies.batch`).
+    [`ContactModel`][warpcontact.numerics.model.ContactModel] of the same materials, sphere, grid, device, float
+    type and FFT backend to reuse (many cases of one grid: `warpcontact.studies.batch`).
     """
     from .studies.runner import FIELDS_CHOICES, run_path
 
@@ -62,8 +62,8 @@ def solve(case: CaseLike, device=None, dtype=None, fft=None, on_state=None, mode
 
 def path(case: CaseLike, device=None, dtype=None, fft=None):
     """Iterate over the solved states of the load path: yields one summary dict per state (as in
-    :func:`solve`), each as soon as it is solved; the slip history is carried along. Warns as
-    :func:`solve` does (a coarse grid, a pressure above a yield strength: once each)."""
+    [`solve`][warpcontact.solve]), each as soon as it is solved; the slip history is carried along. Warns as
+    [`solve`][warpcontact.solve] does (a coarse grid, a pressure above a yield strength: once each)."""
     from .records.guards import RunChecks
     from .records.results import state_summary
     from .studies.runner import build
@@ -84,11 +84,11 @@ def gross_slip(case: CaseLike, device=None, dtype=None, fft=None, rel_tol: float
 
     The case needs ``[friction]``; its final delta_z is loaded in ``load.steps`` steps, then
     delta_x rises until no cell sticks, and bisection narrows the bracket to ``rel_tol``.
-    Returns the summary of :func:`run_gross_slip` (the keys of ``warpcontact gross-slip``'s
+    Returns the summary of `run_gross_slip` (the keys of ``warpcontact gross-slip``'s
     result.json less the run's record): delta_x_max, delta_x_gross [m], mu, mu_elastic, force,
     force_elastic [N], stick_area, contact_area [m^2], converged, states, elapsed_s [s], and
     whether a body yielded at delta_x_max: yielded, yield_margin, yield_check (``stress.yield_keys``).
-    ``on_state(index, summary)`` is called after each state. ``model``: as :func:`solve`'s.
+    ``on_state(index, summary)`` is called after each state. ``model``: as [`solve`][warpcontact.solve]'s.
     """
     return gross_slip_summary(_prepare(case, device, dtype, fft), rel_tol=rel_tol, on_state=on_state, model=model)
 
@@ -97,10 +97,10 @@ def pull_off(case: CaseLike, steps: int = 20, retract_to: float | None = None, d
              on_state=None, model=None) -> dict:
     """Approach to the case's delta_z and retract to ``retract_to`` [m] (default: -4 ranges of the
     adhesion law), ``steps`` steps each way. The case needs ``[adhesion]``. Returns the summary of
-    :func:`run_pull_off` (the keys of ``warpcontact pull-off``'s result.json less the run's
+    `run_pull_off` (the keys of ``warpcontact pull-off``'s result.json less the run's
     record): pull_off_force [N] (the most tensile total F_z, negative), pull_off_delta_z [m],
     work_of_adhesion [J/m^2], tabor_parameter [-], dmt_pull_off and jkr_pull_off [N], the curve
     (summaries), converged, elapsed_s [s]. ``on_state(index, total, summary)`` after each state.
-    ``model``: as :func:`solve`'s."""
+    ``model``: as [`solve`][warpcontact.solve]'s."""
     return pull_off_summary(_prepare(case, device, dtype, fft), steps=steps, retract_to=retract_to,
                             on_state=on_state, model=model)

@@ -81,10 +81,11 @@ class FFTBackend:
 
         ``padded_arrays``: an iterable of real (2 ny, 2 nx) float64 host arrays (the influence
         coefficients in wrap-around order), consumed one at a time; ``out``: from
-        :meth:`alloc_influence`; ``scratch``: one spectrum (:meth:`alloc_spectra`) the backend
+        [`alloc_influence`][warpcontact.fft.base.FFTBackend.alloc_influence]; ``scratch``: one
+        spectrum ([`alloc_spectra`][warpcontact.fft.base.FFTBackend.alloc_spectra]) the backend
         may overwrite. Once per grid. Here: each spectrum on the host in float64
-        (:meth:`spectrum_of_padded`), its part cast and copied into ``out``; a backend with a
-        faster device path overrides this.
+        ([`spectrum_of_padded`][warpcontact.fft.base.FFTBackend.spectrum_of_padded]), its part cast
+        and copied into ``out``; a backend with a faster device path overrides this.
         """
         for k, (padded, part) in enumerate(zip(padded_arrays, parts)):
             spectrum = self.spectrum_of_padded(padded)

@@ -75,13 +75,13 @@ class ContactModel:
 
     def launch_cells(self, kernel, inputs, outputs=()):
         """An elementwise kernel of one thread per cell; on the CPU, with its fields marked
-        :class:`~warpcontact.numerics.launch.Rows`, split by rows over the CPU's threads."""
+        `warpcontact.numerics.launch.Rows`, split by rows over the CPU's threads."""
         self.launches.launch_cells(kernel, self.grid.shape, inputs, outputs)
 
     def launch_reduce(self, kernel, inputs, outputs):
         """A reducing kernel (kernels/reduce.py) over all cells: ``inputs``, then the launch shape's
         arguments (n, outer, inner, per), then ``outputs``. On the CPU, with its fields marked
-        :class:`~warpcontact.numerics.launch.Rows` and its sums :class:`~warpcontact.numerics.launch.Sums`, split by
+        `warpcontact.numerics.launch.Rows` and its sums `warpcontact.numerics.launch.Sums`, split by
         rows over the CPU's threads (``LaunchCache.split``)."""
         self.launches.launch_reduce(kernel, self.reduction, self.n_cells, inputs, outputs, rows=self.grid.shape)
 

@@ -46,7 +46,7 @@ class ContactState:
         adhesive_pressure: p_adh / E* (<= 0, tension), on cells out of contact.
         adhesive_shear_x, adhesive_shear_y: adhesive shear on the flat / E*, out of contact.
     Total tractions: pressure + adhesive_pressure, shear + adhesive_shear.
-    Scalars: ``approach`` (delta_x, delta_y, delta_z) [m] and ``info`` (:class:`SolveInfo`).
+    Scalars: ``approach`` (delta_x, delta_y, delta_z) [m] and ``info`` (`SolveInfo`).
     """
 
     FIELDS = (

@@ -746,7 +746,7 @@ class Case:
 
 
 def case_from_dict(d: Mapping) -> Case:
-    """Build and validate a :class:`Case` from parsed TOML (or ``Case.to_dict()`` output).
+    """Build and validate a [`Case`][warpcontact.Case] from parsed TOML (or ``Case.to_dict()`` output).
 
     Raises:
         InputError: with the dotted key of the first problem found.

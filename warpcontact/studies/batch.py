@@ -69,7 +69,7 @@ class Task:
         fn: a module-level function (picklable by reference), called as ``fn(*args)`` on a worker
             or ``fn(*args, on_state=callback)`` in this process; returns a picklable value.
         args: its arguments (picklable).
-        group: tasks of one group share a model (:func:`model_key`); they are submitted together.
+        group: tasks of one group share a model (`model_key`); they are submitted together.
     """
 
     key: str
@@ -533,7 +533,8 @@ def _grouped(tasks: list) -> list:
 def run_tasks(tasks, on_result: Callable, placement: Placement | None = None, progress=None,
               failed: Callable | None = None, on_error: Callable | None = None,
               on_state: Callable | None = None, before: int = 0, keep_models: bool = False) -> BatchStats:
-    """Run ``tasks`` (:class:`Task`) where ``placement`` says; hand each value back as it arrives.
+    """Run ``tasks`` ([`Task`][warpcontact.studies.batch.Task]) where ``placement`` says; hand each value
+    back as it arrives.
 
     Args:
         tasks: the cases to compute (those finished by an earlier run left out by the caller).
@@ -541,21 +542,21 @@ def run_tasks(tasks, on_result: Callable, placement: Placement | None = None, pr
             they finish): the caller writes it. Returning False ends the run (the cases still
             running are abandoned).
         placement: where (default: this process).
-        progress: a :class:`~warpcontact.records.progress.Progress` over all the cases; its line is redrawn
+        progress: a `warpcontact.records.progress.Progress` over all the cases; its line is redrawn
             with the cases done, running and failed.
         failed: ``failed(value)``: whether a finished case counts as failed in the progress line.
         on_error: ``on_error(task, error)`` for a case that raised (an error of warpcontact's, or
-            :class:`LostTask`); returning False ends the run. By default the error is raised and
+            `LostTask`); returning False ends the run. By default the error is raised and
             the run ends (the cases finished are written).
         on_state: ``on_state(task, *state_args)`` for the states of a case run in this process
             (passed to its function as ``on_state``).
         before: cases finished by an earlier run (counted in the progress line).
         keep_models: in this process, keep the models after the run (one of a series of batches on
-            the same models, inside :func:`session`, which drops them at its end); by default they
+            the same models, inside `session`, which drops them at its end); by default they
             are dropped at the end of the run. Workers keep theirs either way (``cached_model``).
 
     Returns:
-        :class:`BatchStats`.
+        [`BatchStats`][warpcontact.studies.batch.BatchStats].
 
     A stop (KeyboardInterrupt: Ctrl-C, SIGTERM, SIGHUP) ends the run at once: a local cluster's
     workers end with it, and the stop is raised after them.
