@@ -42,9 +42,6 @@ PENDING = {
                                            ":func:`_write_status`",
     "warpcontact.studies.sweep.SweepReport": ":class:`~warpcontact.errors.OutputError`, "
                                              ":class:`warpcontact.studies.batch.BatchStats`",
-    "warpcontact.solvers.normal.NormalSolver": ":class:`~warpcontact.numerics.model.ContactModel`, :meth:`_guess`",
-    "warpcontact.solvers.tangential.TangentialSolver": ":class:`~warpcontact.numerics.model.ContactModel`, "
-                                                       ":meth:`whole_displacement` (3)",
 }
 
 

@@ -50,7 +50,7 @@ class NormalSolver(ProjectedCG):
     Oosterlee (2014), Numer. Linear Algebra Appl. 21, 256-274.
 
     Args:
-        model: the :class:`~warpcontact.numerics.model.ContactModel`.
+        model: the [`ContactModel`][warpcontact.numerics.model.ContactModel].
         tol: relative residual to reach (default: 1e-10 in float64, 1e-5 in float32).
         max_iter: iteration limit; a solve that reaches it returns ``converged = False``.
         pressure_cap: upper bound of the pressure [Pa] (hardness), inf for none.
@@ -117,7 +117,7 @@ class NormalSolver(ProjectedCG):
         """Solve for ``state.pressure`` at the rigid approach ``approach_z`` [m].
 
         Starts from the pressure already in ``state`` (warm start along a path) or, if it is zero,
-        from a Hertz-shaped guess (:meth:`_guess`). ``known_displacement`` (scaled, (n, n)) is a
+        from a Hertz-shaped guess (`_guess`). ``known_displacement`` (scaled, (n, n)) is a
         normal displacement from other tractions (shear coupling, adhesion) held fixed during
         the solve. Fills ``state.pressure``, ``state.disp_z``, ``state.gap``. ``tol`` overrides
         the solver's tolerance for this solve. ``displacement_current``: ``state.disp_z`` is K p

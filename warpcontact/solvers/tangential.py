@@ -99,8 +99,8 @@ class TangentialSolver(ProjectedCG):
     two), with an operator of its own (the same cell size: the same influence coefficients, padded
     to 2m instead of 2n), where that window is at most ``WINDOW_MAX_SHARE`` of the grid per side;
     the shear and statuses are put back (zero outside it), and the whole grid's K_tt q (and K_tp p
-    of the ``pressure``) is made at the end of the solve, or later by :meth:`whole_displacement`
-    where the caller defers it (``whole``). Only the preconditioner differs (the circulant inverse
+    of the ``pressure``) is made at the end of the solve, or later by
+    [`whole_displacement`][warpcontact.solvers.tangential.TangentialSolver.whole_displacement] where the caller defers it (``whole``). Only the preconditioner differs (the circulant inverse
     on the smaller padded grid), and with it the iterates' rounding and the iteration count by a
     few. A contact half the domain wide (domain 4 sqrt(R delta_z)) takes a window of n/2 (9n/16
     where it passes n/2 by a cell): each iteration's transforms have 25-32 % of the entries.
@@ -108,7 +108,7 @@ class TangentialSolver(ProjectedCG):
     the free memory is not made (the solve runs on the whole grid).
 
     Args:
-        model: the :class:`~warpcontact.numerics.model.ContactModel`.
+        model: the [`ContactModel`][warpcontact.numerics.model.ContactModel].
         tol: relative residual to reach (default: 1e-10 in float64, 1e-5 in float32).
         max_iter: iteration limit; a solve that reaches it returns ``converged = False``.
         use_graphs: replay solves as CUDA graphs (default: on CUDA with conditional graph nodes).
@@ -178,10 +178,11 @@ class TangentialSolver(ProjectedCG):
                 coupling of dissimilar materials) is held fixed beside ``known_x/y``, made by the
                 solver on the grid it solves on (the window holds the pressure's cells too).
                 ``known_x/y`` (then required) receive the sum on the whole grid: at once where
-                the solve runs on it, else by :meth:`whole_displacement`.
+                the solve runs on it, else by
+                [`whole_displacement`][warpcontact.solvers.tangential.TangentialSolver.whole_displacement].
             whole: make ``state.disp_x/y`` (and the sum above) on the whole grid at the end of a
-                solve on a window; False: leave that to :meth:`whole_displacement`, which a caller
-                that solves in turns calls only where it reads them (four or seven transforms of
+                solve on a window; False: leave that to
+                [`whole_displacement`][warpcontact.solvers.tangential.TangentialSolver.whole_displacement], which a caller that solves in turns calls only where it reads them (four or seven transforms of
                 the whole padded grid saved per solve).
         """
         self._pending = None  # (a window's displacements left to make belong to the tractions this solve replaces)
