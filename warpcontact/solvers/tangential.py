@@ -100,7 +100,8 @@ class TangentialSolver(ProjectedCG):
     to 2m instead of 2n), where that window is at most ``WINDOW_MAX_SHARE`` of the grid per side;
     the shear and statuses are put back (zero outside it), and the whole grid's K_tt q (and K_tp p
     of the ``pressure``) is made at the end of the solve, or later by
-    [`whole_displacement`][warpcontact.solvers.tangential.TangentialSolver.whole_displacement] where the caller defers it (``whole``). Only the preconditioner differs (the circulant inverse
+    [`whole_displacement`][warpcontact.solvers.tangential.TangentialSolver.whole_displacement]
+    where the caller defers it (``whole``). Only the preconditioner differs (the circulant inverse
     on the smaller padded grid), and with it the iterates' rounding and the iteration count by a
     few. A contact half the domain wide (domain 4 sqrt(R delta_z)) takes a window of n/2 (9n/16
     where it passes n/2 by a cell): each iteration's transforms have 25-32 % of the entries.
@@ -182,8 +183,9 @@ class TangentialSolver(ProjectedCG):
                 [`whole_displacement`][warpcontact.solvers.tangential.TangentialSolver.whole_displacement].
             whole: make ``state.disp_x/y`` (and the sum above) on the whole grid at the end of a
                 solve on a window; False: leave that to
-                [`whole_displacement`][warpcontact.solvers.tangential.TangentialSolver.whole_displacement], which a caller that solves in turns calls only where it reads them (four or seven transforms of
-                the whole padded grid saved per solve).
+                [`whole_displacement`][warpcontact.solvers.tangential.TangentialSolver.whole_displacement],
+                which a caller that solves in turns calls only where it reads them (four or seven
+                transforms of the whole padded grid saved per solve).
         """
         self._pending = None  # (a window's displacements left to make belong to the tractions this solve replaces)
         if pressure is not None and (known_x is None or known_y is None):
