@@ -20,6 +20,9 @@ From Python::
 Every combination is a case built by :func:`~warpcontact.records.case.case_from_dict` from the base's
 ``to_dict()`` with the swept values put in, so the case checks hold for every one of them; a
 combination that fails them is refused before anything runs, its message naming the combination.
+``"friction.law"`` and ``"adhesion.law"`` may also take ``"none"``: that combination's case has no
+such table (the base's other keys of it, and other swept keys of it, are ignored there and listed
+in its record's ``ignored``).
 Mistakes raise :class:`~warpcontact.errors.InputError` naming the key (``sweep.friction.k_tau``,
 ``run.task``, ``base.sphere.E``).
 
@@ -91,6 +94,11 @@ _DEFAULT_PATH_KEYS = ("delta_z", "delta_x", "delta_y", "steps")
 _CSV_FIXED = ("id", "label", "status", "converged")
 #: InputError keys that concern the machine, not a case: they stop the sweep instead of being recorded.
 _SETUP_KEYS = ("solver.device", "solver.fft", "solver.dtype")
+#: Tables a sweep may switch off: where ``"<table>.law"`` is :data:`LAW_NONE`, the combination's case
+#: has no such table (a frictionless contact, no adhesion).
+SWITCHABLE_TABLES = ("friction", "adhesion")
+#: The swept law value that switches its table off.
+LAW_NONE = "none"
 
 
 # ---------------------------------------------------------------------------------------------
@@ -107,6 +115,8 @@ class SweepCase:
         id: short hash of ``params`` (12 hex digits), the name of its JSON file.
         label: readable form of ``params``, e.g. ``k_tau=0.8,delta_z=5e-11``.
         case: the validated case (command-line overrides applied).
+        ignored: swept keys without effect in this combination: the keys of a table its law
+            ``"none"`` switches off (:func:`ignored_keys`).
     """
 
     index: int
@@ -114,6 +124,7 @@ class SweepCase:
     id: str
     label: str
     case: Case
+    ignored: tuple = ()
 
 
 @dataclass(frozen=True)
@@ -315,13 +326,29 @@ def substitute(base: dict, params: Mapping) -> dict:
     return d
 
 
+def switched_off(params: Mapping) -> tuple:
+    """The tables of :data:`SWITCHABLE_TABLES` that the combination ``params`` (dotted case key ->
+    value) switches off: those whose swept law is ``"none"``."""
+    return tuple(t for t in SWITCHABLE_TABLES if params.get(f"{t}.law") == LAW_NONE)
+
+
+def ignored_keys(params: Mapping) -> tuple:
+    """The swept keys of ``params`` without effect: the keys other than ``law`` of a table the
+    combination switches off (``adhesion.sigma_max`` where ``adhesion.law`` is ``"none"``)."""
+    off = switched_off(params)
+    return tuple(k for k in params if k.split(".", 1)[0] in off and k.split(".", 1)[1] != "law")
+
+
 def _build_case(base_dict: dict, params: Mapping, label: str, overrides: Mapping) -> Case:
     def wrap(e: InputError) -> InputError:
         key = f"sweep.{e.key}" if e.key in params else e.key
         return InputError(key, f"{e.problem} (in the sweep case {label})")
 
+    d = substitute(base_dict, params)
+    for table in switched_off(params):  # law "none": no such table, whatever else the base or sweep gives it
+        d.pop(table, None)
     try:
-        case = case_from_dict(substitute(base_dict, params))
+        case = case_from_dict(d)
         return case.with_overrides(**overrides)
     except InputError as e:
         raise wrap(e) from None
@@ -330,10 +357,19 @@ def _build_case(base_dict: dict, params: Mapping, label: str, overrides: Mapping
 def check_task(sc: SweepCase, task: str) -> None:
     """What ``task`` (one of TASKS) needs of the case ``sc``, checked before anything runs: a
     [friction] table and a positive deepest delta_z [m] for "gross-slip", an [adhesion] table for
-    "pull-off". InputError naming ``run.task`` (or the swept ``sweep.load.delta_z``) and the case."""
+    "pull-off". InputError naming ``run.task`` (``sweep.friction.law`` or ``sweep.adhesion.law`` where
+    the combination switches the table off with ``"none"``; the swept ``sweep.load.delta_z``) and
+    the case."""
     from .runner import adhesion_law, friction_law
 
     where = f" (in the sweep case {sc.label})"
+    off = switched_off(sc.params)
+    if task == "gross-slip" and "friction" in off:
+        raise InputError("sweep.friction.law", "'none' leaves no friction, which task 'gross-slip' needs; use task = "
+                                               f"'solve' to compare with and without friction{where}")
+    if task == "pull-off" and "adhesion" in off:
+        raise InputError("sweep.adhesion.law", "'none' leaves no adhesion, which task 'pull-off' needs; use task = "
+                                               f"'solve' to compare with and without adhesion{where}")
     if task == "gross-slip":
         if sc.case.friction is None:
             raise InputError("run.task", "'gross-slip' needs a [friction] table in the base case (or swept friction.* "
@@ -402,7 +438,8 @@ def sweep_from_dict(data: Mapping, source: str | PathLike | None = None, device:
         params = jsonable(dict(zip(keys, combo)))
         label = case_label(params)
         case = _build_case(base_dict, params, label, overrides)
-        sc = SweepCase(index=index, params=params, id=case_id(params), label=label, case=case)
+        sc = SweepCase(index=index, params=params, id=case_id(params), label=label, case=case,
+                       ignored=ignored_keys(params))
         check_task(sc, task)
         cases.append(sc)
     return Sweep(base=base, keys=tuple(keys), values=tuple(values), task=task, rel_tol=rel_tol, cases=tuple(cases),
@@ -553,7 +590,8 @@ def flatten(prefix: str, v, out: dict) -> None:
 def csv_text(sweep: Sweep, records: list) -> str:
     """sweep.csv: one row per record, the swept keys first (named as in the sweep file), then id,
     label, status, converged, the summary (nested values joined with '_': force_x), elapsed_s,
-    error."""
+    error, and, where a combination switches a table off (law ``"none"``), ``ignored``: its swept
+    keys without effect, separated by spaces."""
     rows = []
     columns = dict.fromkeys([*sweep.keys, *_CSV_FIXED])
     for r in records:
@@ -566,8 +604,12 @@ def csv_text(sweep: Sweep, records: list) -> str:
             columns.setdefault(k, None)
         row["elapsed_s"] = r.get("elapsed_s")
         row["error"] = r.get("error", "")
+        if r.get("ignored"):
+            row["ignored"] = " ".join(r["ignored"])
         rows.append(row)
     fieldnames = [*columns, "elapsed_s", "error"]
+    if any(r.get("ignored") for r in records):
+        fieldnames.append("ignored")
     buf = io.StringIO()
     w = csv.DictWriter(buf, fieldnames=fieldnames, restval="", lineterminator="\n")
     w.writeheader()
@@ -691,6 +733,8 @@ def run_sweep(sweep: Sweep, out: str | PathLike, quiet: bool = False, log=None, 
             "status": "error" if error else ("ok" if summary["converged"] else "not converged"),
             "converged": False if error else bool(summary["converged"]),
         }
+        if sc.ignored:  # swept keys of a table switched off (law "none"): no effect on this case
+            rec["ignored"] = list(sc.ignored)
         if error:
             rec["error"] = error
         else:
@@ -774,6 +818,7 @@ __all__ = [
     "csv_text",
     "finished_record",
     "flatten",
+    "ignored_keys",
     "jsonable",
     "load_sweep",
     "run_case",
@@ -781,4 +826,5 @@ __all__ = [
     "short_float",
     "substitute",
     "sweep_from_dict",
+    "switched_off",
 ]
