@@ -77,6 +77,7 @@ def test_sweep_writes_cases_and_csv_and_resumes(tmp_path, capsys):
     assert all(float(r["load.delta_z"]) == 5e-11 and r["status"] == "ok" for r in rows)
     assert float(rows[0]["mu"]) == pytest.approx(recs[0.8]["summary"]["mu"], rel=1e-12)
     assert {"id", "label", "delta_x_max", "force_x", "force_z", "elapsed_s"} <= set(header)
+    assert (out / "sweep.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"  # the plot, after the table
 
     before = {f.name: f.read_bytes() for f in files}
     csv_before = (out / "sweep.csv").read_bytes()

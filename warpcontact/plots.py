@@ -1,6 +1,7 @@
-"""Figures of solved states, after the paper's Figures 1 and 2.
+"""Figures of solved states, after the paper's Figures 1 and 2; a pull-off's force-approach curve
+(:func:`pull_off_curve`) and a sweep's results against its swept values (:func:`sweep_figure`).
 
-Every function takes ``fields``, a mapping of numpy arrays as written to ``fields.npz`` by
+Every function of a state takes ``fields``, a mapping of numpy arrays as written to ``fields.npz`` by
 ``warpcontact solve`` (``results.state_fields`` stacked over the states of the path, SI units,
 row = y, column = x, plus the cell centres ``x``, ``y`` [m] and ``delta`` (n_states, 3) [m]),
 and returns a :class:`matplotlib.figure.Figure` drawn with the Agg canvas. Nothing touches
@@ -448,6 +449,165 @@ def pull_off_curve(result: dict) -> Figure:
     return fig
 
 
+#: Line colours of a sweep's series: the paper's (MATLAB's) colour order.
+SERIES_COLORS = (CONTACT_COLOR, STICK_COLOR, ADHESIVE_COLOR, "#7E2F8E", "#77AC30", "#4DBEEE", "#A2142F")
+
+#: The SI unit of a swept case key, by its last part (docs/case-files.md); a key not listed is drawn
+#: as its bare value.
+_KEY_UNITS = {**dict.fromkeys(("radius", "size", "delta_z", "delta_x", "delta_y", "delta_n", "delta_t", "h_0", "rho",
+                               "z0"), "m"),
+              **dict.fromkeys(("E", "yield_strength", "hardness", "sigma_max", "tau_max", "sigma_0"), "Pa"),
+              "w": "J/m$^2$"}
+
+#: What a sweep's figure draws of each row's summary, per task: (path into the summary, axis label,
+#: SI unit or "" for a ratio). A solve's second panel is F_x where a row has a tangential force,
+#: else the contact radius (:func:`_sweep_quantities`).
+SWEEP_QUANTITIES = {
+    "gross-slip": ((("delta_x_max",), "gross-slip displacement $\\delta_{x,max}$", "m"),
+                   (("mu",), "friction coefficient $\\mu = F_x / F_z$ at gross slip", "")),
+    "pull-off": ((("pull_off_force",), "pull-off force (most tensile $F_z$)", "N"),),
+    "solve": ((("force", "z"), "normal force $F_z$, last state", "N"),
+              (("force", "x"), "tangential force $F_x$, last state", "N")),
+}
+_CONTACT_RADIUS = (("contact_radius",), "contact radius, last state", "m")
+
+
+def _summary_value(rec, path):
+    """The number at ``path`` in a sweep record's summary, or None (no summary, a withheld result)."""
+    v = rec.get("summary") or {}
+    for k in path:
+        v = v.get(k) if isinstance(v, dict) else None
+    if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v):
+        return None
+    return float(v)
+
+
+def _sweep_quantities(records, task):
+    """The (path, label, unit) of each panel of a sweep's figure (:data:`SWEEP_QUANTITIES`)."""
+    quantities = SWEEP_QUANTITIES.get(task, SWEEP_QUANTITIES["solve"])
+    if task not in ("gross-slip", "pull-off"):
+        tangential = any(_summary_value(r, ("force", "x")) or _summary_value(r, ("force", "y")) for r in records)
+        if not tangential:  # a normal approach: F_x is zero in every row, the contact radius says more
+            quantities = (quantities[0], _CONTACT_RADIUS)
+    return quantities
+
+
+def _show(v) -> str:
+    """A swept value as a label: 0.8, 5e-11, smc, none, true; a list (a load path) as compact JSON."""
+    if isinstance(v, bool):
+        return "true" if v else "false"
+    if isinstance(v, float):
+        return f"{v:.6g}"
+    if isinstance(v, (str, int)):
+        return str(v)
+    import json
+
+    return json.dumps(v, separators=(",", ":"))
+
+
+def _key_name(key: str, keys) -> str:
+    """A swept key by its last part (``k_tau``), the whole dotted key where two swept keys share it."""
+    short = [k.split(".", 1)[-1] for k in keys]
+    last = key.split(".", 1)[-1]
+    return last if short.count(last) == 1 else key
+
+
+def sweep_figure(records, keys, task: str) -> Figure:
+    """The results of a sweep against its swept values: one panel per quantity, against the first
+    swept key, one line per value of the second swept key (per combination of the others, where
+    more are swept).
+
+    ``records``: a sweep's case records in sweep order (``run_sweep``'s ``report.records``, or the
+    files of OUT/cases: ``params``, ``status``, ``summary``); ``keys``: the swept dotted keys in the
+    sweep file's order; ``task``: "gross-slip" (delta_x_max [m] and mu), "pull-off" (pull-off force
+    [N]) or "solve" (the last state's F_z [N], and F_x [N] where a row has a tangential force, else
+    the contact radius [m]). Axes in the data's own scale (:func:`si_scale`); a numeric first key
+    spanning more than a factor 20 on a log axis; values that are not all numbers (law names, a
+    load path) as category labels in sweep order. A case that recorded an error or whose result
+    was withheld leaves a gap; a point that did not converge is drawn hollow in red. Where a table
+    is switched off (law "none"), a note names the swept keys ignored there."""
+    import json
+
+    keys = list(keys)
+    if not keys:
+        raise ValueError("a sweep's figure needs at least one swept key")
+    xkey, series_keys = keys[0], keys[1:]
+    xs = [r["params"].get(xkey) for r in records]
+    numeric = bool(xs) and all(isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v)
+                               for v in xs)
+    x_scale, x_unit = 1.0, ""
+    if numeric:
+        unit = _KEY_UNITS.get(xkey.split(".", 1)[-1])
+        if unit:
+            x_scale, x_unit = si_scale(xs, unit)
+        categories = None
+    else:  # category labels in the order the sweep lists them
+        categories = list(dict.fromkeys(json.dumps(v, sort_keys=True) for v in xs))
+
+    def x_of(v):
+        return float(v) / x_scale if numeric else float(categories.index(json.dumps(v, sort_keys=True)))
+
+    series = {}  # the values of the other swept keys -> that line's records, in sweep order
+    for r in records:
+        series.setdefault(json.dumps([r["params"].get(k) for k in series_keys]), []).append(r)
+    legend_scale = {}  # a numeric swept key with a unit: its values in one prefix (sigma_max = 18.39 MPa)
+    for k in series_keys:
+        vals = [r["params"].get(k) for r in records]
+        unit = _KEY_UNITS.get(k.split(".", 1)[-1])
+        if unit and all(isinstance(v, (int, float)) and not isinstance(v, bool) for v in vals):
+            legend_scale[k] = si_scale(vals, unit)
+
+    def shown(k, v):
+        if k in legend_scale:
+            factor, unit = legend_scale[k]
+            return f"{v / factor:.4g} {unit}"
+        return _show(v)
+
+    quantities = _sweep_quantities(records, task)
+    fig = _figure((5.4 * len(quantities) + 0.6, 4.4))
+    axes = fig.subplots(1, len(quantities), squeeze=False)[0]
+    marked = False
+    for ax, (path, label, unit) in zip(axes, quantities):
+        values = [_summary_value(r, path) for r in records]
+        scale, shown_unit = si_scale(values, unit) if unit else (1.0, "")
+        for i, (combo, rows) in enumerate(series.items()):
+            pts = sorted((x_of(r["params"].get(xkey)), _summary_value(r, path), r.get("status") == "ok") for r in rows)
+            x = np.array([p[0] for p in pts])
+            y = np.array([np.nan if p[1] is None else p[1] / scale for p in pts])
+            name = ", ".join(f"{_key_name(k, keys)} = {shown(k, v)}" for k, v in zip(series_keys, json.loads(combo)))
+            color = SERIES_COLORS[i % len(SERIES_COLORS)]
+            ax.plot(x, y, "-o", color=color, ms=4, lw=1.4, label=name or None)
+            bad = [j for j, p in enumerate(pts) if not p[2] and p[1] is not None]
+            if bad:
+                ax.plot(x[bad], y[bad], "o", mfc="white", mec="red", ms=7, mew=1.4,
+                        label=None if marked else "not converged")
+                marked = True
+        if not any(v is not None for v in values):
+            ax.text(0.5, 0.5, "no result: every case recorded an error\nor did not converge", transform=ax.transAxes,
+                    ha="center", va="center", color="0.4")
+        if numeric:
+            pos = [float(v) for v in xs]
+            if min(pos) > 0 and max(pos) / min(pos) > 20:
+                ax.set_xscale("log")
+        else:
+            ax.set_xticks(range(len(categories)))
+            ax.set_xticklabels([_show(json.loads(c)) for c in categories])
+            ax.set_xlim(-0.5, len(categories) - 0.5)
+        ax.set_xlabel(f"{xkey} [{x_unit}]" if x_unit else xkey)
+        ax.set_ylabel(f"{label} [{shown_unit}]" if shown_unit else f"{label} [-]")
+        ax.grid(True, color="0.9", linewidth=0.5)
+        if series_keys or marked:
+            ax.legend(fontsize="small", loc="best")
+    n_ok = sum(1 for r in records if r.get("status") == "ok")
+    fig.suptitle(f"sweep, task {task}: {len(records)} case(s), {n_ok} converged", fontsize="medium")
+    ignored = sorted({k for r in records for k in r.get("ignored", ())})
+    if ignored:
+        off = sorted({k.split(".", 1)[0] for k in ignored})
+        fig.text(0.5, 0.0, f"law = none switches [{'], ['.join(off)}] off: {', '.join(ignored)} ignored there",
+                 color="dimgray", fontsize="small", ha="center", va="top")
+    return fig
+
+
 def save(fig: Figure, path, dpi=None) -> None:
     """Write ``fig`` as a PNG at ``path``, whole or not at all (a temporary file, then os.replace)."""
     path = Path(path)
@@ -469,4 +629,4 @@ def save(fig: Figure, path, dpi=None) -> None:
 
 
 __all__ = ["area_map", "area_formatter", "field_maps", "profile", "pull_off_curve", "save", "si_scale", "has_adhesion",
-           "CONTACT_COLOR", "STICK_COLOR", "ADHESIVE_COLOR"]
+           "sweep_figure", "CONTACT_COLOR", "STICK_COLOR", "ADHESIVE_COLOR"]

@@ -1,8 +1,10 @@
 """``warpcontact sweep SWEEP.toml --out DIR``: the cartesian product of listed case parameters.
 
 Each finished case is written at once (``DIR/cases/<id>.json``, and ``DIR/sweep.csv`` with one
-row per finished case); a rerun skips the cases already finished. The sweep file format is in
-``docs/sweeps.md``; the work is done by :mod:`warpcontact.studies.sweep`. Wire it into ``cli/__init__.py`` with::
+row per finished case); a rerun skips the cases already finished. At the end, after the table,
+``DIR/sweep.png`` draws the results against the swept values (:func:`warpcontact.plots.sweep_figure`).
+The sweep file format is in ``docs/sweeps.md``; the work is done by :mod:`warpcontact.studies.sweep`.
+Wire it into ``cli/__init__.py`` with::
 
     from .sweep import add_parser, cmd_sweep
     add_parser(sub)                  # in _parser(), on the subparsers object
@@ -11,8 +13,8 @@ row per finished case); a rerun skips the cases already finished. The sweep file
 Exit status: 0 every case converged; 2 a mistake in the sweep file or a combination (raised as
 InputError for cli.main to report); 3 some case did not converge or recorded an error (results
 written); 74 an output could not be written (raised as OutputError for cli.main to report; the
-finished cases are on disk, a rerun resumes); 130, 143, 129 stopped by Ctrl-C, SIGTERM, SIGHUP
-(finished cases are written; rerun to finish).
+finished cases are on disk, a rerun resumes; sweep.png too, which comes after the table); 130,
+143, 129 stopped by Ctrl-C, SIGTERM, SIGHUP (finished cases are written; rerun to finish).
 """
 
 from __future__ import annotations
@@ -37,13 +39,18 @@ file), the swept case keys with their values, and the task:
   "friction.k_tau" = [0.5, 0.8, 0.95]
   "load.delta_z" = [1e-11, 5e-11]
   [run]
-  task = "gross-slip"               # or "solve"; default gross-slip when the base has [friction]
+  task = "gross-slip"               # or "solve", "pull-off"; default gross-slip when the base has [friction]
   # scheduler = "tcp://host:8786"   # run on a dask cluster started by hand (docs/scaling.md)
+
+"friction.law" and "adhesion.law" may list "none": that combination runs without the table
+(with and without adhesion in one sweep: "adhesion.law" = ["smc", "none"], task = "solve").
 
 writes OUT/cases/<id>.json for each case as soon as it finishes (the swept values, the summary:
 delta_x_max [m], mu, force [N] for gross-slip, the last state's forces and areas for solve;
-elapsed_s, the whole case) and OUT/sweep.csv (one row per finished case, swept keys first). Run
-it again to finish an interrupted sweep: finished cases are skipped. See docs/sweeps.md."""
+elapsed_s, the whole case), OUT/sweep.csv (one row per finished case, swept keys first),
+OUT/sweep.json (complete or not) and, at the end, OUT/sweep.png (the results against the first
+swept key, a line per value of the second). Run it again to finish an interrupted sweep: finished
+cases are skipped. See docs/sweeps.md."""
 
 
 def add_parser(sub):
@@ -105,6 +112,31 @@ def placement_from(args, scheduler=None):
                      device=getattr(args, "device", None) or "cpu")
 
 
+def plot_sweep(sweep, report, out) -> None:
+    """Draw OUT/sweep.png from the finished records of ``report`` (:func:`warpcontact.plots.sweep_figure`),
+    after sweep.csv is written. A figure that cannot be drawn is a warning line (the table and the
+    cases stand); one that cannot be written raises OutputError saying that the table is kept; a
+    stop leaves no part of the file (KeyboardInterrupt propagates)."""
+    from pathlib import Path
+
+    from .. import plots
+    from ..files import output_error
+
+    path = Path(out) / "sweep.png"
+    try:
+        fig = plots.sweep_figure(report.records, sweep.keys, sweep.task)
+    except (ValueError, TypeError, KeyError, IndexError, ArithmeticError) as e:  # the table is what counts
+        print(f"warpcontact: warning: {path} not drawn ({type(e).__name__}: {e}); the results are in "
+              f"{Path(out) / 'sweep.csv'}", file=sys.stderr)
+        return
+    try:
+        plots.save(fig, path)  # whole or not at all, a stop included
+    except OSError as e:
+        raise output_error(path, e).with_hint(
+            f"every finished case and sweep.csv are kept in {out}: free space and run the same command again "
+            "to draw it") from None
+
+
 def cmd_sweep(args) -> int:
     """Run the sweep of ``args.sweep`` into ``args.out``. Returns 0 (every case converged), 3 (a case
     did not converge or recorded an error) or 128 + the signal (stopped: 130 Ctrl-C, 143 SIGTERM,
@@ -125,6 +157,13 @@ def cmd_sweep(args) -> int:
         print(f"{interrupts.describe()}: {len(report.records)} of {report.total} case(s) finished and written to "
               f"{out}; rerun to finish", file=sys.stderr)
         return interrupts.exit_status()
+    if report.records:
+        try:
+            plot_sweep(sweep, report, out)
+        except KeyboardInterrupt as e:
+            print(f"{interrupts.describe(e)}: stopped while drawing sweep.png; every finished case and sweep.csv "
+                  f"are written to {out}", file=sys.stderr)
+            return interrupts.exit_status(e)
     bad = report.not_converged
     if not args.quiet:
         print(f"sweep: {report.total} case(s) in {out}: {len(report.computed)} computed, {len(report.skipped)} "
