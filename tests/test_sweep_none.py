@@ -109,6 +109,8 @@ def test_adhesion_law_none_runs_without_the_table_and_plots(tmp_path, capsys, mo
     png = out / "sweep.png"
     assert_png(png)
     assert png.stat().st_mtime_ns >= (out / "sweep.csv").stat().st_mtime_ns  # after the table
+    assert png.stat().st_mtime_ns <= (out / "sweep.json").stat().st_mtime_ns  # complete: every output written
+    assert json.loads((out / "sweep.json").read_text())["complete"] is True
     capsys.readouterr()
 
     # a plot that cannot be written: one line naming it, exit 74, the table and the cases kept
@@ -122,8 +124,11 @@ def test_adhesion_law_none_runs_without_the_table_and_plots(tmp_path, capsys, mo
     assert main(["sweep", str(sweep), "--out", str(out), "--quiet", "--workers", "1"]) == 74
     err = capsys.readouterr().err.strip()
     assert len(err.splitlines()) == 1 and "Traceback" not in err, err
-    assert f"cannot write {png}: no space left on device" in err and "sweep.csv are kept" in err, err
+    assert f"cannot write {png}: no space left on device" in err, err
+    assert err.endswith(f"every case and sweep.csv are kept in {out}: free space and run the same command again to "
+                        "draw the plot"), err
     assert (out / "sweep.csv").read_bytes() == table and not png.exists()
+    assert json.loads((out / "sweep.json").read_text())["complete"] is False  # an output is missing
 
     # a figure that cannot be drawn: a warning, the results stand, exit 0
     monkeypatch.undo()
@@ -137,9 +142,22 @@ def test_adhesion_law_none_runs_without_the_table_and_plots(tmp_path, capsys, mo
     assert "warning:" in err and "sweep.png not drawn (ValueError: no axis for this)" in err, err
     assert (out / "sweep.csv").read_bytes() == table and not png.exists()
 
+    # a stop while drawing: the cases and the table stand, sweep.json is not complete, exit 130
+    monkeypatch.undo()
+
+    def stopped(*a, **k):
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(plots, "sweep_figure", stopped)
+    assert main(["sweep", str(sweep), "--out", str(out), "--quiet", "--workers", "1"]) == 130
+    assert "interrupted: 2 of 2 case(s) finished and written" in capsys.readouterr().err
+    assert (out / "sweep.csv").read_bytes() == table and not png.exists()
+    assert json.loads((out / "sweep.json").read_text())["complete"] is False
+
     monkeypatch.undo()  # a rerun computes nothing and draws the plot
     assert main(["sweep", str(sweep), "--out", str(out), "--quiet", "--workers", "1"]) == 0
     assert_png(png)
+    assert json.loads((out / "sweep.json").read_text())["complete"] is True
 
 
 def test_friction_law_none_is_frictionless_and_its_swept_keys_ignored(tmp_path):

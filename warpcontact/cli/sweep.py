@@ -21,6 +21,7 @@ from __future__ import annotations
 
 import argparse
 import sys
+from pathlib import Path
 
 from ..records.case import FFT_BACKENDS
 
@@ -112,19 +113,17 @@ def placement_from(args, scheduler=None):
                      device=getattr(args, "device", None) or "cpu")
 
 
-def plot_sweep(sweep, report, out) -> None:
-    """Draw OUT/sweep.png from the finished records of ``report`` (:func:`warpcontact.plots.sweep_figure`),
-    after sweep.csv is written. A figure that cannot be drawn is a warning line (the table and the
-    cases stand); one that cannot be written raises OutputError saying that the table is kept; a
-    stop leaves no part of the file (KeyboardInterrupt propagates)."""
-    from pathlib import Path
-
+def plot_sweep(sweep, records, out) -> None:
+    """Draw OUT/sweep.png from the finished ``records`` of ``sweep`` (:func:`warpcontact.plots.sweep_figure`);
+    :func:`~warpcontact.studies.sweep.run_sweep` calls it after sweep.csv is written. A figure that
+    cannot be drawn is a warning line (the table and the cases stand); one that cannot be written
+    raises OutputError; a stop leaves no part of the file (KeyboardInterrupt propagates)."""
     from .. import plots
     from ..files import output_error
 
     path = Path(out) / "sweep.png"
     try:
-        fig = plots.sweep_figure(report.records, sweep.keys, sweep.task)
+        fig = plots.sweep_figure(records, sweep.keys, sweep.task)
     except (ValueError, TypeError, KeyError, IndexError, ArithmeticError) as e:  # the table is what counts
         print(f"warpcontact: warning: {path} not drawn ({type(e).__name__}: {e}); the results are in "
               f"{Path(out) / 'sweep.csv'}", file=sys.stderr)
@@ -132,9 +131,7 @@ def plot_sweep(sweep, report, out) -> None:
     try:
         plots.save(fig, path)  # whole or not at all, a stop included
     except OSError as e:
-        raise output_error(path, e).with_hint(
-            f"every finished case and sweep.csv are kept in {out}: free space and run the same command again "
-            "to draw it") from None
+        raise output_error(path, e) from None
 
 
 def cmd_sweep(args) -> int:
@@ -147,9 +144,14 @@ def cmd_sweep(args) -> int:
 
     sweep = load_sweep(args.sweep, device=args.device, dtype=args.dtype, fft=args.fft)
     placement = placement_from(args, sweep.scheduler)
-    report = run_sweep(sweep, args.out, quiet=args.quiet, placement=placement)  # writes after a stop: deferred
+    report = run_sweep(sweep, args.out, quiet=args.quiet, placement=placement,  # writes after a stop: deferred
+                       finish=lambda records: plot_sweep(sweep, records, args.out))
     out = args.out
     if report.write_error is not None:
+        if Path(report.write_error.path).name == "sweep.png":  # the last output: every case is written
+            raise report.write_error.with_hint(
+                f"every case and sweep.csv are kept in {out}: free space and run the same command again to draw "
+                "the plot") from None
         raise report.write_error.with_hint(
             f"{len(report.records)} of {report.total} case(s) finished and kept in {out}: free space and run the "
             "same command again to resume") from None
@@ -157,13 +159,6 @@ def cmd_sweep(args) -> int:
         print(f"{interrupts.describe()}: {len(report.records)} of {report.total} case(s) finished and written to "
               f"{out}; rerun to finish", file=sys.stderr)
         return interrupts.exit_status()
-    if report.records:
-        try:
-            plot_sweep(sweep, report, out)
-        except KeyboardInterrupt as e:
-            print(f"{interrupts.describe(e)}: stopped while drawing sweep.png; every finished case and sweep.csv "
-                  f"are written to {out}", file=sys.stderr)
-            return interrupts.exit_status(e)
     bad = report.not_converged
     if not args.quiet:
         print(f"sweep: {report.total} case(s) in {out}: {len(report.computed)} computed, {len(report.skipped)} "

@@ -671,7 +671,8 @@ def _placement_device(sweep: Sweep) -> str:
     return next((d for d in devices if str(d).startswith("cuda")), devices[0] if devices else "cpu")
 
 
-def run_sweep(sweep: Sweep, out: str | PathLike, quiet: bool = False, log=None, placement=None) -> SweepReport:
+def run_sweep(sweep: Sweep, out: str | PathLike, quiet: bool = False, log=None, placement=None,
+              finish=None) -> SweepReport:
     """Run every case of ``sweep`` not finished before in ``out``; write each at once.
 
     The cases run where ``placement`` (:class:`warpcontact.studies.batch.Placement`) says: in this process
@@ -689,6 +690,10 @@ def run_sweep(sweep: Sweep, out: str | PathLike, quiet: bool = False, log=None, 
     ``out/sweep.json`` says whether the sweep is complete (:func:`_write_status`). Unless quiet, a
     result line per case goes to ``log`` (stderr), under a progress bar on a terminal (cases done,
     running, failed; :mod:`warpcontact.records.progress`); warnings and errors are printed either way.
+    ``finish(records)``, when given, is called with every finished record in sweep order once the
+    run's cases are done and sweep.csv is written, before sweep.json is marked complete (the command
+    line draws ``out/sweep.png`` there); an OutputError or a stop it raises is handled as one met
+    while writing a case.
     """
     from .batch import LostTask, Placement, Task, model_key, run_tasks
     from ..records.progress import Progress
@@ -783,6 +788,8 @@ def run_sweep(sweep: Sweep, out: str | PathLike, quiet: bool = False, log=None, 
         report.batch = run_tasks(tasks, on_result, placement, progress=progress, before=len(records),
                                  failed=lambda o: "error" in o or not o["summary"]["converged"],
                                  on_error=on_error, on_state=on_state)
+        if finish is not None and records:
+            finish(ordered())  # after the table; complete only once it is done
         with interrupts.deferred(raise_after=False):
             _write_status(out, sweep, report, ordered(), complete=len(records) == n)
     except KeyboardInterrupt as e:
