@@ -1,8 +1,9 @@
 """Adhesion laws (MODEL.md section 6): adhesive tractions from the current gap and slip.
 
 Scaled units (tractions / E*, lengths / dx). The adhesive tractions act outside the elastic
-contact (cells with p_c = 0); inside it the SMC law gives no normal traction (h = 0) and the
-total shear there is the tangential solver's unknown, bounded as a whole. Conventions as in
+contact (cells with p_c = 0); inside it the SMC law gives no normal traction (h = 0), and the
+total shear there is the tangential solver's unknown, bounded as a whole, or (the SMC law's
+``contact_shear = "added"``) the bounded contact shear plus the law's shear at the cell's slip. Conventions as in
 warpcontact/physics/influence.py: the adhesive shear is the traction on the flat, along the slip s of
 the sphere relative to the flat (on the sphere it opposes s).
 
@@ -88,15 +89,18 @@ def smc_tractions(
     delta_n: Any,
     delta_t: Any,
     touching: Any,
+    added_in_contact: int,
     law_pressure: wp.array(dtype=Any),
     law_shear_x: wp.array(dtype=Any),
     law_shear_y: wp.array(dtype=Any),
 ):
-    """The SMC tractions of the current gap and slip on cells out of contact (zero on contact
-    cells). A cell out of contact with gap <= ``touching`` sits on the law's jump to the contact
-    side (zero adhesive traction there): it may carry any traction on the segment between the
-    two, so its current traction (``adhesive_*``) is kept where it lies on that segment and
-    projected onto it otherwise."""
+    """The SMC tractions of the current gap and slip on cells out of contact; on contact cells
+    zero, or with ``added_in_contact`` the law's shear at h = 0 and the cell's slip (its normal
+    traction is zero there), added to the bounded contact shear (``SMC.contact_shear``). A cell
+    out of contact with gap <= ``touching`` sits on the law's jump to the contact side (zero
+    adhesive traction there): it may carry any traction on the segment between the two, so its
+    current traction (``adhesive_*``) is kept where it lies on that segment and projected onto it
+    otherwise."""
     i = wp.tid()
     zero = sigma_max - sigma_max
     p = zero
@@ -117,6 +121,14 @@ def smc_tractions(
                 lam = wp.clamp((adhesive_shear_x[i] * qx + adhesive_shear_y[i] * qy) / qq, zero, type(qq)(1.0))
                 qx = lam * qx
                 qy = lam * qy
+    elif added_in_contact != 0:
+        sx = slip_x[i]
+        sy = slip_y[i]
+        s = wp.sqrt(sx * sx + sy * sy)
+        if s > zero:
+            p_h0, q = smc_law(zero, s, sigma_max, tau_max, delta_n, delta_t)
+            qx = q * sx / s
+            qy = q * sy / s
     law_pressure[i] = p
     law_shear_x[i] = qx
     law_shear_y[i] = qy

@@ -137,7 +137,7 @@ def _example(name) -> dict:
 
 #: valid values of each adhesion law (the laws the schema lists must all be here)
 ADHESION = {
-    "smc": {"sigma_max": 1.8394e7, "tau_max": 1.8394e7, "delta_n": 1e-9, "delta_t": 1e-9},
+    "smc": {"sigma_max": 1.8394e7, "tau_max": 1.8394e7, "delta_n": 1e-9, "delta_t": 1e-9, "contact_shear": "added"},
     "dugdale": {"sigma_0": 5e7, "h_0": 1e-9, "smoothing": 0.05, "ramps": "centred"},
     "exponential": {"w": 0.05, "rho": 1e-9},
     "lj93": {"w": 0.05, "z0": 3e-10},

@@ -80,6 +80,7 @@ VALUES = {
     # the laws' strengths and lengths: > 0, in the units of AdhesionSpec._UNITS (added below)
     "adhesion.smoothing": {"type": "number", "minimum": 0, "exclusiveMaximum": 2},  # below 1 with ramps = "both" (checked by the case)
     "adhesion.ramps": _enum(C.DUGDALE_RAMPS),
+    "adhesion.contact_shear": _enum(C.SMC_CONTACT_SHEAR),
 }
 VALUES.update({f"adhesion.{k}": _POSITIVE for k in C.AdhesionSpec._UNITS if f"adhesion.{k}" not in VALUES})
 

@@ -111,6 +111,9 @@ def _parser():
     t.add_argument("--tau-max", type=float, default=_T2.tau_max, help=f"SMC peak shear traction [Pa] (default {_T2.tau_max:g})")
     t.add_argument("--delta-n", type=float, default=_T2.delta_n, help=f"SMC normal length [m] (default {_T2.delta_n:g})")
     t.add_argument("--delta-t", type=float, default=_T2.delta_t, help=f"SMC tangential length [m] (default {_T2.delta_t:g})")
+    t.add_argument("--contact-shear", choices=("bounded", "added"), default="bounded",
+                   help="the SMC shear inside the contact: bounded with the contact shear (default), or added to it "
+                        "as the paper's text reads")
     t.add_argument("--n", type=int, nargs="+", default=[128], help="cells per side; several values give a grid study")
     t.add_argument("--size-in-a", type=float, default=3.0, help="domain side in Hertz radii a = sqrt(R delta_z)")
     from .sweep import add_batch_options
@@ -360,6 +363,8 @@ def cmd_table2(args) -> int:
     if not (args.size_in_a > 2.0):
         raise InputError("--size-in-a", f"the domain must hold the contact diameter 2a: use more than 2, got {args.size_in_a}")
     law = dict(sigma_max=args.sigma_max, tau_max=args.tau_max, delta_n=args.delta_n, delta_t=args.delta_t)
+    if args.contact_shear != "bounded":  # the default is left out: its cells match the records that lack the key
+        law["contact_shear"] = args.contact_shear
     try:
         Table2Settings(**law).adhesion_law()
         if not args.no_adhesion:  # a length in nm written as m, ...: the plausibility of every case
@@ -535,13 +540,17 @@ def _write_table2(out, records, status, atomic_write_json, atomic_write_bytes, m
     atomic_write_json(out / "table2.json", {**status, "cells": records})
     atomic_write_bytes(out / "table2.md", markdown(records).encode())
     buf = io.StringIO()
-    law_keys = ["sigma_max", "tau_max", "delta_n", "delta_t"]
+    law_keys = ["sigma_max", "tau_max", "delta_n", "delta_t", "contact_shear"]
     keys = ["n", "k_tau", "delta_z_um", "adhesion", *law_keys, "delta_x_max_um", "paper_delta_x_max_um",
             "rel_diff_delta_x_max", "mu", "paper_mu", "rel_diff_mu", "mu_elastic", "converged", "yielded",
             "yield_margin", "elapsed_s"]
     w = csv.DictWriter(buf, fieldnames=keys, extrasaction="ignore")
     w.writeheader()
-    w.writerows({**r, **{k: (r.get("adhesion_law") or {}).get(k, "") for k in law_keys}} for r in records)
+    def law_value(r, k):
+        law = r.get("adhesion_law") or {}
+        return law.get(k, "bounded" if k == "contact_shear" and law else "")
+
+    w.writerows({**r, **{k: law_value(r, k) for k in law_keys}} for r in records)
     atomic_write_bytes(out / "table2.csv", buf.getvalue().encode())
 
 

@@ -99,12 +99,18 @@ class SMC:
         tau_max: peak shear traction [Pa].
         delta_n: normal characteristic length [m].
         delta_t: tangential characteristic length [m].
+        contact_shear: the shear inside the contact (cells with p_c > 0): "bounded" (the
+            default), the contact shear alone, bounded by the shear limit as a whole; or
+            "added", the law's shear at h = 0 and the cell's slip added to the bounded contact
+            shear, as the paper's text reads ("on the first part [A_c] the elastic and adhesive
+            tractions apply ... The two components are then added").
     """
 
     sigma_max: float
     tau_max: float
     delta_n: float
     delta_t: float
+    contact_shear: str = "bounded"
 
     #: the law has an adhesive shear (``tractions`` gives it from the gap and the slip)
     has_shear = True
@@ -112,6 +118,9 @@ class SMC:
     def __post_init__(self):
         for k in ("sigma_max", "tau_max", "delta_n", "delta_t"):
             _positive(f"adhesion.{k}", getattr(self, k))
+        if self.contact_shear not in CONTACT_SHEAR:
+            raise InputError("adhesion.contact_shear", f"unknown choice {self.contact_shear!r}; choose one of "
+                                                       f"{', '.join(CONTACT_SHEAR)}")
 
     @property
     def work_of_adhesion(self) -> float:
@@ -158,13 +167,21 @@ class SMC:
                 state.adhesive_pressure.flatten(), state.adhesive_shear_x.flatten(), state.adhesive_shear_y.flatten(),
                 model.scalar(self.sigma_max / s), model.scalar(self.tau_max / s), model.scalar(self.delta_n / L),
                 model.scalar(self.delta_t / L), model.scalar(TOUCHING * self.delta_n / L),
+                int(self.contact_shear == "added"),
             ],
             outputs=[law_pressure.flatten(), law_shear_x.flatten(), law_shear_y.flatten()],
         )
 
     def describe(self) -> dict:
-        return {"law": "smc", "sigma_max": self.sigma_max, "tau_max": self.tau_max, "delta_n": self.delta_n,
-                "delta_t": self.delta_t, "work_of_adhesion": self.work_of_adhesion}
+        out = {"law": "smc", "sigma_max": self.sigma_max, "tau_max": self.tau_max, "delta_n": self.delta_n,
+               "delta_t": self.delta_t, "work_of_adhesion": self.work_of_adhesion}
+        if self.contact_shear != "bounded":
+            out["contact_shear"] = self.contact_shear
+        return out
+
+
+#: the SMC law's shear inside the contact (``SMC.contact_shear``)
+CONTACT_SHEAR = ("bounded", "added")
 
 
 #: where the Dugdale law's ramps go (``Dugdale.ramps``; the case file's choices, case.DUGDALE_RAMPS)

@@ -55,12 +55,16 @@ GRID_KEYS = ("n", "size")
 LOAD_KEYS = ("delta_z", "delta_x", "delta_y", "steps", "path")
 SOLVER_KEYS = ("device", "dtype", "tol", "max_iter", "max_turns", "fft", "nested", "window")
 FRICTION_KEYS = {"coulomb": ("law", "mu"), "tabor": ("law", "k_tau", "k_vm", "hardness_cap")}
-ADHESION_KEYS = {"smc": ("law", "sigma_max", "tau_max", "delta_n", "delta_t"),
+ADHESION_KEYS = {"smc": ("law", "sigma_max", "tau_max", "delta_n", "delta_t", "contact_shear"),
                  "dugdale": ("law", "sigma_0", "h_0", "smoothing", "ramps"),
                  "exponential": ("law", "w", "rho"),
                  "lj93": ("law", "w", "z0")}
-#: Keys a law may leave out (its default then holds): Dugdale's ramp width over h_0 and where the ramps go.
-ADHESION_OPTIONAL = {"dugdale": ("smoothing", "ramps")}
+#: Keys a law may leave out (its default then holds): the SMC law's shear inside the contact,
+#: Dugdale's ramp width over h_0 and where the ramps go.
+ADHESION_OPTIONAL = {"smc": ("contact_shear",), "dugdale": ("smoothing", "ramps")}
+#: The SMC law's shear inside the contact (warpcontact.physics.adhesion.CONTACT_SHEAR): bounded
+#: with the contact shear, or added to it.
+SMC_CONTACT_SHEAR = ("bounded", "added")
 #: Where the Dugdale law's ramps go (warpcontact.physics.adhesion.RAMPS): both ends, or one centred on h_0.
 DUGDALE_RAMPS = ("centred", "both")
 #: Every key an [adhesion] table may hold.
@@ -560,6 +564,8 @@ class AdhesionSpec:
         tau_max: peak shear traction [Pa] (smc).
         delta_n: normal characteristic length [m] (smc).
         delta_t: tangential characteristic length [m] (smc).
+        contact_shear: "bounded" or "added" (smc, optional, default "bounded"): the shear inside
+            the contact, ``warpcontact.physics.adhesion.SMC``.
         sigma_0: constant attraction [Pa] (dugdale).
         h_0: range of the attraction [m] (dugdale).
         smoothing: ramp width over h_0 [-] (dugdale, optional, default 0.05; in [0, 2) centred, [0, 1) both).
@@ -574,6 +580,7 @@ class AdhesionSpec:
     tau_max: float | None = None
     delta_n: float | None = None
     delta_t: float | None = None
+    contact_shear: str | None = None
     sigma_0: float | None = None
     h_0: float | None = None
     smoothing: float | None = None
@@ -611,6 +618,9 @@ class AdhesionSpec:
                 continue
             if name == "ramps":
                 _choice("adhesion.ramps", v, DUGDALE_RAMPS)
+                continue
+            if name == "contact_shear":
+                _choice("adhesion.contact_shear", v, SMC_CONTACT_SHEAR)
                 continue
             _set(self, name, _positive(f"adhesion.{name}", v, self._UNITS[name]))
 

@@ -36,7 +36,7 @@ def adhesion_law(case):
     if ad is None:
         return None
     if ad.law == "smc":
-        return SMC(ad.sigma_max, ad.tau_max, ad.delta_n, ad.delta_t)
+        return SMC(ad.sigma_max, ad.tau_max, ad.delta_n, ad.delta_t, contact_shear=ad.contact_shear or "bounded")
     if ad.law == "exponential":
         return Exponential(ad.w, ad.rho)
     if ad.law == "lj93":

@@ -84,6 +84,8 @@ class Table2Settings:
         rel_tol: bisection bracket of delta_x_max, relative.
         sigma_max, tau_max: the SMC law's peak normal and shear tractions [Pa] (adhesive cells).
         delta_n, delta_t: its characteristic lengths [m].
+        contact_shear: its shear inside the contact, "bounded" or "added"
+            (``warpcontact.physics.adhesion.SMC``).
     """
 
     n: int = 128
@@ -96,12 +98,13 @@ class Table2Settings:
     tau_max: float = TAU_MAX
     delta_n: float = DELTA_N
     delta_t: float = DELTA_T
+    contact_shear: str = "bounded"
 
     def adhesion_law(self):
-        """The SMC law of these parameters (:class:`warpcontact.physics.adhesion.SMC`)."""
+        """The SMC law of these parameters (``warpcontact.physics.adhesion.SMC``)."""
         from ..physics.adhesion import SMC
 
-        return SMC(self.sigma_max, self.tau_max, self.delta_n, self.delta_t)
+        return SMC(self.sigma_max, self.tau_max, self.delta_n, self.delta_t, contact_shear=self.contact_shear)
 
 
 def cell_grid(delta_z: float, settings: Table2Settings, adhesion=None) -> Grid:
@@ -223,8 +226,9 @@ def _law_text(record) -> str:
         return "no"
     if not law:
         return "yes"
+    added = ", added in contact" if law.get("contact_shear") == "added" else ""
     return (f"SMC {law['sigma_max']:g} / {law['tau_max']:g} Pa, "
-            f"{law['delta_n']:g} / {law['delta_t']:g} m")
+            f"{law['delta_n']:g} / {law['delta_t']:g} m{added}")
 
 
 def _elastic_text(record) -> str:
