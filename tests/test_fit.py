@@ -352,3 +352,27 @@ def test_load_fit_reads_nested_keys_a_default_start_and_dotted_output_names(tmp_
         load_fit(write(tmp_path / "fit.toml", 'base = "base.toml"\n[data]\nfile = "data.csv"\n[fit]\n'
                        '"friction.k_tau" = { min = 0.3, max = 0.97 }\n[run]\ntask = "pull-off"\n'))
     assert e.value.key == "data.csv line 1" and "'force.x'" in e.value.problem
+
+
+def test_a_trial_point_that_gives_no_output_is_a_bad_point_not_the_end(hertz_forces, tmp_path, monkeypatch, capsys):
+    """Cases above E = 80 GPa give no F_z here (as a cell pulled into tension gives no mu): the fit
+    from 60 GPa towards the data's 106 GPa steps into them, counts them as bad points, says so,
+    and ends where every output is given (at most 80 GPa) instead of stopping with an error."""
+    from warpcontact.studies import sweep
+
+    real = sweep.run_case
+
+    def no_force_above_80_gpa(task, rel_tol, case, *args, **kw):
+        out = real(task, rel_tol, case, *args, **kw)
+        if case.pair.sphere.E > 80e9 and "summary" in out:
+            out["summary"]["force"]["z"] = None
+        return out
+
+    monkeypatch.setattr(sweep, "run_case", no_force_above_80_gpa)
+    fit_file = hertz_fit(tmp_path, hertz_forces)
+    report = run_fit(load_fit(fit_file), tmp_path / "out", quiet=False)
+    err = capsys.readouterr().err
+    assert report.error is None, report.error
+    assert "a trial point is counted as bad" in err and "gives no force_z" in err, err
+    e = report.parameters["sphere.E"]["value"]
+    assert 60e9 < e <= 80e9, e

@@ -88,6 +88,10 @@ RUN_KEYS = ("task", "rel_tol", "scheduler", "max_evaluations", "rescale_stderr",
 #: the parameter; 0.001 costs about 3 bisection states more per case (21 states instead of 18 at
 #: n = 32, 0.95 s instead of 0.76 s on 2 CPU cores).
 DEFAULT_REL_TOL = 1e-3
+#: The residual of each output a trial point does not give (mu of a cell pulled into tension):
+#: in units of the weights, far above any point that gives them, so that the optimiser rejects
+#: the step and shrinks its trust region.
+BAD_POINT_RESIDUAL = 1e6
 #: Residual evaluations the optimiser may make (least_squares' max_nfev; Jacobians not counted).
 DEFAULT_MAX_EVALUATIONS = 30
 #: The outputs a data column may name, per task: the scalar keys of the task's result, flattened
@@ -723,9 +727,11 @@ class _Evaluator:
             self.compute_s += time.perf_counter() - t0
         return [[self.memory[h] for h in hashes] for hashes in plan]
 
-    def model(self, points: list) -> list:
+    def model(self, points: list, undefined: list | None = None) -> list:
         """For each point, the model's outputs, an array (rows, outputs). EvaluationFailed where a
-        case gave none."""
+        case failed or did not converge, and where an output is undefined (mu of a cell in
+        tension, say) unless ``undefined`` is given: then that output is NaN and the reason is
+        appended to ``undefined``."""
         fit = self.fit
         result = []
         for values, recs in zip(points, self.outcomes(points)):
@@ -742,7 +748,10 @@ class _Evaluator:
                     v = flat.get(o)
                     if v is None or isinstance(v, bool) or not isinstance(v, numbers.Real):
                         note = flat.get("mu_note") or "the result does not give it"
-                        raise EvaluationFailed(f"{where} gives no {fit.columns[o]}: {note}")
+                        if undefined is None:
+                            raise EvaluationFailed(f"{where} gives no {fit.columns[o]}: {note}")
+                        undefined.append(f"{where} gives no {fit.columns[o]} ({note})")
+                        v = math.nan
                     y[i, j] = float(v)
             result.append(y)
         return result
@@ -821,7 +830,10 @@ def run_fit(fit: Fit, out: str | PathLike, quiet: bool = False, log=None, placem
     warnings (a parameter the data do not fix, a coarse grid) are printed either way. A stop
     (KeyboardInterrupt) keeps every finished evaluation and writes fit.json with ``interrupted``;
     a rerun replays the optimiser from the cache. An evaluation that fails (a case error, a state
-    not converged) ends the fit with ``report.error``.
+    not converged) ends the fit with ``report.error``. A trial point whose cases do not give an
+    output (mu of a cell in tension) is a bad point: each such output counts
+    ``BAD_POINT_RESIDUAL``, the log says so, and the optimiser steps back; a difference step
+    that reaches one is taken backwards. The start and the optimum must give every output.
     """
     from scipy.optimize import least_squares
 
@@ -864,12 +876,17 @@ def run_fit(fit: Fit, out: str | PathLike, quiet: bool = False, log=None, placem
 
     def fun(u):
         values = _values(fit, u)
-        y, = ev.model([values])
+        undefined = [] if state["trace"] else None  # the start must give every output
+        y, = ev.model([values], undefined)
         r = residuals_of(y)
+        if undefined:  # a bad point: the optimiser steps back from it
+            r = np.where(np.isfinite(r), r, BAD_POINT_RESIDUAL)
+            say(f"fit: a trial point is counted as bad (residual {BAD_POINT_RESIDUAL:g} for each output it does "
+                f"not give): {undefined[0]}" + (f", and {len(undefined) - 1} more" if len(undefined) > 1 else ""))
         rms = float(np.sqrt(np.mean(r ** 2)))
-        if state["best"] is None or rms < state["best"][1]:
+        if not undefined and (state["best"] is None or rms < state["best"][1]):
             state["best"] = (values, rms)
-        state["trace"].append({"parameters": values, "residual_rms": rms})
+        state["trace"].append({"parameters": values, "residual_rms": rms, "undefined": len(undefined or ())})
         return r
 
     def jac_at(u, announce=True):
@@ -880,9 +897,22 @@ def run_fit(fit: Fit, out: str | PathLike, quiet: bool = False, log=None, placem
             v = u.copy()
             v[j] += h
             points.append(_values(fit, v))
-        ys = ev.model(points)  # one batch: every column's cases at once (the centre is cached)
+        undefined = []
+        ys = ev.model(points, undefined)  # one batch: every column's cases at once (the centre is cached)
+        if not np.all(np.isfinite(ys[0])):
+            raise EvaluationFailed(f"the fit's point {undefined[0]}")
+        columns = list(zip(ys[1:], steps))
+        for j, (y, h) in enumerate(columns):  # a step into undefined outputs: the difference backwards
+            if not np.all(np.isfinite(y)):
+                v = u.copy()
+                v[j] -= h
+                back, = ev.model([_values(fit, v)], undefined)
+                columns[j] = (back, -h) if np.all(np.isfinite(back)) else (ys[0], h)  # neither: a zero column
+                say(f"fit: the difference step of fit.{fit.parameters[j].key} reaches a point that does not give "
+                    f"every output ({undefined[-1]}): " + ("a backward difference" if np.all(np.isfinite(back))
+                                                         else "its column is left zero this iteration"))
         r0 = residuals_of(ys[0])
-        J = np.column_stack([(residuals_of(y) - r0) / h for y, h in zip(ys[1:], steps)]) if len(steps) \
+        J = np.column_stack([(residuals_of(y) - r0) / h for y, h in columns]) if len(steps) \
             else np.zeros((r0.size, 0))
         if announce:
             state["iteration"] += 1
@@ -898,9 +928,10 @@ def run_fit(fit: Fit, out: str | PathLike, quiet: bool = False, log=None, placem
             # the trust-region subproblem in a 2-D subspace (lsmr), the variables scaled by the Jacobian's
             # columns: where the data cannot see a parameter (a zero column), 'exact' shrank the trust
             # region at nearly every step (two-parameter test: 24 evaluations instead of 5) and x_scale=1
-            # let that parameter drift; with these it stays at its start
+            # let that parameter drift; with these it stays at its start. One parameter: 'exact' (lsmr's
+            # subspace is then 1-D, and scipy's 2-D subproblem fails on it once a step is rejected)
             ls = least_squares(fun, start, jac=jac_at, bounds=(0.0, 1.0), method="trf", x_scale="jac",
-                               tr_solver="lsmr",
+                               tr_solver="exact" if len(fit.parameters) == 1 else "lsmr",
                                xtol=max(model_noise(fit), XTOL_MIN), ftol=FTOL, gtol=GTOL,
                                max_nfev=fit.max_evaluations)
             u = ls.x
@@ -995,7 +1026,9 @@ def _result(fit, ls, u, J, values, y_fit, y_start, data, weights, residuals_of, 
                                "to scale the covariance by, so every stderr is inf; give sigma_<output> columns")
     report.warnings.extend(case_warnings)
     report.parameters = params
-    report.correlation = _correlation(cov)
+    identified = [params[p.key]["identified"] for p in fit.parameters]
+    report.correlation = [[c if identified[i] and identified[j] else None for j, c in enumerate(row)]
+                          for i, row in enumerate(_correlation(cov))]  # none where the data do not fix a parameter
     report.residual_rms = float(np.sqrt(np.mean(r ** 2)))
     outputs = {}
     for j, o in enumerate(fit.outputs):
