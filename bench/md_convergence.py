@@ -1,4 +1,4 @@
-"""Maugis-Dugdale pull-off against the grid: the convergence table of issue 24.
+"""Maugis-Dugdale pull-off against the grid: its convergence table.
 
     python bench/md_convergence.py [--lam 2] [--n 96 192] [--smoothing 0.3] [--ramps both centred]
                                    [--domain 5] [--path cli|test] [--out out/md_convergence]

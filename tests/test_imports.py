@@ -37,7 +37,7 @@ ROLES = {
 }
 
 #: imports against the order of ROLES, known and not yet removed (importer, imported); a new one
-#: fails the test, and so does a known one that is gone. None is left (issue 28 item 4).
+#: fails the test, and so does a known one that is gone. None is left.
 KNOWN_UPWARD = set()
 
 
@@ -177,7 +177,7 @@ def test_every_module_has_a_role_and_imports_go_one_way():
 
 
 def test_no_exception_is_left():
-    """Issue 28 item 4: the imports go one way with no cycle and no exception; a new upward import
+    """The imports go one way with no cycle and no exception; a new upward import
     or cycle is fixed where it is made, not listed here."""
     assert KNOWN_UPWARD == set() and KNOWN_CYCLES == []
     g = graph()

@@ -44,7 +44,7 @@ def test_quick_start_python(monkeypatch, capsys):
     assert len(lines) == 1 + 4  # the gross-slip line, then the case's four normal steps
 
 
-# --- README as a user's page, the docs site, and CI (issue 28) ---
+# --- README as a user's page, the docs site, and CI ---
 
 DOCS = ROOT / "docs"
 MKDOCS = ROOT / "mkdocs.yml"

@@ -1,7 +1,7 @@
-"""Progress inside a long step (issue 32, item 2): the solver's per-turn callback, the turn on the
+"""Progress inside a long step: the solver's per-turn callback, the turn on the
 progress line, and a contact far past the domain's edge stopped at the first turn of a step.
 
-The case is issue 32's AFM tip (Si3N4 on Si: dissimilar, so the normal and tangential problems
+The case is the AFM tip of tests/test_first_hour.py (Si3N4 on Si: dissimilar, so the normal and tangential problems
 are coupled and every step turns), on n = 32 cells; the domains that cut the contact are made
 directly (``ContactModel``), since a case's own check refuses a domain under the Hertz contact
 diameter before any solve.

@@ -1,4 +1,4 @@
-"""Every gross-slip, table2 and sweep result says whether a body yielded (issue 26, item 3): the
+"""Every gross-slip, table2 and sweep result says whether a body yielded: the
 check of the elastic assumption (stress.yield_check) on the run's final state, its keys made in one
 place (stress.yield_keys) and the warning given through RunChecks (one warning of yield per run)."""
 

@@ -194,8 +194,8 @@ WARP_MAX_STRIDE_BYTES = 2**31 - 1
 def index_limit(dtype, fft: str) -> int:
     """Largest n whose influence spectra Warp can address: the first stride of their stacked
     array, one spectrum of 2n (n + 1) real entries (scipy, cupy), must stay under 2 GiB: 11584 in
-    float64 and 16383 in float32. (Complex spectra, kept until 2026-11-23, stopped it at 8191 and
-    11584; the three spectral buffers are separate arrays.)"""
+    float64 and 16383 in float32 (the three spectral buffers are separate arrays; complex spectra
+    would stop it at 8191 and 11584)."""
     # "auto" as the CPU resolves it, without importing a backend: fftw, scipy and cupy share the
     # (2n, n + 1) spectrum
     fft = "scipy" if fft == "auto" else _resolve_fft(fft, "cpu")

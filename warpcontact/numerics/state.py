@@ -112,7 +112,7 @@ def domain_edge(field) -> np.ndarray:
 
 #: share of the domain's edge cells in contact after the first turn of a step above which the step
 #: stops there (``check_contact_fits``). The first turn solves loosely against the last state's
-#: shear, and its contact can pass the converged one's: at n = 64 (issue 32's AFM case with friction
+#: shear, and its contact can pass the converged one's: at n = 64 (the AFM tip of tests/test_first_hour.py with friction
 #: on a domain of side 2.03 Hertz radii) 40 of the 4 x 64 edge cells against none at the step's end.
 #: A disc over half the edge reaches 1.12 half-sides, 0.06 n cells past the edge (2 at n = 32); one
 #: that merely touches the edge is judged at the step's end. On that case (sides 2.2-3.0 nm; n = 32
