@@ -285,7 +285,7 @@ def test_centred_ramp_reaches_maugis_dugdale_on_a_coarse_grid():
     smoothing 0.3 (cell_softening 0.37): every state converges and the refined pull-off lies within
     1 % of Maugis-Dugdale's -1.6007 pi R w (measured -1.6111, +0.65 %; the substeps' scatter 1.2 %).
     The ramps' own change of the pull-off, measured in the continuum (axisymmetric rings,
-    bench/md_convergence.py --continuum), is +0.04 %. With the ramps at both ends the same grid
+    validation/md_convergence.py --continuum), is +0.04 %. With the ramps at both ends the same grid
     gives +5.1 % (smoothing 0.05, cell_softening 2.2) and their own change in the continuum is
     +0.6 % at smoothing 0.05, +3.2 % at 0.3 (first order in the smoothing)."""
     r = lambda_path(1.0, 96, 0.3, "centred")

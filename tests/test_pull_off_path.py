@@ -138,7 +138,7 @@ def test_maugis_dugdale_lambda_2_through_the_example():
     """examples/pull_off_dugdale_lambda2.toml (lambda = 2, n = 192, one ramp centred on h_0,
     smoothing 0.6; about 50 s on 2 CPU cores) on pull-off's default path: every state converges
     and the refined pull-off lies within 0.5 % of Maugis-Dugdale's -1.5346 pi R w (measured
-    -1.5359, +0.08 %): the ramp's own change in the continuum, +0.09 % (bench/md_convergence.py
+    -1.5359, +0.08 %): the ramp's own change in the continuum, +0.09 % (validation/md_convergence.py
     --continuum), plus the grid's sawtooth (the substeps' scatter 0.4 %). 1.5 % was the aim;
     the ramps at both ends (smoothing 0.3) gave +3.4 %."""
     case, r, _ = pull_off("pull_off_dugdale_lambda2.toml", 20)

@@ -31,7 +31,7 @@ TOUCHING = 1e-2
 #: cell_softening above which pull-off warns of lattice trapping (measured, Dugdale, n = 192:
 #: lambda = 2 at 4.4: +8 %, approach and retraction 0.1 pi R w apart). Below it the grid still
 #: adds a sawtooth to the retraction: refined pull-offs at lambda = 2, n = 192, one centred ramp:
-#: +1.6 % at 0.74, +0.4 % at 0.44-0.49, +0.1-0.3 % at 0.37 and below (bench/md_convergence.py)
+#: +1.6 % at 0.74, +0.4 % at 0.44-0.49, +0.1-0.3 % at 0.37 and below (validation/md_convergence.py)
 TRAPPING_SOFTENING = 2.0
 
 
@@ -207,7 +207,7 @@ class Dugdale:
     - "both": a ramp rising from h = 0 and one falling past h_0. The law's centroid moves
       out by smoothing h_0 / 2 and the contact edge carries no tension: the pull-off moves towards
       DMT by O(smoothing) (measured in the continuum, axisymmetric rings, lambda = 2: +1.0 % at
-      smoothing 0.1, +1.8 % at 0.3 from Maugis-Dugdale; bench/md_convergence.py).
+      smoothing 0.1, +1.8 % at 0.3 from Maugis-Dugdale; validation/md_convergence.py).
     - "centred" (default): one ramp, falling from h_0 - smoothing h_0 / 2 to h_0 + smoothing h_0 / 2 (a
       cell's average of the sharp law where the gap varies by that much across it); the tension
       sigma_0 acts from contact on, as Maugis's (the contact cells carry tensions down to

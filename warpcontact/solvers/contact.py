@@ -37,8 +37,8 @@ TURN_TOL_CAP = 1e-4
 #: turns cost less: Table 2's adhesive cells (SMC, lambda 0.056), the same delta_x_max and mu
 #: within 3e-5 relative, H100 at n = 256: 1.55-2.05 s against 6.25-12.1 s per cell at delta_z =
 #: 1e-5 um, 1.10 against 1.85 s at 1e-4 um; 2 CPU cores at n = 48, 12 cells: 23.8 against 27.5 s
-#: (``bench/coupled_turns.py``). Towards JKR the lagged turns crawl or diverge (hundreds of turns
-#: per state at Tabor parameter 5.7).
+#: (``bench/coupled_turns.py``, a probe in git history). Towards JKR the lagged turns crawl or
+#: diverge (hundreds of turns per state at Tabor parameter 5.7).
 LAGGED_TURNS_MAX_MAUGIS = 0.1
 TURN_TOL_FACTOR = 1e-3
 

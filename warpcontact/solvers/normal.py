@@ -109,7 +109,7 @@ class NormalSolver(ProjectedCG):
         self.fourier_step_sums = model.device.is_cuda
         # the direction's pass (one sum) takes more blocks than the model's reductions (H100, L2
         # flushed before each call: n = 1024, 20.1 -> 14.3 us at 8 blocks per SM against 4;
-        # n = 2048, 68 -> 43 us; bench/reduction_launch.py --cold)
+        # n = 2048, 68 -> 43 us; bench/reduction_launch.py --cold, a probe in git history)
         self._direction_launch = ReductionLaunch.for_cells(model.n_cells, model.device, blocks_per_sm=8)
 
     def solve(self, state, approach_z: float, known_displacement: wp.array | None = None, tol=None,

@@ -28,9 +28,9 @@ UM = 1e-6
 #: what a cell reports only when every state of its path converged
 TABLE2_RESULTS = ("delta_x_max_um", "delta_x_gross_um", "mu", "mu_elastic", "force_N", "force_elastic_N",
                   "rel_diff_delta_x_max", "rel_diff_mu")
-#: adhesion defaults of the adhesive cells (README "Adhesion defaults": why these)
+#: adhesion defaults of the adhesive cells (docs/validation.md, "Adhesion defaults": why these)
 #: sigma_max = tau_max = 1 MPa, delta_n = delta_t = 5 pm (w = e sigma_max delta_n = 1.36e-5 J/m^2):
-#: of the 12 pairs of bench/adhesion_sensitivity.py (bench_results/adh) the weakest that raises mu
+#: of the 12 pairs of validation/adhesion_sensitivity.py the weakest that raises mu
 #: in all 12 cells, as the paper's columns do; RMS 10.8 points from the paper's change by adhesion
 #: (the nominal best, 2 pm: 9.9 points, lowers mu in 7 of 12 cells)
 SIGMA_MAX = 1.0e6

@@ -1,6 +1,6 @@
 """The adhesive sphere-on-flat case through warpcontact and through the Adhesion package, side by side.
 
-    python bench/adhesion_package.py [--case examples/pull_off_jkr.toml] [--steps 20] [--repeats 2]
+    python validation/adhesion_package.py [--case examples/pull_off_jkr.toml] [--steps 20] [--repeats 2]
                                      [--adhesion-path /tmp/adhpkg] [--gtol 1e-7] [--out out/adhesion_package]
 
 Ours: ``warpcontact.api.run_pull_off`` on the case (its default path: -2 ranges of the law, moved out

@@ -1,6 +1,6 @@
 """The JKR side: pull-off at a large Tabor parameter with the adhesive minimisation, against 1.5 pi R w.
 
-    python bench/jkr_limit.py [--law exponential|smc|lj93] [--tabor 10] [--n 2048] [--size 4]
+    python validation/jkr_limit.py [--law exponential|smc|lj93] [--tabor 10] [--n 2048] [--size 4]
                               [--device cuda:0] [--dtype float64] [--steps 40]
 
 The paper's pair (E* = 78 GPa), R = 1 um, w = 0.5 J/m^2; the law's length from the Tabor parameter

@@ -21,9 +21,9 @@ there. Then it writes:
 Adhesive cells run on the domain that holds the law's tail (``table2.cell_grid``: the cell side
 of ``--n`` over ``--size-in-a`` radii, more cells), so the cost grows with delta_n.
 
-    python bench/adhesion_sensitivity.py --out out/adh --workers 2 --n 64          # here: hours
-    python bench/adhesion_sensitivity.py --out out/adh --workers 15 --n 64         # 16 cores: minutes
-    python bench/adhesion_sensitivity.py --out out/adh --plot-only                 # from cells.jsonl
+    python validation/adhesion_sensitivity.py --out out/adh --workers 2 --n 64          # here: hours
+    python validation/adhesion_sensitivity.py --out out/adh --workers 15 --n 64         # 16 cores: minutes
+    python validation/adhesion_sensitivity.py --out out/adh --plot-only                 # from cells.jsonl
 """
 
 from __future__ import annotations

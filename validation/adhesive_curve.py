@@ -1,6 +1,6 @@
 """Maugis-Dugdale approach-retraction curve with the adhesive minimisation, against the reference.
 
-    python bench/adhesive_curve.py LAMBDA N [float64|float32] [SMOOTHING] [DEVICE]
+    python validation/adhesive_curve.py LAMBDA N [float64|float32] [SMOOTHING] [DEVICE]
 
 Dugdale law (R = 1 um, w = 0.5 J/m^2, ramps of SMOOTHING h_0, default 0.05), domain 5 a0, 12 steps each way; prints
 each state's iterations, residual and force with Maugis-Dugdale's at the same approach and branch,

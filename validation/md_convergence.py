@@ -1,9 +1,9 @@
 """Maugis-Dugdale pull-off against the grid: its convergence table.
 
-    python bench/md_convergence.py [--lam 2] [--n 96 192] [--smoothing 0.3] [--ramps both centred]
+    python validation/md_convergence.py [--lam 2] [--n 96 192] [--smoothing 0.3] [--ramps both centred]
                                    [--domain 5] [--path cli|test] [--out out/md_convergence]
                                    [--device cuda:0]
-    python bench/md_convergence.py --continuum 1200 [--lam 2] [--smoothing 0.3] [--ramps both centred]
+    python validation/md_convergence.py --continuum 1200 [--lam 2] [--smoothing 0.3] [--ramps both centred]
 
 The Dugdale law at Maugis parameter lambda (R = 1 um, w = 0.5 J/m^2, the paper's pair, float64,
 on DEVICE, the CPU by default), domain DOMAIN x a0 (a0: JKR's contact radius at zero load) on n x n cells, through
