@@ -6,6 +6,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 from matplotlib.figure import Figure
+from matplotlib.text import Text
 
 from warpcontact import plots
 from warpcontact.physics.adhesion import SMC
@@ -222,7 +223,7 @@ def test_state_title_in_the_axes_unit(fields):
 
 
 def test_pull_off_curve_in_the_scale_of_its_data():
-    """An nN curve (the AFM tip of issue 32) is drawn in nN, its approach in nm."""
+    """An nN curve (an AFM tip's) is drawn in nN, its approach in nm."""
     curve = [{"branch": b, "delta": {"z": z}, "force": {"z": f}} for b, z, f in (
         ("approach", -0.6e-9, -1e-10), ("approach", 0.1e-9, 9e-9), ("retract", -0.3e-9, -3.8e-8))]
     result = {"curve": curve, "pull_off_force": -3.8e-8, "pull_off_delta_z": -0.3e-9, "dmt_pull_off": -1.26e-8,
@@ -232,6 +233,22 @@ def test_pull_off_curve_in_the_scale_of_its_data():
     ys = np.concatenate([np.asarray(line.get_ydata(), dtype=float) for line in ax.get_lines()])
     assert np.nanmin(ys) == pytest.approx(-38.0)
     assert plots.si_scale([2e3], "Pa") == (1e3, "kPa") and plots.si_scale([4.4e9], "Pa") == (1e9, "GPa")
+
+
+def test_pull_off_curve_writes_micronewtons_with_the_micro_sign():
+    """A µN curve (a micrometre sphere's) is labelled µN, with the micro sign, not "uN"."""
+    curve = [{"branch": b, "delta": {"z": z}, "force": {"z": f}} for b, z, f in (
+        ("approach", -2e-9, -1e-8), ("approach", 1e-9, 4e-6), ("retract", -1e-9, -3.1e-6))]
+    result = {"curve": curve, "pull_off_force": -3.1e-6, "pull_off_delta_z": -1e-9, "dmt_pull_off": -2.6e-6,
+              "jkr_pull_off": -1.9e-6}
+    fig = plots.pull_off_curve(result)
+    ax = fig.axes[0]
+    assert "[\u00b5N]" in ax.get_ylabel(), ax.get_ylabel()
+    legend = [t.get_text() for t in ax.get_legend().get_texts()]
+    assert any(t.endswith("-3.1 \u00b5N") for t in legend), legend
+    texts = [t.get_text() for t in fig.findobj(Text)]
+    assert not any("uN" in t or "um]" in t for t in texts), texts
+    assert plots.si_scale([2.5e-5], "m") == (1e-6, "\u00b5m")
 
 
 def test_state_index_out_of_range(fields):
@@ -321,6 +338,77 @@ def test_cmd_figure_bad_inputs_raise_input_error(tmp_path):
         with pytest.raises(InputError) as e:
             cmd_figure(args)
         assert e.value.key == str(source), e.value
+
+
+def test_gross_slip_figures_name_the_state_and_carry_the_laws_caption(fields, tmp_path, monkeypatch):
+    """figure on a gross-slip output titles its three figures with the state at gross slip and mu
+    (not "state 0" of the one state it solves again) and writes under each the caption of the
+    case's laws that a solve's figures carry."""
+    import json
+
+    from warpcontact.cli import figure as figure_cli
+
+    last = {k: (v[-1:] if np.ndim(v) == 3 else v) for k, v in fields.items()}  # one state, as re-solved
+    last["delta"] = fields["delta"][-1:]
+    monkeypatch.setattr(figure_cli, "gross_slip_fields", lambda res: {**last, "_summary": {}})
+    saved = {}
+    monkeypatch.setattr(plots, "save", lambda fig, path, dpi=None: saved.__setitem__(Path(path).name, fig))
+    case = {"friction": {"law": "tabor", "k_tau": 0.8}, "adhesion": None}
+    dx = float(fields["delta"][-1][0])
+    run = tmp_path / "gs"
+    run.mkdir()
+    (run / "result.json").write_text(json.dumps({"case": case, "states": [], "delta_x_max": dx, "mu": 0.4321,
+                                                 "converged": True}))
+    args = _parser().parse_args(["figure", str(run), "--out", str(tmp_path / "fig"), "--quiet"])
+    assert cmd_figure(args) == 0
+    assert sorted(saved) == ["area_map.png", "fields.png", "profile.png"]
+    caption = figure_cli.laws_caption(case)
+    assert caption == "Tabor + von Mises, $k_\\tau$ = 0.8;  no adhesion"
+    titles = {"area_map.png": saved["area_map.png"].axes[0].get_title(),
+              "fields.png": saved["fields.png"].get_suptitle(),
+              "profile.png": saved["profile.png"].axes[0].get_title()}
+    for name, fig in saved.items():
+        title = titles[name]
+        assert "state 0" not in title and "gross slip" in title and "0.4321" in title, (name, title)
+        assert f"$\\delta_x$ = {dx * 1e9:.4g} nm" in title, (name, title)
+        assert caption in [t.get_text() for t in fig.texts], (name, [t.get_text() for t in fig.texts])
+
+
+def _solve_cli(tmp_path, *options):
+    from warpcontact.cli import main
+
+    text = _partial_slip_case(tmp_path).read_text().replace("n = 48", "n = 16", 1)
+    case = tmp_path / "small.toml"
+    case.write_text(text)
+    out = tmp_path / "run"
+    assert main(["solve", str(case), "--out", str(out), "--quiet", *options]) == 0
+    return out
+
+
+def test_figure_of_a_solve_without_fields_names_the_option_that_keeps_them(tmp_path, capsys):
+    """A solve run with --fields none wrote no fields.npz: figure says in one line why there is
+    nothing to draw and which option keeps fields, exit 2 (not a missing file's error); a folder
+    with no result at all, one line too."""
+    import json
+
+    from warpcontact.cli import main
+
+    out = _solve_cli(tmp_path, "--fields", "none")
+    assert json.loads((out / "result.json").read_text())["fields_kept"] == "none"
+    assert not (out / "fields.npz").exists()
+    capsys.readouterr()
+    for source in (out, out / "result.json"):
+        assert main(["figure", str(source), "--out", str(tmp_path / "fig"), "--quiet"]) == 2
+        lines = capsys.readouterr().err.strip().splitlines()
+        assert len(lines) == 1, lines
+        assert "--fields none" in lines[0] and "--fields last" in lines[0] and "--fields all" in lines[0], lines
+        assert "no such file" not in lines[0], lines
+    empty = tmp_path / "empty"
+    empty.mkdir()
+    assert main(["figure", str(empty), "--out", str(tmp_path / "fig"), "--quiet"]) == 2
+    lines = capsys.readouterr().err.strip().splitlines()
+    assert len(lines) == 1 and "neither result.json nor fields.npz" in lines[0], lines
+    assert not (tmp_path / "fig").exists()
 
 
 def test_figure_help_has_an_example(capsys):

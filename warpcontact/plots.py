@@ -190,9 +190,13 @@ def _nm(v: float) -> str:
     return f"{v * NM:.4g}"
 
 
-def _state_title(fields, k) -> str:
+def _state_title(fields, k, name=None) -> str:
+    """``name`` (default: the state's index in the file) and the state's rigid displacements in nm."""
     n = _n_states(fields)
-    s = f"state {k} (of 0-{n - 1})" if n > 1 else f"state {k}"  # (one state: no range to name)
+    if name is not None:
+        s = name
+    else:
+        s = f"state {k} (of 0-{n - 1})" if n > 1 else f"state {k}"  # (one state: no range to name)
     if "delta" in fields:
         d = np.asarray(fields["delta"])
         if d.ndim == 2 and d.shape[0] == n and d.shape[1] >= 3:
@@ -262,26 +266,28 @@ def _draw_area_map(ax, fields, k, legend_loc="outside"):
 # public figures
 
 
-def area_map(fields: dict, index: int = -1, title=None) -> Figure:
+def area_map(fields: dict, index: int = -1, title=None, name=None) -> Figure:
     """The paper-style map of one state: A_c blue (its slip cells), A_st orange, A_adh yellow.
 
     Axes in nm with equal aspect, zoomed to the contact plus a 15 % margin; the legend gives each
-    area in nm^2. ``title`` defaults to the state and its rigid displacements in nm.
+    area in nm^2. ``title`` defaults to the state and its rigid displacements in nm; ``name``
+    (e.g. "gross slip") names the state there in place of its index in the file.
     """
     k = _state_index(fields, index)
     # fixed margins: the constrained layout misplaces an equal-aspect axes above a figure legend
     fig = _figure((5.6, 6.2), layout=None)
     ax = fig.add_axes((0.14, 0.215, 0.82, 0.71))
     _draw_area_map(ax, fields, k)
-    ax.set_title(_state_title(fields, k) if title is None else title, fontsize="medium")
+    ax.set_title(_state_title(fields, k, name) if title is None else title, fontsize="medium")
     return fig
 
 
-def field_maps(fields: dict, index: int = -1) -> Figure:
+def field_maps(fields: dict, index: int = -1, name=None) -> Figure:
     """2 x 2 maps of one state: pressure [MPa], shear magnitude [MPa], gap [nm], area map.
 
     All four share the zoomed window of the area map. The gap's colour range is clipped to the
-    gaps seen inside that window (its 90th percentile), so the contact and its rim show.
+    gaps seen inside that window (its 90th percentile), so the contact and its rim show. The title
+    names the state (``name``, default its index in the file) and its rigid displacements in nm.
     """
     k = _state_index(fields, index)
     fig = _figure((11.0, 9.6))
@@ -332,16 +338,16 @@ def field_maps(fields: dict, index: int = -1) -> Figure:
     _draw_area_map(ax, fields, k, legend_loc="below")
     ax.set_title("areas: $A_c$ blue, $A_{st}$ orange, $A_{adh}$ yellow", fontsize="medium")
 
-    fig.suptitle(_state_title(fields, k))
+    fig.suptitle(_state_title(fields, k, name))
     return fig
 
 
-def profile(fields: dict, index: int = -1) -> Figure:
+def profile(fields: dict, index: int = -1, name=None) -> Figure:
     """Pressure, shear_x and (when the file has it) the shear limit along x through the centre row.
 
     The centre row is the row nearest y = 0 (the sphere's axis). Stick cells of the row are shaded
     orange. Tractions in the data's own scale (kPa, MPa, GPa: :func:`si_scale`) against x in nm,
-    over the zoomed window of the area map.
+    over the zoomed window of the area map. The title names the state as :func:`field_maps` does.
     """
     k = _state_index(fields, index)
     fig = _figure((7.0, 4.4))
@@ -384,14 +390,14 @@ def profile(fields: dict, index: int = -1) -> Figure:
     ax.set_ylabel(f"traction [{unit}]")
     ax.grid(True, color="0.9", linewidth=0.5)
     note = "" if qmax is not None else "  (no shear limit in this file: written before it was kept)"
-    ax.set_title(f"{_state_title(fields, k)}\nprofile along x at y = {yc[row]:.2f} nm{note}", fontsize="medium")
+    ax.set_title(f"{_state_title(fields, k, name)}\nprofile along x at y = {yc[row]:.2f} nm{note}", fontsize="medium")
     ax.legend(fontsize="small", loc="best")
     return fig
 
 
-#: SI prefixes for an axis in the data's own scale: factor -> prefix.
-_PREFIXES = ((1e9, "G"), (1e6, "M"), (1e3, "k"), (1.0, ""), (1e-3, "m"), (1e-6, "u"), (1e-9, "n"), (1e-12, "p"),
-             (1e-15, "f"))
+#: SI prefixes for an axis in the data's own scale: factor -> prefix (micro: the micro sign, U+00B5).
+_PREFIXES = ((1e9, "G"), (1e6, "M"), (1e3, "k"), (1.0, ""), (1e-3, "m"), (1e-6, "\u00b5"), (1e-9, "n"),
+             (1e-12, "p"), (1e-15, "f"))
 
 
 def si_scale(values, unit: str):

@@ -76,6 +76,9 @@ def add_parser(sub):
 def _npz_path(arg: str) -> Path:
     p = Path(arg)
     if p.is_dir():
+        if not (p / "fields.npz").exists() and not (p / "result.json").exists():
+            raise InputError(str(arg), "holds neither result.json nor fields.npz: nothing to draw (give the output "
+                                       "folder of solve, gross-slip or pull-off, a fields.npz or a case file)")
         p = p / "fields.npz"
     if not p.exists():
         raise InputError(str(arg), f"no such file: {p} (give a solve's output folder or its fields.npz)")
@@ -161,6 +164,14 @@ def case_caption(npz: Path) -> str:
         case = json.loads((npz.parent / "result.json").read_text())["case"]
     except (OSError, ValueError, KeyError, TypeError):
         return ""
+    return laws_caption(case)
+
+
+def laws_caption(case) -> str:
+    """One line naming the friction law and the adhesion law of ``case`` (a result.json's "case"),
+    "" when it is not a case's dict."""
+    if not isinstance(case, dict):
+        return ""
     parts = []
     friction = case.get("friction") or {}
     if friction.get("law") == "tabor":
@@ -226,6 +237,38 @@ def gross_slip_fields(result: dict) -> dict:
     return out
 
 
+def _annotate(fig, caption: str, unconverged: bool):
+    """The laws' caption under the figure and, for a state that did not converge, a red mark."""
+    if caption:
+        fig.text(0.5, 0.0, caption, color="dimgray", fontsize="small", ha="center", va="top")
+    if unconverged:
+        fig.text(0.01, 0.995, "NOT CONVERGED", color="red", fontweight="bold", ha="left", va="top")
+    return fig
+
+
+def gross_slip_name(res: dict) -> str:
+    """What the state of a gross-slip result's figures is, for their titles (its rigid
+    displacements follow there): the state at gross slip, delta_x = delta_x_max, and mu."""
+    mu = f"$\\mu$ = {res['mu']:.4f}" if res.get("mu") is not None else "$\\mu$ undefined ($F_z \\leq 0$)"
+    return f"gross slip ($\\delta_x = \\delta_{{x,max}}$), {mu}"
+
+
+def _no_fields(arg, folder: Path, res: dict) -> InputError:
+    """Why an output folder with a result.json and no fields.npz has no state to draw, and what to do."""
+    if res.get("fields_kept") == "none":
+        why = ("nothing to draw: its solve kept no fields (--fields none); solve the case again with "
+               "--fields last (the last state) or --fields all (every state) to draw it")
+    elif res.get("write_error"):
+        why = f"nothing to draw: its fields.npz was not written ({res['write_error']})"
+    elif res.get("complete") is False:
+        why = f"nothing to draw: no fields.npz yet ({partial_note(folder / 'fields.npz')})"
+    elif res.get("fields_file"):
+        why = f"nothing to draw: result.json names {res['fields_file']}, which is not in {folder} (moved or deleted)"
+    else:
+        why = "holds a result.json but no fields.npz: not the output of solve, gross-slip or pull-off"
+    return InputError(str(arg), why)
+
+
 def _figure_of_result(args, res: dict) -> int | None:
     """``figure`` on a gross-slip or pull-off output: the state at gross slip (three figures) or
     the force-approach curve (pull_off.png). None for a solve's output (its fields.npz is drawn)."""
@@ -243,13 +286,14 @@ def _figure_of_result(args, res: dict) -> int | None:
     if "delta_x_max" in res and "states" in res:
         fields = gross_slip_fields(res)
         fields.pop("_summary")
-        title = f"at gross slip: $\\delta_x$ = {res['delta_x_max'] * 1e9:.4g} nm (delta_x_max), mu = " + (
-            f"{res['mu']:.4f}" if res.get("mu") is not None else "undefined")
+        state_name = gross_slip_name(res)
+        caption = laws_caption(res.get("case"))
+        unconverged = res.get("converged") is False
         written = []
-        for name, draw in (("area_map.png", lambda f: plots.area_map(f, 0, title=title)),
-                           ("fields.png", lambda f: plots.field_maps(f, 0)),
-                           ("profile.png", lambda f: plots.profile(f, 0))):
-            plots.save(draw(fields), out / name, dpi=dpi)
+        for name, draw in (("area_map.png", plots.area_map), ("fields.png", plots.field_maps),
+                           ("profile.png", plots.profile)):
+            fig = _annotate(draw(fields, 0, name=state_name), caption, unconverged)
+            plots.save(fig, out / name, dpi=dpi)
             written.append(out / name)
         if not quiet:
             print("figure: the state at gross slip -> " + ", ".join(str(p) for p in written), file=sys.stderr)
@@ -261,10 +305,14 @@ def cmd_figure(args) -> int:
     from .. import plots
 
     res = None if str(args.fields).lower().endswith(".toml") else _result_of(args.fields)
-    if res is not None and not (Path(args.fields) / "fields.npz").exists():
-        status = _figure_of_result(args, res)
-        if status is not None:
-            return status
+    if res is not None:  # an output folder, or its result.json
+        folder = Path(args.fields) if Path(args.fields).is_dir() else Path(args.fields).parent
+        if not (folder / "fields.npz").exists():
+            status = _figure_of_result(args, res)
+            if status is not None:
+                return status
+            raise _no_fields(args.fields, folder, res)
+        args.fields = str(folder)
     if str(args.fields).lower().endswith(".toml"):  # a case: solve it into --out first, as 'solve' does
         from .solve import cmd_solve
 
@@ -301,14 +349,10 @@ def cmd_figure(args) -> int:
         if unconverged:
             print(f"warpcontact: warning: state {path_k} did not converge in its solve (result.json); "
                   "the figures are marked NOT CONVERGED", file=sys.stderr)
-        caption = case_caption(_npz_path(str(args.fields)))
+        caption = case_caption(npz)
         for name, draw in (("area_map.png", plots.area_map), ("fields.png", plots.field_maps),
                            ("profile.png", plots.profile)):
-            fig = draw(fields, k)
-            if caption:
-                fig.text(0.5, 0.0, caption, color="dimgray", fontsize="small", ha="center", va="top")
-            if unconverged:
-                fig.text(0.01, 0.995, "NOT CONVERGED", color="red", fontweight="bold", ha="left", va="top")
+            fig = _annotate(draw(fields, k), caption, unconverged)
             plots.save(fig, out / name, dpi=dpi)  # whole or not at all
             written.append(out / name)
     except KeyboardInterrupt as e:  # Ctrl-C, SIGTERM, SIGHUP
