@@ -95,7 +95,7 @@ def _parser():
         help="compute the paper's Table 2 (24 cells: 12 adhesionless, 12 adhesive)",
         description="delta_x_max and mu for k_tau in (0.50, 0.80, 0.95) x delta_z in (1e-5, 5e-5, 1e-4, 1.5e-4) um, "
         "copper sphere R = 10 um on hardened steel, without and with adhesion (the SMC law; the paper gives no "
-        "parameters: the defaults below are ours, README 'Adhesion defaults' says why), compared with the paper. "
+        "parameters: the defaults below are ours, docs/validation.md 'Adhesion defaults' says why), compared with the paper. "
         "Each finished cell is written at once; a rerun with the same settings skips finished cells.",
         epilog="example:\n  warpcontact table2 --out out/table2 --n 128\n"
         "  warpcontact table2 --no-adhesion --out out/table2 --n 64 128   # grid convergence: both resolutions\n"

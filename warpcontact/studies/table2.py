@@ -2,8 +2,9 @@
 
 Copper sphere (R = 10 um) on hardened steel (Table 1), Tabor + von Mises shear limit, the 24
 cells k_tau in (0.50, 0.80, 0.95) x delta_z in (1.0e-5, 5.0e-5, 1.0e-4, 1.5e-4) um, without and
-with adhesion (the SMC law with ``Table2Settings``' parameters; the paper gives none: README
-"Adhesion defaults" gives the reasoning and docs/img/adhesion_sensitivity.png the dependence).
+with adhesion (the SMC law with ``Table2Settings``' parameters; the paper gives none:
+docs/validation.md, "Adhesion defaults", gives the reasoning and docs/img/adhesion_sensitivity.png
+the dependence).
 """
 
 from __future__ import annotations
