@@ -290,3 +290,13 @@ def test_campaign_size():
     categories are listed in the report."""
     on_cli = len(BAD_CASES) + len(BAD_FILES) + len(MORE_FILES) + len(RUN_TIME) + len(TABLE2_ARGS) + len(SWEEP_FILES)
     assert on_cli >= 30 and len(API_CALLS) >= 10
+
+
+@pytest.mark.parametrize("argv, meant", [(["grossslip"], "gross-slip"), (["pulloff"], "pull-off"),
+                                         (["solve", "case.toml", "--out", "o", "--fields", "nne"], "none")])
+def test_a_mistyped_command_or_choice_names_the_one_probably_meant(capsys, argv, meant):
+    with pytest.raises(SystemExit) as e:
+        main(argv)
+    err = capsys.readouterr().err
+    assert e.value.code == 2
+    assert err.strip().splitlines()[-1].endswith(f"did you mean '{meant}'?"), err

@@ -60,8 +60,25 @@ def _case_command(sub, name: str, case_help: str = "case file (TOML)", **texts):
     return p
 
 
+class _Parser(argparse.ArgumentParser):
+    """argparse's parser, whose "invalid choice" names the choice probably meant (``grossslip``:
+    did you mean 'gross-slip'?)."""
+
+    def error(self, message):
+        import difflib
+        import re
+
+        m = re.search(r"invalid choice: '([^']*)' \(choose from (.*)\)", message)
+        if m:
+            choices = re.findall(r"'([^']*)'", m.group(2))
+            near = difflib.get_close_matches(m.group(1), choices, n=1)
+            if near:
+                message += f"; did you mean '{near[0]}'?"
+        super().error(message)
+
+
 def _parser():
-    parser = argparse.ArgumentParser(
+    parser = _Parser(
         prog="warpcontact",
         description="Sphere-on-flat contact with friction and adhesion (DC-FFT, conjugate gradients, NVIDIA Warp).",
     )
