@@ -60,12 +60,15 @@ def solve(case: CaseLike, device=None, dtype=None, fft=None, on_state=None, mode
     return run_path(_prepare(case, device, dtype, fft), on_state=on_state, model=model, fields=fields)
 
 
-def path(case: CaseLike, device=None, dtype=None, fft=None):
+def path(case: CaseLike, device=None, dtype=None, fft=None, fields: bool = False):
     """Iterate over the solved states of the load path: yields one summary dict per state (as in
     [`solve`][warpcontact.solve]), each as soon as it is solved; the slip history is carried along. Warns as
-    [`solve`][warpcontact.solve] does (a coarse grid, a pressure above a yield strength: once each)."""
+    [`solve`][warpcontact.solve] does (a coarse grid, a pressure above a yield strength: once each).
+    ``fields=True``: each summary also holds ``"fields"``, the state's fields as
+    [`solve`][warpcontact.solve] keeps them (numpy arrays (n, n) in SI units), copied to the host
+    state by state."""
     from .records.guards import RunChecks
-    from .records.results import state_summary
+    from .records.results import state_fields, state_summary
     from .studies.runner import build
 
     case = _prepare(case, device, dtype, fft)
@@ -75,6 +78,8 @@ def path(case: CaseLike, device=None, dtype=None, fft=None):
         solver.step(state, approach)
         summary = state_summary(state, solver.adhesion)
         checks.observe(summary, decisive=checks.decisive(summary))
+        if fields:
+            summary["fields"] = state_fields(state, solver.adhesion, solver.friction)
         yield summary
 
 
