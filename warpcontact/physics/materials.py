@@ -13,34 +13,57 @@ from ..errors import InputError
 
 @dataclass(frozen=True)
 class Material:
-    """An isotropic, linear-elastic material.
+    """An isotropic, linear-elastic material, or a rigid body (``Material.rigid()``).
+
+    A rigid body is the limit E -> inf: it adds nothing to the pair's compliances (``MaterialPair``),
+    has no Poisson ratio, never yields and is never the softer body.
 
     Attributes:
-        E: Young's modulus [Pa].
-        nu: Poisson ratio [-], in (-1, 0.5].
-        yield_strength: uniaxial yield strength S_Y [Pa].
-        hardness: indentation hardness H [Pa].
+        E: Young's modulus [Pa]; inf for a rigid body.
+        nu: Poisson ratio [-], in (-1, 0.5]; None for a rigid body.
+        yield_strength: uniaxial yield strength S_Y [Pa]; inf for a rigid body.
+        hardness: indentation hardness H [Pa]; inf for a rigid body.
         name: free text, for reports.
     """
 
     E: float
-    nu: float
+    nu: float | None
     yield_strength: float = math.inf
     hardness: float = math.inf
     name: str = ""
 
     def __post_init__(self):
         label = self.name or "material"
-        _check_positive(f"{label}.E", self.E)
-        if not (isinstance(self.nu, (int, float)) and math.isfinite(self.nu) and -1.0 < self.nu <= 0.5):
+        _check_positive(f"{label}.E", self.E, allow_inf=True)
+        if self.is_rigid:
+            if self.nu is not None:
+                raise InputError(f"{label}.nu", f"a rigid body (E = inf) has no Poisson ratio, got {self.nu!r}; "
+                                                "give None (Material.rigid())")
+            for key in ("yield_strength", "hardness"):
+                if getattr(self, key) != math.inf:
+                    raise InputError(f"{label}.{key}", f"a rigid body (E = inf) neither yields nor indents, got "
+                                                       f"{getattr(self, key)!r}; leave it inf (Material.rigid())")
+            return
+        if isinstance(self.nu, bool) or not (isinstance(self.nu, (int, float)) and math.isfinite(self.nu)
+                                             and -1.0 < self.nu <= 0.5):
             raise InputError(f"{label}.nu", f"must lie in (-1, 0.5], got {self.nu!r}")
         _check_positive(f"{label}.yield_strength", self.yield_strength, allow_inf=True)
         _check_positive(f"{label}.hardness", self.hardness, allow_inf=True)
 
+    @classmethod
+    def rigid(cls, name: str = "") -> Material:
+        """A rigid body: E = inf, no Poisson ratio (None), no yield strength or hardness (inf)."""
+        return cls(math.inf, None, name=name)
+
+    @property
+    def is_rigid(self) -> bool:
+        """True for a rigid body (E = inf)."""
+        return self.E == math.inf
+
     @property
     def G(self) -> float:
-        """Shear modulus G = E / (2 (1 + nu)) [Pa]."""
-        return self.E / (2.0 * (1.0 + self.nu))
+        """Shear modulus G = E / (2 (1 + nu)) [Pa]; inf for a rigid body."""
+        return math.inf if self.is_rigid else self.E / (2.0 * (1.0 + self.nu))
 
 
 def _check_positive(key: str, value, allow_inf: bool = False):
@@ -54,6 +77,10 @@ def _check_positive(key: str, value, allow_inf: bool = False):
 class MaterialPair:
     """Composite constants of the sphere (body 1) on the flat (body 2).
 
+    Either body may be rigid (``Material.rigid()``), not both: each constant is then its limit
+    E -> inf, the rigid body's compliance terms dropped (``compliance``), so a rigid sphere on an
+    elastic flat has 1/E* = (1 - nu2^2)/E2 and D = -(1 - 2 nu2)/G2.
+
     Attributes:
         sphere: material of body 1.
         flat: material of body 2.
@@ -62,9 +89,21 @@ class MaterialPair:
     sphere: Material
     flat: Material
 
+    def __post_init__(self):
+        if self.sphere.is_rigid and self.flat.is_rigid:
+            raise InputError(f"{self.flat.name or 'flat'}.rigid",
+                             f"cannot be true with {self.sphere.name or 'sphere'}.rigid = true: two rigid bodies do "
+                             "not deform, so there is no contact problem to solve; make one of them elastic (E, nu)")
+
+    @staticmethod
+    def compliance(m: Material, per_body) -> float:
+        """``per_body(m)``, one body's term of a composite compliance [1/Pa]; 0 for a rigid body
+        (each term is a compliance over E or G, whose limit E -> inf is 0)."""
+        return 0.0 if m.is_rigid else per_body(m)
+
     def _sum(self, per_body) -> float:
         """``per_body(sphere) + per_body(flat)``: the two half-spaces' compliances add (in series)."""
-        return per_body(self.sphere) + per_body(self.flat)
+        return self.compliance(self.sphere, per_body) + self.compliance(self.flat, per_body)
 
     @property
     def E_star(self) -> float:
@@ -83,9 +122,12 @@ class MaterialPair:
 
     @property
     def D(self) -> float:
-        """Normal-tangential coupling D = (1 - 2 nu1)/G1 - (1 - 2 nu2)/G2 [1/Pa]; 0 for identical bodies."""
-        s, f = self.sphere, self.flat
-        return (1.0 - 2.0 * s.nu) / s.G - (1.0 - 2.0 * f.nu) / f.G
+        """Normal-tangential coupling D = (1 - 2 nu1)/G1 - (1 - 2 nu2)/G2 [1/Pa]; 0 for identical
+        bodies, and for a rigid body on an incompressible one (nu = 0.5)."""
+        def per_body(m):
+            return (1.0 - 2.0 * m.nu) / m.G
+
+        return self.compliance(self.sphere, per_body) - self.compliance(self.flat, per_body)
 
     @property
     def dundurs_beta(self) -> float:
@@ -99,8 +141,14 @@ class MaterialPair:
 
     @property
     def softer(self) -> Material:
-        """The material of lower yield strength (it sets the von Mises shear limit)."""
-        return self.sphere if self.sphere.yield_strength <= self.flat.yield_strength else self.flat
+        """The material of lower yield strength (it sets the von Mises shear limit and the hardness
+        cap), the sphere where they tie; a rigid body is never the softer."""
+        return min((m for m in (self.sphere, self.flat) if not m.is_rigid), key=lambda m: m.yield_strength)
+
+    @property
+    def elastic(self) -> dict:
+        """The bodies that deform, by role: "sphere", "flat" -> Material (a rigid body left out)."""
+        return {role: m for role, m in (("sphere", self.sphere), ("flat", self.flat)) if not m.is_rigid}
 
 
 #: The paper's Table 1: copper asperity.
