@@ -21,7 +21,7 @@ from pathlib import Path
 
 import pytest
 
-from warpcontact.records.case import case_from_dict
+from warpcontact.records.case import MATERIAL_KEYS, case_from_dict
 from warpcontact.errors import InputError
 from warpcontact.schema import DIALECT, case_schema, schema_json
 
@@ -153,6 +153,10 @@ def variants() -> list:
     out.append(path)
     out.append({**copy.deepcopy(base), "friction": {"law": "coulomb", "mu": 0.3}})
     out.append({**copy.deepcopy(base), "friction": {"law": "tabor", "k_tau": 0.8, "k_vm": 0.6, "hardness_cap": True}})
+    for body in ("sphere", "flat"):  # a rigid body: rigid = true, none of the material's keys
+        rigid = copy.deepcopy(base)
+        rigid[body] = {k: v for k, v in base[body].items() if k not in MATERIAL_KEYS} | {"rigid": True}
+        out.append(rigid)
     adhesive = case_from_dict(_example("pull_off_dmt.toml")).to_dict()
     for law in SCHEMA["properties"]["adhesion"]["properties"]["law"]["enum"]:
         assert law in ADHESION, f"no test values for the adhesion law {law!r}: add them to ADHESION"
@@ -332,7 +336,9 @@ def test_types_agree_with_case_from_dict(wrong):
         d[table][key] = wrong
         e = _refusal(d)
         if errors(SCHEMA, d):
-            assert e is not None and e.key == f"{table}.{key}", (table, key, wrong, e)
+            # rigid = true is of the right type: what is refused is the elastic body's E beside it
+            expected = f"{table}.E" if key == "rigid" and wrong is True else f"{table}.{key}"
+            assert e is not None and e.key == expected, (table, key, wrong, e)
             checked += 1
         else:
             assert e is None or e.key != f"{table}.{key}" or "must be" not in e.problem, (table, key, wrong, e)

@@ -4,7 +4,7 @@
 Built from :mod:`warpcontact.records.case`, not written beside it: the tables and their keys are
 ``case.TABLES``, ``case.REQUIRED_TABLES`` and the ``*_KEYS`` tuples that ``case_from_dict``
 checks against; the choices, limits and defaults are case's constants and its dataclasses'
-defaults (``SphereSpec``, ``Material``, ``Grid``, ``LoadSpec``, ``SolverSpec``, ``FrictionSpec``);
+defaults (``SphereSpec``, ``FlatSpec``, ``Grid``, ``LoadSpec``, ``SolverSpec``, ``FrictionSpec``);
 each key's description is its line in the ``Attributes:`` section of the class's docstring. What
 this module adds is the kind of each value (a length > 0, an integer of at least 8, ...) in
 :data:`VALUES`, keyed by the dotted key; a key that ``case`` accepts and :data:`VALUES` lacks
@@ -25,7 +25,6 @@ import re
 
 from .records import case as C
 from .physics.geometry import MIN_CELLS, Grid
-from .physics.materials import Material
 
 DIALECT = "https://json-schema.org/draft/2020-12/schema"
 
@@ -51,10 +50,12 @@ VALUES = {
     "sphere.yield_strength": _STRENGTH,
     "sphere.hardness": _STRENGTH,
     "sphere.profile": _enum(C.PROFILES),
+    "sphere.rigid": {"type": "boolean"},
     "flat.E": _POSITIVE,
     "flat.nu": {"type": "number", "exclusiveMinimum": -1, "maximum": 0.5},
     "flat.yield_strength": _STRENGTH,
     "flat.hardness": _STRENGTH,
+    "flat.rigid": {"type": "boolean"},
     "grid.n": _integer(MIN_CELLS),
     "grid.size": _POSITIVE,
     "load.delta_z": _NUMBER,
@@ -96,7 +97,7 @@ def _tables() -> dict:
     """Each table's keys (case's tuples) and the class whose fields and docstring describe them."""
     return {
         "sphere": (C.SPHERE_KEYS, C.SphereSpec),
-        "flat": (C.FLAT_KEYS, Material),
+        "flat": (C.FLAT_KEYS, C.FlatSpec),
         "grid": (C.GRID_KEYS, Grid),
         "load": (C.LOAD_KEYS, C.LoadSpec),
         "solver": (C.SOLVER_KEYS, C.SolverSpec),
@@ -176,6 +177,13 @@ def _by_law(table: str, keys_by_law: dict, defaults: dict, optional: dict) -> li
     return rules
 
 
+def _elastic_or_rigid() -> list:
+    """A body's two alternatives: elastic (E and nu required, rigid false or left out) or rigid
+    (rigid = true, none of case.MATERIAL_KEYS)."""
+    return [{"properties": {"rigid": {"const": False}}, "required": ["E", "nu"]},
+            {"properties": {"rigid": {"const": True}, **{k: False for k in C.MATERIAL_KEYS}}, "required": ["rigid"]}]
+
+
 def case_schema() -> dict:
     """The JSON Schema of a case file (a dict; :func:`schema_json` for the text)."""
     tables = {}
@@ -198,6 +206,8 @@ def case_schema() -> dict:
             t["required"] = ["law"]
             t["oneOf"] = _by_law(table, C.ADHESION_KEYS, defaults, C.ADHESION_OPTIONAL)
         else:
+            if table in ("sphere", "flat"):  # E and nu required unless the body is rigid
+                t["oneOf"] = _elastic_or_rigid()
             required = [k for k in keys if defaults[k] is dataclasses.MISSING]
             if required:
                 t["required"] = required

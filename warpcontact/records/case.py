@@ -49,8 +49,10 @@ TABLES = ("sphere", "flat", "grid", "load", "solver", "friction", "adhesion")
 #: Tables a case file must have.
 REQUIRED_TABLES = ("sphere", "flat", "grid", "load")
 
-SPHERE_KEYS = ("radius", "E", "nu", "yield_strength", "hardness", "profile")
-FLAT_KEYS = ("E", "nu", "yield_strength", "hardness")
+SPHERE_KEYS = ("radius", "E", "nu", "yield_strength", "hardness", "profile", "rigid")
+FLAT_KEYS = ("E", "nu", "yield_strength", "hardness", "rigid")
+#: The keys of a body's material: an elastic body needs E and nu, a rigid one (rigid = true) takes none.
+MATERIAL_KEYS = ("E", "nu", "yield_strength", "hardness")
 GRID_KEYS = ("n", "size")
 LOAD_KEYS = ("delta_z", "delta_x", "delta_y", "steps", "path")
 SOLVER_KEYS = ("device", "dtype", "tol", "max_iter", "max_turns", "fft", "nested", "window")
@@ -251,8 +253,34 @@ def _set(obj, name: str, value) -> None:
 # The parts of a case.
 
 
-def _material(table: str, E, nu, yield_strength, hardness) -> Material:
-    """A validated :class:`Material` named after its table, so its own checks report ``table.key``."""
+def _boolean(key: str, v) -> bool:
+    if not _is_bool(v):
+        raise InputError(key, f"must be true or false, {_got(v)}")
+    return bool(v)
+
+
+def _unused_by_rigid(table: str, key: str) -> InputError:
+    return InputError(f"{table}.{key}", f"is not used by a rigid body ({table}.rigid = true: no modulus, no Poisson "
+                                        f"ratio, it never yields); leave it out, or set {table}.rigid = false for an "
+                                        f"elastic {table}")
+
+
+def _material(table: str, E, nu, yield_strength, hardness, rigid: bool = False) -> Material:
+    """A validated :class:`Material` named after its table, so its own checks report ``table.key``:
+    elastic from E and nu, or with ``rigid`` a rigid body (``Material.rigid``), which takes no E
+    or nu (None) and no finite yield strength or hardness."""
+    if rigid:
+        for key, v in (("E", E), ("nu", nu), ("yield_strength", yield_strength), ("hardness", hardness)):
+            if v is None or (key in ("yield_strength", "hardness") and _strength(f"{table}.{key}", v) == math.inf):
+                continue
+            raise _unused_by_rigid(table, key)
+        return Material.rigid(table)
+    for key, v in (("E", E), ("nu", nu)):
+        if v is None:
+            raise InputError(f"{table}.{key}", "is required")
+    if E == math.inf:
+        raise InputError(f"{table}.E", f"must be finite, got inf; for a rigid {table}, set {table}.rigid = true "
+                                       "and leave E and nu out")
     E = _positive(f"{table}.E", E, "Pa")
     nu = _number(f"{table}.nu", nu)
     if not -1.0 < nu <= 0.5:
@@ -267,7 +295,27 @@ def _material(table: str, E, nu, yield_strength, hardness) -> Material:
 
 
 def _material_dict(m: Material) -> dict:
-    return {"E": m.E, "nu": m.nu, "yield_strength": _inf_out(m.yield_strength), "hardness": _inf_out(m.hardness)}
+    if m.is_rigid:
+        return {"rigid": True}
+    return {"E": m.E, "nu": m.nu, "yield_strength": _inf_out(m.yield_strength), "hardness": _inf_out(m.hardness),
+            "rigid": False}
+
+
+def _check_body(spec, table: str) -> None:
+    """Validate and normalise the material fields (E, nu, yield_strength, hardness, rigid) of a
+    body's table (``SphereSpec``, ``FlatSpec``) in place."""
+    _set(spec, "rigid", _boolean(f"{table}.rigid", spec.rigid))
+    m = _material(table, spec.E, spec.nu, spec.yield_strength, spec.hardness, spec.rigid)
+    if not m.is_rigid:
+        for name in MATERIAL_KEYS:
+            _set(spec, name, getattr(m, name))
+
+
+def _body_material(spec, table: str) -> Material:
+    """The Material of a validated body table, named after it."""
+    if spec.rigid:
+        return Material.rigid(table)
+    return Material(spec.E, spec.nu, spec.yield_strength, spec.hardness, name=table)
 
 
 @dataclass(frozen=True)
@@ -276,31 +324,32 @@ class SphereSpec:
 
     Attributes:
         radius: R [m].
-        E: Young's modulus [Pa].
-        nu: Poisson ratio [-], in (-1, 0.5].
+        E: Young's modulus [Pa]; required unless rigid.
+        nu: Poisson ratio [-], in (-1, 0.5]; required unless rigid.
         yield_strength: S_Y [Pa]; inf for no limit.
         hardness: H [Pa]; inf for no limit.
         profile: "sphere" (exact cap) or "paraboloid" (r^2 / 2R).
+        rigid: true for a rigid sphere (the limit E -> inf: a glass lens on rubber), which takes no
+            E, nu, yield_strength or hardness; the flat must then be elastic.
     """
 
     radius: float
-    E: float
-    nu: float
+    E: float | None = None
+    nu: float | None = None
     yield_strength: float = math.inf
     hardness: float = math.inf
     profile: str = "sphere"
+    rigid: bool = False
 
     def __post_init__(self):
         _set(self, "radius", _positive("sphere.radius", self.radius, "m"))
         _set(self, "profile", _choice("sphere.profile", self.profile, PROFILES))
-        m = _material("sphere", self.E, self.nu, self.yield_strength, self.hardness)
-        for name in ("E", "nu", "yield_strength", "hardness"):
-            _set(self, name, getattr(m, name))
+        _check_body(self, "sphere")
 
     @property
     def material(self) -> Material:
         """The sphere's material (named "sphere")."""
-        return Material(self.E, self.nu, self.yield_strength, self.hardness, name="sphere")
+        return _body_material(self, "sphere")
 
     @property
     def geometry(self) -> Sphere:
@@ -308,6 +357,34 @@ class SphereSpec:
 
     def to_dict(self) -> dict:
         return {"radius": self.radius, **_material_dict(self.material), "profile": self.profile}
+
+
+@dataclass(frozen=True)
+class FlatSpec:
+    """The ``[flat]`` table: the flat's material (body 2).
+
+    Attributes:
+        E: Young's modulus [Pa]; required unless rigid.
+        nu: Poisson ratio [-], in (-1, 0.5]; required unless rigid.
+        yield_strength: S_Y [Pa]; inf for no limit.
+        hardness: H [Pa]; inf for no limit.
+        rigid: true for a rigid flat (the limit E -> inf: an elastic sphere on a rigid flat), which
+            takes no E, nu, yield_strength or hardness; the sphere must then be elastic.
+    """
+
+    E: float | None = None
+    nu: float | None = None
+    yield_strength: float = math.inf
+    hardness: float = math.inf
+    rigid: bool = False
+
+    def __post_init__(self):
+        _check_body(self, "flat")
+
+    @property
+    def material(self) -> Material:
+        """The flat's material (named "flat")."""
+        return _body_material(self, "flat")
 
 
 #: The ``[grid]`` table is a :class:`~warpcontact.physics.geometry.Grid` (n cells per side, size in m).
@@ -725,6 +802,8 @@ class Case:
     def sphere_spec(self) -> SphereSpec:
         """The ``[sphere]`` table: geometry and material of the sphere."""
         m = self.pair.sphere
+        if m.is_rigid:
+            return SphereSpec(self.sphere.radius, profile=self.sphere.profile, rigid=True)
         return SphereSpec(self.sphere.radius, m.E, m.nu, m.yield_strength, m.hardness, self.sphere.profile)
 
     def with_overrides(self, device: str | None = None, dtype: str | None = None, fft: str | None = None) -> Case:
@@ -772,20 +851,22 @@ def case_from_dict(d: Mapping) -> Case:
 
     s = tables["sphere"]
     _check_keys("sphere", s, SPHERE_KEYS)
-    _require("sphere", s, ("radius", "E", "nu"))
+    _require("sphere", s, ("radius",) if _rigid("sphere", s) else ("radius", "E", "nu"))
     sphere = SphereSpec(
         radius=s["radius"],
-        E=s["E"],
-        nu=s["nu"],
+        E=s.get("E"),
+        nu=s.get("nu"),
         yield_strength=s.get("yield_strength", math.inf),
         hardness=s.get("hardness", math.inf),
         profile=s.get("profile", "sphere"),
+        rigid=s.get("rigid", False),
     )
 
     f = tables["flat"]
     _check_keys("flat", f, FLAT_KEYS)
-    _require("flat", f, ("E", "nu"))
-    flat = _material("flat", f["E"], f["nu"], f.get("yield_strength", math.inf), f.get("hardness", math.inf))
+    _require("flat", f, () if _rigid("flat", f) else ("E", "nu"))
+    flat = FlatSpec(**f).material
+    pair = MaterialPair(sphere.material, flat)  # refuses two rigid bodies
 
     g = tables["grid"]
     _check_keys("grid", g, GRID_KEYS)
@@ -823,7 +904,7 @@ def case_from_dict(d: Mapping) -> Case:
     # values no solid or contact can have (a unit slip, mostly), before the domain checks of Case
     check_case(sphere, flat, grid, load, adhesion)
     return Case(
-        pair=MaterialPair(sphere.material, flat),
+        pair=pair,
         sphere=sphere.geometry,
         grid=grid,
         load=load,
@@ -831,6 +912,15 @@ def case_from_dict(d: Mapping) -> Case:
         friction=friction,
         adhesion=adhesion,
     )
+
+
+def _rigid(table: str, d: Mapping) -> bool:
+    """A body table's ``rigid`` key (false when absent); a rigid body's table holds none of MATERIAL_KEYS."""
+    rigid = _boolean(f"{table}.rigid", d.get("rigid", False))
+    for key in MATERIAL_KEYS if rigid else ():
+        if key in d:
+            raise _unused_by_rigid(table, key)
+    return rigid
 
 
 def _load_from(ld: Mapping) -> LoadSpec:
@@ -890,6 +980,7 @@ def load_case(path: str | PathLike) -> Case:
 __all__ = [
     "AdhesionSpec",
     "Case",
+    "FlatSpec",
     "FrictionSpec",
     "GridSpec",
     "LoadSpec",

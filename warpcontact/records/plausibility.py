@@ -28,6 +28,7 @@ import math
 import warnings
 
 from ..errors import InputError
+from ..physics.materials import MaterialPair
 
 #: Stiffest solid known (diamond, about 1.2e12 Pa), with a margin [Pa].
 MAX_MODULUS = 2e12
@@ -103,10 +104,6 @@ def _closest(value: float, factors, target: float, ok=lambda v: True):
     return None if best is None else best[1]
 
 
-def _e_star(E1, nu1, E2, nu2) -> float:
-    return 1.0 / ((1.0 - nu1**2) / E1 + (1.0 - nu2**2) / E2)
-
-
 def _modulus_guess(name: str, E: float, other_E: float, floor: float = 0.0):
     """A factor that turns body ``name``'s modulus ``E`` into a stiff solid's like the other body's
     (``other_E``, when that one is plausible), above ``floor``; None when no unit slip explains it."""
@@ -117,18 +114,22 @@ def _modulus_guess(name: str, E: float, other_E: float, floor: float = 0.0):
 def check_moduli(bodies: dict) -> None:
     """Each body's modulus within what solids have, and above its own strengths.
 
-    ``bodies``: name ("sphere", "flat") -> (E [Pa], nu, yield_strength [Pa], hardness [Pa]).
+    ``bodies``: name ("sphere", "flat") -> (E [Pa], nu, yield_strength [Pa], hardness [Pa]); a
+    rigid body (E = inf) has no modulus or strength to judge, and is passed over.
     """
     names = list(bodies)
     for name in names:
         E = bodies[name][0]
+        if E == math.inf:
+            continue
         other_E = bodies[names[1 - names.index(name)]][0] if len(names) == 2 else 1e11
         if E > MAX_MODULUS:
             target = other_E if other_E <= MAX_MODULUS else 1e11
             f = _closest(E, DOWN, target, lambda v: MIN_MODULUS <= v <= MAX_MODULUS)
             hint = f"; did you mean {_num(E * f)} Pa?" if f else ""
             raise InputError(f"{name}.E", f"= {_num(E)} Pa is stiffer than any solid (diamond: 1.2e12 Pa); "
-                                          f"expected {_num(MIN_MODULUS)} to {_num(MAX_MODULUS)} Pa{hint}")
+                                          f"expected {_num(MIN_MODULUS)} to {_num(MAX_MODULUS)} Pa (for a rigid "
+                                          f"{name}, the limit E -> inf, set {name}.rigid = true instead of E){hint}")
         if E < MIN_MODULUS:
             f = _modulus_guess(name, E, other_E)
             hint = f"; did you mean {_meant(E, f, 'Pa')}?" if f else ""
@@ -136,6 +137,8 @@ def check_moduli(bodies: dict) -> None:
                                           f"expected {_num(MIN_MODULUS)} to {_num(MAX_MODULUS)} Pa{hint}")
     for name in names:
         E, _, yield_strength, hardness = bodies[name]
+        if E == math.inf:
+            continue
         other_E = bodies[names[1 - names.index(name)]][0] if len(names) == 2 else 1e11
         for key, strength in (("yield_strength", yield_strength), ("hardness", hardness)):
             if math.isfinite(strength) and 0.0 < strength < MIN_STRENGTH_OVER_E * E:
@@ -184,8 +187,9 @@ def check_adhesion(adhesion, E_star: float, bodies: dict) -> None:
         if stress > E_star:
             for name in names:  # a modulus in GPa written as Pa makes every stress look too large
                 E = bodies[name][0]
-                other_E = bodies[names[1 - names.index(name)]][0]
-                f = _modulus_guess(name, E, other_E)
+                other_E = bodies[names[1 - names.index(name)]][0] if len(names) == 2 else 1e11
+                # against a rigid body there is no other modulus to tell a unit slip by
+                f = _modulus_guess(name, E, other_E) if max(E, other_E) < math.inf else None
                 if f is not None and E < other_E:
                     raise InputError(
                         f"{name}.E", f"= {_num(E)} Pa makes E* = {_num(E_star)} Pa, far below adhesion.{key} = "
@@ -345,15 +349,16 @@ def check_shift(load, size: float) -> None:
 def check_case(sphere, flat, grid, load, adhesion=None) -> None:
     """Every plausibility check of a case's parts, in the order a user reads them: the bodies, the
     contact's scale against the domain, the adhesive law. ``sphere``: SphereSpec; ``flat``:
-    Material; ``grid``: Grid; ``load``: LoadSpec; ``adhesion``: AdhesionSpec or None."""
-    bodies = {"sphere": (sphere.E, sphere.nu, sphere.yield_strength, sphere.hardness),
-              "flat": (flat.E, flat.nu, flat.yield_strength, flat.hardness)}
+    Material; ``grid``: Grid; ``load``: LoadSpec; ``adhesion``: AdhesionSpec or None. A rigid
+    body enters as E = inf (``check_moduli`` passes it over)."""
+    bodies = {name: (m.E, m.nu, m.yield_strength, m.hardness) for name, m in (("sphere", sphere.material),
+                                                                              ("flat", flat))}
     check_moduli(bodies)
     key = "load.path" if load.explicit else "load.delta_z"
     check_contact_scale(sphere.radius, sphere.profile, grid.size, load.delta_z_max, key)
     check_shift(load, grid.size)
     if adhesion is not None:
-        E_star = _e_star(sphere.E, sphere.nu, flat.E, flat.nu)
+        E_star = MaterialPair(sphere.material, flat).E_star
         check_adhesion(adhesion, E_star, bodies)
         check_adhesion_force(adhesion, E_star, sphere.radius, load.delta_z_max)
 
