@@ -28,7 +28,8 @@ EXAMPLE_STRESS = """example:
 
 writes OUT/stress.json (per body, "sphere" and "flat": von_mises_max and tresca_max with value [Pa]
 and x, y, z [m], z the depth into that body; yield_strength, yielded, margin = yield strength /
-von Mises max; first_yield on the path up to the state), OUT/stress.npz (depths, x, y; per body
+von Mises max; first_yield on the path up to the state; a rigid body: rigid = true, yielded = null
+and the reason, no stress field), OUT/stress.npz (depths, x, y; per body
 the x-z section through the centre along the sliding direction and the axis profile of every
 stress component and derived field, and with --volume every depth's fields), OUT/stress_section.png
 (von Mises in the section, the sphere above the interface and the flat below) and
@@ -41,7 +42,7 @@ def add_parser(sub):
         "stress",
         help="stress below the surface in the sphere and the flat, von Mises maxima and first yield",
         description="Solve the load path of CASE, then evaluate the full stress tensor in both bodies (each an "
-        "elastic half-space with its own E, nu) below the solved surface tractions (pressure, shear, adhesive "
+        "elastic half-space with its own E, nu; a rigid body has no stress field) below the solved surface tractions (pressure, shear, adhesive "
         "parts) at a set of depths: von Mises, maximum shear, principal and hydrostatic stresses, their maxima, "
         "and the state at which each body first reaches its yield_strength.",
         epilog=EXAMPLE_STRESS,
@@ -91,6 +92,17 @@ def stress_json(result, case) -> dict:
     return out
 
 
+def _rigid_panel(ax, name: str) -> None:
+    """A rigid body's panel: no stress field to show, said in its place."""
+    ax.text(0.5, 0.5, f"{name}: rigid, no stress field", ha="center", va="center", transform=ax.transAxes)
+    ax.set_axis_off()
+
+
+def _shown(result, axes) -> list:
+    """The panels of ``axes`` (sphere's, flat's) that show a body's stress: the elastic bodies'."""
+    return [ax for ax, name in zip(axes, ("sphere", "flat")) if name in result.bodies]
+
+
 def _length_unit(values):
     from ..plots import si_scale
 
@@ -112,6 +124,9 @@ def section_figure(result):
     axes = fig.subplots(2, 1, sharex=True)
     summary = result.summary()
     for ax, name, sign in ((axes[0], "sphere", 1.0), (axes[1], "flat", -1.0)):
+        if name in result.rigid:
+            _rigid_panel(ax, name)
+            continue
         b = result.bodies[name]
         data = b.section["von_mises"] / 1e6
         levels = np.linspace(0.0, vmax, 21) if vmax > 0 else 21
@@ -133,7 +148,7 @@ def section_figure(result):
         ax.set_ylabel(f"{'height above' if sign > 0 else 'depth below'} the interface [{unit}]")
         ax.set_aspect("equal", adjustable="box")
     other = "y" if axis == "x" else "x"
-    axes[1].set_xlabel(f"{axis} [{unit}] (section at {other} = "
+    _shown(result, axes)[-1].set_xlabel(f"{axis} [{unit}] (section at {other} = "
                        f"{(result.y if axis == 'x' else result.x)[result.section_index] / scale:.3g} {unit})")
     fig.colorbar(cs, ax=list(axes), label="von Mises stress [MPa]", shrink=0.8)
     return fig
@@ -148,6 +163,9 @@ def profiles_figure(result):
     fig = _figure((9.0, 4.4))
     axes = fig.subplots(1, 2, sharey=True)
     for ax, name in zip(axes, ("sphere", "flat")):
+        if name in result.rigid:
+            _rigid_panel(ax, name)
+            continue
         b = result.bodies[name]
         for f, style in (("sigma_xx", "-"), ("sigma_yy", "--"), ("sigma_zz", "-."), ("von_mises", "-"),
                          ("tresca", ":")):
@@ -158,9 +176,9 @@ def profiles_figure(result):
         ax.set_title(f"{name} (nu = {b.nu:g}) on the axis", fontsize="medium")
         ax.set_xlabel("stress [MPa] (tension positive)")
         ax.grid(True, color="0.9", linewidth=0.5)
-    axes[0].set_ylabel(f"depth into the body [{unit}]")
+    _shown(result, axes)[0].set_ylabel(f"depth into the body [{unit}]")
     axes[0].invert_yaxis()
-    axes[1].legend(fontsize="small", loc="best")
+    _shown(result, axes)[-1].legend(fontsize="small", loc="best")
     return fig
 
 
@@ -187,6 +205,9 @@ def cmd_stress(args) -> int:
     if not args.quiet:
         for name in ("sphere", "flat"):
             s = summary[name]
+            if s.get("rigid"):
+                print(f"{name}: rigid, no stress field", file=sys.stderr)
+                continue
             m = s["von_mises_max"]
             y = (f", {'yielded' if s['yielded'] else 'elastic'} (margin {s['margin']:.3g})"
                  if s["yield_strength"] is not None else "")

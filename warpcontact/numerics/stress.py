@@ -62,6 +62,8 @@ COMPONENTS = ("sigma_xx", "sigma_yy", "sigma_zz", "sigma_xy", "sigma_xz", "sigma
 DERIVED = ("von_mises", "tresca", "principal_1", "principal_2", "principal_3", "hydrostatic")
 FIELDS = COMPONENTS + DERIVED
 BODIES = ("sphere", "flat")
+#: what a result says of a rigid body (``MaterialPair.elastic`` leaves it out): it has no stress field
+RIGID_REASON = "a rigid body has no stress field: not evaluated, not checked for yield"
 #: the derivatives of Omega (orders in x, y, z) whose cell integrals make up the stresses
 BASIS = ((1, 1, 1), (1, 2, 0), (2, 1, 0), (1, 2, 1), (2, 1, 1), (1, 1, 2), (2, 0, 1), (0, 2, 1), (2, 0, 2),
          (0, 2, 2), (1, 0, 2), (0, 1, 2), (1, 0, 3), (0, 1, 3))
@@ -325,8 +327,9 @@ class StressResult:
         section_axis: "x" (the section runs along x through the centre row) or "y".
         section_index: the row (x) or column (y) of the section; axis_index: the cell (row,
             column) of the depth profiles.
-        bodies: "sphere", "flat" -> :class:`BodyStress`.
+        bodies: "sphere", "flat" -> :class:`BodyStress`, the elastic bodies (a rigid one has none).
         elapsed_s: wall time of the evaluation; device, dtype, fft: where and how.
+        rigid: the rigid bodies' names ("sphere" or "flat"; empty for two elastic bodies).
     """
 
     depths: np.ndarray
@@ -346,11 +349,13 @@ class StressResult:
     converged: bool = True
     #: per body, ``first_yield``'s answer over the states up to this one (empty when not asked)
     first_yield: dict = field(default_factory=dict)
+    rigid: tuple = ()
 
     def summary(self) -> dict:
         """stress.json's per-body part: von_mises_max and tresca_max (value [Pa], x, y, z [m], z the
-        depth into the body), yield_strength [Pa] or None, yielded, margin = S_Y / von Mises max."""
-        out = {}
+        depth into the body), yield_strength [Pa] or None, yielded, margin = S_Y / von Mises max; a
+        rigid body: ``rigid`` true, ``yielded`` None and the ``reason``."""
+        out = {name: {"rigid": True, "yielded": None, "reason": RIGID_REASON} for name in self.rigid}
         for name, b in self.bodies.items():
             vm = b.maximum("von_mises", self.depths)
             sy = b.yield_strength
@@ -410,7 +415,8 @@ def default_depths(contact_radius: float, dx: float, layers: int = DEFAULT_LAYER
 
 
 class SubsurfaceStress:
-    """Evaluates the stress in both bodies at a set of depths (module docstring: the method).
+    """Evaluates the stress in each elastic body at a set of depths (module docstring: the method);
+    a rigid body has no stress field and is left out (``bodies``).
 
     Args:
         pair: the materials (sphere: body 1, flat: body 2).
@@ -430,6 +436,8 @@ class SubsurfaceStress:
         from ..fft import make_fft
 
         self.pair, self.grid = pair, grid
+        #: the bodies evaluated: the elastic ones, in BODIES order
+        self.bodies = tuple(pair.elastic)
         self.depths = check_depths(depths)
         self.device = resolve_device(device)
         self.dtype = resolve_dtype(dtype)
@@ -491,10 +499,9 @@ class SubsurfaceStress:
     def _tables(self, z_cells: float) -> dict:
         """Each body's stress table at depth ``z_cells`` ((6, 3, 14): component, load, basis), the
         sphere's shear columns negated (it carries -q), the loads that were not loaded zeroed."""
-        materials = {"sphere": self.pair.sphere, "flat": self.pair.flat}
         tables = {}
-        for name in BODIES:
-            table = stress_table(materials[name].nu, z_cells)
+        for name in self.bodies:
+            table = stress_table(self.pair.elastic[name].nu, z_cells)
             if name == "sphere":
                 table[:, 1:, :] *= -1.0
             table[:, [not on for on in self._loads], :] = 0.0
@@ -580,11 +587,11 @@ class SubsurfaceStress:
         n, dx = self.grid.n, self.grid.dx
         self._load_tractions(pressure, shear_x, shear_y)
         depths = check_depths(depths)
-        out = {name: np.zeros((len(depths), 3)) for name in BODIES}
+        out = {name: np.zeros((len(depths), 3)) for name in self.bodies}
         for k, z in enumerate(depths):
             tables = self._tables(z / dx)
             self._basis_spectra(z / dx, tables)
-            for name in BODIES:
+            for name in self.bodies:
                 self._body_stress(tables[name])
                 self._launch(ks.von_mises_field, (n, n), [self._stress], [self._derived])
                 v, r, col = self._row_max(0)
@@ -619,10 +626,9 @@ class SubsurfaceStress:
         centre = n // 2  # the cell centre nearest 0 (x = +dx/2 for even n)
         along_x = section_axis == "x"
         nz = len(self.depths)
-        materials = {"sphere": self.pair.sphere, "flat": self.pair.flat}
         bodies = {}
-        for name in BODIES:
-            m = materials[name]
+        for name in self.bodies:
+            m = self.pair.elastic[name]
             bodies[name] = BodyStress(name, m.nu, m.yield_strength,
                                       section={f: np.zeros((nz, n)) for f in FIELDS},
                                       depth_max={"von_mises": np.zeros((nz, 3)), "tresca": np.zeros((nz, 3))},
@@ -632,7 +638,7 @@ class SubsurfaceStress:
             z_cells = z / dx
             tables = self._tables(z_cells)
             self._basis_spectra(z_cells, tables)
-            for name in BODIES:
+            for name in self.bodies:
                 body = bodies[name]
                 self._body_stress(tables[name])
                 self._launch(ks.derived_fields, (n, n), [self._stress], [self._derived])
@@ -655,7 +661,8 @@ class SubsurfaceStress:
         return StressResult(
             depths=self.depths.copy(), x=xs, y=ys, section_axis=section_axis, section_index=centre,
             axis_index=(centre, centre), bodies=bodies, elapsed_s=time.perf_counter() - t0,
-            device=str(self.device), dtype=self.dtype_name, fft=self.fft.name)
+            device=str(self.device), dtype=self.dtype_name, fft=self.fft.name,
+            rigid=tuple(b for b in BODIES if b not in self.bodies))
 
 
 def tractions(fields: dict) -> tuple:
@@ -773,12 +780,12 @@ class _YieldEvaluator:
         depths = np.asarray(depths, dtype=np.float64)
         deep = depths >= COARSE_STRESS_DEPTH_CELLS * self.grid.dx if self.coarse is not None else \
             np.zeros(len(depths), dtype=bool)
-        out = {name: np.zeros((len(depths), 3)) for name in BODIES}
+        out = {name: np.zeros((len(depths), 3)) for name in self.fine.bodies}
         for mask, evaluator, tr in ((~deep, self.fine, self.tractions),
                                     (deep, self.coarse, self.coarse_tractions)):
             if mask.any():
                 part = evaluator.von_mises_maxima(*tr, depths[mask])
-                for name in BODIES:
+                for name in self.fine.bodies:
                     out[name][mask] = part[name]
         return out
 
@@ -794,7 +801,8 @@ def yield_check(pair, grid, fields: dict, device="cpu", dtype="float64", fft="au
     Returns ``yielded`` (True when a body's maximum reaches its yield strength, False when neither
     does, None when no body has a finite yield strength or the check could not run), and per body
     ``von_mises_max`` [Pa], its depth ``z`` [m], ``yield_strength`` [Pa] or None, ``yielded``
-    and ``margin`` = yield strength / von Mises max (> 1: elastic). The depths put the maximum
+    and ``margin`` = yield strength / von Mises max (> 1: elastic); a rigid body is not evaluated:
+    ``rigid`` true, each figure None and the ``reason``. The depths put the maximum
     within about 1 % (``reason`` says why the check did not run, when it did not). The surface
     (``SURFACE_DEPTH_IN_CELLS``) is among the depths."""
     return _yield_check(pair, grid, tractions(fields), contact_radius(fields, grid.cell_area), device, dtype, fft)
@@ -846,9 +854,11 @@ def _yield_check(pair, grid, totals, radius: float, device, dtype, fft) -> dict:
     ``_YieldEvaluator``) and the contact radius [m]."""
     a = radius if radius > 0 else 16.0 * grid.dx / 2.0
     depths = np.concatenate([[SURFACE_DEPTH_IN_CELLS * grid.dx], np.array(YIELD_CHECK_DEPTHS_IN_A) * a])
-    materials = {"sphere": pair.sphere, "flat": pair.flat}
+    materials = pair.elastic
+    rigid = {name: {"rigid": True, "von_mises_max": None, "z": None, "yield_strength": None, "yielded": None,
+                    "margin": None, "reason": RIGID_REASON} for name in BODIES if name not in materials}
     if not any(math.isfinite(m.yield_strength) for m in materials.values()):
-        return {"yielded": None, "reason": "no yield_strength given"}
+        return {"yielded": None, "reason": "no yield_strength given", **rigid}
     try:
         stress = _YieldEvaluator(pair, grid, totals, depths, device, dtype, fft, radius)
         maxima = stress.maxima(depths)
@@ -870,6 +880,9 @@ def _yield_check(pair, grid, totals, radius: float, device, dtype, fft) -> dict:
         return {"yielded": None, "reason": f"the yield check could not run: {e}"}
     out = {}
     for name in BODIES:
+        if name in rigid:
+            out[name] = rigid[name]
+            continue
         vm = depth_maximum(maxima[name], depths)
         sy = materials[name].yield_strength
         finite = math.isfinite(sy)

@@ -1,6 +1,6 @@
 """The stress below the surface of a case: its load path solved (``runner.run_path``), the stress in
-both bodies evaluated at one state (``warpcontact.numerics.stress``, the evaluation's numerics) and each
-body's first yield on the path. ``warpcontact stress`` (cli/stress.py) and ``wc.subsurface_stress``.
+both bodies evaluated at one state (``warpcontact.numerics.stress``, the evaluation's numerics; a rigid
+body has none) and each body's first yield on the path. ``warpcontact stress`` (cli/stress.py) and ``wc.subsurface_stress``.
 
     import warpcontact as wc
 
@@ -14,7 +14,6 @@ import numpy as np
 
 from ..errors import InputError
 from ..numerics.stress import (
-    BODIES,
     DEFAULT_LAYERS,
     SubsurfaceStress,
     contact_radius,
@@ -70,14 +69,14 @@ def subsurface_stress(case, state: int = -1, depths=None, layers: int = DEFAULT_
     result.converged = bool(states[k]["converged"])
     result.first_yield = {}
     if with_first_yield:
-        maxima = {name: [] for name in BODIES}
+        maxima = {name: [] for name in result.bodies}  # the elastic bodies
         light = SubsurfaceStress(case.pair, grid, result.depths, device=s.device, dtype=s.dtype, fft=s.fft) \
             if volume else evaluator
         for j in range(k + 1):
             r = result if j == k else light.evaluate(*tractions(path_result.fields[j]))
-            for name in BODIES:
+            for name in maxima:
                 maxima[name].append(r.bodies[name].maximum("von_mises", r.depths)["value"])
         deltas = [states[j]["delta"] for j in range(k + 1)]
-        for name in BODIES:
+        for name in maxima:
             result.first_yield[name] = first_yield(maxima[name], deltas, result.bodies[name].yield_strength)
     return result
