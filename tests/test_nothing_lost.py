@@ -16,7 +16,8 @@ TABLE2 = [sys.executable, "-m", "warpcontact.cli", "table2", "--no-adhesion", "-
 #: the first cell the full run computes (table2.cells() order), selected again by the rerun
 FIRST_CELL = ["--k-tau", "0.5", "--delta-z-um", "1e-5"]
 OUTPUTS = ("table2.json", "table2.md", "table2.csv")
-CSV_KEYS = ["n", "k_tau", "delta_z_um", "adhesion", "sigma_max", "tau_max", "delta_n", "delta_t", "delta_x_max_um",
+CSV_KEYS = ["n", "k_tau", "delta_z_um", "adhesion", "sigma_max", "tau_max", "delta_n", "delta_t", "contact_shear",
+            "delta_x_max_um",
             "paper_delta_x_max_um", "rel_diff_delta_x_max", "mu", "paper_mu", "rel_diff_mu", "mu_elastic", "converged",
             "yielded", "yield_margin", "elapsed_s"]
 START_LIMIT_S = 120  # the first cell at n = 24 takes ~10 s here, the start included
@@ -84,7 +85,7 @@ def read_outputs(out, max_tmp: int) -> list:
         rows = list(csv.DictReader(io.StringIO((out / "table2.csv").read_text())))
         assert rows == [] or list(rows[0]) == CSV_KEYS
         for r in rows:
-            law_keys = ("sigma_max", "tau_max", "delta_n", "delta_t")  # empty in adhesionless rows
+            law_keys = ("sigma_max", "tau_max", "delta_n", "delta_t", "contact_shear")  # empty in adhesionless rows
             required = [k for k in CSV_KEYS if k not in law_keys or r["adhesion"] == "True"]
             assert None not in r and all(r[k] not in (None, "") for k in required), r
             for k in ("k_tau", "delta_z_um", "delta_x_max_um", "mu", "elapsed_s"):
