@@ -473,3 +473,48 @@ def test_documented_examples_parse():
     d = paper_dict()
     d["load"] = tomllib.loads(blocks[1])["load"]
     assert case_from_dict(d).load.path()[-1] == (0.0, 0.0, -1e-11)
+
+
+def test_a_key_in_the_wrong_case_names_the_key_meant():
+    """``e = 210e9`` in [sphere]: "did you mean 'E'" (difflib alone finds no match for one letter)."""
+    from pathlib import Path
+
+    from warpcontact.records.case import tomllib
+
+    base = tomllib.loads((Path(__file__).resolve().parents[1] / "examples" / "hertz.toml").read_text())
+    base["sphere"]["e"] = base["sphere"].pop("E")
+    with pytest.raises(InputError, match="sphere.e: unknown key; did you mean 'E'"):
+        case_from_dict(base)
+
+
+def test_with_overrides_takes_any_dotted_key_as_sweeps_do():
+    from pathlib import Path
+
+    from warpcontact.records.case import tomllib
+
+    base = case_from_dict(tomllib.loads((Path(__file__).resolve().parents[1] / "examples" / "figure2c.toml").read_text()))
+    case = base.with_overrides({"grid.n": 64, "friction.k_tau": 0.8}, device="cpu")
+    assert case.grid.n == 64 and case.friction.k_tau == 0.8 and case.solver.device == "cpu"
+    assert case.pair == base.pair and case.load == base.load  # nothing else moves
+    assert base.with_overrides({"solver.dtype": "float32"}).solver.tol == 1e-5  # a defaulted tol follows the dtype
+    explicit = base.with_overrides({"load.path": [[0.0, 0.0, 1e-10]]})
+    assert explicit.load.explicit and explicit.load.path() == [(0.0, 0.0, 1e-10)]
+    with pytest.raises(InputError, match="grid.nn: unknown key; did you mean 'n'"):
+        base.with_overrides({"grid.nn": 3})
+    with pytest.raises(InputError, match="friction.k_tau"):
+        base.with_overrides({"friction.k_tau": 1.5})
+
+
+def test_the_tangential_leg_takes_steps_of_its_own():
+    d = {"sphere": {"radius": 1e-5, "E": 106e9, "nu": 0.33}, "flat": {"E": 205e9, "nu": 0.31},
+         "grid": {"n": 32, "size": 1e-7}, "load": {"delta_z": 1e-10, "delta_x": 3e-11, "steps": 4,
+                                                     "tangential_steps": 2}}
+    case = case_from_dict(d)
+    assert case.load.path() == [(0.0, 0.0, 2.5e-11), (0.0, 0.0, 5e-11), (0.0, 0.0, 7.5e-11), (0.0, 0.0, 1e-10),
+                                (1.5e-11, 0.0, 1e-10), (3e-11, 0.0, 1e-10)]
+    assert case_from_dict(case.to_dict()) == case
+    d["load"]["tangential_steps"] = 0
+    with pytest.raises(InputError, match="load.tangential_steps"):
+        case_from_dict(d)
+    del d["load"]["tangential_steps"]
+    assert len(case_from_dict(d).load.path()) == 8  # steps for both legs, as before

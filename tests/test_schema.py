@@ -151,6 +151,9 @@ def variants() -> list:
     path = copy.deepcopy(base)
     path["load"] = {"path": [[0.0, 0.0, 5e-11], [2e-11, 0.0, 1e-10]]}
     out.append(path)
+    legs = copy.deepcopy(base)  # the tangential leg in steps of its own
+    legs["load"].update(delta_x=2e-11, steps=4, tangential_steps=2)
+    out.append(legs)
     out.append({**copy.deepcopy(base), "friction": {"law": "coulomb", "mu": 0.3}})
     out.append({**copy.deepcopy(base), "friction": {"law": "tabor", "k_tau": 0.8, "k_vm": 0.6, "hardness_cap": True}})
     for body in ("sphere", "flat"):  # a rigid body: rigid = true, none of the material's keys

@@ -62,6 +62,7 @@ VALUES = {
     "load.delta_x": _NUMBER,
     "load.delta_y": _NUMBER,
     "load.steps": _integer(1, C.MAX_STEPS),
+    "load.tangential_steps": _integer(1, C.MAX_STEPS),
     "load.path": {"type": "array", "minItems": 1, "maxItems": 2 * C.MAX_STEPS,
                   "items": {"type": "array", "minItems": 3, "maxItems": 3, "items": _NUMBER}},
     "solver.device": {"type": "string", "pattern": f"^({C._DEVICE_RE.pattern})$"},

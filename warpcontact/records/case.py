@@ -21,6 +21,7 @@ Example::
 
 from __future__ import annotations
 
+import copy
 import difflib
 import math
 import numbers
@@ -54,7 +55,7 @@ FLAT_KEYS = ("E", "nu", "yield_strength", "hardness", "rigid")
 #: The keys of a body's material: an elastic body needs E and nu, a rigid one (rigid = true) takes none.
 MATERIAL_KEYS = ("E", "nu", "yield_strength", "hardness")
 GRID_KEYS = ("n", "size")
-LOAD_KEYS = ("delta_z", "delta_x", "delta_y", "steps", "path")
+LOAD_KEYS = ("delta_z", "delta_x", "delta_y", "steps", "tangential_steps", "path")
 SOLVER_KEYS = ("device", "dtype", "tol", "max_iter", "max_turns", "fft", "nested", "window")
 FRICTION_KEYS = {"coulomb": ("law", "mu"), "tabor": ("law", "k_tau", "k_vm", "hardness_cap")}
 ADHESION_KEYS = {"smc": ("law", "sigma_max", "tau_max", "delta_n", "delta_t", "contact_shear"),
@@ -222,6 +223,29 @@ def _table(key: str, v) -> Mapping:
     return v
 
 
+#: The [load] keys of the default path (an explicit ``path`` replaces them all).
+DEFAULT_PATH_KEYS = ("delta_z", "delta_x", "delta_y", "steps", "tangential_steps")
+
+
+def substitute(base: dict, params: Mapping) -> dict:
+    """A copy of the case dict ``base`` with ``params`` (dotted case key -> value, in the case file's
+    SI units: "friction.k_tau", "load.delta_z" [m]) put in: a sweep's combination, a fit's row at a
+    point. An explicit ``load.path`` replaces the default path's keys, and the reverse."""
+    d = copy.deepcopy(base)
+    swept = {tuple(k.split(".", 1)) for k in params}
+    load = d.get("load", {})
+    if ("load", "path") in swept:
+        for k in DEFAULT_PATH_KEYS:
+            if ("load", k) not in swept:
+                load.pop(k, None)
+    elif any(t == "load" and k in DEFAULT_PATH_KEYS for t, k in swept):
+        load.pop("path", None)
+    for key, v in params.items():
+        table, name = key.split(".", 1)
+        d.setdefault(table, {})[name] = copy.deepcopy(v)
+    return d
+
+
 def _check_keys(table: str, d: Mapping, allowed: Sequence[str], why: str = "unknown key") -> None:
     """Refuse any key of ``d`` outside ``allowed``, naming it (and, for a typo, the nearest allowed key)."""
     for k in d:
@@ -229,7 +253,8 @@ def _check_keys(table: str, d: Mapping, allowed: Sequence[str], why: str = "unkn
             continue
         name = k if isinstance(k, str) else repr(k)
         typo = why.startswith("unknown") and isinstance(k, str)
-        near = difflib.get_close_matches(name, allowed, n=1) if typo else []
+        same = [a for a in allowed if a.lower() == name.lower()] if typo else []  # e for E
+        near = same or (difflib.get_close_matches(name, allowed, n=1) if typo else [])
         hint = f"did you mean {near[0]!r}? " if near else ""
         raise InputError(f"{table}.{name}" if table else name, f"{why}; {hint}expected one of {', '.join(allowed)}")
 
@@ -403,6 +428,8 @@ class LoadSpec:
         delta_x: final tangential approach along x [m] of the default path.
         delta_y: final tangential approach along y [m] of the default path.
         steps: equal steps per leg of the default path (normal leg, then tangential leg).
+        tangential_steps: equal steps of the tangential leg where it differs from ``steps``
+            (None: ``steps``).
         states: the explicit path, (delta_x, delta_y, delta_z) triples [m] in order; None for the
             default path.
     """
@@ -411,13 +438,14 @@ class LoadSpec:
     delta_x: float = 0.0
     delta_y: float = 0.0
     steps: int = 1
+    tangential_steps: int | None = None
     states: tuple[State, ...] | None = None
 
     def __post_init__(self):
         if self.states is not None:
             if self.delta_z is not None:
                 raise InputError("load.delta_z", "must not be given together with load.path (the path lists every state)")
-            for name, default in (("delta_x", 0.0), ("delta_y", 0.0), ("steps", 1)):
+            for name, default in (("delta_x", 0.0), ("delta_y", 0.0), ("steps", 1), ("tangential_steps", None)):
                 if getattr(self, name) != default:
                     raise InputError(f"load.{name}", "must not be given together with load.path (the path lists every state)")
             _set(self, "states", _path_states(self.states))
@@ -428,6 +456,8 @@ class LoadSpec:
         _set(self, "delta_x", _number("load.delta_x", self.delta_x, unit="m"))
         _set(self, "delta_y", _number("load.delta_y", self.delta_y, unit="m"))
         _set(self, "steps", _integer("load.steps", self.steps, 1, MAX_STEPS))
+        if self.tangential_steps is not None:
+            _set(self, "tangential_steps", _integer("load.tangential_steps", self.tangential_steps, 1, MAX_STEPS))
 
     @property
     def explicit(self) -> bool:
@@ -438,8 +468,9 @@ class LoadSpec:
         """The (delta_x, delta_y, delta_z) states [m] of the path, in the order they are solved.
 
         Default path: delta_z in ``steps`` equal steps with delta_x = delta_y = 0, then delta_x and
-        delta_y together in ``steps`` equal steps at the final delta_z (that leg is left out when
-        delta_x = delta_y = 0). The unloaded state (0, 0, 0) is not part of the path.
+        delta_y together in ``tangential_steps`` (default ``steps``) equal steps at the final
+        delta_z (that leg is left out when delta_x = delta_y = 0). The unloaded state (0, 0, 0) is
+        not part of the path.
         """
         if self.states is not None:
             return list(self.states)
@@ -447,6 +478,7 @@ class LoadSpec:
         states = [(0.0, 0.0, self.delta_z * k / n) for k in range(1, n + 1)]
         states[-1] = (0.0, 0.0, self.delta_z)
         if self.delta_x != 0.0 or self.delta_y != 0.0:
+            n = self.steps if self.tangential_steps is None else self.tangential_steps
             states += [(self.delta_x * k / n, self.delta_y * k / n, self.delta_z) for k in range(1, n + 1)]
             states[-1] = (self.delta_x, self.delta_y, self.delta_z)
         return states
@@ -459,7 +491,10 @@ class LoadSpec:
     def to_dict(self) -> dict:
         if self.states is not None:
             return {"path": [list(s) for s in self.states]}
-        return {"delta_z": self.delta_z, "delta_x": self.delta_x, "delta_y": self.delta_y, "steps": self.steps}
+        out = {"delta_z": self.delta_z, "delta_x": self.delta_x, "delta_y": self.delta_y, "steps": self.steps}
+        if self.tangential_steps is not None:
+            out["tangential_steps"] = self.tangential_steps
+        return out
 
 
 def _path_states(v) -> tuple[State, ...]:
@@ -806,9 +841,20 @@ class Case:
             return SphereSpec(self.sphere.radius, profile=self.sphere.profile, rigid=True)
         return SphereSpec(self.sphere.radius, m.E, m.nu, m.yield_strength, m.hardness, self.sphere.profile)
 
-    def with_overrides(self, device: str | None = None, dtype: str | None = None, fft: str | None = None) -> Case:
-        """A new case with solver settings replaced (e.g. from the command line); None keeps a setting."""
-        return replace(self, solver=self.solver.with_overrides(device=device, dtype=dtype, fft=fft))
+    def with_overrides(self, keys: Mapping | None = None, *, device: str | None = None, dtype: str | None = None,
+                       fft: str | None = None) -> Case:
+        """A new case with values replaced: ``keys``, dotted case keys -> values in the case file's
+        SI units, as sweeps take them (``{"grid.n": 256, "friction.k_tau": 0.8}``; the case is
+        checked again as a whole, and an explicit ``load.path`` replaces the default path's keys,
+        and the reverse); ``device``, ``dtype``, ``fft``: the solver's (e.g. from the command line),
+        None keeps a setting. A defaulted tol follows a new dtype."""
+        case = self
+        if keys:
+            d = self.to_dict()
+            if self.solver.tol_default and "solver.tol" not in keys:
+                d["solver"].pop("tol", None)  # the new dtype's default, not the old one's
+            case = case_from_dict(substitute(d, keys))
+        return replace(case, solver=case.solver.with_overrides(device=device, dtype=dtype, fft=fft))
 
     def to_dict(self) -> dict:
         """The case as plain data (JSON-serialisable, no NaN; inf written as "inf").
@@ -926,7 +972,7 @@ def _rigid(table: str, d: Mapping) -> bool:
 def _load_from(ld: Mapping) -> LoadSpec:
     _check_keys("load", ld, LOAD_KEYS)
     if "path" in ld:
-        for k in ("delta_z", "delta_x", "delta_y", "steps"):
+        for k in DEFAULT_PATH_KEYS:
             if k in ld:
                 raise InputError(f"load.{k}", "must not be given together with load.path (the path lists every state)")
         return LoadSpec(states=_path_states(ld["path"]))
@@ -937,6 +983,8 @@ def _load_from(ld: Mapping) -> LoadSpec:
         delta_x=_number("load.delta_x", ld.get("delta_x", 0.0), unit="m"),
         delta_y=_number("load.delta_y", ld.get("delta_y", 0.0), unit="m"),
         steps=_integer("load.steps", ld.get("steps", 1), 1, MAX_STEPS),
+        tangential_steps=(_integer("load.tangential_steps", ld["tangential_steps"], 1, MAX_STEPS)
+                          if "tangential_steps" in ld else None),
     )
 
 

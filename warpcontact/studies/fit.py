@@ -56,7 +56,7 @@ import numpy as np
 
 from .. import interrupts
 from .._version import __version__
-from ..records.case import Case, case_from_dict, read_toml
+from ..records.case import Case, case_from_dict, read_toml, substitute
 from ..errors import InputError, OutputError
 from .sweep import (
     CASE_SCHEMA,
@@ -71,7 +71,6 @@ from .sweep import (
     run_scheduler,
     run_settings,
     short_float,
-    substitute,
 )
 
 #: Tables of a fit file.

@@ -67,6 +67,7 @@ from ..records.case import (
     case_from_dict,
     load_case,
     read_toml,
+    substitute,
 )
 from ..errors import ConvergenceError, InputError, NonFiniteError, OutputError
 from .tasks import TASKS  # what each case runs: its load path, gross slip or pull-off (tasks.run_task)
@@ -89,7 +90,6 @@ CASE_SCHEMA = {
 }
 DOTTED_KEYS = tuple(f"{t}.{k}" for t, keys in CASE_SCHEMA.items() for k in keys)
 #: Load keys of the default path, which an explicit ``load.path`` replaces (and the reverse).
-_DEFAULT_PATH_KEYS = ("delta_z", "delta_x", "delta_y", "steps")
 #: Keys of a case's JSON summary in the CSV, first (the rest follow in the order met).
 _CSV_FIXED = ("id", "label", "status", "converged")
 #: InputError keys that concern the machine, not a case: they stop the sweep instead of being recorded.
@@ -305,25 +305,6 @@ def run_scheduler(data: Mapping) -> str | None:
     if not isinstance(v, str) or not v.strip():
         raise InputError("run.scheduler", f"must be a scheduler's address such as 'tcp://host:8786', got {v!r}")
     return v.strip()
-
-
-def substitute(base: dict, params: Mapping) -> dict:
-    """A copy of the case dict ``base`` with ``params`` (dotted case key -> value, in the case file's
-    SI units: "friction.k_tau", "load.delta_z" [m]) put in: a sweep's combination, a fit's row at a
-    point. An explicit ``load.path`` replaces the default path's keys, and the reverse."""
-    d = copy.deepcopy(base)
-    swept = {tuple(k.split(".", 1)) for k in params}
-    load = d.get("load", {})
-    if ("load", "path") in swept:
-        for k in _DEFAULT_PATH_KEYS:
-            if ("load", k) not in swept:
-                load.pop(k, None)
-    elif any(t == "load" and k in _DEFAULT_PATH_KEYS for t, k in swept):
-        load.pop("path", None)
-    for key, v in params.items():
-        table, name = key.split(".", 1)
-        d.setdefault(table, {})[name] = copy.deepcopy(v)
-    return d
 
 
 def switched_off(params: Mapping) -> tuple:
@@ -831,7 +812,6 @@ __all__ = [
     "run_case",
     "run_sweep",
     "short_float",
-    "substitute",
     "sweep_from_dict",
     "switched_off",
 ]
