@@ -33,16 +33,6 @@ ROLE_HTML = re.compile(r"\b(?:class|func|meth|mod|attr|data|exc|obj|const):(?:<c
 #: an autorefs cross-reference, [text][identifier] (or [identifier][])
 AUTOREF = re.compile(r"\[([^\[\]]+)\]\[([^\[\]]*)\]")
 
-#: objects the page renders whose docstrings still hold reST roles: their files are being
-#: changed by others (warpcontact/studies/sweep.py, warpcontact/solvers/). Each is an expected
-#: failure (strict): once its roles are gone, take it out of this set.
-PENDING = {
-    "warpcontact.studies.sweep.load_sweep": ":func:`sweep_from_dict`",
-    "warpcontact.studies.sweep.run_sweep": ":class:`warpcontact.studies.batch.Placement`, :mod:`...` (3), "
-                                           ":func:`_write_status`",
-    "warpcontact.studies.sweep.SweepReport": ":class:`~warpcontact.errors.OutputError`, "
-                                             ":class:`warpcontact.studies.batch.BatchStats`",
-}
 
 
 def directives():
@@ -164,10 +154,7 @@ def references(docs):
     return out
 
 
-@pytest.mark.parametrize("identifier", [
-    pytest.param(d, marks=pytest.mark.xfail(strict=True, reason=f"raw roles left in a file others edit: {PENDING[d]}"))
-    if d in PENDING else d
-    for d in directives()])
+@pytest.mark.parametrize("identifier", directives())
 def test_no_raw_roles_in_rendered_docstrings(identifier):
     """The docstrings of the block (the object and its rendered members) hold no reST role."""
     found = {where: ROLE.findall(doc) for where, doc in rendered(identifier).items()}
@@ -219,7 +206,7 @@ def test_built_api_page(tmp_path):
         return max((b for b in blocks if heading == b or heading.startswith(b + ".")), key=len)
 
     outside = [(block_of(m.start()), html[m.start():m.start() + 60])
-               for m in ROLE_HTML.finditer(html) if block_of(m.start()) not in PENDING]
+               for m in ROLE_HTML.finditer(html)]
     assert not outside
     assert "][warpcontact" not in html  # an unresolved cross-reference is left as text
     for where, text, target in (ref for block in page().values() for ref in references(block)):

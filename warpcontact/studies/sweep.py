@@ -429,7 +429,7 @@ def sweep_from_dict(data: Mapping, source: str | PathLike | None = None, device:
 
 def load_sweep(path: str | PathLike, device: str | None = None, dtype: str | None = None,
                fft: str | None = None) -> Sweep:
-    """Read, parse and validate a sweep file (TOML); see :func:`sweep_from_dict`.
+    """Read, parse and validate a sweep file (TOML); see `sweep_from_dict`.
 
     Raises:
         InputError: key = the file path when it cannot be read or parsed, else as sweep_from_dict.
@@ -455,9 +455,9 @@ class SweepReport:
         elapsed_s: wall time of this run [s].
         total: number of cases in the sweep.
         stop_signal: "SIGINT", "SIGTERM", "SIGHUP" when interrupted, else None.
-        write_error: the :class:`~warpcontact.errors.OutputError` that ended the run (a full disk,
+        write_error: the `warpcontact.errors.OutputError` that ended the run (a full disk,
             a read-only file system, ...), or None; the cases finished before it are on disk.
-        batch: the batch engine's times (:class:`warpcontact.studies.batch.BatchStats`), or None.
+        batch: the batch engine's times ([`BatchStats`][warpcontact.studies.batch.BatchStats]), or None.
     """
 
     records: list = field(default_factory=list)
@@ -656,21 +656,21 @@ def run_sweep(sweep: Sweep, out: str | PathLike, quiet: bool = False, log=None, 
               finish=None) -> SweepReport:
     """Run every case of ``sweep`` not finished before in ``out``; write each at once.
 
-    The cases run where ``placement`` (:class:`warpcontact.studies.batch.Placement`) says: in this process
+    The cases run where ``placement`` ([`Placement`][warpcontact.studies.batch.Placement]) says: in this process
     (the default), on a local cluster of worker processes, or on a cluster given by its scheduler's
-    address (:mod:`warpcontact.studies.batch`). As each case finishes, in this process:
+    address (`warpcontact.studies.batch`). As each case finishes, in this process:
     ``out/cases/<id>.json`` (params, label, task, status "ok" / "not converged" / "error",
     converged, summary, elapsed_s [s], warnings, the case dict) and ``out/sweep.csv`` (every
     finished case of this sweep), both atomically. A case that raises InputError (not a device or
     FFT problem, which stops the sweep), NonFiniteError or ConvergenceError is recorded with
     ``error`` and the sweep continues; so is a case whose workers died every time it was tried.
     Ctrl-C stops the run; what finished is written and the report says ``interrupted`` (SIGTERM
-    and SIGHUP likewise, where the command line handles them: :mod:`warpcontact.interrupts`). A
+    and SIGHUP likewise, where the command line handles them: `warpcontact.interrupts`). A
     write that fails (no space left, read-only file system, ...) ends the run with
     ``report.write_error`` set: the cases finished before are on disk and a rerun resumes.
-    ``out/sweep.json`` says whether the sweep is complete (:func:`_write_status`). Unless quiet, a
+    ``out/sweep.json`` says whether the sweep is complete (`_write_status`). Unless quiet, a
     result line per case goes to ``log`` (stderr), under a progress bar on a terminal (cases done,
-    running, failed; :mod:`warpcontact.records.progress`); warnings and errors are printed either way.
+    running, failed; `warpcontact.records.progress`); warnings and errors are printed either way.
     ``finish(records)``, when given, is called with every finished record in sweep order once the
     run's cases are done and sweep.csv is written, before sweep.json is marked complete (the command
     line draws ``out/sweep.png`` there); an OutputError or a stop it raises is handled as one met
