@@ -113,7 +113,7 @@ def test_area_map_legend_names_the_areas_in_nm2(fields):
     stick_nm2 = fields["stick_mask"][-1].sum() * dA
     stick = [t for t in texts if "stick" in t]
     assert stick and float(stick[0].split(": ")[1].split(" nm")[0].replace(",", "")) == pytest.approx(stick_nm2, rel=1e-3)
-    # the areas add up as printed: contact = stick + slip to the last printed figure (issue 32: 2 + 0.293 = 2)
+    # the areas add up as printed: contact = stick + slip to the last printed figure (2 + 0.293 = 2)
     import re
 
     contact = [t for t in texts if "A_c" in t][0]
