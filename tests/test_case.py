@@ -304,6 +304,20 @@ BAD_CASES = [
     ("path-string-entry", _set("load", {"path": [[0, 0, "5e-11"]]}), "load.path"),
     ("path-with-delta_z", _set("load.path", [[0, 0, 5e-11]]), "load.delta_z"),
     ("path-with-steps", _set("load", {"path": [[0, 0, 5e-11]], "steps": 2}), "load.steps"),
+    ("path-with-amplitude", _set("load", {"path": [[0, 0, 5e-11]], "delta_x_amplitude": 1e-11}),
+     "load.delta_x_amplitude"),
+    ("normal_steps-zero", _set("load.normal_steps", 0), "load.normal_steps"),
+    ("amplitude-zero", _set("load.delta_x_amplitude", 0.0), "load.delta_x_amplitude"),
+    ("amplitude-negative", _set("load.delta_y_amplitude", -1e-11), "load.delta_y_amplitude"),
+    ("amplitude-string", _set("load.delta_x_amplitude", "10 pm"), "load.delta_x_amplitude"),
+    ("amplitude-off-the-grid", _set("load.delta_x_amplitude", 1e-6), "load.delta_x_amplitude"),
+    ("amplitude-with-delta_x", _set("load", {"delta_z": 5e-11, "delta_x": 1e-11, "delta_x_amplitude": 1e-11}),
+     "load.delta_x"),
+    ("cycles-without-amplitude", _set("load.cycles", 2), "load.cycles"),
+    ("cycles-zero", _set("load", {"delta_z": 5e-11, "delta_x_amplitude": 1e-11, "cycles": 0}), "load.cycles"),
+    ("cycles-float", _set("load", {"delta_z": 5e-11, "delta_x_amplitude": 1e-11, "cycles": 2.0}), "load.cycles"),
+    ("cycles-too-many-states", _set("load", {"delta_z": 5e-11, "delta_x_amplitude": 1e-11, "cycles": 10000,
+                                             "tangential_steps": 100}), "load.cycles"),
     # the solver
     ("device-tpu", _set("solver.device", "tpu"), "solver.device"),
     ("device-cuda-colon", _set("solver.device", "cuda:"), "solver.device"),
@@ -518,3 +532,39 @@ def test_the_tangential_leg_takes_steps_of_its_own():
         case_from_dict(d)
     del d["load"]["tangential_steps"]
     assert len(case_from_dict(d).load.path()) == 8  # steps for both legs, as before
+
+
+def test_the_normal_leg_takes_steps_of_its_own():
+    d = paper_dict()
+    d["load"] = {"delta_z": 4e-11, "delta_x": 2e-11, "steps": 2, "normal_steps": 4}
+    case = case_from_dict(d)
+    assert case.load.path() == [(0.0, 0.0, 1e-11), (0.0, 0.0, 2e-11), (0.0, 0.0, 3e-11), (0.0, 0.0, 4e-11),
+                                (1e-11, 0.0, 4e-11), (2e-11, 0.0, 4e-11)]
+    assert case_from_dict(case.to_dict()) == case
+
+
+def test_a_cyclic_path():
+    """0 -> +A in tangential_steps steps (the first quarter), then each cycle +A -> -A -> +A in
+    4 x tangential_steps, both amplitudes in phase, after normal_steps normal steps; every
+    reversal lands exactly on +-A and every crossing on 0."""
+    d = paper_dict()
+    d["load"] = {"delta_z": 4e-11, "delta_x_amplitude": 2e-11, "delta_y_amplitude": 1e-11, "cycles": 2,
+                 "normal_steps": 2, "tangential_steps": 2}
+    case = case_from_dict(d)
+    path = case.load.path()
+    s = [0.5, 1, 0.5, 0, -0.5, -1, -0.5, 0, 0.5, 1] * 2
+    assert path[:2] == [(0.0, 0.0, 2e-11), (0.0, 0.0, 4e-11)]
+    assert path[2:] == [(2e-11 * f, 1e-11 * f, 4e-11) for f in [0.5, 1] + s[2:10] + s[2:10]]
+    assert case.load.cycle_bounds() == [(3, 11), (11, 19)]
+    for first, last in case.load.cycle_bounds():
+        assert path[first] == path[last] == (2e-11, 1e-11, 4e-11)
+    assert case_from_dict(case.to_dict()) == case
+    assert "delta_x" not in case.to_dict()["load"]  # an amplitude, not a final approach
+    del d["load"]["cycles"]  # one cycle by default
+    assert case_from_dict(d).load.cycle_bounds() == [(3, 11)]
+    d["load"]["delta_x"] = 0.0  # a zero final approach beside an amplitude is no contradiction
+    assert len(case_from_dict(d).load.path()) == 2 + 2 * 5
+    assert case_from_dict(paper_dict()).load.cycle_bounds() == []
+    # a sweep's amplitude over a case of the default path replaces its tangential leg
+    swept = case_from_dict(paper_dict()).with_overrides({"load.delta_x_amplitude": 1e-11})
+    assert swept.load.cyclic and len(swept.load.path()) == 1 + 5

@@ -154,6 +154,10 @@ def variants() -> list:
     legs = copy.deepcopy(base)  # the tangential leg in steps of its own
     legs["load"].update(delta_x=2e-11, steps=4, tangential_steps=2)
     out.append(legs)
+    cyclic = copy.deepcopy(base)  # a cyclic path (fretting): both amplitudes, the cycles, each leg's steps
+    cyclic["load"] = {"delta_z": base["load"]["delta_z"], "delta_x_amplitude": 2e-11, "delta_y_amplitude": 1e-11,
+                      "cycles": 2, "steps": 3, "normal_steps": 4, "tangential_steps": 2}
+    out.append(cyclic)
     out.append({**copy.deepcopy(base), "friction": {"law": "coulomb", "mu": 0.3}})
     out.append({**copy.deepcopy(base), "friction": {"law": "tabor", "k_tau": 0.8, "k_vm": 0.6, "hardness_cap": True}})
     for body in ("sphere", "flat"):  # a rigid body: rigid = true, none of the material's keys

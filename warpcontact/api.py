@@ -87,8 +87,9 @@ def gross_slip(case: CaseLike, device=None, dtype=None, fft=None, rel_tol: float
                model=None) -> dict:
     """delta_x at gross slip [m] and the static friction coefficient mu = F_x / F_z there.
 
-    The case needs ``[friction]``; its final delta_z is loaded in ``load.steps`` steps, then
-    delta_x rises until no cell sticks, and bisection narrows the bracket to ``rel_tol``.
+    The case needs ``[friction]``; its final delta_z is loaded in ``load.normal_steps`` (default
+    ``load.steps``) steps, then delta_x rises until no cell sticks, and bisection narrows the
+    bracket to ``rel_tol``.
     Returns the summary of `run_gross_slip` (the keys of ``warpcontact gross-slip``'s
     result.json less the run's record): delta_x_max, delta_x_gross [m], mu, mu_elastic, force,
     force_elastic [N], stick_area, contact_area [m^2], converged, states, elapsed_s [s], and

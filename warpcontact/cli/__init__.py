@@ -100,8 +100,9 @@ def _parser():
     g = _case_command(
         sub, "gross-slip",
         help="find delta_x at gross slip and the static friction coefficient",
-        description="Load the case's delta_z in [load] steps with friction active, then raise delta_x until no "
-        "cell sticks; bisect to 1 %. The case needs a [friction] table; its delta_x, delta_y are not used.",
+        description="Load the case's delta_z in [load] normal_steps (default steps) with friction active, then "
+        "raise delta_x until no cell sticks; bisect to 1 %. The case needs a [friction] table; its delta_x, delta_y "
+        "(or amplitudes) are not used.",
         epilog="example:\n  warpcontact gross-slip examples/table2_k080_dz5e-5.toml --out out/gs\n\n"
         "writes OUT/result.json with delta_x_max [m], mu, the force at delta_x_max [N] and every state of the path.",
     )

@@ -335,8 +335,8 @@ def check_shift(load, size: float) -> None:
         key = "load.path"
         shift = max(max(abs(dx), abs(dy)) for dx, dy, _ in load.states)
     else:
-        key, shift = max((("load.delta_x", abs(load.delta_x)), ("load.delta_y", abs(load.delta_y))),
-                         key=lambda item: item[1])
+        keys = ("delta_x_amplitude", "delta_y_amplitude") if load.cyclic else ("delta_x", "delta_y")
+        key, shift = max(((f"load.{k}", abs(getattr(load, k) or 0.0)) for k in keys), key=lambda item: item[1])
     if not shift > half:
         return
     g = _closest(shift, DOWN, 1e-2 * half, lambda v: v <= 0.5 * half)

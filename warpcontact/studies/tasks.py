@@ -75,7 +75,7 @@ def run_gross_slip(case: Case, model, solver, rel_tol: float = 0.01, on_state=No
         if on_state is not None:
             on_state(k, s)
 
-    steps = case.load.steps if not case.load.explicit else 4
+    steps = case.load.normal_leg_steps if not case.load.explicit else 4
     r = find_gross_slip(model, solver, case.load.delta_z_max, normal_steps=steps, rel_tol=rel_tol, on_state=observe,
                         at_max=state_yield_keys)
     checks.gross_slip(r)
