@@ -458,6 +458,7 @@ def load_fit(path: str | PathLike, device: str | None = None, dtype: str | None 
     data = read_toml(path, "fit file")
     return fit_from_dict(data, source=path, device=device, dtype=dtype, fft=fft)
 
+
 def _show(values: Mapping) -> str:
     """``k_tau=0.7,sigma_max=1e+06``: parameter values by their keys' last part, 6 digits."""
     return ",".join(f"{k.split('.', 1)[1]}={float(v):.6g}" for k, v in values.items())
