@@ -281,7 +281,7 @@ def test_the_adhesive_zone_is_judged_by_the_same_rule():
 
 
 def test_table2_grids_are_judged_by_the_same_rule():
-    from warpcontact.cli import _table2_resolution
+    from warpcontact.cli.table2 import _table2_resolution
     from warpcontact.records.guards import CoarseGridWarning
 
     law = {"delta_n": 5e-12}
