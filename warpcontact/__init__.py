@@ -10,7 +10,7 @@ from ._version import __version__  # noqa: F401  (kept in sync with pyproject.to
 from typing import TYPE_CHECKING
 
 if TYPE_CHECKING:  # for readers, type checkers and the documentation's static analysis
-    from .api import gross_slip, path, pull_off, solve
+    from .api import fretting, gross_slip, path, pull_off, solve
     from .records.case import Case, case_from_dict, load_case
     from .errors import ConvergenceError, InputError, NonFiniteError
     from .physics.geometry import Grid, Sphere
@@ -26,7 +26,7 @@ _LAZY = {
     "Material": "physics.materials",
     "MaterialPair": "physics.materials",
     "Case": "records.case", "case_from_dict": "records.case", "load_case": "records.case",
-    "gross_slip": "api", "path": "api", "pull_off": "api", "solve": "api",
+    "gross_slip": "api", "path": "api", "pull_off": "api", "solve": "api", "fretting": "api",
     "subsurface_stress": "studies.stress_study",
 }
 
@@ -65,6 +65,7 @@ __all__ = [
     "path",
     "gross_slip",
     "pull_off",
+    "fretting",
     "subsurface_stress",
     "InputError",
     "ConvergenceError",

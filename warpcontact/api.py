@@ -9,10 +9,11 @@
         print(state["delta"]["z"], state["force"]["z"])
     gs = wc.gross_slip(case)                                    # delta_x_max [m], mu
     po = wc.pull_off(case)                                      # needs [adhesion]: pull_off_force [N]
+    fr = wc.fretting(case)                                      # a cyclic path: energy per cycle [J]
 
 The dicts returned are the result.json of the matching command less the run's record (device,
 software, case, complete): one builder per kind of result (:func:`run_gross_slip`,
-:func:`run_pull_off`), shared with the command line and the sweep rows (:func:`result_row`).
+:func:`run_pull_off`, ``studies.fretting.fretting_summary``), shared with the command line and the sweep rows (:func:`result_row`).
 
 Every function takes a case (SI units throughout): a :class:`~warpcontact.records.case.Case`, the
 path of a case file or a dict of its tables; and optional ``device``, ``dtype`` and ``fft`` overrides; mistakes raise ``InputError`` (a ValueError) naming the
@@ -110,3 +111,22 @@ def pull_off(case: CaseLike, steps: int = 20, retract_to: float | None = None, d
     ``model``: as [`solve`][warpcontact.solve]'s."""
     return pull_off_summary(_prepare(case, device, dtype, fft), steps=steps, retract_to=retract_to,
                             on_state=on_state, model=model)
+
+
+def fretting(case: CaseLike, device=None, dtype=None, fft=None, on_state=None, model=None) -> dict:
+    """Solve the case's cyclic path (``[load] delta_x_amplitude`` or ``delta_y_amplitude``,
+    ``cycles``; the case needs ``[friction]``) and return each whole cycle's loop: the keys of
+    ``warpcontact fretting``'s result.json less the run's record and the last state's quantities.
+    ``cycles``: one dict per whole cycle, with energy [J] (the loop integral of F_x d(delta_x) +
+    F_y d(delta_y), Simpson's rule), energy_error [J] (|Simpson - trapezoid|), force_amplitude Q*
+    [N], displacement_amplitude delta* [m], energy_ratio A = W / (4 delta* Q*) [-], regime
+    ("partial slip" or "gross slip": some state of the cycle has no stick cell), min_stick_area
+    [m^2], normal_force_min and normal_force_max [N], converged; normal_force [N] (F_z at the end
+    of the normal leg); displacement_amplitude [m]; closed_form (Mindlin and Deresiewicz's
+    force_amplitude, energy, energy_ratio, regime and delta_gross [m] for this amplitude, where it
+    applies: Coulomb friction, Dundurs beta = 0, no adhesion; else None and closed_form_note says
+    why); states, converged, elapsed_s [s] and the last state's yield check.
+    ``on_state(index, total, summary)`` after each state; ``model``: as [`solve`][warpcontact.solve]'s."""
+    from .studies.fretting import fretting_summary
+
+    return fretting_summary(_prepare(case, device, dtype, fft), on_state=on_state, model=model)

@@ -1,5 +1,6 @@
 """Figures of solved states, after the paper's Figures 1 and 2; a pull-off's force-approach curve
-(:func:`pull_off_curve`) and a sweep's results against its swept values (:func:`sweep_figure`).
+(:func:`pull_off_curve`), a fretting run's loops and energies (:func:`fretting_loop`,
+:func:`fretting_energy`) and a sweep's results against its swept values (:func:`sweep_figure`).
 
 Every function of a state takes ``fields``, a mapping of numpy arrays as written to ``fields.npz`` by
 ``warpcontact solve`` (``results.state_fields`` stacked over the states of the path, SI units,
@@ -455,6 +456,101 @@ def pull_off_curve(result: dict) -> Figure:
     return fig
 
 
+def _fretting_axis(result: dict):
+    """(ux, uy, name): the displacement's direction in a fretting result (that of its farthest
+    tangential approach) and the subscript that names it: x, y, or t (along the direction) for both."""
+    far = max(result["states"], key=lambda s: math.hypot(s["delta"]["x"], s["delta"]["y"]))
+    ax_, ay_ = far["delta"]["x"], far["delta"]["y"]
+    d = math.hypot(ax_, ay_) or 1.0
+    name = "x" if ay_ == 0.0 else "y" if ax_ == 0.0 else "t"
+    return ax_ / d, ay_ / d, name
+
+
+def fretting_loop(result: dict) -> Figure:
+    """The fretting loops of a fretting result (``warpcontact fretting``'s result.json, or
+    ``wc.fretting``'s dict): the
+    tangential force against the tangential approach, F_x against delta_x (along the displacement's
+    direction where both amplitudes are given), the first quarter dashed and each whole cycle in a
+    colour of its own, and Mindlin and Deresiewicz's loop (black, dashed) where the closed form
+    applies. Both axes in the data's own scale."""
+    from .physics.reference import mindlin_deresiewicz_loop
+
+    states = result["states"]
+    ux, uy, name = _fretting_axis(result)
+    d = np.array([s["delta"]["x"] * ux + s["delta"]["y"] * uy for s in states])
+    f = np.array([s["force"]["x"] * ux + s["force"]["y"] * uy for s in states])
+    cycles = result.get("cycles") or []
+    ref = result.get("closed_form")
+    d_scale, d_unit = si_scale(d, "m")
+    f_scale, f_unit = si_scale(list(f) + ([ref["force_amplitude"]] if ref else []), "N")
+    e_scale, e_unit = si_scale([c["energy"] for c in cycles if c["energy"] is not None]
+                               + ([ref["energy"]] if ref else []), "J")
+    fig = _figure((6.4, 4.8))
+    ax = fig.add_subplot()
+    first = cycles[0]["first_state"] if cycles else len(states) - 1
+    start = next((i for i, s in enumerate(states) if s["delta"]["x"] or s["delta"]["y"]), first)
+    ax.plot(np.r_[0.0, d[start:first + 1]] / d_scale, np.r_[0.0, f[start:first + 1]] / f_scale, "--", color="0.5",
+            lw=1.0, label="first quarter")
+    for i, c in enumerate(cycles):
+        seg = slice(c["first_state"], c["last_state"] + 1)
+        energy = "" if c["energy"] is None else f", W = {c['energy'] / e_scale:.4g} {e_unit}"
+        ax.plot(d[seg] / d_scale, f[seg] / f_scale, "-o", ms=2.5, lw=1.2, color=SERIES_COLORS[i % len(SERIES_COLORS)],
+                label=f"cycle {c['cycle']}{energy}")
+    if ref:
+        amp = result["displacement_amplitude"]
+        grid = np.linspace(-amp, amp, 401)
+        down, up = mindlin_deresiewicz_loop(ref["normal_force"], ref["contact_radius"], ref["mu"], ref["compliance"],
+                                            amp, grid)
+        ax.plot(np.r_[grid[::-1], grid] / d_scale, np.r_[down[::-1], up] / f_scale, "k--", lw=1.0,
+                label=f"Mindlin-Deresiewicz, W = {ref['energy'] / e_scale:.4g} {e_unit}")
+    ax.axhline(0.0, color="0.8", lw=0.6)
+    ax.axvline(0.0, color="0.8", lw=0.6)
+    ax.set_xlabel(f"tangential approach $\\delta_{name}$ [{d_unit}]")
+    ax.set_ylabel(f"tangential force $F_{name}$ [{f_unit}]")
+    p = result.get("normal_force")
+    p_text = "" if p is None else ", $F_z$ = {:.4g} {}".format(p / si_scale([p], "N")[0], si_scale([p], "N")[1])
+    regime = cycles[-1]["regime"] if cycles and cycles[-1].get("regime") else None
+    ax.set_title("fretting loop" + p_text + (f", {regime}" if regime else ""), fontsize="medium")
+    ax.legend(fontsize="small", loc="upper left")
+    ax.grid(alpha=0.3)
+    return fig
+
+
+def fretting_energy(result: dict) -> Figure:
+    """The energy dissipated in each whole cycle of a fretting result [J], with the integration's
+    error estimate as error bars, the partial- and gross-slip cycles marked apart, Fouvry's ratio A
+    of each cycle written beside it, and Mindlin and Deresiewicz's energy where the closed form
+    applies."""
+    cycles = [c for c in result.get("cycles") or [] if c.get("energy") is not None]
+    ref = result.get("closed_form")
+    e_scale, e_unit = si_scale([c["energy"] for c in cycles] + ([ref["energy"]] if ref else []), "J")
+    fig = _figure((6.4, 4.4))
+    ax = fig.add_subplot()
+    for regime, marker, color in (("partial slip", "o", CONTACT_COLOR), ("gross slip", "s", STICK_COLOR)):
+        rows = [c for c in cycles if c["regime"] == regime]
+        if rows:
+            ax.errorbar([c["cycle"] for c in rows], [c["energy"] / e_scale for c in rows],
+                        yerr=[c["energy_error"] / e_scale for c in rows], fmt=marker, color=color, ms=6, capsize=3,
+                        label=regime)
+    for c in cycles:
+        if c.get("energy_ratio") is not None:
+            ax.annotate(f"A = {c['energy_ratio']:.3f}", (c["cycle"], c["energy"] / e_scale), xytext=(6, 6),
+                        textcoords="offset points", fontsize="x-small")
+    if ref:
+        ax.axhline(ref["energy"] / e_scale, color="k", ls="--", lw=1.0,
+                   label=f"Mindlin-Deresiewicz {ref['energy'] / e_scale:.4g} {e_unit} (A = {ref['energy_ratio']:.3f})")
+    if not cycles:
+        ax.text(0.5, 0.5, "no whole cycle finished, or none converged", transform=ax.transAxes, ha="center",
+                va="center", color="0.4")
+    ax.set_xlabel("cycle")
+    ax.set_ylabel(f"energy dissipated per cycle [{e_unit}]")
+    ax.xaxis.get_major_locator().set_params(integer=True)
+    ax.set_title("energy per cycle (error bars: trapezoid against Simpson)", fontsize="medium")
+    ax.legend(fontsize="small")
+    ax.grid(alpha=0.3)
+    return fig
+
+
 #: Line colours of a sweep's series: the paper's (MATLAB's) colour order.
 SERIES_COLORS = (CONTACT_COLOR, STICK_COLOR, ADHESIVE_COLOR, "#7E2F8E", "#77AC30", "#4DBEEE", "#A2142F")
 
@@ -634,5 +730,5 @@ def save(fig: Figure, path, dpi=None) -> None:
         raise
 
 
-__all__ = ["area_map", "area_formatter", "field_maps", "profile", "pull_off_curve", "save", "si_scale", "has_adhesion",
-           "sweep_figure", "CONTACT_COLOR", "STICK_COLOR", "ADHESIVE_COLOR"]
+__all__ = ["area_map", "area_formatter", "field_maps", "fretting_energy", "fretting_loop", "profile", "pull_off_curve",
+           "save", "si_scale", "has_adhesion", "sweep_figure", "CONTACT_COLOR", "STICK_COLOR", "ADHESIVE_COLOR"]

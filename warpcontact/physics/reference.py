@@ -34,6 +34,64 @@ def mindlin(pair, radius: float, delta_z: float, mu: float, ratio: float) -> dic
     }
 
 
+def mindlin_deresiewicz(normal_force: float, contact_radius: float, mu: float, compliance: float,
+                        amplitude: float) -> dict:
+    """A sphere under a constant normal force P, its tangential displacement cycled between
+    -amplitude and +amplitude (Coulomb mu; Mindlin & Deresiewicz 1953; Johnson, Contact Mechanics,
+    ch. 7). Exact where the normal and tangential problems uncouple (Dundurs beta = 0: identical
+    materials, or a rigid body on an incompressible one).
+
+    ``normal_force`` P [N]; ``contact_radius`` a [m], Hertz's for P; ``mu`` [-]; ``compliance``
+    1/G* = (2 - nu1)/G1 + (2 - nu2)/G2 [1/Pa] (``MaterialPair.mindlin_compliance``); ``amplitude``
+    delta* [m], > 0. Partial slip while delta* <= delta_s = 3 mu P / (16 a G*), the displacement at
+    gross slip: the force amplitude Q* follows from delta* = delta_s (1 - (1 - x)^(2/3)), x =
+    Q* / (mu P), and the energy dissipated per cycle is W = (9 mu^2 P^2 / (10 a G*)) [1 - (1 -
+    x)^(5/3) - (5 x / 6)(1 + (1 - x)^(2/3))] (about Q*^3 / (36 mu P a G*) for small x; 3 mu^2 P^2 /
+    (20 a G*) at x = 1). Beyond delta_s the sphere slides: Q* = mu P and W = 3 mu^2 P^2 / (20 a G*)
+    + 4 mu P (delta* - delta_s).
+
+    Returns delta_gross (delta_s) [m], force_amplitude (Q*) [N], ratio (x) [-], energy (W) [J],
+    energy_ratio (Fouvry's A = W / (4 delta* Q*)) [-], 0.2 at the transition, regime ("partial
+    slip" or "gross slip").
+    """
+    if not (amplitude > 0.0 and normal_force > 0.0 and contact_radius > 0.0 and mu > 0.0 and compliance > 0.0):
+        raise ValueError("mindlin_deresiewicz needs a positive normal force, contact radius, mu, compliance and "
+                         "amplitude")
+    mu_p = mu * normal_force
+    delta_s = 3.0 * mu_p * compliance / (16.0 * contact_radius)
+    scale = mu_p**2 * compliance / contact_radius  # mu^2 P^2 / (a G*) [J]
+    if amplitude < delta_s:
+        x = 1.0 - (1.0 - amplitude / delta_s) ** 1.5
+        energy = 0.9 * scale * (1.0 - (1.0 - x) ** (5.0 / 3.0) - 5.0 * x / 6.0 * (1.0 + (1.0 - x) ** (2.0 / 3.0)))
+        regime = "partial slip"
+    else:
+        x = 1.0
+        energy = 0.15 * scale + 4.0 * mu_p * (amplitude - delta_s)
+        regime = "gross slip"
+    force = x * mu_p
+    return {"delta_gross": delta_s, "force_amplitude": force, "ratio": x, "energy": energy,
+            "energy_ratio": energy / (4.0 * amplitude * force), "regime": regime}
+
+
+def mindlin_deresiewicz_loop(normal_force: float, contact_radius: float, mu: float, compliance: float,
+                             amplitude: float, delta) -> tuple:
+    """The two branches of :func:`mindlin_deresiewicz`'s loop at displacements ``delta`` [m]
+    (array-like, within +-amplitude): (unloading, from +amplitude down; loading, from -amplitude
+    up), each the tangential force [N]. Masing's rule on the first loading Q = mu P (1 - (1 -
+    delta / delta_s)^(3/2)): Q = Q* - 2 mu P (1 - (1 - (delta* - delta) / (2 delta_s))^(3/2)) down,
+    the mirror image up; where (delta* -+ delta) exceeds 2 delta_s the sphere slides at -+mu P."""
+    import numpy as np
+
+    r = mindlin_deresiewicz(normal_force, contact_radius, mu, compliance, amplitude)
+    mu_p, q, d_s = mu * normal_force, r["force_amplitude"], r["delta_gross"]
+    d = np.asarray(delta, dtype=float)
+
+    def turned(travel):  # the change of force after a reversal, over a travel [m] since it
+        return 2.0 * mu_p * (1.0 - (1.0 - np.clip(travel / (2.0 * d_s), 0.0, 1.0)) ** 1.5)
+
+    return q - turned(amplitude - d), -q + turned(d + amplitude)
+
+
 def maugis_dugdale_pull_off(lam: float) -> float:
     """Maugis-Dugdale pull-off force over pi w R for the Maugis parameter lambda [-], under load control.
 
