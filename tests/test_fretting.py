@@ -286,3 +286,40 @@ def test_a_stopped_run_keeps_the_cycles_it_finished(handlers, tmp_path, monkeypa
     assert main(["fretting", _write(tmp_path, d), "--out", str(out), "--quiet"]) == 0
     res = json.loads((out / "result.json").read_text())
     assert res["complete"] and len(res["cycles"]) == 2 and (out / "loop.png").exists()
+
+
+# --- the sweep task ---------------------------------------------------------------------------------
+
+
+def test_a_fretting_sweep_maps_the_regime_and_the_energy(tmp_path, capsys):
+    """task = "fretting" over the approach and the amplitude: a row per case with the last cycle's
+    energy, A and regime (partial slip below Mindlin's delta_s, gross slip above it), sweep.png and
+    map.png; a base without a cyclic path is refused before anything runs, naming the key."""
+    import csv
+
+    from warpcontact.cli import main
+    from warpcontact.errors import InputError
+    from warpcontact.studies.sweep import sweep_from_dict
+
+    base = case(32, steps=4)
+    sweep = {"base": base, "sweep": {"load.delta_z": [0.8e-9, 1e-9], "load.delta_x_amplitude": [0.5 * DELTA_S,
+                                                                                                  1.5 * DELTA_S]},
+             "run": {"task": "fretting"}}
+    _write(tmp_path, base)  # tmp_path / fretting.toml, the sweep's base
+    lines = ['base = "fretting.toml"', "[sweep]", *(f'"{k}" = {json.dumps(v)}' for k, v in sweep["sweep"].items()),
+             "[run]", 'task = "fretting"']
+    path = tmp_path / "sweep.toml"
+    path.write_text("\n".join(lines) + "\n")
+    out = tmp_path / "out"
+    assert main(["sweep", str(path), "--out", str(out), "--quiet"]) == 0, capsys.readouterr().err
+    rows = list(csv.DictReader((out / "sweep.csv").open()))
+    assert len(rows) == 4 and all(float(r["energy"]) > 0.0 and r["n_cycles"] == "1" for r in rows)
+    assert [r["regime"] for r in rows] == ["partial slip", "gross slip"] * 2
+    assert all(r["regime"] == r["closed_form_regime"] for r in rows)
+    for name in ("sweep.png", "map.png"):
+        assert (out / name).read_bytes()[:4] == b"\x89PNG"
+    del sweep["base"]["load"]["delta_x_amplitude"], sweep["base"]["load"]["cycles"]
+    sweep["sweep"] = {"load.delta_z": [0.8e-9, 1e-9]}
+    with pytest.raises(InputError) as e:
+        sweep_from_dict(sweep)
+    assert e.value.key == "load.delta_x_amplitude" and "task 'fretting'" in str(e.value)

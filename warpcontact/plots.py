@@ -557,7 +557,7 @@ SERIES_COLORS = (CONTACT_COLOR, STICK_COLOR, ADHESIVE_COLOR, "#7E2F8E", "#77AC30
 #: The SI unit of a swept case key, by its last part (docs/case-files.md); a key not listed is drawn
 #: as its bare value.
 _KEY_UNITS = {**dict.fromkeys(("radius", "size", "delta_z", "delta_x", "delta_y", "delta_n", "delta_t", "h_0", "rho",
-                               "z0"), "m"),
+                               "z0", "delta_x_amplitude", "delta_y_amplitude"), "m"),
               **dict.fromkeys(("E", "yield_strength", "hardness", "sigma_max", "tau_max", "sigma_0"), "Pa"),
               "w": "J/m$^2$"}
 
@@ -568,6 +568,8 @@ SWEEP_QUANTITIES = {
     "gross-slip": ((("delta_x_max",), "gross-slip displacement $\\delta_{x,max}$", "m"),
                    (("mu",), "friction coefficient $\\mu = F_x / F_z$ at gross slip", "")),
     "pull-off": ((("pull_off_force",), "pull-off force (most tensile $F_z$)", "N"),),
+    "fretting": ((("energy",), "energy dissipated per cycle, last cycle", "J"),
+                 (("energy_ratio",), "Fouvry's energy ratio $A = W / (4 \\delta^* Q^*)$", "")),
     "solve": ((("force", "z"), "normal force $F_z$, last state", "N"),
               (("force", "x"), "tangential force $F_x$, last state", "N")),
 }
@@ -587,7 +589,7 @@ def _summary_value(rec, path):
 def _sweep_quantities(records, task):
     """The (path, label, unit) of each panel of a sweep's figure (:data:`SWEEP_QUANTITIES`)."""
     quantities = SWEEP_QUANTITIES.get(task, SWEEP_QUANTITIES["solve"])
-    if task not in ("gross-slip", "pull-off"):
+    if quantities is SWEEP_QUANTITIES["solve"]:
         tangential = any(_summary_value(r, ("force", "x")) or _summary_value(r, ("force", "y")) for r in records)
         if not tangential:  # a normal approach: F_x is zero in every row, the contact radius says more
             quantities = (quantities[0], _CONTACT_RADIUS)
@@ -622,8 +624,9 @@ def sweep_figure(records, keys, task: str) -> Figure:
     ``records``: a sweep's case records in sweep order (``run_sweep``'s ``report.records``, or the
     files of OUT/cases: ``params``, ``status``, ``summary``); ``keys``: the swept dotted keys in the
     sweep file's order; ``task``: "gross-slip" (delta_x_max [m] and mu), "pull-off" (pull-off force
-    [N]) or "solve" (the last state's F_z [N], and F_x [N] where a row has a tangential force, else
-    the contact radius [m]). Axes in the data's own scale (:func:`si_scale`); a numeric first key
+    [N]), "fretting" (the last cycle's energy [J] and Fouvry's ratio A; ``fretting_map`` draws the
+    plane of two keys) or "solve" (the last state's F_z [N], and F_x [N] where a row has a
+    tangential force, else the contact radius [m]). Axes in the data's own scale (:func:`si_scale`); a numeric first key
     spanning more than a factor 20 on a log axis; values that are not all numbers (law names, a
     load path) as category labels in sweep order. A case that recorded an error or whose result
     was withheld leaves a gap; a point that did not converge is drawn hollow in red. Where a table
@@ -710,6 +713,69 @@ def sweep_figure(records, keys, task: str) -> Figure:
     return fig
 
 
+def fretting_map(records, keys) -> Figure:
+    """A fretting sweep over two numeric keys (the normal approach and the amplitude, say) as a map:
+    each case a marker at its two values, coloured by the energy dissipated in its last cycle (log
+    scale) and shaped by its regime (circle: partial slip, square: gross slip; hollow red: not
+    converged or no result), with Fouvry's A written beside it; where the cases carry Mindlin and
+    Deresiewicz's closed form and one key is an amplitude, the closed form's transition delta* =
+    delta_s over the other key, dashed. ``records``: the sweep's case records (``params``,
+    ``status``, ``summary``); ``keys``: the swept keys, the first two drawn (x, y)."""
+    from matplotlib.colors import LogNorm
+
+    keys = list(keys)
+    if len(keys) < 2:
+        raise ValueError("a fretting map needs two swept keys")
+    xkey, ykey = keys[:2]
+    pts = [(r["params"].get(xkey), r["params"].get(ykey), r) for r in records]
+    if not all(isinstance(v, (int, float)) and not isinstance(v, bool) for x, y, _ in pts for v in (x, y)):
+        raise ValueError(f"a fretting map needs numeric values of {xkey} and {ykey}")
+    def scale(i, key):  # the axis of a swept key in its values' own prefix (5 nm), a bare number without a unit
+        unit = _KEY_UNITS.get(key.split(".", 1)[-1])
+        return si_scale([p[i] for p in pts], unit) if unit else (1.0, "")
+
+    (xs, xu), (ys, yu) = scale(0, xkey), scale(1, ykey)
+    energies = [_summary_value(r, ("energy",)) for _, _, r in pts]
+    positive = [e for e in energies if e is not None and e > 0.0]
+    fig = _figure((6.8, 5.0))
+    ax = fig.add_subplot()
+    norm = LogNorm(min(positive), max(positive)) if positive and min(positive) < max(positive) else None
+    drawn = None
+    for regime, marker in (("partial slip", "o"), ("gross slip", "s")):
+        sel = [(x, y, e, r) for (x, y, r), e in zip(pts, energies)
+               if e is not None and (r.get("summary") or {}).get("regime") == regime and r.get("status") == "ok"]
+        if sel:
+            drawn = ax.scatter([x / xs for x, *_ in sel], [y / ys for _, y, *_ in sel], c=[e for *_, e, _ in sel],
+                               cmap="viridis", norm=norm, marker=marker, s=70, edgecolors="k", linewidths=0.5)
+            ax.plot([], [], marker, mfc="0.8", mec="k", mew=0.5, ms=8, label=regime)  # the legend's, uncoloured
+    bad = [(x, y) for (x, y, r), e in zip(pts, energies) if e is None or r.get("status") != "ok"]
+    if bad:
+        ax.plot([x / xs for x, _ in bad], [y / ys for _, y in bad], "o", mfc="white", mec="red", ms=8, mew=1.4,
+                label="not converged or no result")
+    for x, y, r in pts:
+        a = _summary_value(r, ("energy_ratio",))
+        if a is not None:
+            ax.annotate(f"{a:.2f}", (x / xs, y / ys), xytext=(5, 5), textcoords="offset points", fontsize="x-small")
+    amplitude = [i for i, k in enumerate((xkey, ykey)) if k.endswith("_amplitude")]
+    line = sorted({(p[1 - amplitude[0]], _summary_value(p[2], ("closed_form", "delta_gross"))) for p in pts}
+                  ) if len(amplitude) == 1 else []
+    line = [(o, d) for o, d in line if d is not None]
+    if line:
+        other = [o for o, _ in line]
+        d_s = [d for _, d in line]
+        xy = (np.array(other) / xs, np.array(d_s) / ys) if amplitude[0] == 1 else (np.array(d_s) / xs,
+                                                                                  np.array(other) / ys)
+        ax.plot(*xy, "k--", lw=1.0, label="Mindlin-Deresiewicz: $\\delta^* = \\delta_s$ (A = 0.2)")
+    if drawn is not None:
+        fig.colorbar(drawn, ax=ax, label="energy dissipated per cycle [J]")
+    ax.set_xlabel(f"{xkey} [{xu}]" if xu else xkey)
+    ax.set_ylabel(f"{ykey} [{yu}]" if yu else ykey)
+    ax.set_title(f"fretting map: {len(records)} case(s); markers: regime, labels: A", fontsize="medium")
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize="small", loc="best")
+    return fig
+
+
 def save(fig: Figure, path, dpi=None) -> None:
     """Write ``fig`` as a PNG at ``path``, whole or not at all (a temporary file, then os.replace)."""
     path = Path(path)
@@ -730,5 +796,5 @@ def save(fig: Figure, path, dpi=None) -> None:
         raise
 
 
-__all__ = ["area_map", "area_formatter", "field_maps", "fretting_energy", "fretting_loop", "profile", "pull_off_curve",
+__all__ = ["area_map", "area_formatter", "field_maps", "fretting_energy", "fretting_loop", "fretting_map", "profile", "pull_off_curve",
            "save", "si_scale", "has_adhesion", "sweep_figure", "CONTACT_COLOR", "STICK_COLOR", "ADHESIVE_COLOR"]

@@ -40,7 +40,7 @@ file), the swept case keys with their values, and the task:
   "friction.k_tau" = [0.5, 0.8, 0.95]
   "load.delta_z" = [1e-11, 5e-11]
   [run]
-  task = "gross-slip"               # or "solve", "pull-off"; default gross-slip when the base has [friction]
+  task = "gross-slip"               # or "solve", "pull-off", "fretting"; default gross-slip when the base has [friction]
   # scheduler = "tcp://host:8786"   # run on a dask cluster started by hand (docs/scaling.md)
 
 "friction.law" and "adhesion.law" may list "none": that combination runs without the table
@@ -50,7 +50,8 @@ writes OUT/cases/<id>.json for each case as soon as it finishes (the swept value
 delta_x_max [m], mu, force [N] for gross-slip, the last state's forces and areas for solve;
 elapsed_s, the whole case), OUT/sweep.csv (one row per finished case, swept keys first),
 OUT/sweep.json (complete or not) and, at the end, OUT/sweep.png (the results against the first
-swept key, a line per value of the second). Run it again to finish an interrupted sweep: finished
+swept key, a line per value of the second; task fretting over two keys: OUT/map.png too, the regime
+and the energy over their plane). Run it again to finish an interrupted sweep: finished
 cases are skipped. See docs/sweeps.md."""
 
 
@@ -114,24 +115,29 @@ def placement_from(args, scheduler=None):
 
 
 def plot_sweep(sweep, records, out) -> None:
-    """Draw OUT/sweep.png from the finished ``records`` of ``sweep`` (:func:`warpcontact.plots.sweep_figure`);
+    """Draw OUT/sweep.png from the finished ``records`` of ``sweep`` (:func:`warpcontact.plots.sweep_figure`),
+    and for a fretting sweep of two or more keys OUT/map.png (:func:`warpcontact.plots.fretting_map`);
     :func:`~warpcontact.studies.sweep.run_sweep` calls it after sweep.csv is written. A figure that
     cannot be drawn is a warning line (the table and the cases stand); one that cannot be written
     raises OutputError; a stop leaves no part of the file (KeyboardInterrupt propagates)."""
     from .. import plots
     from ..files import output_error
 
-    path = Path(out) / "sweep.png"
-    try:
-        fig = plots.sweep_figure(records, sweep.keys, sweep.task)
-    except (ValueError, TypeError, KeyError, IndexError, ArithmeticError) as e:  # the table is what counts
-        print(f"warpcontact: warning: {path} not drawn ({type(e).__name__}: {e}); the results are in "
-              f"{Path(out) / 'sweep.csv'}", file=sys.stderr)
-        return
-    try:
-        plots.save(fig, path)  # whole or not at all, a stop included
-    except OSError as e:
-        raise output_error(path, e) from None
+    figures = [("sweep.png", lambda: plots.sweep_figure(records, sweep.keys, sweep.task))]
+    if sweep.task == "fretting" and len(sweep.keys) >= 2:  # the regime and the energy over the plane
+        figures.append(("map.png", lambda: plots.fretting_map(records, sweep.keys)))
+    for name, draw in figures:
+        path = Path(out) / name
+        try:
+            fig = draw()
+        except (ValueError, TypeError, KeyError, IndexError, ArithmeticError) as e:  # the table is what counts
+            print(f"warpcontact: warning: {path} not drawn ({type(e).__name__}: {e}); the results are in "
+                  f"{Path(out) / 'sweep.csv'}", file=sys.stderr)
+            continue
+        try:
+            plots.save(fig, path)  # whole or not at all, a stop included
+        except OSError as e:
+            raise output_error(path, e) from None
 
 
 def cmd_sweep(args) -> int:
@@ -148,7 +154,7 @@ def cmd_sweep(args) -> int:
                        finish=lambda records: plot_sweep(sweep, records, args.out))
     out = args.out
     if report.write_error is not None:
-        if Path(report.write_error.path).name == "sweep.png":  # the last output: every case is written
+        if Path(report.write_error.path).name in ("sweep.png", "map.png"):  # the last outputs: every case is written
             raise report.write_error.with_hint(
                 f"every case and sweep.csv are kept in {out}: free space and run the same command again to draw "
                 "the plot") from None

@@ -170,3 +170,17 @@ def fretting_summary(case, on_state=None, model=None) -> dict:
         raise KeyboardInterrupt
     return {**fretting_keys(case, result.states), "states": result.states, "converged": result.converged,
             "elapsed_s": result.elapsed_s, **yield_keys(result.yield_check)}
+
+
+def fretting_row(summary: dict) -> dict:
+    """A fretting summary (:func:`fretting_summary`) as a sweep row: the last whole cycle's values
+    at the top (energy [J], energy_error [J], force_amplitude [N], displacement_amplitude [m],
+    energy_ratio, regime, min_stick_area [m^2], normal_force_min and normal_force_max [N]: the
+    steadiest cycle), n_cycles, n_states, normal_force [N], converged, closed_form (or None) and
+    closed_form_note, and the yield check; no list of states or cycles."""
+    last = summary["cycles"][-1] if summary["cycles"] else {}
+    row = {k: v for k, v in summary.items() if k not in ("states", "cycles", "elapsed_s")}
+    row.update({k: v for k, v in last.items() if k not in ("cycle", "first_state", "last_state", "converged")})
+    row["n_cycles"] = len(summary["cycles"])
+    row["n_states"] = len(summary["states"])
+    return row

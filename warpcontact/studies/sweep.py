@@ -7,7 +7,7 @@ A sweep file is TOML (the format, with an example, is in ``docs/sweeps.md``)::
     "friction.k_tau" = [0.5, 0.8, 0.95]     # dotted case keys -> lists of values
     "load.delta_z" = [1e-11, 5e-11]
     [run]
-    task = "gross-slip"                     # or "solve"; default: gross-slip with [friction]
+    task = "gross-slip"                     # or "solve", "pull-off", "fretting"; default: gross-slip with [friction]
 
 From Python::
 
@@ -135,7 +135,7 @@ class Sweep:
         base: the base case.
         keys: swept dotted case keys, in file order.
         values: per key, the list of values.
-        task: "solve" or "gross-slip".
+        task: one of ``tasks.TASKS``: "solve", "gross-slip", "pull-off" or "fretting".
         rel_tol: bisection bracket of delta_x_max (gross-slip).
         cases: every combination, in order.
         source: the sweep file, or None.
@@ -362,6 +362,16 @@ def check_task(sc: SweepCase, task: str) -> None:
                                   f"delta_z = {dz!r} m{where}")
     if task == "pull-off" and sc.case.adhesion is None:
         raise InputError("run.task", f"'pull-off' needs an [adhesion] table in the base case{where}")
+    if task == "fretting":
+        from .fretting import check_fretting_case
+
+        if "friction" in off:
+            raise InputError("sweep.friction.law", f"'none' leaves no friction, which task 'fretting' needs{where}")
+        try:
+            check_fretting_case(sc.case)
+        except InputError as e:
+            raise InputError("run.task" if e.key == "friction" else e.key, f"task 'fretting': {e.problem}{where}") \
+                from None
     try:  # the laws check what the case checks do not (Tabor needs a finite yield strength)
         friction_law(sc.case)
         adhesion_law(sc.case)
@@ -641,6 +651,11 @@ def _result_text(task: str, summary: dict) -> str:
         if summary["pull_off_force"] is None:
             return "not converged"
         return f"pull-off force {summary['pull_off_force']:.4e} N (Tabor parameter {summary['tabor_parameter']:.3g})"
+    if task == "fretting":
+        if summary.get("energy") is None:
+            return "no whole cycle converged"
+        return (f"W {summary['energy']:.4e} J per cycle, Q* {summary['force_amplitude']:.4e} N, "
+                f"A {summary['energy_ratio']:.4f}, {summary['regime']}")
     f = summary["force"]
     text = f"F_z {f['z']:.4e} N, F_x {f['x']:.4e} N, contact radius {summary['contact_radius']:.4e} m"
     return text if summary["converged"] else text + " (not converged)"

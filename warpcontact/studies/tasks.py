@@ -15,8 +15,9 @@ from ..errors import InputError
 #: What the Python API takes as a case: a Case, a case file's path, or a dict of its tables.
 CaseLike = Case | str | PathLike | Mapping
 
-#: What a case may run: its load path, the gross-slip search, the approach-retract curve.
-TASKS = ("solve", "gross-slip", "pull-off")
+#: What a case may run: its load path, the gross-slip search, the approach-retract curve, a cyclic
+#: path's loops (warpcontact.studies.fretting).
+TASKS = ("solve", "gross-slip", "pull-off", "fretting")
 
 
 def prepare(case: CaseLike, device=None, dtype=None, fft=None) -> Case:
@@ -168,7 +169,8 @@ def pull_off_summary(case: Case, steps: int = 20, retract_to: float | None = Non
 
 def run_task(task: str, rel_tol: float, case: Case, on_state, model=None) -> dict:
     """Solve one case's ``task`` (one of TASKS) and return its summary as a sweep row: a gross-slip
-    or pull-off summary less its lists of states (:func:`result_row`), or a solve's last state with
+    or pull-off summary less its lists of states (:func:`result_row`), a fretting summary's last
+    whole cycle (``studies.fretting.fretting_row``), or a solve's last state with
     ``converged``, ``n_states`` and the yield check of its last state. ``on_state(index, total or
     None, summary)`` follows its states; ``model``: as in :func:`gross_slip_summary`.
     KeyboardInterrupt propagates (a solve stopped part-way is not a summary)."""
@@ -177,6 +179,10 @@ def run_task(task: str, rel_tol: float, case: Case, on_state, model=None) -> dic
         return result_row(r)
     if task == "pull-off":
         return result_row(pull_off_summary(case, on_state=on_state, model=model))
+    if task == "fretting":
+        from .fretting import fretting_row, fretting_summary
+
+        return fretting_row(fretting_summary(case, on_state=on_state, model=model))
     from .runner import run_path
     from ..numerics.stress import yield_keys
 
