@@ -13,7 +13,6 @@ come from).
 from __future__ import annotations
 
 import json
-import math
 import signal
 
 import numpy as np
@@ -288,6 +287,27 @@ def test_a_stopped_run_keeps_the_cycles_it_finished(handlers, tmp_path, monkeypa
     assert res["complete"] and len(res["cycles"]) == 2 and (out / "loop.png").exists()
 
 
+def test_a_figure_that_cannot_be_written_leaves_the_result_incomplete(tmp_path, monkeypatch, capsys):
+    """A full disk at loop.png: exit 74, one line naming it; result.json holds every state and cycle,
+    complete: false, with the write_error."""
+    import errno
+
+    from warpcontact import plots
+    from warpcontact.cli import main
+
+    def full(fig, path, dpi=None):
+        raise OSError(errno.ENOSPC, "No space left on device")
+
+    monkeypatch.setattr(plots, "save", full)
+    out = tmp_path / "out"
+    assert main(["fretting", _write(tmp_path, case(32, steps=4)), "--out", str(out), "--quiet"]) == 74
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "loop.png" in err[0] and "no space left" in err[0], err
+    res = json.loads((out / "result.json").read_text())
+    assert res["complete"] is False and "loop.png" in res["write_error"] and len(res["cycles"]) == 1
+    assert len(res["states"]) == res["n_states_planned"]
+
+
 # --- the sweep task ---------------------------------------------------------------------------------
 
 
@@ -302,8 +322,7 @@ def test_a_fretting_sweep_maps_the_regime_and_the_energy(tmp_path, capsys):
     from warpcontact.studies.sweep import sweep_from_dict
 
     base = case(32, steps=4)
-    sweep = {"base": base, "sweep": {"load.delta_z": [0.8e-9, 1e-9], "load.delta_x_amplitude": [0.5 * DELTA_S,
-                                                                                                  1.5 * DELTA_S]},
+    sweep = {"base": base, "sweep": {"load.delta_z": [DZ], "load.delta_x_amplitude": [0.5 * DELTA_S, 1.5 * DELTA_S]},
              "run": {"task": "fretting"}}
     _write(tmp_path, base)  # tmp_path / fretting.toml, the sweep's base
     lines = ['base = "fretting.toml"', "[sweep]", *(f'"{k}" = {json.dumps(v)}' for k, v in sweep["sweep"].items()),
@@ -313,13 +332,13 @@ def test_a_fretting_sweep_maps_the_regime_and_the_energy(tmp_path, capsys):
     out = tmp_path / "out"
     assert main(["sweep", str(path), "--out", str(out), "--quiet"]) == 0, capsys.readouterr().err
     rows = list(csv.DictReader((out / "sweep.csv").open()))
-    assert len(rows) == 4 and all(float(r["energy"]) > 0.0 and r["n_cycles"] == "1" for r in rows)
-    assert [r["regime"] for r in rows] == ["partial slip", "gross slip"] * 2
+    assert len(rows) == 2 and all(float(r["energy"]) > 0.0 and r["n_cycles"] == "1" for r in rows)
+    assert [r["regime"] for r in rows] == ["partial slip", "gross slip"]
     assert all(r["regime"] == r["closed_form_regime"] for r in rows)
     for name in ("sweep.png", "map.png"):
         assert (out / name).read_bytes()[:4] == b"\x89PNG"
     del sweep["base"]["load"]["delta_x_amplitude"], sweep["base"]["load"]["cycles"]
-    sweep["sweep"] = {"load.delta_z": [0.8e-9, 1e-9]}
+    sweep["sweep"] = {"load.delta_z": [0.8e-9, DZ]}
     with pytest.raises(InputError) as e:
         sweep_from_dict(sweep)
     assert e.value.key == "load.delta_x_amplitude" and "task 'fretting'" in str(e.value)

@@ -21,6 +21,7 @@ COMMANDS = {
     "solve": ["solve", EXAMPLES / "hertz.toml"],
     "gross-slip": ["gross-slip", EXAMPLES / "table2_k080_dz5e-5.toml"],
     "pull-off": ["pull-off", EXAMPLES / "pull_off_dmt.toml"],
+    "fretting": ["fretting", EXAMPLES / "fretting_steel.toml"],
     "table2": ["table2", "--no-adhesion", "--n", "16"],
     "figure": ["figure", EXAMPLES / "hertz.toml"],
     "sweep": ["sweep", EXAMPLES / "sweep_k_tau.toml", "--workers", "1"],

@@ -92,7 +92,8 @@ def closure(args):
             cy = r["cycles"]
             fx = [np.array([s["force"]["x"] for s in r["states"][c["first_state"]:c["last_state"] + 1]]) for c in cy]
             mu_p = MU * r["normal_force"]
-            print(f"| {n} | {x:g} | {np.abs(fx[1] - fx[0]).max() / mu_p:.1e} | {np.abs(fx[2] - fx[1]).max() / mu_p:.1e} | "
+            print(f"| {n} | {x:g} | {np.abs(fx[1] - fx[0]).max() / mu_p:.1e} | "
+                  f"{np.abs(fx[2] - fx[1]).max() / mu_p:.1e} | "
                   f"{cy[1]['energy'] / cy[0]['energy'] - 1:+.1e} | {cy[2]['energy'] / cy[1]['energy'] - 1:+.1e} |",
                   flush=True)
 

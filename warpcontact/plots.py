@@ -796,5 +796,6 @@ def save(fig: Figure, path, dpi=None) -> None:
         raise
 
 
-__all__ = ["area_map", "area_formatter", "field_maps", "fretting_energy", "fretting_loop", "fretting_map", "profile", "pull_off_curve",
-           "save", "si_scale", "has_adhesion", "sweep_figure", "CONTACT_COLOR", "STICK_COLOR", "ADHESIVE_COLOR"]
+__all__ = ["area_map", "area_formatter", "field_maps", "fretting_energy", "fretting_loop", "fretting_map", "profile",
+           "pull_off_curve", "save", "si_scale", "has_adhesion", "sweep_figure", "CONTACT_COLOR", "STICK_COLOR",
+           "ADHESIVE_COLOR"]

@@ -5,8 +5,6 @@ in result.json, and OUT/loop.png and OUT/energy.png."""
 
 from __future__ import annotations
 
-import argparse
-
 EXAMPLE = """example:
   warpcontact fretting examples/fretting_steel.toml --out out/fretting
 
@@ -21,8 +19,8 @@ OUT/fields.npz: the last state's fields (--fields all for every state's)."""
 
 HELP = "cyclic tangential loading: each cycle's loop, dissipated energy and regime"
 DESCRIPTION = ("Solve the cyclic path of CASE (after the normal leg, delta_x goes 0 -> +amplitude, then [load] cycles "
-               "times +amplitude -> -amplitude -> +amplitude, each quarter in tangential_steps steps; docs/fretting.md) "
-               "and report each whole cycle's loop: the energy it dissipates, the force amplitude, Fouvry's energy "
+               "times +amplitude -> -amplitude -> +amplitude, each quarter in tangential_steps steps; "
+               "docs/fretting.md) and report each whole cycle's loop: the energy it dissipates, the force amplitude, Fouvry's energy "
                "ratio and the regime, against Mindlin and Deresiewicz's closed form where it applies.")
 FIELDS_HELP = ("whose fields OUT/fields.npz holds: the last state's (last, the default: a cyclic path has hundreds of "
                "states, and the loops are in result.json), every state's (all) or none")

@@ -129,8 +129,6 @@ def _write_solve_outputs(result, out: Path, fields: str, atomic_write_json, atom
     (``write_error`` says what failed) and the OutputError is raised with the option that writes
     fewer; a figure that cannot be written leaves result.json incomplete with ``write_error``.
     Returns the record written."""
-    from ..records.results import output_error
-
     fields_path, result_path = out / "fields.npz", out / "result.json"
     if record is None:
         def record(result, complete=False):
