@@ -1,5 +1,7 @@
 """Shared test set-up: one test per available device, opt-in slow studies."""
 
+import signal
+
 import pytest
 import warp as wp
 
@@ -44,3 +46,20 @@ def pytest_report_header(config):
 def device(request):
     """Every device present: the CPU always, each CUDA device when there is one."""
     return request.param
+
+
+@pytest.fixture
+def handlers():
+    """interrupts.install() in this process (SIGTERM and SIGHUP from their defaults), pytest's
+    handlers put back afterwards: the stop-signal tests of the commands."""
+    from warpcontact import interrupts
+
+    saved = {s: signal.getsignal(s) for s in (signal.SIGINT, signal.SIGTERM, signal.SIGHUP)}
+    signal.signal(signal.SIGTERM, signal.SIG_DFL)
+    signal.signal(signal.SIGHUP, signal.SIG_DFL)
+    interrupts.reset()
+    interrupts.install()
+    yield interrupts
+    for s, h in saved.items():
+        signal.signal(s, h)
+    interrupts.reset()

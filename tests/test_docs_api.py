@@ -189,7 +189,7 @@ def test_a_role_is_caught():
                            "not checked, the docstrings above are")
 def test_built_api_page(tmp_path):
     """Build the site (not strict: other pages are CI's strict build's) and read the API page:
-    no raw role outside the pending blocks, each cross-reference a link."""
+    no raw role, each cross-reference a link."""
     site = tmp_path / "site"
     run = subprocess.run([sys.executable, "-m", "mkdocs", "build", "--no-strict", "--quiet", "-d", str(site)],
                          cwd=ROOT, capture_output=True, text=True, timeout=120,

@@ -315,22 +315,6 @@ def test_table2_workers_end_with_the_run(tmp_path):
 # --- the machinery, in this process -----------------------------------------------------------------
 
 
-@pytest.fixture
-def handlers():
-    """interrupts.install() in this process, pytest's handlers put back afterwards."""
-    from warpcontact import interrupts
-
-    saved = {s: signal.getsignal(s) for s in (signal.SIGINT, signal.SIGTERM, signal.SIGHUP)}
-    signal.signal(signal.SIGTERM, signal.SIG_DFL)
-    signal.signal(signal.SIGHUP, signal.SIG_DFL)
-    interrupts.reset()
-    interrupts.install()
-    yield interrupts
-    for s, h in saved.items():
-        signal.signal(s, h)
-    interrupts.reset()
-
-
 @pytest.mark.parametrize("name, status", [("SIGTERM", 143), ("SIGHUP", 129), ("SIGINT", 130)])
 def test_a_stop_signal_raises_a_keyboard_interrupt_that_knows_it(handlers, name, status):
     signum = getattr(signal, name)

@@ -240,20 +240,6 @@ def test_the_command_refuses_a_case_without_a_loop(tmp_path, capsys, change, key
     assert not (tmp_path / "out").exists()
 
 
-@pytest.fixture
-def handlers():
-    """interrupts.install() in this process; pytest's handlers put back afterwards."""
-    from warpcontact import interrupts
-
-    saved = {s: signal.getsignal(s) for s in (signal.SIGINT, signal.SIGTERM, signal.SIGHUP)}
-    interrupts.reset()
-    interrupts.install()
-    yield interrupts
-    for s, h in saved.items():
-        signal.signal(s, h)
-    interrupts.reset()
-
-
 def test_a_stopped_run_keeps_the_cycles_it_finished(handlers, tmp_path, monkeypatch, capsys):
     """SIGTERM in the second cycle: exit 143; result.json holds the states and the first cycle,
     interrupted and not complete; no figure, and an earlier run's figures are gone. The same

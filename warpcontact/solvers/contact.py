@@ -444,7 +444,7 @@ class ContactSolver:
         coupled = math.inf  # the coupled residual (below)
         outer = 0
         converged_turns = not self.iterative
-        changes = []  # each turn's change (the stall test)
+        changes = []  # each turn's change (the stall test); None once a stall was met
         mixing = None  # Anderson mixing of the shear, from a stall on
         while outer < self.max_outer:
             interrupts.check()
@@ -499,10 +499,11 @@ class ContactSolver:
             if mixing is not None:  # not converged: the next turn from the mixed shear
                 wp.copy(state.shear_x, self.previous[1])
                 wp.copy(state.shear_y, self.previous[2])
-            elif self.friction is not None:
+            elif changes is not None and self.friction is not None:
                 changes.append(change)
-                if stalled(changes):
+                if stalled(changes):  # one try per step: no room for the mixing leaves the turns plain
                     mixing = self._stall_mixing()
+                    changes = None
         return normal_info, tangential_info, outer, converged_turns, iterations
 
     def _stall_mixing(self):
@@ -528,7 +529,7 @@ class ContactSolver:
         m.launch_reduce(ck.change_sums, [state.pressure.flatten(), 0], [self.previous[0].flatten(), self.change])
         for image, shear in zip(mixing.residual, (state.shear_x, state.shear_y)):
             wp.copy(image, shear.flatten())
-        shear_change = mixing.step([self.previous[1].flatten(), self.previous[2].flatten()], beta=1.0)
+        shear_change = mixing.step([self.previous[1].flatten(), self.previous[2].flatten()])
         s = self.change.numpy().astype(np.float64)
         dp = math.sqrt(s[0] / s[1]) if s[1] > 0 else 0.0
         return max(dp, shear_change)
