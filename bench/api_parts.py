@@ -5,7 +5,7 @@ delta_x = 2e-11 m with Tabor friction k_tau = 0.8, or frictionless with ``--fric
 Each part of ``runner.run_path`` is timed where it is called (the device synchronised before each
 clock reading, so that a part's kernels are counted in it): ``build`` (model, solvers, state),
 ``step`` (the solves), ``summary`` (``results.state_summary``), ``fields`` (``results.state_fields``:
-the fields brought to the host), ``yield check`` (``stress.state_yield_check``, from the last
+the fields brought to the host), ``yield check`` (``yielding.state_yield_check``, from the last
 state's tractions on the device), and the rest of ``wc.solve``. Second call of two in one process (the first
 loads the kernels and captures the graphs). Prints a markdown table, one row per n.
 
@@ -80,9 +80,9 @@ def main():
     runner.build = timed("build", originals["build"])
     runner.state_summary = timed("summary", originals["state_summary"])
     runner.state_fields = timed("fields", originals["state_fields"])
-    import warpcontact.numerics.stress as stress
+    import warpcontact.numerics.yielding as yielding
 
-    stress.state_yield_check = timed("yield check", stress.state_yield_check)
+    yielding.state_yield_check = timed("yield check", yielding.state_yield_check)
     from warpcontact.solvers.contact import ContactSolver
 
     contact_step = ContactSolver.step

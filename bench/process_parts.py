@@ -5,7 +5,7 @@ numpy, Warp (with ``wp.init()``) and the package's modules a solve loads, then r
 line's ``solve`` on examples/hertz.toml with n cells per side, the runner's parts timed where they
 are called (the device synchronised at each clock reading): ``model`` (``runner.build``: model,
 solvers, state), ``solve`` (the contact solver's steps), ``yield check``
-(``stress.state_yield_check``) and the rest of the command (the case read and checked, the
+(``yielding.state_yield_check``) and the rest of the command (the case read and checked, the
 summaries, result.json). ``interpreter`` is the process's wall time, measured from outside, less
 what it measured inside: the interpreter's start and the process's end (``cli.end_process``). Prints the median of each part over the rounds, as a markdown table.
 
@@ -41,7 +41,7 @@ wp.config.quiet = True
 wp.init()
 t2 = time.perf_counter()
 import warpcontact.cli, warpcontact.cli.solve, warpcontact.studies.runner as runner
-import warpcontact.records.results, warpcontact.solvers.contact as contact, warpcontact.numerics.stress as stress
+import warpcontact.records.results, warpcontact.solvers.contact as contact, warpcontact.numerics.yielding as yielding
 t3 = time.perf_counter()
 import sys
 sys.path.insert(0, HERE)
@@ -50,7 +50,7 @@ spent = {"model": 0.0, "solve": 0.0, "yield check": 0.0}
 timed = part_timer(spent, wp.get_device(DEVICE))
 runner.build = timed("model", runner.build)
 contact.ContactSolver.step = timed("solve", contact.ContactSolver.step)
-stress.state_yield_check = timed("yield check", stress.state_yield_check)
+yielding.state_yield_check = timed("yield check", yielding.state_yield_check)
 status = warpcontact.cli.main(["solve", CASE, "--out", OUT, "--quiet", "--fields", "none"])
 t4 = time.perf_counter()
 import json

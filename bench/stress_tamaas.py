@@ -35,6 +35,7 @@ import time
 import numpy as np
 
 from warpcontact.numerics import stress as st
+from warpcontact.numerics import stress_reference as sr
 from warpcontact.physics.geometry import Grid
 from warpcontact.physics.materials import Material, MaterialPair
 
@@ -115,7 +116,7 @@ def tamaas(n, size_in_a, layers):
 def axis_error(fields, i, layers):
     """Largest error on the axis cell (i, i) against Johnson's eq. 3.45 [p0]."""
     z = np.arange(1, layers + 1) * (DEPTH_IN_A / layers)
-    ref = st.hertz_axis_stress(z, NU)
+    ref = sr.hertz_axis_stress(z, NU)
     return max(float(np.max(np.abs(fields[f][:, i, i] / P0 - ref[r])))
                for f, r in (("sigma_zz", "sigma_zz"), ("sigma_xx", "sigma_rr"), ("sigma_yy", "sigma_rr")))
 
@@ -141,7 +142,7 @@ def main(argv=None):
                          "volume does not fit in memory")
     args = ap.parse_args(argv)
     records = []
-    ref_value, ref_depth = st.hertz_von_mises_max(NU)
+    ref_value, ref_depth = sr.hertz_von_mises_max(NU)
     print(f"Hertz, nu = {NU}: von Mises max {ref_value:.4f} p0 at {ref_depth:.4f} a; {args.layers} depths to "
           f"{DEPTH_IN_A} a; domain {args.size_in_a} a; warpcontact on {args.device} ({args.dtype})")
     have_tamaas = False

@@ -12,7 +12,7 @@ from pathlib import Path
 import pytest
 
 from warpcontact.cli import main
-from warpcontact.numerics import stress
+from warpcontact.numerics import yielding
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -30,7 +30,7 @@ def hertz_case(tmp_path):
 
 
 def test_solve_with_a_failing_yield_check_writes_its_results_and_exits_4(tmp_path, capsys, monkeypatch, hertz_case):
-    monkeypatch.setattr(stress, "_state_yield_check", failing_check)
+    monkeypatch.setattr(yielding, "_state_yield_check", failing_check)
     out = tmp_path / "out"
     rc = main(["solve", str(hertz_case), "--out", str(out), "--quiet"])
     err = capsys.readouterr().err

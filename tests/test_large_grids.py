@@ -46,7 +46,9 @@ def test_yield_check_at_8192(device):
     """The yield check of a Hertz pressure at n = 8192 in float64 (about 55 GiB on the device): the
     sphere's largest von Mises stress is Hertz's 0.6063 p0 within 1e-3 (the grid's and the depth
     search's discretisation; measured 1.3e-4 on an H100). Skipped where the device lacks the memory."""
-    from warpcontact.numerics.stress import hertz_von_mises_max, memory_bytes, yield_check
+    from warpcontact.numerics.stress import memory_bytes
+    from warpcontact.numerics.stress_reference import hertz_von_mises_max
+    from warpcontact.numerics.yielding import yield_check
     from warpcontact.physics.geometry import Grid
     from warpcontact.physics.materials import PAPER_PAIR
 

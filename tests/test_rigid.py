@@ -22,7 +22,7 @@ import warpcontact as wc
 from warpcontact.errors import InputError
 from warpcontact.numerics.model import ContactModel
 from warpcontact.numerics.state import ContactState
-from warpcontact.numerics.stress import hertz_von_mises_max
+from warpcontact.numerics.stress_reference import hertz_von_mises_max
 from warpcontact.physics.friction import Coulomb
 from warpcontact.physics.geometry import Grid, Sphere
 from warpcontact.physics.materials import Material, MaterialPair, PAPER_PAIR

@@ -1,4 +1,5 @@
-"""Subsurface stress (warpcontact/numerics/stress.py, kernels/stress.py) against closed forms.
+"""Subsurface stress (warpcontact/numerics/stress.py, yielding.py, kernels/stress.py) against closed forms
+(warpcontact/numerics/stress_reference.py).
 
 Grids are small (n <= 65) so that the file runs in well under a minute on 2 CPU cores; each
 tolerance says where it comes from.
@@ -14,6 +15,8 @@ import warp as wp
 from scipy.integrate import dblquad
 
 from warpcontact.numerics import stress as st
+from warpcontact.numerics import stress_reference as sr
+from warpcontact.numerics import yielding
 from warpcontact.studies import stress_study
 from warpcontact.records.case import case_from_dict
 from warpcontact.errors import InputError
@@ -30,12 +33,12 @@ BACKENDS = ("scipy", "warp")  # the CPU backends (fftw is scipy's layout)
 
 def _cerruti_y(x, y, z, nu):
     """The stress of a unit force along +y: Cerruti's along +x with x and y exchanged."""
-    s = st.cerruti_point_stress(y, x, z, nu)
+    s = sr.cerruti_point_stress(y, x, z, nu)
     return {"sigma_xx": s["sigma_yy"], "sigma_yy": s["sigma_xx"], "sigma_zz": s["sigma_zz"],
             "sigma_xy": s["sigma_xy"], "sigma_xz": s["sigma_yz"], "sigma_yz": s["sigma_xz"]}
 
 
-REFERENCES = (st.boussinesq_point_stress, st.cerruti_point_stress, _cerruti_y)
+REFERENCES = (sr.boussinesq_point_stress, sr.cerruti_point_stress, _cerruti_y)
 
 
 # --- the cell integrals -----------------------------------------------------------------------
@@ -202,19 +205,19 @@ def test_hertz_axis_stresses_in_both_bodies(fft, dtype):
     res = st.SubsurfaceStress(PAIR, grid, z, dtype=dtype, fft=fft).evaluate(p, 0 * p, 0 * p)
     for name in st.BODIES:
         b = res.bodies[name]
-        ref = st.hertz_axis_stress(z / a, b.nu)
+        ref = sr.hertz_axis_stress(z / a, b.nu)
         for f, r in (("sigma_zz", "sigma_zz"), ("sigma_xx", "sigma_rr"), ("sigma_yy", "sigma_rr")):
             err = np.abs(b.axis[f] / p0 - ref[r]).max()
             assert err < 0.01, f"{name} {f}: {err:.2e} p0 off Hertz on the axis"
         vm = b.maximum("von_mises", res.depths)
-        value, depth = st.hertz_von_mises_max(b.nu)
+        value, depth = sr.hertz_von_mises_max(b.nu)
         assert vm["value"] / p0 == pytest.approx(value, rel=0.005), name
         assert abs(vm["z"] / a - depth) < 0.02, name
 
 
 def test_hertz_von_mises_maximum_closed_form():
     """The closed form's maximum for nu = 0.3: 0.62 p0 at 0.48 a (Johnson, Fig. 3.9)."""
-    value, depth = st.hertz_von_mises_max(0.3)
+    value, depth = sr.hertz_von_mises_max(0.3)
     assert value == pytest.approx(0.62, abs=0.005) and depth == pytest.approx(0.48, abs=0.005)
 
 
@@ -347,8 +350,8 @@ def _hertz_traction_quadrature(x, y, z, a, p0, mu, nu, nt=64, nth=256):
     r = a * np.sin(T)
     xi, eta = r * np.cos(TH), r * np.sin(TH)
     w = wt[:, None] * (2 * np.pi / nth) * r * a * np.cos(T) * p0 * np.cos(T)
-    b = st.boussinesq_point_stress(x - xi, y - eta, z, nu)
-    c = st.cerruti_point_stress(x - xi, y - eta, z, nu)
+    b = sr.boussinesq_point_stress(x - xi, y - eta, z, nu)
+    c = sr.cerruti_point_stress(x - xi, y - eta, z, nu)
     return {k: float(np.sum(w * (b[k] + mu * c[k]))) for k in st.COMPONENTS}
 
 
@@ -406,7 +409,7 @@ def test_solved_hertz_contact_puts_each_maximum_where_hertz_does():
     summary = res.summary()
     for name in st.BODIES:
         vm = summary[name]["von_mises_max"]
-        value, depth = st.hertz_von_mises_max(res.bodies[name].nu)
+        value, depth = sr.hertz_von_mises_max(res.bodies[name].nu)
         assert vm["value"] / p0 == pytest.approx(value, rel=0.02), name
         assert abs(vm["z"] / a - depth) < 0.05, name
         assert math.hypot(vm["x"], vm["y"]) < 0.05 * a, name
@@ -429,9 +432,9 @@ def test_the_yield_check_of_a_state_on_the_device_equals_the_one_from_its_fields
                         lambda self, pair, grid, *a, **k: grids.append(grid.n) or original(self, pair, grid, *a, **k))
     _, solver, state = build(case)
     solver.step(state, case.load.path()[-1])
-    host = st.yield_check(case.pair, case.grid, state.to_numpy_si(), state.model.device, state.model.dtype_name,
-                          state.model.fft_name)
-    device = st.state_yield_check(state, friction=False, adhesion=False)
+    host = yielding.yield_check(case.pair, case.grid, state.to_numpy_si(), state.model.device,
+                                state.model.dtype_name, state.model.fft_name)
+    device = yielding.state_yield_check(state, friction=False, adhesion=False)
     assert grids[:4] == [128, 64, 128, 64]  # both checks on the fine and the half grid
     assert host["yielded"] is False and device["yielded"] is False
     rel = 1e-12 if state.model.dtype_name == "float64" else 1e-5
@@ -462,12 +465,12 @@ def test_first_yield_on_the_path():
 
 def test_first_yield_helper():
     deltas = [{"x": 0.0, "y": 0.0, "z": z} for z in (1.0, 2.0, 3.0)]
-    assert st.first_yield([1.0, 2.0, 3.0], deltas, math.inf) is None
-    r = st.first_yield([1.0, 2.0, 3.0], deltas, 2.5)
+    assert yielding.first_yield([1.0, 2.0, 3.0], deltas, math.inf) is None
+    r = yielding.first_yield([1.0, 2.0, 3.0], deltas, 2.5)
     assert r["state"] == 2 and r["delta_interpolated"]["z"] == pytest.approx(2.5)
-    r = st.first_yield([4.0, 5.0], deltas[:2], 2.0)  # yielded at the first state: from zero load
+    r = yielding.first_yield([4.0, 5.0], deltas[:2], 2.0)  # yielded at the first state: from zero load
     assert r["state"] == 0 and r["delta_interpolated"]["z"] == pytest.approx(0.5)
-    assert st.first_yield([1.0], deltas[:1], 2.0)["reached"] is False
+    assert yielding.first_yield([1.0], deltas[:1], 2.0)["reached"] is False
 
 
 def test_memory_refusal_names_a_grid_that_fits():

@@ -1,6 +1,6 @@
 """Every gross-slip, table2 and sweep result says whether a body yielded: the
-check of the elastic assumption (stress.yield_check) on the run's final state, its keys made in one
-place (stress.yield_keys) and the warning given through RunChecks (one warning of yield per run)."""
+check of the elastic assumption (yielding.yield_check) on the run's final state, its keys made in one
+place (yielding.yield_keys) and the warning given through RunChecks (one warning of yield per run)."""
 
 import json
 import math
@@ -135,9 +135,10 @@ def test_yield_check_depths_find_the_maximum_of_a_fine_scan(k_tau, delta_x):
     import numpy as np
 
     from warpcontact.numerics import stress as st
+    from warpcontact.numerics import yielding
 
     model, fields = _solved_state(k_tau, delta_x)
-    check = st.yield_check(model.pair, model.grid, fields)
+    check = yielding.yield_check(model.pair, model.grid, fields)
     a = st.contact_radius(fields, model.grid.cell_area)
     depths = np.concatenate([[st.SURFACE_DEPTH_IN_CELLS * model.grid.dx], np.linspace(0.01, 2.0, 201) * a])
     scan = st.SubsurfaceStress(model.pair, model.grid, depths).von_mises_maxima(*st.tractions(fields), depths)
@@ -171,14 +172,15 @@ def test_deep_depths_on_the_half_grid_match_the_fine_grid():
     import numpy as np
 
     from warpcontact.numerics import stress as st
+    from warpcontact.numerics import yielding
 
     model, fields = _solved_state(0.8, 1e-11, n=128)
     dx = model.grid.dx
     radius = st.contact_radius(fields, model.grid.cell_area)
-    assert radius >= st.COARSE_STRESS_MIN_RADIUS_CELLS * dx
+    assert radius >= yielding.COARSE_STRESS_MIN_RADIUS_CELLS * dx
     depths = np.array([8.0, 12.0, 24.0]) * dx
     tr = st.tractions(fields)
-    split = st._YieldEvaluator(model.pair, model.grid, tr, depths, "cpu", "float64", "auto", radius)
+    split = yielding._YieldEvaluator(model.pair, model.grid, tr, depths, "cpu", "float64", "auto", radius)
     assert split.coarse is not None and split.coarse.grid.n == model.grid.n // 2
     coarse = split.maxima(depths)
     fine = st.SubsurfaceStress(model.pair, model.grid, depths).von_mises_maxima(*tr, depths)
@@ -186,5 +188,5 @@ def test_deep_depths_on_the_half_grid_match_the_fine_grid():
         assert np.allclose(coarse[body][:, 0], fine[body][:, 0], rtol=3e-3, atol=0.0), body
     small, small_fields = _solved_state(0.8, 1e-11)
     small_radius = st.contact_radius(small_fields, small.grid.cell_area)
-    assert st._YieldEvaluator(small.pair, small.grid, st.tractions(small_fields), depths, "cpu", "float64", "auto",
-                              small_radius).coarse is None
+    assert yielding._YieldEvaluator(small.pair, small.grid, st.tractions(small_fields), depths, "cpu", "float64",
+                                    "auto", small_radius).coarse is None

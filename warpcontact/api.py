@@ -94,7 +94,7 @@ def gross_slip(case: CaseLike, device=None, dtype=None, fft=None, rel_tol: float
     Returns the summary of `run_gross_slip` (the keys of ``warpcontact gross-slip``'s
     result.json less the run's record): delta_x_max, delta_x_gross [m], mu, mu_elastic, force,
     force_elastic [N], stick_area, contact_area [m^2], converged, states, elapsed_s [s], and
-    whether a body yielded at delta_x_max: yielded, yield_margin, yield_check (``stress.yield_keys``).
+    whether a body yielded at delta_x_max: yielded, yield_margin, yield_check (``yielding.yield_keys``).
     ``on_state(index, summary)`` is called after each state. ``model``: as [`solve`][warpcontact.solve]'s.
     """
     return gross_slip_summary(_prepare(case, device, dtype, fft), rel_tol=rel_tol, on_state=on_state, model=model)

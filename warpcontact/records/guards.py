@@ -69,7 +69,7 @@ class CheckFailedWarning(UserWarning):
 
 
 def check_failure(check: dict | None) -> str | None:
-    """The reason a yield check failed (``numerics.stress.state_yield_check``), or None where it
+    """The reason a yield check failed (``numerics.yielding.state_yield_check``), or None where it
     ran or was skipped."""
     if isinstance(check, dict) and check.get("failed"):
         return str(check.get("reason"))
@@ -209,7 +209,7 @@ class RunChecks:
             warnings.warn(text, CoarseGridWarning, stacklevel=4)
 
     def yielded(self, check: dict | None, where) -> None:
-        """After the stress check of a run's final state (``stress.yield_check``; ``where``: the
+        """After the stress check of a run's final state (``yielding.yield_check``; ``where``: the
         state's summary, or words naming it): the yield warning (:func:`yield_below_text`), unless
         this run warned of yield already (the contact pressure above a yield strength): one warning
         of yield per run."""
@@ -244,7 +244,7 @@ class RunChecks:
 
 
 def yield_below_text(check: dict | None, where: str) -> str | None:
-    """One line naming each body whose largest von Mises stress (``stress.yield_check``) reaches its
+    """One line naming each body whose largest von Mises stress (``yielding.yield_check``) reaches its
     yield strength at the state ``where`` names, or None when none does (or the check did not run)."""
     if not check or not check.get("yielded"):
         return None

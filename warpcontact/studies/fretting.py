@@ -157,11 +157,11 @@ def fretting_keys(case, states) -> dict:
 def fretting_summary(case, on_state=None, model=None) -> dict:
     """Solve the case's cyclic path and return its fretting keys (:func:`fretting_keys`) with the
     path's states, converged, elapsed_s [s] and the last state's yield check
-    (``stress.yield_keys``): the result.json of ``warpcontact fretting`` less the run's record
+    (``yielding.yield_keys``): the result.json of ``warpcontact fretting`` less the run's record
     and the last state's quantities. ``on_state(index, total, summary)`` after each state;
     ``model``: as ``warpcontact.solve``'s. A stop (KeyboardInterrupt) propagates: a path stopped
     part-way is no summary."""
-    from ..numerics.stress import yield_keys
+    from ..numerics.yielding import yield_keys
     from .runner import run_path
 
     check_fretting_case(case)

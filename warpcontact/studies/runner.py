@@ -16,7 +16,7 @@ from ..records.progress import show_turn
 from ..records.results import state_fields, state_summary
 from ..solvers.contact import ContactSolver
 from ..numerics.state import ContactState
-from ..numerics.stress import yield_keys
+from ..numerics.yielding import yield_keys
 
 
 def friction_law(case):
@@ -91,7 +91,7 @@ class PathResult:
     elapsed_s: float = 0.0
     interrupted: bool = False
     stop_signal: str | None = None
-    #: the elastic assumption checked at the last state (``stress.yield_check``); None until then
+    #: the elastic assumption checked at the last state (``yielding.yield_check``); None until then
     yield_check: dict | None = None
 
     @property
@@ -193,7 +193,7 @@ def run_path(case, on_state=None, keep_fields: bool = True, fields: str = "all",
                 if on_state is not None:
                     on_state(k, len(path), summary, result)
         if result.states:  # the last state against the bodies' yield strengths (below the surface)
-            from ..numerics.stress import state_yield_check
+            from ..numerics.yielding import state_yield_check
 
             # from the state's tractions where they are (on the device): nothing copied to the host
             result.yield_check = state_yield_check(state, solver.friction is not None, solver.adhesion is not None)

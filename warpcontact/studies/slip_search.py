@@ -57,7 +57,7 @@ def find_gross_slip(
     force_elastic [N] at delta_x_max, converged (every state on the way converged), the states of
     the path (summaries), elapsed_s, and with ``at_max`` the keys of the dict ``at_max(state)``
     returns for the solved state at delta_x_max (the check of the elastic assumption there:
-    ``stress.state_yield_keys``).
+    ``yielding.state_yield_keys``).
     """
     if isinstance(rel_tol, bool) or not isinstance(rel_tol, (int, float)) or not 0.0 < rel_tol < 1.0:
         raise InputError("rel_tol", f"must lie in (0, 1), got {rel_tol!r}")

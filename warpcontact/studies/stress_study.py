@@ -18,10 +18,10 @@ from ..numerics.stress import (
     SubsurfaceStress,
     contact_radius,
     default_depths,
-    first_yield,
     sliding_axis,
     tractions,
 )
+from ..numerics.yielding import first_yield
 from .tasks import prepare
 
 

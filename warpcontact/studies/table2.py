@@ -142,7 +142,7 @@ def table2_cell(k_tau: float, delta_z_um: float, settings: Table2Settings, on_st
     from ..numerics.model import ContactModel
     from .slip_search import find_gross_slip
     from ..solvers.contact import ContactSolver
-    from ..numerics.stress import state_yield_keys
+    from ..numerics.yielding import state_yield_keys
 
     dz = delta_z_um * UM
     adhesive = settings.adhesion_law() if adhesion else None

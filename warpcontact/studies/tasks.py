@@ -67,7 +67,7 @@ def run_gross_slip(case: Case, model, solver, rel_tol: float = 0.01, on_state=No
     not converge. The one builder of a gross-slip summary."""
     from ..records.guards import GROSS_SLIP_RESULTS, RunChecks, withhold_if_unconverged
     from .slip_search import find_gross_slip
-    from ..numerics.stress import state_yield_keys
+    from ..numerics.yielding import state_yield_keys
 
     checks = RunChecks(case)
 
@@ -137,7 +137,7 @@ def result_row(result: dict) -> dict:
     """A summary as a sweep row: every key of :func:`run_gross_slip`'s, :func:`run_pull_off`'s or
     a solve's last state, less the lists of states (counted in ``n_states``) and the timing (the
     sweep records its own)."""
-    from ..numerics.stress import yield_keys
+    from ..numerics.yielding import yield_keys
 
     row = {**yield_keys(None), **{k: v for k, v in result.items() if k not in STATE_LISTS and k != "elapsed_s"}}
     row["n_states"] = sum(len(result[k]) for k in STATE_LISTS if isinstance(result.get(k), list))
@@ -184,7 +184,7 @@ def run_task(task: str, rel_tol: float, case: Case, on_state, model=None) -> dic
 
         return fretting_row(fretting_summary(case, on_state=on_state, model=model))
     from .runner import run_path
-    from ..numerics.stress import yield_keys
+    from ..numerics.yielding import yield_keys
 
     # the row needs the summaries (reduced on the device) and the last state's yield check alone:
     # no field is kept on the host
