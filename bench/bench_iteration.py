@@ -10,7 +10,7 @@ domain 4a):
   with the same solve in three alternatives, each differing from the default in one thing:
   "eager" (no CUDA graphs: a Python launch per kernel and per transform), "2-conv" (K p
   recomputed every iteration: two convolutions per iteration), "strict" (K p recomputed after
-  every projection: ``NormalSolver.deferral = 0``) and "2-D fft" (cuFFT's 2-D plans of the whole
+  every projection: ``deferral = 0``) and "2-D fft" (cuFFT's 2-D plans of the whole
   padded grid instead of the pruned row and column plans); the iteration counts of each are in
   the JSON;
 - floor1: one forward + one inverse transform of the padded 2N x 2N field by the FFT library
@@ -115,14 +115,14 @@ def bench(n, device, dtype, fft, repeats, adhesion: bool, compare_up_to: int = 2
         t = best_wall_time(model.device, solve_normal, repeats)
         return info["normal"].iterations, 1e3 * t / info["normal"].iterations
 
-    row["normal_iters"], row["normal_ms"] = normal_ms(NormalSolver(model, preconditioned=False))
+    row["normal_iters"], row["normal_ms"] = normal_ms(NormalSolver(model, normal_preconditioner=False))
     row["precond_iters"], row["precond_ms"] = normal_ms(NormalSolver(model))
     row["normal_solve_ms"] = row["normal_iters"] * row["normal_ms"]
     row["precond_solve_ms"] = row["precond_iters"] * row["precond_ms"]
     law = TaborVonMises(0.8, PAPER_PAIR.softer.yield_strength)
     adh = SMC(2e7, 2e7, 5e-12, 5e-12) if adhesion else None
-    solver = ContactSolver(model, law, adhesion=adh)
-    solver.turn_mixing = turn_mixing  # the minimised turns (this law's) Anderson-mixed, or plain
+    # the minimised turns (this law's) Anderson-mixed, or plain
+    solver = ContactSolver(model, law, adhesion=adh, turn_mixing=turn_mixing)
     start = ContactState(model)
     solver.step(start, (0.0, 0.0, DZ))
     dx = 0.5 * estimate_delta_x_max(PAPER_PAIR, R, DZ, law)
@@ -139,11 +139,10 @@ def bench(n, device, dtype, fft, repeats, adhesion: bool, compare_up_to: int = 2
     row["memory_MiB"] = (used_bytes(device) - (0 if device.is_cpu else base)) / 2**20
     floor_fft = unpruned_fft(model)
     if model.device.is_cuda and n <= compare_up_to:
-        plain = {"preconditioned": False}  # the alternatives of the plain solve (normal)
+        plain = {"normal_preconditioner": False}  # the alternatives of the plain solve (normal)
         row["eager_iters"], row["eager_ms"] = normal_ms(NormalSolver(model, use_graphs=False, **plain))
         row["two_conv_iters"], row["two_conv_ms"] = normal_ms(NormalSolver(model, one_convolution=False, **plain))
-        strict = NormalSolver(model, **plain)
-        strict.deferral = 0.0
+        strict = NormalSolver(model, deferral=0.0, **plain)
         row["strict_iters"], row["strict_ms"] = normal_ms(strict)
         if floor_fft is not model.operator.fft:
             pruned, model.operator.fft = model.operator.fft, floor_fft

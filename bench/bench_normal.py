@@ -38,7 +38,7 @@ A = math.sqrt(R * DZ)
 #: the normal solver's variants a run may time side by side (``--modes``): its keyword arguments
 MODES = {
     "default": {},  # preconditioned, one convolution per iteration
-    "plain": {"preconditioned": False},  # Polonsky-Keer without the preconditioner
+    "plain": {"normal_preconditioner": False},  # Polonsky-Keer without the preconditioner
     "two-conv": {"one_convolution": False},  # the gap recomputed (K p) at every iteration
 }
 

@@ -53,7 +53,7 @@ def run(n, device, dtype, fft, max_turns: int, max_iter: int) -> dict:
     t0 = time.perf_counter()
     model = ContactModel(PAPER_PAIR, Sphere(R, "paraboloid"), Grid(n, 4 * A), device=device, dtype=dtype, fft=fft)
     law = TaborVonMises(0.8, PAPER_PAIR.softer.yield_strength)
-    solver = ContactSolver(model, law, adhesion=SMC(SIGMA_MAX, TAU_MAX, DELTA_N, DELTA_T), max_outer=max_turns,
+    solver = ContactSolver(model, law, adhesion=SMC(SIGMA_MAX, TAU_MAX, DELTA_N, DELTA_T), max_turns=max_turns,
                            max_iter=max_iter)
     state = ContactState(model)
     row["setup_s"] = time.perf_counter() - t0

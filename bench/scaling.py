@@ -22,7 +22,7 @@ delta_z = 1e-10 m then delta_x = 2e-11 m, one step per leg. Rows:
   (``TangentialSolver.window``), then always on the whole grid, as before the window.
 
 - ``coupled exact``: the solver's defaults, every turn's solves at the full tolerance
-  (``ContactSolver.turn_tolerance = "exact"``: fewer, more exact turns) instead of loose early
+  (``turn_tolerance = "exact"``: fewer, more exact turns) instead of loose early
   turns.
 - ``coupled unmixed``: ``coupled precond`` with the minimised turns (adhesion towards JKR) as the
   plain fixed point x <- G(x) instead of Anderson-mixed (``ContactSolver.turn_mixing``).
@@ -71,22 +71,22 @@ ROWS = ("normal", "coupled-plain", "coupled-precond", "coupled-before", "coupled
         "coupled-window", "coupled-whole", "coupled-exact", "coupled-unmixed")
 
 
-def configure(solver, row: str):
-    """Set the solver of a row (see the module docstring)."""
-    if getattr(solver, "tangential", None) is None:
-        return
-    solver.tangential.preconditioned = row != "coupled-plain"
+def row_settings(row: str) -> dict:
+    """The solver settings of a row (see the module docstring), by name."""
+    if row == "normal":
+        return {}
+    choices = {"tangential_preconditioner": row != "coupled-plain"}
     if row in ("coupled-window", "coupled-whole"):
-        solver.tangential.window = row == "coupled-window"
+        choices["window"] = row == "coupled-window"
     if row == "coupled-exact":
-        solver.turn_tolerance = "exact"
+        choices["turn_tolerance"] = "exact"
     if row == "coupled-unmixed":  # the minimised turns (adhesion) as the plain fixed point
-        solver.turn_mixing = False
+        choices["turn_mixing"] = False
     if row not in ("coupled-default", "coupled-window", "coupled-whole", "coupled-exact"):
-        solver.nested = row == "coupled-nested"
+        choices["nested"] = row == "coupled-nested"
     if row == "coupled-before":
-        solver.normal.preconditioned = False
-        solver.turn_tolerance = "change"
+        choices.update(normal_preconditioner=False, turn_tolerance="change")
+    return choices
 CPU_SIZES = [64, 128, 256, 512, 1024]
 GPU_SIZES = [256, 512, 1024, 2048, 4096, 8192]
 
@@ -142,10 +142,9 @@ def measure(config: dict) -> dict:
         from warpcontact.physics.adhesion import SMC
 
         adhesion = SMC(*(SMC_LAW[k] for k in ("sigma_max", "tau_max", "delta_n", "delta_t")))
-    solver = ContactSolver(model, friction, adhesion=adhesion)
+    solver = ContactSolver(model, friction, adhesion=adhesion, **row_settings(row))
     tangential = getattr(solver, "tangential", None)
     counts = {"tangential": 0}
-    configure(solver, row)
     if tangential is not None:
         solve = tangential.solve
 
@@ -189,10 +188,8 @@ def measure(config: dict) -> dict:
                                         bool(config.get("adhesion"))))
         original = runner.ContactSolver
 
-        def contact_solver(*args, **kwargs):  # the tangential solver of the row
-            s = original(*args, **kwargs)
-            configure(s, row)
-            return s
+        def contact_solver(*args, **kwargs):  # the solver settings of the row
+            return original(*args, **{**kwargs, **row_settings(row)})
 
         runner.ContactSolver = contact_solver
         try:

@@ -1,7 +1,7 @@
 """Transfers between grids: a grid and the grid of half its cells per side over the same domain
 (cell (I, J) of the coarse grid covers cells (2I..2I+1, 2J..2J+1) of the fine one), for the nested
-start of a step (``ContactSolver.nested``); a square window of a grid cut out and put back, for
-the tangential solve on the cells that can carry shear (``TangentialSolver.window``)."""
+start of a step (``SolverSettings.nested``); a square window of a grid cut out and put back, for
+the tangential solve on the cells that can carry shear (``SolverSettings.window``)."""
 
 from typing import Any
 

@@ -21,14 +21,14 @@ One iteration, four passes over the grid around one convolution (three on CUDA) 
    whether the next iteration starts from an exact gap (``normal_gap`` after a convolution of p),
    and sets the device loop's flag.
 
-Preconditioned (``NormalSolver.preconditioned``, the default), the iteration starts with
+Preconditioned (``SolverSettings.normal_preconditioner``, the default), the iteration starts with
 ``normal_free_gap`` (the gap on the free set into the padded input), a transform pair whose
 spectral product is the operator's inverse (``spectral_normal_energy`` with ``inverse``, which
 also sums g . M g into slot S_G), and the direction's pass reads z = M g from the padded output
 in place of g.
 
 Scalars live in device arrays: ``sums`` (the reductions of one iteration; slots below),
-``scalars`` (carried: G_old, delta, iteration count, why the loop stopped) and ``settings`` (the
+``scalars`` (carried: G_old, delta, iteration count, why the loop stopped) and ``parameters`` (the
 values of one solve).
 """
 
@@ -38,7 +38,7 @@ import warp as wp
 
 from .overloads import register_float_overloads
 from .reduce import (  # noqa: F401  (shared slots)
-    C_DELTA, C_G_OLD, C_ITER, N_SCALARS, N_SETTINGS, P_APPROACH, P_CHUNK, P_EXACT, P_MAX_ITER, P_TOL, S_G, S_GT, S_RHS,
+    C_DELTA, C_G_OLD, C_ITER, N_SCALARS, N_PARAMETERS, P_APPROACH, P_CHUNK, P_EXACT, P_MAX_ITER, P_TOL, S_G, S_GT, S_RHS,
     S_RT, S_VIOL, advance, residual_of, stop_loop,
     block_add, block_add_vector, block_max, cell_index, cg_converged, cg_step_length, conjugacy,
 )
@@ -92,11 +92,11 @@ def padded_entry(padded: wp.array2d(dtype=Any), cell: int, width: int):
 
 @wp.kernel
 def normal_interference(initial_gap: wp.array(dtype=Any), known_displacement: wp.array(dtype=Any),
-                        settings: wp.array(dtype=Any), interference: wp.array(dtype=Any)):
+                        parameters: wp.array(dtype=Any), interference: wp.array(dtype=Any)):
     """b = delta_z - h0 - u_known: how far the rigid surfaces overlap (negative where they do
     not), once per solve; the gap is g = K p - b."""
     i = wp.tid()
-    interference[i] = settings[P_APPROACH] - initial_gap[i] - known_displacement[i]
+    interference[i] = parameters[P_APPROACH] - initial_gap[i] - known_displacement[i]
 
 
 @wp.kernel
@@ -170,7 +170,7 @@ def is_stepped(pressure: Any, gap: Any, pressure_cap: Any, precondition: int):
 def normal_free_gap(gap: wp.array(dtype=Any), pressure: wp.array(dtype=Any), pressure_cap: Any, width: int, per: int,
                     padded_input: wp.array2d(dtype=Any)):
     """The gap on the stepped cells (:func:`is_stepped`), 0 elsewhere, into the FFT backend's
-    ``padded_input``: what the preconditioner transforms (``NormalSolver.preconditioned``). Launched over (rows, chunks)
+    ``padded_input``: what the preconditioner transforms (``SolverSettings.normal_preconditioner``). Launched over (rows, chunks)
     (``LaunchCache.launch_rows``)."""
     i, c = wp.tid()
     for j in range(c * per, wp.min((c + 1) * per, width)):
@@ -349,7 +349,7 @@ def normal_update(
     width: int,
     interference: wp.array(dtype=Any),
     pressure_cap: Any,
-    settings: wp.array(dtype=Any),
+    parameters: wp.array(dtype=Any),
     n: int,
     outer: int,
     inner: int,
@@ -366,7 +366,7 @@ def normal_update(
     the next exact gap. The residual sums of the new iterate with that gap go to the S_NEXT_*
     slots.
 
-    An iterate whose relative residual is already under ``settings[P_TOL]`` is left as it is.
+    An iterate whose relative residual is already under ``parameters[P_TOL]`` is left as it is.
     """
     block, lane = wp.tid()
     thread = block * wp.block_dim() + lane
@@ -377,7 +377,7 @@ def normal_update(
     s_g = zero
     s_viol = zero
     s_rhs = zero
-    done = cg_converged(sums, settings[P_TOL])
+    done = cg_converged(sums, parameters[P_TOL])
     for k in range(per):
         i = cell_index(thread, outer, inner, k)
         if i < n:
@@ -407,7 +407,7 @@ def normal_update(
 
 
 @wp.kernel
-def normal_advance(sums: wp.array(dtype=Any), settings: wp.array(dtype=Any), exact_every: int, column_norm: Any,
+def normal_advance(sums: wp.array(dtype=Any), parameters: wp.array(dtype=Any), exact_every: int, column_norm: Any,
                    deferral: Any, scalars: wp.array(dtype=Any), residual_history: wp.array(dtype=Any),
                    deferred: wp.array(dtype=Any), recompute: wp.array(dtype=wp.int32), loop: wp.array(dtype=wp.int32),
                    refresh: wp.array(dtype=wp.int32), inner_loop: wp.array(dtype=wp.int32)):
@@ -423,7 +423,7 @@ def normal_advance(sums: wp.array(dtype=Any), settings: wp.array(dtype=Any), exa
     ``deferral`` times the violation the iteration started from (the carried gap's error stays
     a fraction of what the iteration corrects), when a change comes near convergence (relative
     residual under 4 tol: a converged iterate must be judged on the exact gap), every
-    ``exact_every`` iterations (rounding), and always when ``settings[P_EXACT]`` is 1.
+    ``exact_every`` iterations (rounding), and always when ``parameters[P_EXACT]`` is 1.
 
     The loop also stops (settled) when the new iterate's residual, from the update's sums, is
     under the tolerance and no cell was projected since the last exact gap. ``inner_loop[0]``: 1
@@ -431,15 +431,15 @@ def normal_advance(sums: wp.array(dtype=Any), settings: wp.array(dtype=Any), exa
     ``ProjectedCG._run``).
     """
     # every load before the first store (see advance): one round trip to memory, not one per load
-    tol = settings[P_TOL]
-    exact = settings[P_EXACT]
+    tol = parameters[P_TOL]
+    exact = parameters[P_EXACT]
     viol = sums[S_VIOL]
     rhs = sums[S_RHS]
     missed = deferred[0] + sums[S_CORRECTION]
     next_g = sums[S_NEXT_G]
     next_viol = sums[S_NEXT_VIOL]
     next_rhs = sums[S_NEXT_RHS]
-    done, stopped = advance(sums, settings, 0, scalars, residual_history, loop, refresh)
+    done, stopped = advance(sums, parameters, 0, scalars, residual_history, loop, refresh)
     zero = type(tol)(0.0)
     bound = column_norm * missed
     near = viol <= type(zero)(16.0) * tol * tol * rhs

@@ -27,14 +27,14 @@ C_DELTA = wp.constant(1)  # 0: restart the conjugacy in the next iteration
 C_ITER = wp.constant(2)  # iterations done in this solve
 C_STOP = wp.constant(3)  # 1: the loop stopped for convergence, the limit or a non-finite value; 0: at a launch's end
 N_SCALARS = 4
-# slots of a solver's ``settings`` array: the values of one solve that its iteration reads on the
+# slots of a solver's ``parameters`` array: the values of one solve that its iteration reads on the
 # device (so that a captured CUDA graph of the iteration serves every solve)
 P_TOL = wp.constant(0)  # relative residual to reach
 P_APPROACH = wp.constant(1)  # rigid approach delta_z, scaled (normal solver)
 P_MAX_ITER = wp.constant(2)  # iteration limit of the solve
 P_CHUNK = wp.constant(3)  # iterations per launch of the device loop: it stops at multiples of this
 P_EXACT = wp.constant(4)  # normal solver: 1 to recompute K p at every iteration (two convolutions)
-N_SETTINGS = 5
+N_PARAMETERS = 5
 
 
 @wp.func
@@ -134,14 +134,14 @@ def stop_loop(scalars: wp.array(dtype=Any), loop: wp.array(dtype=wp.int32), refr
 
 
 @wp.kernel
-def loop_start(sums: wp.array(dtype=Any), settings: wp.array(dtype=Any), exact: int, scalars: wp.array(dtype=Any),
+def loop_start(sums: wp.array(dtype=Any), parameters: wp.array(dtype=Any), exact: int, scalars: wp.array(dtype=Any),
                loop: wp.array(dtype=wp.int32), refresh: wp.array(dtype=wp.int32)):
     """One thread, before a launch's iterations: go on (``loop[0]`` = 1) unless the iterate's
-    residual is under ``settings[P_TOL]`` or not finite, or the iteration limit is reached.
+    residual is under ``parameters[P_TOL]`` or not finite, or the iteration limit is reached.
     ``exact`` = 1: the sums were just made exact (a solve's first launch), so a solve that settles
     here needs no refresh (a warm start already converged: one convolution instead of two)."""
     res, finite = relative_residual(sums)
-    if finite and not (res < settings[P_TOL]) and int(scalars[C_ITER]) < int(settings[P_MAX_ITER]):
+    if finite and not (res < parameters[P_TOL]) and int(scalars[C_ITER]) < int(parameters[P_MAX_ITER]):
         loop[0] = 1
         refresh[0] = 0
         scalars[C_STOP] = type(scalars[0])(0.0)
@@ -152,13 +152,13 @@ def loop_start(sums: wp.array(dtype=Any), settings: wp.array(dtype=Any), exact: 
 
 
 @wp.func
-def advance(sums: wp.array(dtype=Any), settings: wp.array(dtype=Any), restart_every: int, scalars: wp.array(dtype=Any),
+def advance(sums: wp.array(dtype=Any), parameters: wp.array(dtype=Any), restart_every: int, scalars: wp.array(dtype=Any),
             residual_history: wp.array(dtype=Any), loop: wp.array(dtype=wp.int32), refresh: wp.array(dtype=wp.int32)):
     """End of an iteration (one thread): record the relative residual of the iterate the
     iteration started from, carry G_old <- S_G and delta <- (no cell re-entered the free set),
     count the iteration, and stop the device loop (:func:`stop_loop`) once that residual is under
-    ``settings[P_TOL]`` or not finite or at ``settings[P_MAX_ITER]`` iterations (settled), and at
-    every multiple of ``settings[P_CHUNK]`` (the host's turn: interrupts). Every
+    ``parameters[P_TOL]`` or not finite or at ``parameters[P_MAX_ITER]`` iterations (settled), and at
+    every multiple of ``parameters[P_CHUNK]`` (the host's turn: interrupts). Every
     ``restart_every`` iterations (0: never) the next direction is the gradient. Returns the
     iterations done and whether the loop stopped.
 
@@ -170,9 +170,9 @@ def advance(sums: wp.array(dtype=Any), settings: wp.array(dtype=Any), restart_ev
     g = sums[S_G]
     restart = sums[S_RESTART]
     it = int(scalars[C_ITER])
-    tol = settings[P_TOL]
-    max_iter = int(settings[P_MAX_ITER])
-    chunk = int(settings[P_CHUNK])
+    tol = parameters[P_TOL]
+    max_iter = int(parameters[P_MAX_ITER])
+    chunk = int(parameters[P_CHUNK])
     zero = type(tol)(0.0)
     one = type(tol)(1.0)
     res, finite = residual_of(viol, rhs)
@@ -190,10 +190,10 @@ def advance(sums: wp.array(dtype=Any), settings: wp.array(dtype=Any), restart_ev
 
 
 @wp.kernel
-def cg_advance(sums: wp.array(dtype=Any), settings: wp.array(dtype=Any), restart_every: int, scalars: wp.array(dtype=Any),
+def cg_advance(sums: wp.array(dtype=Any), parameters: wp.array(dtype=Any), restart_every: int, scalars: wp.array(dtype=Any),
                residual_history: wp.array(dtype=Any), loop: wp.array(dtype=wp.int32), refresh: wp.array(dtype=wp.int32)):
     """One thread, end of an iteration: :func:`advance`."""
-    done, stopped = advance(sums, settings, restart_every, scalars, residual_history, loop, refresh)
+    done, stopped = advance(sums, parameters, restart_every, scalars, residual_history, loop, refresh)
 
 
 register_float_overloads(loop_start)

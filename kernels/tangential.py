@@ -41,7 +41,7 @@ import warp as wp
 
 from .overloads import register_float_overloads
 from .reduce import (  # noqa: F401  (shared slots)
-    C_DELTA, C_G_OLD, N_SCALARS, N_SETTINGS, P_EXACT, P_TOL, S_G, S_GT, S_RHS, S_RT, S_VIOL, advance, block_add,
+    C_DELTA, C_G_OLD, N_SCALARS, N_PARAMETERS, P_EXACT, P_TOL, S_G, S_GT, S_RHS, S_RT, S_VIOL, advance, block_add,
     block_add_vector, cell_index, cg_converged, cg_step_length, conjugacy, residual_of, stop_loop,
 )
 from .reduce import S_RESTART as S_RELEASED  # slip cells released into stick by the last step
@@ -316,7 +316,7 @@ def tangential_update(
     dir_y: wp.array(dtype=Any),
     shear_limit: wp.array(dtype=Any),
     slip_step: Any,
-    settings: wp.array(dtype=Any),
+    parameters: wp.array(dtype=Any),
     n: int,
     outer: int,
     inner: int,
@@ -331,7 +331,7 @@ def tangential_update(
 
     tau is the conjugate-gradient step; ``slip_step`` (about 1 / the self-influence coefficient)
     stands in for it when the free subspace is empty. An iterate whose relative residual is
-    already under ``settings[P_TOL]`` is left as it is (near the solution tau is a ratio of rounding
+    already under ``parameters[P_TOL]`` is left as it is (near the solution tau is a ratio of rounding
     noise).
     """
     block, lane = wp.tid()
@@ -339,7 +339,7 @@ def tangential_update(
     zero = grad_x[0] - grad_x[0]
     tau = cg_step_length(sums)
     tau_release = wp.where(tau > zero, tau, slip_step)
-    done = cg_converged(sums, settings[P_TOL])
+    done = cg_converged(sums, parameters[P_TOL])
     released = zero
     for k in range(per):
         i = cell_index(thread, outer, inner, k)
@@ -452,7 +452,7 @@ def tangential_carried_update(
     shear_limit: wp.array(dtype=Any),
     slip_step: Any,
     stiffness: Any,
-    settings: wp.array(dtype=Any),
+    parameters: wp.array(dtype=Any),
     n: int,
     outer: int,
     inner: int,
@@ -470,13 +470,13 @@ def tangential_carried_update(
     it, released cells), goes to slot S_CORRECTION: the carried g misses K of it until the next
     exact g. Slots S_G and S_VIOL of the new iterate with the carried g go to S_NEXT_G and
     S_NEXT_VIOL, the released cells' count to S_RELEASED. An iterate whose relative residual is
-    already under ``settings[P_TOL]`` is left as it is."""
+    already under ``parameters[P_TOL]`` is left as it is."""
     block, lane = wp.tid()
     thread = block * wp.block_dim() + lane
     zero = stiffness - stiffness
     tau = cg_step_length(sums)
     tau_release = wp.where(tau > zero, tau, slip_step)
-    done = cg_converged(sums, settings[P_TOL])
+    done = cg_converged(sums, parameters[P_TOL])
     released = zero
     corrected = zero
     s_g = zero
@@ -521,7 +521,7 @@ def tangential_carried_update(
 
 
 @wp.kernel
-def tangential_advance(sums: wp.array(dtype=Any), settings: wp.array(dtype=Any), restart_every: int, exact_every: int,
+def tangential_advance(sums: wp.array(dtype=Any), parameters: wp.array(dtype=Any), restart_every: int, exact_every: int,
                        column_norm: Any, deferral: Any, scalars: wp.array(dtype=Any),
                        residual_history: wp.array(dtype=Any), deferred: wp.array(dtype=Any),
                        recompute: wp.array(dtype=wp.int32), loop: wp.array(dtype=wp.int32),
@@ -536,21 +536,21 @@ def tangential_advance(sums: wp.array(dtype=Any), settings: wp.array(dtype=Any),
     up in ``deferred[0]``, and ||K c||_2 <= ``column_norm`` * that. Recompute when that bound
     exceeds ``deferral`` times the norm of the violation the iteration started from, after a
     released cell (a restart), every ``exact_every`` iterations, and always when
-    ``settings[P_EXACT]`` is 1.
+    ``parameters[P_EXACT]`` is 1.
 
     The loop also stops (settled) where the new iterate meets the tolerance with the carried g:
     the launch then makes g exact (``ProjectedCG._run``'s refresh) and the host judges it, and
     launches the loop again where the exact g does not agree. ``inner_loop[0]``: 1 while the
     loop goes on without a recompute."""
-    tol = settings[P_TOL]
-    exact = settings[P_EXACT]
+    tol = parameters[P_TOL]
+    exact = parameters[P_EXACT]
     viol = sums[S_VIOL]
     rhs = sums[S_RHS]
     released = sums[S_RELEASED]
     missed = deferred[0] + sums[S_CORRECTION]
     next_g = sums[S_NEXT_G]
     next_viol = sums[S_NEXT_VIOL]
-    done, stopped = advance(sums, settings, restart_every, scalars, residual_history, loop, refresh)
+    done, stopped = advance(sums, parameters, restart_every, scalars, residual_history, loop, refresh)
     zero = type(tol)(0.0)
     bound = column_norm * missed
     again = (exact > zero or released > zero or bound * bound > deferral * deferral * viol

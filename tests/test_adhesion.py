@@ -14,6 +14,7 @@ from warpcontact.numerics.model import ContactModel
 from warpcontact.studies.approach_retract import approach_retract, tabor_parameter
 from warpcontact.physics.reference import maugis_dugdale_pull_off
 from warpcontact.solvers.contact import ContactSolver
+from warpcontact.solvers.turns import LaggedTurns, MinimisedTurns
 from warpcontact.numerics.state import ContactState
 
 
@@ -247,9 +248,7 @@ def test_lagged_and_minimised_turns_give_the_same_table2_cell(monkeypatch):
     original = contact.ContactSolver.__init__
 
     def minimised(self, *a, **k):
-        original(self, *a, **k)
-        if self.adhesive is not None:
-            self.turns = "minimised"
+        original(self, *a, turns="minimised", **k)
 
     monkeypatch.setattr(contact.ContactSolver, "__init__", minimised)
     other = t2.table2_cell(0.8, 1e-4, settings, adhesion=True)
@@ -263,13 +262,15 @@ def test_lagged_and_minimised_turns_give_the_same_table2_cell(monkeypatch):
     model = ContactModel(PAPER_PAIR, Sphere(t2.RADIUS), t2.cell_grid(1e-4 * t2.UM, settings, settings.adhesion_law()))
     solver = ContactSolver(model, TaborVonMises(0.8, PAPER_PAIR.softer.yield_strength), adhesion=settings.adhesion_law())
     assert solver.turns == "lagged"
-    turns = solver._turns
+    lagged = solver.strategies[0]
+    assert isinstance(lagged, LaggedTurns)
+    turns = lagged._turns
 
     def failing_turns(*args):  # the lagged turns as they are, reported as not converged
         r = turns(*args)
         return (*r[:3], False, r[4])
 
-    monkeypatch.setattr(solver, "_turns", failing_turns)
+    monkeypatch.setattr(lagged, "_turns", failing_turns)
     info = solver.step(ContactState(model), (0.0, 0.0, 1e-4 * t2.UM))
     assert info.converged and solver.turn_fallbacks == 1
 
@@ -282,9 +283,8 @@ def _minimised_solver(n: int, mixing: bool, sigma: float = 2e7):
 
     model = ContactModel(PAPER_PAIR, Sphere(10e-6), Grid(n, 4 * math.sqrt(10e-6 * 1e-10)))
     solver = ContactSolver(model, TaborVonMises(0.8, PAPER_PAIR.softer.yield_strength),
-                           adhesion=SMC(sigma, sigma, 5e-12, 5e-12))
+                           adhesion=SMC(sigma, sigma, 5e-12, 5e-12), turn_mixing=mixing)
     assert solver.turns == "minimised"
-    solver.turn_mixing = mixing
     return solver, ContactState(model)
 
 
@@ -329,8 +329,10 @@ def test_a_step_counts_the_work_of_turns_that_fell_back(monkeypatch):
     from warpcontact.numerics.state import SolveInfo
 
     solver, state = _minimised_solver(32, mixing=True)
-    monkeypatch.setattr(solver, "_minimised_turns", lambda *a: SolveInfo(converged=False, iterations=1234,
-                                                                          residual=1.0, outer_iterations=77))
+    minimised = solver.strategies[0]
+    assert isinstance(minimised, MinimisedTurns)
+    monkeypatch.setattr(minimised, "solve", lambda *a: SolveInfo(converged=False, iterations=1234, residual=1.0,
+                                                                 outer_iterations=77))
     info = solver.step(state, (0.0, 0.0, 1e-10))
     assert info.converged and solver.turn_fallbacks == 1
     assert info.iterations > 1234 and info.outer_iterations > 77, info

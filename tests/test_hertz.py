@@ -139,7 +139,7 @@ def test_hertz_from_rest_takes_few_iterations():
     bounds, 70 and 20, leave room for rounding to move the solver's recompute decisions (they moved
     the plain count by 4 between versions)."""
     model = ContactModel(PAPER_PAIR, Sphere(R, "paraboloid"), Grid(256, 4 * A))
-    plain = NormalSolver(model, preconditioned=False).solve(ContactState(model), DELTA_Z)
+    plain = NormalSolver(model, normal_preconditioner=False).solve(ContactState(model), DELTA_Z)
     assert plain.converged and plain.iterations <= 70, plain.iterations
     info = solve_hertz(256)["info"]
     assert info.converged and info.iterations <= 20, info.iterations
@@ -158,7 +158,7 @@ def test_preconditioned_solve_matches_plain(device, cap_over_p0):
     results = {}
     for preconditioned in (True, False):
         state = ContactState(model)
-        info = NormalSolver(model, pressure_cap=cap, preconditioned=preconditioned).solve(state, DELTA_Z)
+        info = NormalSolver(model, pressure_cap=cap, normal_preconditioner=preconditioned).solve(state, DELTA_Z)
         assert info.converged and info.residual < 1e-10, info
         results[preconditioned] = (state.pressure.numpy(), info.iterations)
     (p1, it1), (p2, it2) = results[True], results[False]
@@ -264,8 +264,7 @@ def test_step_sums_in_fourier_space_match_the_pass_after(fft, device, dtype):
     results = {}
     for fourier in (True, False):
         model = ContactModel(PAPER_PAIR, Sphere(R, "paraboloid"), Grid(80, 4 * A), device=device, dtype=dtype, fft=fft)
-        solver = NormalSolver(model)
-        solver.fourier_step_sums = fourier
+        solver = NormalSolver(model, fourier_step_sums=fourier)
         state = ContactState(model)
         info = solver.solve(state, DELTA_Z)
         assert info.converged, info
@@ -307,7 +306,7 @@ def _advance(correction, deferred, violation, it, rhs=1.0, tol=1e-10, column_nor
         sums[slot] = value
     scalars = np.zeros(nk.N_SCALARS)
     scalars[nk.C_ITER] = it - 1
-    settings = np.zeros(nk.N_SETTINGS)
+    settings = np.zeros(nk.N_PARAMETERS)
     settings[[nk.P_TOL, nk.P_MAX_ITER, nk.P_CHUNK, nk.P_EXACT]] = tol, max_iter, chunk, exact
     held = wp.array([deferred], dtype=wp.float64, device="cpu")
     flag, refresh, inner = (wp.zeros(1, dtype=wp.int32, device="cpu") for _ in range(3))

@@ -51,7 +51,7 @@ def test_split_reduction_equals_the_whole_launch(workers):
         # slots 0-4 of the update's sums give its step: tau = g.t / t.Kt = 4 / 5
         initial = np.arange(nk.N_SUMS, dtype=np.float64) + 1.0
         step_sums, update_sums = (wp.array(initial, dtype=wp.float64, device="cpu") for _ in range(2))
-        settings = wp.zeros(nk.N_SETTINGS, dtype=wp.float64, device="cpu")
+        settings = wp.zeros(nk.N_PARAMETERS, dtype=wp.float64, device="cpu")
         shape = ReductionLaunch.for_cells(n, cache.device)
         output = [Rows(padded), wp.float64(0.5), nx]
         # no cap, passed as the solver passes it (finite: the kernels take their 0 as cap - cap)

@@ -1,4 +1,4 @@
-"""The nested start of a step (ContactSolver.nested): the step solved first on the grid of half
+"""The nested start of a step (SolverSettings.nested): the step solved first on the grid of half
 the cells per side, its tractions and statuses starting the fine step. The answer is the fine
 step's own (its tolerances decide it); only the start changes.
 
@@ -24,8 +24,7 @@ STEPS = [(0.0, 0.0, DZ), (DX, 0.0, DZ)]
 
 def run(n, nested, dtype="float64"):
     model = ContactModel(PAPER_PAIR, Sphere(R), Grid(n, 4 * math.sqrt(R * DZ)), dtype=dtype)
-    solver = ContactSolver(model, TaborVonMises(0.8, PAPER_PAIR.softer.yield_strength))
-    solver.nested = nested
+    solver = ContactSolver(model, TaborVonMises(0.8, PAPER_PAIR.softer.yield_strength), nested=nested)
     state = ContactState(model)
     infos, coarse = [], []
     for approach in STEPS:
@@ -94,7 +93,7 @@ def test_case_file_setting(tmp_path):
     case = case_from_dict(data)
     assert case.solver.nested is True and case.to_dict()["solver"]["nested"] is True
     _, solver, _ = build(case)
-    assert solver.nested is True
+    assert solver.settings.nested is True
     data["solver"]["nested"] = 1
     with pytest.raises(InputError) as e:
         case_from_dict(data)
@@ -114,13 +113,10 @@ def test_auto_nests_from_the_measured_grid_of_each_device_kind():
 
     def solver(n, nested="auto"):
         model = ContactModel(PAPER_PAIR, Sphere(R), Grid(n, 4 * math.sqrt(R * DZ)))
-        s = ContactSolver(model, TaborVonMises(0.8, PAPER_PAIR.softer.yield_strength))
-        if nested != "auto":
-            s.nested = nested
-        return s
+        return ContactSolver(model, TaborVonMises(0.8, PAPER_PAIR.softer.yield_strength), nested=nested)
 
     n = NESTED_AUTO_N["cpu"]
-    assert solver(n).nested == "auto" and solver(n).uses_nested
+    assert solver(n).settings.nested == "auto" and solver(n).uses_nested
     assert not solver(n - 2).uses_nested
     assert not solver(n, nested=False).uses_nested and solver(64, nested=True).uses_nested
     data = tomllib.loads((Path(__file__).resolve().parents[1] / "examples" / "table2_k080_dz5e-5.toml").read_text())

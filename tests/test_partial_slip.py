@@ -22,9 +22,7 @@ SAME = MaterialPair(COPPER, COPPER)
 
 def loaded(pair, friction, n=64, device="cpu", dtype="float64", size=3 * A, preconditioned=True):
     model = ContactModel(pair, Sphere(R, "paraboloid"), Grid(n, size), device=device, dtype=dtype)
-    solver = ContactSolver(model, friction)
-    if friction is not None:
-        solver.tangential.preconditioned = preconditioned
+    solver = ContactSolver(model, friction, tangential_preconditioner=preconditioned)
     state = ContactState(model)
     for k in (1, 2):
         info = solver.step(state, (0.0, 0.0, DZ * k / 2))
@@ -176,15 +174,15 @@ def test_normal_solves_preconditioned_by_default():
     law = TaborVonMises(0.8, PAPER_PAIR.softer.yield_strength)
     model = ContactModel(PAPER_PAIR, Sphere(R), Grid(48, 4 * A))
     same = ContactModel(SAME, Sphere(R), Grid(48, 4 * A))
-    assert ContactSolver(model).normal.preconditioned
-    assert ContactSolver(same, law).normal.preconditioned
-    assert ContactSolver(model, law).normal.preconditioned
-    assert ContactSolver(model, adhesion=SMC(2e7, 2e7, 5e-12, 5e-12)).normal.preconditioned
-    assert not ContactSolver(model, law, preconditioned=False).normal.preconditioned
+    assert ContactSolver(model).normal.settings.normal_preconditioner
+    assert ContactSolver(same, law).normal.settings.normal_preconditioner
+    assert ContactSolver(model, law).normal.settings.normal_preconditioner
+    assert ContactSolver(model, adhesion=SMC(2e7, 2e7, 5e-12, 5e-12)).normal.settings.normal_preconditioner
+    assert not ContactSolver(model, law, normal_preconditioner=False).normal.settings.normal_preconditioner
     results = {}
     for preconditioned in (True, False):
         state = ContactState(model)
-        info = ContactSolver(model, preconditioned=preconditioned).step(state, (0.0, 0.0, DZ))
+        info = ContactSolver(model, normal_preconditioner=preconditioned).step(state, (0.0, 0.0, DZ))
         assert info.converged
         results[preconditioned] = (state.pressure.numpy(), info.iterations)
     (p1, it1), (p2, it2) = results[True], results[False]
@@ -206,9 +204,8 @@ def test_turn_tolerance_schedules_reach_the_same_state(tangential_preconditioned
     for schedule in ("residual", "change"):
         model = ContactModel(PAPER_PAIR, Sphere(R), Grid(48, 4 * A), fft="scipy")
         solver = ContactSolver(model, TaborVonMises(0.8, PAPER_PAIR.softer.yield_strength),
-                               preconditioned=schedule == "residual")
-        solver.turn_tolerance = schedule
-        solver.tangential.preconditioned = tangential_preconditioned
+                               normal_preconditioner=schedule == "residual", turn_tolerance=schedule,
+                               tangential_preconditioner=tangential_preconditioned)
         state = ContactState(model)
         iterations = 0
         for approach in ((0.0, 0.0, DZ), (2.0e-11, 0.0, DZ)):
@@ -232,8 +229,7 @@ def test_exact_turns_reach_the_same_state_in_fewer_turns():
     results = {}
     for schedule in ("residual", "exact"):
         model = ContactModel(PAPER_PAIR, Sphere(R), Grid(48, 4 * A), fft="scipy")
-        solver = ContactSolver(model, TaborVonMises(0.8, PAPER_PAIR.softer.yield_strength))
-        solver.turn_tolerance = schedule
+        solver = ContactSolver(model, TaborVonMises(0.8, PAPER_PAIR.softer.yield_strength), turn_tolerance=schedule)
         state = ContactState(model)
         turns = iterations = 0
         for approach in ((0.0, 0.0, DZ), (2.0e-11, 0.0, DZ)):

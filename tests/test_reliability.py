@@ -214,8 +214,7 @@ def test_device_loop_stops_at_the_converged_iteration_whatever_the_launch_length
     for warm in (True, False):
         counts, pressures = [], []
         for per_launch in (1, 3, 64):
-            solver = NormalSolver(model)
-            solver.iterations_per_launch = per_launch
+            solver = NormalSolver(model, iterations_per_launch=per_launch)
             state = ContactState(model)
             if warm:  # 0.1 % deeper, to 1e-4 (a coupled step's early turns solve to 1e-3 ... 1e-8)
                 state.copy_from(start)
@@ -243,8 +242,7 @@ def test_iteration_limit_stops_the_device_loop():
     model = ContactModel(PAPER_PAIR, Sphere(R, "paraboloid"), Grid(32, 4 * math.sqrt(R * HERTZ_DZ)), device="cpu",
                          dtype="float64")
     for per_launch in (1, 4, 64):
-        solver = NormalSolver(model, max_iter=6)
-        solver.iterations_per_launch = per_launch
+        solver = NormalSolver(model, max_iter=6, iterations_per_launch=per_launch)
         info = solver.solve(ContactState(model), HERTZ_DZ)
         assert not info.converged and info.iterations == 6 and len(info.history) == 6, (per_launch, info)
 

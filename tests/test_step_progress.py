@@ -16,13 +16,14 @@ import numpy as np
 import pytest
 from test_first_hour import afm_dict
 
-import warpcontact.solvers.contact as contact_module
+import warpcontact.solvers.turns as turns_module
 from warpcontact.records.case import case_from_dict
 from warpcontact.errors import InputError
 from warpcontact.physics.geometry import Grid
-from warpcontact.records.guards import EDGE_SHARE_AT_FIRST_TURN, check_contact_fits
+from warpcontact.records.guards import EDGE_SHARE_AT_FIRST_TURN
 from warpcontact.numerics.model import ContactModel
 from warpcontact.records.progress import Progress
+from warpcontact.solvers.turns import MinimisedTurns
 from warpcontact.studies.runner import build, run_path
 
 
@@ -37,10 +38,11 @@ def afm_case(n=32, adhesion=False):
     return case_from_dict(afm_dict(n=n, adhesion=adhesion))
 
 
-def built(case, size=None):
-    """(model, solver, state) of ``case``, on a domain of side ``size`` [m] if given."""
+def built(case, size=None, **choices):
+    """(model, solver, state) of ``case``, on a domain of side ``size`` [m] if given, with the
+    solver settings ``choices``."""
     model = None if size is None else ContactModel(case.pair, case.sphere, Grid(case.grid.n, size))
-    return build(case, model)
+    return build(case, model, **choices)
 
 
 def edge_share(state) -> float:
@@ -53,8 +55,7 @@ def test_on_turn_counts_every_turn_of_a_step_with_its_change(adhesion):
     """on_turn(turn, change) after every turn: turns 1, 2, ... up to the step's turn count, each
     change finite, and the last one under outer_tol (it is the number the turns stop on)."""
     case = afm_case(adhesion=adhesion)
-    _, solver, state = built(case)
-    solver.turns = "minimised"  # with adhesion (this law is on the DMT side: lagged by default)
+    _, solver, state = built(case, turns="minimised")  # with adhesion (the law is on the DMT side: lagged by default)
     assert solver.coupled
     seen = []
     solver.on_turn = lambda turn, change: seen[-1].append((turn, change))
@@ -160,7 +161,7 @@ def count_turn_solves(solver, adhesion):
     the list whose length counts them."""
     calls = []
     name = "_adhesive_normal" if adhesion else "solve"
-    owner = solver if adhesion else solver.normal
+    owner = next(s for s in solver.strategies if isinstance(s, MinimisedTurns)) if adhesion else solver.normal
     inner = getattr(owner, name)
 
     def counted(*a, **kw):
@@ -179,8 +180,7 @@ def test_contact_far_past_the_edge_stops_at_the_first_turn(adhesion, monkeypatch
     13 turns (8 with adhesion) and its final solve before the same error (the control below), so
     one turn is the check's doing."""
     case = afm_case(adhesion=adhesion)
-    _, solver, state = built(case, size=1.6e-9)
-    solver.turns = "minimised"  # with adhesion (this law is on the DMT side: lagged by default)
+    _, solver, state = built(case, size=1.6e-9, turns="minimised")  # with adhesion (lagged by default: DMT side)
     calls = count_turn_solves(solver, adhesion)
     approach = case.load.path()[0]
     with pytest.raises(InputError) as e:
@@ -192,10 +192,8 @@ def test_contact_far_past_the_edge_stops_at_the_first_turn(adhesion, monkeypatch
     assert "\n" not in str(e.value)
 
     # the control: the check after the step only
-    monkeypatch.setattr(contact_module, "check_contact_fits",
-                        lambda s, approach=None, edge_share=0.0: check_contact_fits(s) if approach is None else None)
-    _, solver, state = built(case, size=1.6e-9)
-    solver.turns = "minimised"
+    monkeypatch.setattr(turns_module, "check_contact_fits", lambda *a, **k: None)  # (the turns' check: at the first turn)
+    _, solver, state = built(case, size=1.6e-9, turns="minimised")
     calls = count_turn_solves(solver, adhesion)
     with pytest.raises(InputError) as late:
         solver.step(state, approach)

@@ -88,8 +88,7 @@ def mindlin_step(n, device, dtype, preconditioned, tol=None):
     """Identical copper bodies, Coulomb mu = 0.3: delta_z, then delta_x at Q / (mu P) = 0.5: one
     tangential solve from zero shear. Returns (state, tangential SolveInfo, model)."""
     model = ContactModel(SAME, Sphere(R, "paraboloid"), Grid(n, 3 * A), device=device, dtype=dtype)
-    solver = ContactSolver(model, Coulomb(MU), tol=tol)
-    solver.tangential.preconditioned = preconditioned
+    solver = ContactSolver(model, Coulomb(MU), tol=tol, tangential_preconditioner=preconditioned)
     state = ContactState(model)
     assert solver.step(state, (0.0, 0.0, DZ)).converged
     infos = []
@@ -103,8 +102,8 @@ def coupled_step(device, dtype, preconditioned):
     """The issue's case at n = 48: copper on steel, Tabor + von Mises k_tau = 0.8, delta_z =
     1e-10 m then delta_x = 2e-11 m, domain 4a (the normal-tangential turns)."""
     model = ContactModel(PAPER_PAIR, Sphere(R), Grid(48, 4 * A), device=device, dtype=dtype)
-    solver = ContactSolver(model, TaborVonMises(0.8, PAPER_PAIR.softer.yield_strength))
-    solver.tangential.preconditioned = preconditioned
+    solver = ContactSolver(model, TaborVonMises(0.8, PAPER_PAIR.softer.yield_strength),
+                           tangential_preconditioner=preconditioned)
     state = ContactState(model)
     for approach in ((0.0, 0.0, DZ), (2.0e-11, 0.0, DZ)):
         assert solver.step(state, approach).converged
@@ -152,9 +151,8 @@ def test_one_operator_application_per_iteration():
                 return _method(*args, **kwargs)
 
             setattr(op, name, counted)
-        solver = ContactSolver(model, Coulomb(MU))
-        solver.tangential.preconditioned = preconditioned
-        solver.tangential.window = False  # counted on this operator (a window solves with its own)
+        # counted on this operator (a window solves with its own)
+        solver = ContactSolver(model, Coulomb(MU), tangential_preconditioner=preconditioned, window=False)
         state = ContactState(model)
         solver.step(state, (0.0, 0.0, DZ))
         calls.update(tangential=0, tangential_inverse_product=0)

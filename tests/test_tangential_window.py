@@ -1,4 +1,4 @@
-"""The tangential solve on the window of the grid that holds the contact (``TangentialSolver.window``):
+"""The tangential solve on the window of the grid that holds the contact (``SolverSettings.window``):
 its sizes and place, the same answer as on the whole grid, the coupled step with it."""
 
 import math
@@ -90,8 +90,7 @@ def test_window_solve_is_the_whole_grid_solve(device, dtype):
     out = {}
     for window in (False, True):
         model, state = hertz_state(n, device, dtype)
-        solver = TangentialSolver(model)
-        solver.window = window
+        solver = TangentialSolver(model, window=window)
         target_x, target_y, q_max = shear_problem(model, state, 0.5 * DX)
         known_x, known_y = model.field(), model.field()
         info = solver.solve(state, target_x, target_y, q_max, known_x, known_y, pressure=state.pressure)
@@ -118,8 +117,7 @@ def test_deferred_whole_displacement_is_the_window_solves_shear_convolved(device
     zero known displacement plus K_tp p is K_tp p exactly). The shear outside the window is zero,
     its cells out of contact."""
     model, state = hertz_state(64, device, "float64")
-    solver = TangentialSolver(model)
-    solver.window = True
+    solver = TangentialSolver(model, window=True)
     target_x, target_y, q_max = shear_problem(model, state, 0.5 * DX)
     known_x, known_y = model.field(), model.field()
     solver.solve(state, target_x, target_y, q_max, known_x, known_y, pressure=state.pressure, whole=False)
@@ -142,8 +140,7 @@ def test_contact_wider_than_the_largest_window_solves_on_the_whole_grid():
     """A domain only 1.25 times the contact's width: the window would pass WINDOW_MAX_SHARE of the
     grid, so the solve runs on the whole grid."""
     model, state = hertz_state(48, "cpu", "float64", size=2.5 * A)
-    solver = TangentialSolver(model)
-    solver.window = True
+    solver = TangentialSolver(model, window=True)
     target_x, target_y, q_max = shear_problem(model, state, 0.5 * DX)
     assert solver.solve(state, target_x, target_y, q_max).converged
     assert solver.last_window is None and WINDOW_MAX_SHARE < 1
@@ -151,8 +148,7 @@ def test_contact_wider_than_the_largest_window_solves_on_the_whole_grid():
 
 def coupled_steps(n, device, window: bool):
     model = ContactModel(PAPER_PAIR, Sphere(R), Grid(n, 4 * A), device=device)
-    solver = ContactSolver(model, LAW)
-    solver.tangential.window = window
+    solver = ContactSolver(model, LAW, window=window)
     state = ContactState(model)
     windows = []
     for approach in ((0.0, 0.0, DZ), (DX, 0.0, DZ)):
@@ -187,7 +183,7 @@ def test_auto_window_from_the_measured_grids_on():
     for cells, expected in ((n // 2, None), (n, n // 2)):
         model, state = hertz_state(cells, "cpu", "float64")
         solver = TangentialSolver(model)
-        assert solver.window == "auto"
+        assert solver.settings.window == "auto"
         target_x, target_y, q_max = shear_problem(model, state, 0.5 * DX)
         assert solver.solve(state, target_x, target_y, q_max).converged
         assert solver.last_window == expected, (cells, solver.last_window)
@@ -212,7 +208,7 @@ def test_case_files_set_the_window():
     assert case().solver.window == "auto"
     for value in (True, False, "auto"):
         _, solver, _ = build(case(window=value))
-        assert solver.tangential.window == value
+        assert solver.tangential.settings.window == value
         assert case(window=value).solver.to_dict()["window"] == value
     with pytest.raises(InputError, match="solver.window"):
         case(window="sometimes")
@@ -237,9 +233,7 @@ def test_adhesive_coupled_steps_on_the_window(turns):
     out = {}
     for window in (False, True):
         model = ContactModel(PAPER_PAIR, Sphere(t2.RADIUS), t2.cell_grid(dz, settings, law))
-        solver = ContactSolver(model, LAW, adhesion=law)
-        solver.turns = turns
-        solver.tangential.window = window
+        solver = ContactSolver(model, LAW, adhesion=law, turns=turns, window=window)
         state = ContactState(model)
         for approach in ((0.0, 0.0, dz), (DX, 0.0, dz)):
             info = solver.step(state, approach)
@@ -260,8 +254,7 @@ def test_a_non_finite_value_in_a_window_names_the_whole_grids_cell():
 
     for window in (False, True):
         model, state = hertz_state(64, "cpu", "float64")
-        solver = TangentialSolver(model)
-        solver.window = window
+        solver = TangentialSolver(model, window=window)
         target_x, target_y, q_max = shear_problem(model, state, 0.5 * DX)
         values = state.shear_x.numpy().copy()
         values[30, 35] = np.nan  # inside the contact (cells 16..47 each way)

@@ -15,8 +15,8 @@ import pytest
 import warpcontact as wc
 from warpcontact.records.case import tomllib
 from warpcontact.records.guards import YieldWarning
-from warpcontact.solvers import contact
-from warpcontact.solvers.contact import STALL_TURNS, stalled
+from warpcontact.solvers import turns
+from warpcontact.solvers.turns import STALL_TURNS, LaggedTurns, stalled
 
 EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
 
@@ -50,15 +50,15 @@ def plain_and_mixed():
     with pytest.warns(YieldWarning):  # p passes S_Y: the point of this path
         plain = wc.solve(case, fields="last")
     mixed_turns = []
-    original = contact.ContactSolver._mixed_change
+    original = LaggedTurns._mixed_change
 
     def counted(self, state, mixing):
         mixed_turns.append(1)
         return original(self, state, mixing)
 
     with pytest.MonkeyPatch.context() as mp:  # the mixing from the third turn of every step on
-        mp.setattr(contact, "stalled", lambda changes: len(changes) >= 3)
-        mp.setattr(contact.ContactSolver, "_mixed_change", counted)
+        mp.setattr(turns, "stalled", lambda changes: len(changes) >= 3)
+        mp.setattr(LaggedTurns, "_mixed_change", counted)
         with pytest.warns(YieldWarning):
             mixed = wc.solve(case, fields="last")
     assert len(mixed_turns) >= len(mixed.states), "the mixing was not used"

@@ -20,7 +20,7 @@ The estimate is counted from the allocations in the code, not fitted:
   (no_displacement, made when a solve is given no known displacement; grad, dir, resp x/y, made
   by its first solve on the whole grid) with its
   scalars, and the solver's target_x/y and shear_limit (3 fields; with adhesion scratch_x/y too). Not counted: the
-  windows of the tangential solves (``TangentialSolver.window``), each a model and about 18
+  windows of the tangential solves (``SolverSettings.window``), each a model and about 18
   fields of its m x m cells (m <= 0.75 n; 8 GiB at n = 8192 float64, m = 4096), made beside
   these where they fit: on CUDA a window that does not fit in the free memory is not made and
   the solve runs on the whole grid, within this estimate. With adhesion, ``AndersonMixing`` holds 3 + 2 x DEPTH
@@ -79,7 +79,7 @@ ADHESION_FRICTION_FIELDS = 2
 #: components of ContactSolver's AndersonMixing with friction: 4 for the SMC law's minimised turns
 #: (the shears and adhesive shears), 3 otherwise; counted as 4 (the larger)
 MIXING_COMPONENTS_FRICTION = 4
-#: (n, n) fields of the minimised turns (adhesion with friction, solvers/contact.py): the coupling
+#: (n, n) fields of the minimised turns (adhesion with friction, solvers/turns.py, MinimisedTurns): the coupling
 #: shear and the adhesive shear held in a turn (4 with the SMC law, 2 with a normal-only law),
 #: the total normal traction and a scratch field; counted for the SMC law (the larger)
 MINIMISED_TURN_FIELDS = 6

@@ -10,11 +10,12 @@ import numpy as np
 import warp as wp
 
 from warpcontact.kernels.reduce import (
-    C_ITER, C_STOP, N_SETTINGS, P_CHUNK, P_MAX_ITER, P_TOL, S_RHS, S_VIOL, loop_start,
+    C_ITER, C_STOP, N_PARAMETERS, P_CHUNK, P_MAX_ITER, P_TOL, S_RHS, S_VIOL, loop_start,
 )
 
 from .. import interrupts
 from ..numerics.state import SolveInfo
+from .settings import SolverSettings
 
 
 def default_tolerance(dtype) -> float:
@@ -34,7 +35,7 @@ class ProjectedCG:
     sets the loop flag). The loop settles as soon as an iterate's residual is under the tolerance,
     is not finite, or the iteration limit is reached, and ``exact`` then runs again (unless it
     settled before the first iteration, where the sums are exact already); it also stops
-    after ``iterations_per_launch`` iterations, where the host checks for interrupts and launches
+    after ``settings.iterations_per_launch`` iterations, where the host checks for interrupts and launches
     it again (nothing else changes there, so the results do not depend on the launch length). The
     host reads the scalars once per launch, and the sums once the loop settled. A solve that
     starts near its solution (the turns of a coupled or adhesive step: often 0-4 iterations)
@@ -43,7 +44,7 @@ class ProjectedCG:
     On CUDA (``use_graphs``, default where conditional graph nodes are supported: CUDA 12.4+) the
     launch is a CUDA graph captured the first time a set of arrays is seen, so a solve waits for
     the device once per launch. The values of a solve that the kernels read (tolerance, approach,
-    iteration limit) live in the device array ``settings``, so one graph serves every solve. On
+    iteration limit) live in the device array ``parameters``, so one graph serves every solve. On
     the CPU, and on CUDA without graphs, the same work runs eagerly and the host reads the loop's
     flag after each iteration (free on the CPU).
     """
@@ -54,20 +55,21 @@ class ProjectedCG:
     #: captured graphs kept per solver (two per set of arrays: the first launch of a solve and the
     #: later ones), oldest dropped
     max_graphs = 8
-    #: iterations per launch of the device loop at most: the host checks for interrupts between
-    #: launches
-    iterations_per_launch = 64
 
-    def __init__(self, model, n_sums: int, n_scalars: int, tol=None, max_iter: int = 2000, use_graphs: bool | None = None):
+    def __init__(self, model, settings: SolverSettings, n_sums: int, n_scalars: int):
         self.model = model
-        self.tol = default_tolerance(model.dtype) if tol is None else float(tol)
-        self.max_iter = int(max_iter)
+        #: the solver's choices (:class:`~warpcontact.solvers.settings.SolverSettings`), fixed
+        self.settings = settings
+        #: relative residual a solve aims for (``settings.tol``, or the float type's default)
+        self.tol = default_tolerance(model.dtype) if settings.tol is None else float(settings.tol)
+        #: iteration limit of a solve
+        self.max_iter = int(settings.max_iter)
         self.sums = model.scalars(n_sums)
         self.scalars = model.scalars(n_scalars)
         self.history = model.scalars(self.max_iter + 1)
         #: per-solve values read by the kernels (slots P_* of kernels/reduce.py)
-        self.settings = model.scalars(N_SETTINGS)
-        self._settings = np.zeros(N_SETTINGS)
+        self.parameters = model.scalars(N_PARAMETERS)
+        self._parameters = np.zeros(N_PARAMETERS)
         #: the device loop's flag: 1 while the iterations go on; and 1 when it settled (converged,
         #: at the limit or not finite: the launch then makes the residual exact)
         self.loop = wp.zeros(1, dtype=wp.int32, device=model.device)
@@ -75,32 +77,33 @@ class ProjectedCG:
         #: the inner loop's flag where iterations may start with a conditional step (``_run``'s
         #: ``prelude``): 1 while the iterations go on without it
         self.inner_loop = wp.zeros(1, dtype=wp.int32, device=model.device)
-        #: replay launches as captured CUDA graphs (default: on CUDA devices with conditional nodes)
+        #: replay launches as captured CUDA graphs (``settings.use_graphs``; by default on CUDA
+        #: devices with conditional nodes)
         supported = model.device.is_cuda and wp.is_conditional_graph_supported()
-        self.use_graphs = supported if use_graphs is None else bool(use_graphs)
+        self.use_graphs = supported if settings.use_graphs is None else bool(settings.use_graphs)
         if self.use_graphs and not supported:
-            raise ValueError("use_graphs: the solver's graphs need a CUDA device with conditional graph nodes "
-                             "(CUDA toolkit and driver 12.4+)")
+            raise ValueError("settings.use_graphs: the solver's graphs need a CUDA device with conditional graph "
+                             "nodes (CUDA toolkit and driver 12.4+)")
         self._graphs: OrderedDict = OrderedDict()
         #: the parts of an iteration (the code of a loop body) that have run eagerly: their kernels
         #: are loaded for this float type; a capture waits until they have (see _launch)
         self._ran_eagerly: set = set()
 
     def _stage(self, slot: int, value: float):
-        """settings[slot] <- value on the host; :meth:`_upload` sends them."""
-        self._settings[slot] = value
+        """parameters[slot] <- value on the host; :meth:`_upload` sends them."""
+        self._parameters[slot] = value
 
     def _upload(self):
-        """Send the staged settings to the device (a few bytes)."""
-        self.settings.assign(self._settings.astype(self.model.np_dtype))
+        """Send the staged parameters to the device (a few bytes)."""
+        self.parameters.assign(self._parameters.astype(self.model.np_dtype))
 
     def _begin(self, tol=None):
         """Start a solve: stage its tolerance (default ``self.tol``), iteration limit and launch
-        length, and send the settings (with what the subclass staged)."""
+        length, and send the parameters (with what the subclass staged)."""
         self.active_tol = self.tol if tol is None else float(tol)
         self._stage(P_TOL, self.active_tol)
         self._stage(P_MAX_ITER, self.max_iter)
-        self._stage(P_CHUNK, max(1, int(self.iterations_per_launch)))
+        self._stage(P_CHUNK, self.settings.iterations_per_launch)
         self._upload()
 
     def _launch(self, key, work, needs=()):
@@ -205,7 +208,7 @@ class ProjectedCG:
                 self.history.fill_(-1.0)
                 start()
                 refresh(exact if start_exact is None else start_exact)
-            self.model.launch(loop_start, 1, [self.sums, self.settings, int(first)],
+            self.model.launch(loop_start, 1, [self.sums, self.parameters, int(first)],
                               [self.scalars, self.loop, self.refresh])
             iterations()
             wp.capture_if(self.refresh, on_true=refresh)
@@ -233,7 +236,7 @@ class ProjectedCG:
 
 def raise_non_finite(solver_name: str, state, names, iteration: int):
     """Raise NonFiniteError naming the first non-finite field and cell (of the whole grid: a window
-    of it, ``TangentialSolver.window``, adds its first row and column ``row0``, ``col0``)."""
+    of it, ``SolverSettings.window``, adds its first row and column ``row0``, ``col0``)."""
     from ..errors import NonFiniteError
 
     for name in names:

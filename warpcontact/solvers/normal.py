@@ -12,6 +12,7 @@ from warpcontact.kernels import normal as nk
 from ..numerics.launch import ReductionLaunch, Rows, Sums
 from ..numerics.state import SolveInfo
 from .base import ProjectedCG, default_tolerance, raise_non_finite  # noqa: F401  (re-export)
+from .settings import SolverSettings
 
 
 class NormalSolver(ProjectedCG):
@@ -35,7 +36,7 @@ class NormalSolver(ProjectedCG):
     cropping passes are those passes. On CUDA (``fourier_step_sums``) three: the direction's pass
     sums g . t and the spectral product (K t) . t, in Fourier space.
 
-    Preconditioned (``preconditioned``, the default): each iteration's direction is built from
+    Preconditioned (``settings.normal_preconditioner``, the default): each iteration's direction is built from
     z = M g on the free set F (0 < p < cap) instead of g, with M the circulant inverse of K on
     the padded grid (1 / K(k) in Fourier space: the operator's spectrum inverted; restricted to F,
     M approximates the inverse of K restricted to F, most closely away from F's edge), and
@@ -51,19 +52,17 @@ class NormalSolver(ProjectedCG):
 
     Args:
         model: the [`ContactModel`][warpcontact.numerics.model.ContactModel].
-        tol: relative residual to reach (default: 1e-10 in float64, 1e-5 in float32).
-        max_iter: iteration limit; a solve that reaches it returns ``converged = False``.
+        settings: the solver's choices (:class:`~warpcontact.solvers.settings.SolverSettings`;
+            this solver reads ``tol``, ``max_iter``, ``normal_preconditioner``, ``one_convolution``,
+            ``exact_every``, ``deferral``, ``fourier_step_sums``, ``iterations_per_launch``,
+            ``use_graphs``); default: the defaults.
         pressure_cap: upper bound of the pressure [Pa] (hardness), inf for none.
-        one_convolution: carry the gap between exact recomputations: one convolution per
-            iteration instead of two (default: on).
-        use_graphs: replay solves as CUDA graphs (default: on CUDA with conditional graph nodes).
-        preconditioned: precondition with the circulant inverse of K (default: on); False:
-            Polonsky-Keer's conjugate gradients as published.
+        **choices: settings replaced by name (``NormalSolver(model, max_iter=500)``).
     """
 
-    def __init__(self, model, tol=None, max_iter: int = 2000, pressure_cap: float = math.inf,
-                 one_convolution: bool = True, use_graphs: bool | None = None, preconditioned: bool = True):
-        super().__init__(model, nk.N_SUMS, nk.N_SCALARS, tol, max_iter, use_graphs)
+    def __init__(self, model, settings: SolverSettings | None = None, *, pressure_cap: float = math.inf, **choices):
+        settings = SolverSettings.of(settings, **choices)
+        super().__init__(model, settings, nk.N_SUMS, nk.N_SCALARS)
         #: upper bound of the pressure [Pa] (the softer body's hardness: elastic-perfectly-plastic
         #: surface; MODEL.md section 5); inf for none
         self.pressure_cap = float(pressure_cap)
@@ -77,39 +76,19 @@ class NormalSolver(ProjectedCG):
         #: 1: the solve starts from rest and makes the first guess (set by the device)
         self.guess_flag = wp.zeros(1, dtype=wp.int32, device=model.device)
         self.no_displacement = model.field()
-        #: carry the gap between exact recomputations (one convolution per iteration, two after a
-        #: projection that may matter); False: recompute it at every iteration (settings P_EXACT)
-        self.one_convolution = bool(one_convolution)
         #: 1: the next iteration starts from an exact gap (set by the device)
         self.recompute = wp.zeros(1, dtype=wp.int32, device=model.device)
-        #: iterations between exact recomputations of K p in the one-convolution mode. Besides the
-        #: rounding the carried gap gathers, a recompute clears what the deferred projections left
-        #: out of it (up to ``deferral`` of the violation): with 200 instead of 50, Hertz solves
-        #: from rest on the H100 took 146-154 iterations against 131-150 at n = 2048 and 152-154
-        #: against 147-150 at 4096, 5 % longer at 4096 (``bench_results/first_exact/``).
-        self.exact_every = 50
-        #: recompute K p once the bound on what the carried gap misses exceeds this fraction of the
-        #: violation (``kernels/normal.py``, ``normal_advance``); 0: after every projection.
-        #: A captured graph keeps the value it was captured with: set it before the first solve.
-        self.deferral = 0.1
         self._column_norm = model.scalar(model.operator.column_norm("zz"))
         self.deferred = model.scalars(1)
         self._current_sums = self.sums[: nk.S_RHS + 1]  # slots S_G, S_VIOL, S_RHS
         self._preconditioned_g = self.sums[nk.S_G: nk.S_G + 1]
-        #: precondition the iteration with the circulant inverse of the operator (``preconditioned``
-        #: in the class docstring); False: plain Polonsky-Keer. A captured graph is kept per choice.
-        self.preconditioned = bool(preconditioned)
-        #: sum g . t in the direction's pass and (K t) . t in the spectral product (Parseval), one
-        #: pass over the grid less (default on CUDA: H100, n = 1024, with the vector reductions and
-        #: the direction's launch below, 0.230 -> 0.216-0.220 ms per iteration); else both in
-        #: ``normal_step_sums`` after the convolution (default on the CPU, where the spectral sum
-        #: over 2 n (n + 1) entries costs more than the pass it saves: n = 512, 2.6 against 5.1 ms
-        #: for the direction, product and sums). Same iterates up to rounding. A captured graph
-        #: keeps the path it was captured with.
-        self.fourier_step_sums = model.device.is_cuda
-        # the direction's pass (one sum) takes more blocks than the model's reductions (H100, L2
-        # flushed before each call: n = 1024, 20.1 -> 14.3 us at 8 blocks per SM against 4;
-        # n = 2048, 68 -> 43 us; bench/reduction_launch.py --cold, a probe in git history)
+        #: sum g . t and (K t) . t in Fourier space (``settings.fourier_step_sums``; by default on
+        #: CUDA, where it saves a pass over the grid; on the CPU the spectral sum costs more than
+        #: the pass: docs/performance.md). Same iterates up to rounding.
+        self.fourier_step_sums = (model.device.is_cuda if settings.fourier_step_sums is None
+                                  else settings.fourier_step_sums)
+        # the direction's pass (one sum) takes more blocks than the model's reductions: it is
+        # faster so on CUDA (docs/performance.md)
         self._direction_launch = ReductionLaunch.for_cells(model.n_cells, model.device, blocks_per_sm=8)
 
     def solve(self, state, approach_z: float, known_displacement: wp.array | None = None, tol=None,
@@ -128,7 +107,7 @@ class NormalSolver(ProjectedCG):
         fft = m.operator.fft
         known = self.no_displacement if known_displacement is None else known_displacement
         self._stage(nk.P_APPROACH, float(m.np_dtype(approach_z / m.length_scale)))  # as the kernels see it
-        self._stage(nk.P_EXACT, 0.0 if self.one_convolution else 1.0)
+        self._stage(nk.P_EXACT, 0.0 if self.settings.one_convolution else 1.0)
         self._begin(tol)
         p, g, t, b = (a.flatten() for a in (state.pressure, state.gap, self.direction, self.interference))
         # the passes of an iteration, as the CPU splits them over its threads (by rows)
@@ -139,7 +118,7 @@ class NormalSolver(ProjectedCG):
             m.operator.normal(state.pressure, state.disp_z)
 
         def start():  # the interference; the first guess when no cell has p > 0 (the device decides); K p
-            m.launch(nk.normal_interference, m.n_cells, [m.initial_gap.flatten(), known.flatten(), self.settings], [b])
+            m.launch(nk.normal_interference, m.n_cells, [m.initial_gap.flatten(), known.flatten(), self.parameters], [b])
             self.guess_sums.zero_()
             m.launch_reduce(nk.count_positive, [p], [self.guess_sums])
             m.launch(nk.guess_needed, 1, [self.guess_sums], [self.guess_flag])
@@ -165,7 +144,7 @@ class NormalSolver(ProjectedCG):
             displacement()
             gap_sums()
 
-        preconditioned = self.preconditioned
+        preconditioned = self.settings.normal_preconditioner
 
         def precondition():  # M g on the free set into the padded output; its G = g . M g into slot S_G
             m.launches.launch_rows(nk.normal_free_gap, m.grid.shape, [g_rows, p_rows, self._cap, m.grid.n],
@@ -186,15 +165,16 @@ class NormalSolver(ProjectedCG):
                 m.launches.launch_rows(nk.normal_direction, m.grid.shape, direction_in, [t_rows, Rows(fft.padded_input)])
                 m.operator.normal_padded()
                 m.launch_reduce(nk.normal_step_sums, [g_rows, t_rows, *output], [Sums(self.sums)])
-            m.launch_reduce(nk.normal_update, [t_rows, *output, b_rows, self._cap, self.settings],
+            m.launch_reduce(nk.normal_update, [t_rows, *output, b_rows, self._cap, self.parameters],
                             [p_rows, g_rows, Sums(self.sums)])
             m.launch(nk.normal_advance, 1,
-                     [self.sums, self.settings, self.exact_every, self._column_norm, m.scalar(self.deferral)],
+                     [self.sums, self.parameters, self.settings.exact_every, self._column_norm,
+                      m.scalar(self.settings.deferral)],
                      [self.scalars, self.history, self.deferred, self.recompute, self.loop, self.refresh,
                       self.inner_loop])
 
         def on_disagreement():  # the carried gap said "converged", the exact one does not
-            if self._settings[nk.P_EXACT] == 0:
+            if self._parameters[nk.P_EXACT] == 0:
                 self._stage(nk.P_EXACT, 1.0)  # recompute the gap at every iteration from now on
                 self._upload()
 

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 from collections import OrderedDict
+from dataclasses import replace
 
 import numpy as np
 import warp as wp
@@ -15,6 +16,7 @@ from warpcontact.kernels import tangential as tk
 from ..numerics.launch import Rows, Sums
 from ..numerics.state import SolveInfo
 from .base import ProjectedCG, raise_non_finite
+from .settings import SolverSettings
 
 #: window sizes (cells per side): these numbers times a power of two, so that the window's padded
 #: transforms (2m points) have no prime factor over 7
@@ -61,7 +63,7 @@ class TangentialSolver(ProjectedCG):
     the slip increment; slip: its part not along q and any reversal) over the norm of the
     right-hand side delta - s_prev - u_known on the contact.
 
-    Preconditioned (``preconditioned``, the default), an iteration makes one application of the
+    Preconditioned (``settings.tangential_preconditioner``, the default), an iteration makes one application of the
     tangential operator, K t of the conjugate direction, and carries g (g <- g - tau K t); g is
     made exact again (K q) after a released cell (a restart of the conjugacy), every
     ``exact_every`` iterations, and when the bound on what the projections changed since (slip
@@ -88,10 +90,10 @@ class TangentialSolver(ProjectedCG):
     problem: Vollebregt (2014), J. Comput. Phys. 257, 333-351, and Zhao, Vollebregt & Oosterlee
     (2014), Numer. Linear Algebra Appl. 21, 256-274.
 
-    ``preconditioned=False``: the iteration as Chen & Wang publish it, with Jacobi scaling: K q
+    ``tangential_preconditioner=False``: the iteration as Chen & Wang publish it, with Jacobi scaling: K q
     for the exact gradient and K t for the step at every iteration (two applications).
 
-    The window (``window``; by default from ``WINDOW_AUTO_N`` cells per side on, where it was
+    The window (``settings.window``; by default from ``WINDOW_AUTO_N`` cells per side on, where it was
     measured to pay): the shear lives on the cells where q_max > 0 (the
     contact), and a solve is the same problem on any grid of the same cells that holds them all,
     the tractions outside it being zero. A solve therefore runs on the smallest square window of
@@ -110,18 +112,18 @@ class TangentialSolver(ProjectedCG):
 
     Args:
         model: the [`ContactModel`][warpcontact.numerics.model.ContactModel].
-        tol: relative residual to reach (default: 1e-10 in float64, 1e-5 in float32).
-        max_iter: iteration limit; a solve that reaches it returns ``converged = False``.
-        use_graphs: replay solves as CUDA graphs (default: on CUDA with conditional graph nodes).
-        preconditioned: the preconditioned one-application iteration (default); False: plain.
+        settings: the solver's choices (:class:`~warpcontact.solvers.settings.SolverSettings`;
+            this solver reads ``tol``, ``max_iter``, ``tangential_preconditioner``, ``exact_every``,
+            ``deferral``, ``window``, ``iterations_per_launch``, ``use_graphs``); default: the
+            defaults.
+        **choices: settings replaced by name (``TangentialSolver(model, window=False)``).
     """
 
     restart_every = 100
 
-    def __init__(self, model, tol=None, max_iter: int = 2000, use_graphs: bool | None = None,
-                 preconditioned: bool = True):
-        super().__init__(model, tk.N_SUMS_PRECONDITIONED, tk.N_SCALARS, tol, max_iter, use_graphs)
-        f = model.field
+    def __init__(self, model, settings: SolverSettings | None = None, **choices):
+        settings = SolverSettings.of(settings, **choices)
+        super().__init__(model, settings, tk.N_SUMS_PRECONDITIONED, tk.N_SCALARS)
         #: the iteration's fields on the whole grid (gradient, direction, response), made by the
         #: first solve that runs on the whole grid (solves on a window use the window's)
         self.grad_x = self.grad_y = self.dir_x = self.dir_y = self.resp_x = self.resp_y = None
@@ -131,19 +133,11 @@ class TangentialSolver(ProjectedCG):
         k_self = 0.5 * (model.operator.self_coefficient("xx") + model.operator.self_coefficient("yy"))
         self.stiffness = model.scalar(k_self)
         self.slip_step = model.scalar(1.0 / k_self)
-        #: the preconditioned iteration (class docstring); False: Chen & Wang's, two applications
-        #: of the operator per iteration. A captured graph is kept per choice.
-        self.preconditioned = bool(preconditioned)
         #: floor of the eigenvalues of K_tt's 2x2 blocks in the preconditioner (scaled): a
         #: quarter of the self-influence. A few entries on the padded grid's axes near the highest
         #: frequency are below it (down to -0.04; the rest 0.7 and up); floors from 0.02 to 0.5
         #: times the self-influence gave the same iterations within 1 (NumPy replay, n = 64).
         self.eigen_floor = 0.25 * k_self
-        #: iterations between exact recomputations of K q in the preconditioned iteration
-        self.exact_every = 50
-        #: recompute K q once the bound on what the carried g misses exceeds this fraction of the
-        #: violation. A captured graph keeps the value it was captured with.
-        self.deferral = 0.1
         self._column_norm = model.scalar(model.operator.tangential_column_norm())
         self.deferred = model.scalars(1)
         #: 1: the next iteration starts from an exact g (set by the device)
@@ -152,9 +146,6 @@ class TangentialSolver(ProjectedCG):
         #: launches of the last preconditioned solve that settled on a carried g whose exact
         #: value did not meet the tolerance (the loop then went on from the exact g)
         self.disagreements = 0
-        #: solve on the window of the grid that holds the contact (class docstring): True, False
-        #: (on the whole grid always) or "auto": from WINDOW_AUTO_N cells per side on
-        self.window: bool | str = "auto"
         #: the side of the last solve's window in cells, None where it ran on the whole grid
         self.last_window: int | None = None
         self._windows: OrderedDict = OrderedDict()  # cells -> _Window
@@ -203,7 +194,7 @@ class TangentialSolver(ProjectedCG):
         self.make_whole_grid_fields()
         if pressure is not None:
             self._add_coupling(state, pressure, known_x, known_y)
-        if self.preconditioned:
+        if self.settings.tangential_preconditioner:
             return self._solve_preconditioned(state, target_x, target_y, shear_limit, known_x, known_y, tol)
         return self._solve_plain(state, target_x, target_y, shear_limit, known_x, known_y, tol)
 
@@ -245,11 +236,11 @@ class TangentialSolver(ProjectedCG):
 
     @property
     def uses_window(self) -> bool:
-        """Whether solves may run on a window (``window``; "auto": n of at least WINDOW_AUTO_N of
-        the device's kind)."""
-        if self.window == "auto":
+        """Whether solves may run on a window (``settings.window``; "auto": n of at least
+        WINDOW_AUTO_N of the device's kind)."""
+        if self.settings.window == "auto":
             return self.model.grid.n >= WINDOW_AUTO_N["cuda" if self.model.device.is_cuda else "cpu"]
-        return bool(self.window)
+        return self.settings.window
 
     @property
     def graph_count(self) -> int:
@@ -294,7 +285,7 @@ class TangentialSolver(ProjectedCG):
             target_y, shear_limit, self.grad_x, self.grad_y, self.dir_x, self.dir_y, self.resp_x, self.resp_y))
 
     def _key(self, state, target_x, target_y, shear_limit, known_x, known_y):
-        return (self.preconditioned, *(a.ptr for a in (state.shear_x, state.shear_y, state.status, state.disp_x,
+        return (self.settings.tangential_preconditioner, *(a.ptr for a in (state.shear_x, state.shear_y, state.status, state.disp_x,
                                                        state.disp_y, known_x, known_y, target_x, target_y,
                                                        shear_limit)))
 
@@ -359,11 +350,11 @@ class TangentialSolver(ProjectedCG):
             m.operator.tangential(self.dir_x, self.dir_y, self.resp_x, self.resp_y)
             m.launch_reduce(tk.tangential_step_sums, [gx, gy, tx, ty, rx, ry, qx, qy, limit, st], [sums])
             m.launch_reduce(tk.tangential_carried_update,
-                            [tx, ty, rx, ry, limit, self.slip_step, self.stiffness, self.settings],
+                            [tx, ty, rx, ry, limit, self.slip_step, self.stiffness, self.parameters],
                             [qx, qy, st, gx, gy, sums])
             m.launch(tk.tangential_advance, 1,
-                     [self.sums, self.settings, self.restart_every, self.exact_every, self._column_norm,
-                      m.scalar(self.deferral)],
+                     [self.sums, self.parameters, self.restart_every, self.settings.exact_every, self._column_norm,
+                      m.scalar(self.settings.deferral)],
                      [self.scalars, self.history, self.deferred, self.recompute, self.loop, self.refresh,
                       self.inner_loop])
 
@@ -398,9 +389,9 @@ class TangentialSolver(ProjectedCG):
                            [gx, gy, qx, qy, limit, st, self.stiffness, self.sums, self.scalars], [tx, ty])
             m.operator.tangential(self.dir_x, self.dir_y, self.resp_x, self.resp_y)
             m.launch_reduce(tk.tangential_step_sums, [gx, gy, tx, ty, rx, ry, qx, qy, limit, st], [sums])
-            m.launch_reduce(tk.tangential_update, [gx, gy, tx, ty, limit, self.slip_step, self.settings],
+            m.launch_reduce(tk.tangential_update, [gx, gy, tx, ty, limit, self.slip_step, self.parameters],
                             [qx, qy, st, sums])
-            m.launch(reduce.cg_advance, dim=1, inputs=[self.sums, self.settings, self.restart_every],
+            m.launch(reduce.cg_advance, dim=1, inputs=[self.sums, self.parameters, self.restart_every],
                      outputs=[self.scalars, self.history, self.loop, self.refresh])
 
         key = self._key(state, target_x, target_y, shear_limit, known_x, known_y)
@@ -408,7 +399,7 @@ class TangentialSolver(ProjectedCG):
 
 
 class _Window:
-    """A square window of ``cells`` per side of a solver's grid (``TangentialSolver.window``): a
+    """A square window of ``cells`` per side of a solver's grid (``SolverSettings.window``): a
     model of its own (the same materials and cell size), a tangential solver on it, and the
     fields of a solve, cut out of the whole grid's at ``(row0, col0)`` and put back."""
 
@@ -422,9 +413,7 @@ class _Window:
         self.cells = int(cells)
         self.row0 = self.col0 = 0
         model = m.on_grid(Grid(self.cells, self.cells * m.grid.dx))
-        self.solver = TangentialSolver(model, parent.tol, parent.max_iter, use_graphs=parent.use_graphs,
-                                       preconditioned=parent.preconditioned)
-        self.solver.window = False
+        self.solver = TangentialSolver(model, replace(parent.settings, tol=parent.tol, window=False))
         f = model.field
         # the state the window's solve works on (the attributes of ContactState it reads and writes)
         self.shear_x, self.shear_y, self.disp_x, self.disp_y = f(), f(), f(), f()
@@ -462,8 +451,6 @@ class _Window:
         back (zero and out of contact outside). The whole grid's displacements are the parent's
         to make (``whole_displacement``)."""
         solver = self.solver
-        for name in ("preconditioned", "exact_every", "deferral", "iterations_per_launch", "restart_every"):
-            setattr(solver, name, getattr(parent, name))
         whole = (state.shear_x, state.shear_y, state.status, target_x, target_y, shear_limit, known_x, known_y)
         own = (self.shear_x, self.shear_y, self.status, *(getattr(self, name) for name in self.INPUTS))
         self._transfer(gk.crop, zip(whole, own))

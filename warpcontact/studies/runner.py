@@ -15,6 +15,7 @@ from ..numerics.model import ContactModel
 from ..records.progress import show_turn
 from ..records.results import state_fields, state_summary
 from ..solvers.contact import ContactSolver
+from ..solvers.settings import SolverSettings
 from ..numerics.state import ContactState
 from ..numerics.yielding import yield_keys
 
@@ -53,20 +54,20 @@ def build_model(case) -> ContactModel:
     return ContactModel(case.pair, case.sphere, case.grid, device=s.device, dtype=s.dtype, fft=s.fft)
 
 
-def build(case, model=None):
+def build(case, model=None, **choices):
     """(model, solver, state) for a case. ``model``: a model built for the same materials, sphere,
     grid, device, float type and FFT backend to reuse (:mod:`warpcontact.studies.batch` keeps one per
-    worker); by default one is built (:func:`build_model`)."""
+    worker); by default one is built (:func:`build_model`). ``choices``: solver settings
+    (:class:`~warpcontact.solvers.settings.SolverSettings`) beyond the case's ``[solver]`` table."""
     s = case.solver
     if model is None:
         model = build_model(case)
     cap = case.pair.softer.hardness if case.friction is not None and case.friction.hardness_cap else math.inf
-    solver = ContactSolver(model, friction_law(case), tol=s.tol, max_iter=s.max_iter, max_outer=s.max_turns,
-                           pressure_cap=cap, adhesion=adhesion_law(case))
-    solver.nested = s.nested
-    if case.friction is not None:
-        solver.tangential.window = s.window
-    solver.on_turn = show_turn  # a long step's turns on the progress line open now (solve, gross-slip, pull-off)
+    settings = SolverSettings(tol=s.tol, max_iter=s.max_iter, max_turns=s.max_turns, nested=s.nested, window=s.window,
+                              **choices)
+    # a long step's turns on the progress line open now (solve, gross-slip, pull-off)
+    solver = ContactSolver(model, friction_law(case), adhesion_law(case), pressure_cap=cap, settings=settings,
+                           on_turn=show_turn)
     return model, solver, ContactState(model)
 
 

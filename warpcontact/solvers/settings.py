@@ -1,0 +1,127 @@
+"""How the solvers solve: one frozen settings object, chosen when a solver is made.
+
+Every solver of a step (the coupled :class:`~warpcontact.solvers.contact.ContactSolver`, its
+normal, tangential and adhesive solvers, the windows and the coarse grids of the nested start)
+takes the same :class:`SolverSettings`. A choice is fixed for the solver's life: the captured CUDA
+graphs of a solver are built from it, so nothing a graph depends on can change after. To solve with
+other settings, make another solver (``dataclasses.replace(settings, ...)`` gives the settings).
+"""
+
+from __future__ import annotations
+
+import difflib
+import math
+from dataclasses import dataclass, fields, replace
+from typing import Literal, get_args
+
+#: how the lagged turns set their inner tolerance (``SolverSettings.turn_tolerance``)
+TurnTolerance = Literal["residual", "change", "exact"]
+#: the turns of a step with adhesion and friction (``SolverSettings.turns``)
+Turns = Literal["auto", "lagged", "minimised"]
+#: a speed-up chosen by the grid and the device (``"auto"``) or forced on or off
+Choice = Literal["auto", True, False]
+
+
+@dataclass(frozen=True)
+class SolverSettings:
+    """The choices of the solvers (numbers without units are relative, [-]).
+
+    Attributes:
+        tol: relative residual of the conjugate-gradient solves; None: 1e-10 in float64, 1e-5 in
+            float32.
+        outer_tol: relative change of the tractions that ends a step's turns; None: 100 tol.
+        max_iter: iteration limit of each conjugate-gradient solve.
+        max_turns: limit on the turns of a step (1000: the adhesive fixed point at Tabor
+            parameter 5.7 took 493 turns, the Table 2 cells fewer than 200).
+        normal_preconditioner: precondition the normal solves with the circulant inverse of their
+            operator (``NormalSolver``); False: Polonsky & Keer's iteration as published.
+        tangential_preconditioner: precondition the tangential solves likewise on their stick
+            cells (``TangentialSolver``); False: Chen & Wang's iteration with Jacobi scaling.
+        one_convolution: the normal solve carries its gap between exact recomputations (one
+            convolution an iteration); False: K p recomputed at every iteration.
+        exact_every: iterations between exact recomputations of a carried gap (normal and
+            tangential solves).
+        deferral: a carried gap is made exact once the bound on what the projections changed
+            since exceeds this share of the violation; 0: after every projection.
+        fourier_step_sums: the normal solve sums g . t and (K t) . t in Fourier space, one pass
+            over the grid less; None: on CUDA (where it pays), not on the CPU.
+        iterations_per_launch: iterations of a solve's device loop between two looks of the host
+            (interrupts); the results do not depend on it.
+        turn_tolerance: the lagged turns' inner tolerance: "residual" (1/100 of the coupled
+            residual of the last turn, never looser than the turn before), "change" (1/100 of the
+            last turn's change) or "exact" (every turn at ``tol``).
+        turns: the turns of a step with adhesion and friction: "lagged" (the adhesive tractions a
+            fixed point of their own), "minimised" (each turn's normal solve the whole adhesive
+            minimisation) or "auto" (by the law's Maugis parameter; lagged with a hardness cap).
+        turn_mixing: Anderson mixing of the minimised turns' shear; False: the plain fixed point.
+        relax: mixing factor of the adhesive fixed point (``AndersonMixing``'s beta), in (0, 1].
+        nested: start each step with friction and no adhesion from its solution on the grid of
+            half the cells per side; "auto": from ``NESTED_AUTO_N`` cells per side (by device).
+        window: solve the shear on the smallest window of the grid that holds the contact;
+            "auto": from ``WINDOW_AUTO_N`` cells per side (by device).
+        use_graphs: replay solves as captured CUDA graphs; None: where the device supports the
+            conditional graph nodes they need (CUDA 12.4+).
+    """
+
+    tol: float | None = None
+    outer_tol: float | None = None
+    max_iter: int = 2000
+    max_turns: int = 1000
+    normal_preconditioner: bool = True
+    tangential_preconditioner: bool = True
+    one_convolution: bool = True
+    exact_every: int = 50
+    deferral: float = 0.1
+    fourier_step_sums: bool | None = None
+    iterations_per_launch: int = 64
+    turn_tolerance: TurnTolerance = "residual"
+    turns: Turns = "auto"
+    turn_mixing: bool = True
+    relax: float = 0.5
+    nested: Choice = "auto"
+    window: Choice = "auto"
+    use_graphs: bool | None = None
+
+    def __post_init__(self):
+        for name in ("tol", "outer_tol"):
+            value = getattr(self, name)
+            if value is not None and not (_real(value) and 0.0 < value < 1.0):
+                raise ValueError(f"settings.{name}: must be a number in (0, 1) or None, got {value!r}")
+        for name, least in (("max_iter", 0), ("max_turns", 1), ("exact_every", 1), ("iterations_per_launch", 1)):
+            value = getattr(self, name)
+            if isinstance(value, bool) or not isinstance(value, int) or value < least:
+                raise ValueError(f"settings.{name}: must be an integer of at least {least}, got {value!r}")
+        if not (_real(self.deferral) and 0.0 <= self.deferral <= 1.0):
+            raise ValueError(f"settings.deferral: must be a number in [0, 1], got {self.deferral!r}")
+        if not (_real(self.relax) and 0.0 < self.relax <= 1.0):
+            raise ValueError(f"settings.relax: must be a number in (0, 1], got {self.relax!r}")
+        for name in ("normal_preconditioner", "tangential_preconditioner", "one_convolution", "turn_mixing"):
+            if not isinstance(getattr(self, name), bool):
+                raise ValueError(f"settings.{name}: must be True or False, got {getattr(self, name)!r}")
+        for name in ("fourier_step_sums", "use_graphs"):
+            if getattr(self, name) not in (None, True, False):
+                raise ValueError(f"settings.{name}: must be True, False or None (by device), got {getattr(self, name)!r}")
+        for name, kind in (("turn_tolerance", TurnTolerance), ("turns", Turns), ("nested", Choice), ("window", Choice)):
+            value = getattr(self, name)
+            choices = get_args(kind)
+            if not any(value is c if isinstance(c, bool) else (isinstance(value, str) and value == c) for c in choices):
+                raise ValueError(f"settings.{name}: must be one of {', '.join(map(repr, choices))}, got {value!r}")
+
+    @classmethod
+    def of(cls, settings: SolverSettings | None = None, **choices) -> SolverSettings:
+        """``settings`` (default: the defaults) with ``choices`` replaced, by field name; a name
+        that is no setting raises TypeError naming the closest one."""
+        names = [f.name for f in fields(cls)]
+        for name in choices:
+            if name not in names:
+                close = difflib.get_close_matches(name, names, n=1)
+                hint = f" (did you mean {close[0]!r}?)" if close else ""
+                raise TypeError(f"{name!r} is not a solver setting{hint}; the settings: {', '.join(names)}")
+        base = cls() if settings is None else settings
+        if not isinstance(base, cls):
+            raise TypeError(f"settings must be a {cls.__name__}, got {type(base).__name__}")
+        return replace(base, **choices) if choices else base
+
+
+def _real(value) -> bool:
+    return not isinstance(value, bool) and isinstance(value, (int, float)) and math.isfinite(value)
