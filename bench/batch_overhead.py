@@ -49,7 +49,8 @@ def sweep_file(folder: Path, cases: int, n: int, device: str) -> Path:
 
 def run_placement(path: Path, workers: int | None, in_process: bool) -> dict:
     from warpcontact.studies.batch import Placement
-    from warpcontact.studies.sweep import load_sweep, run_sweep
+    from warpcontact.studies.sweep import run_sweep
+    from warpcontact.studies.sweep_spec import load_sweep
 
     sweep = load_sweep(path)
     out = Path(tempfile.mkdtemp(prefix="batch_overhead_"))
@@ -86,7 +87,7 @@ def _one_worker_cluster(sweep, out):
 
 def fresh_model_ms(path: Path, count: int = 5) -> float:
     from warpcontact import api
-    from warpcontact.studies.sweep import load_sweep
+    from warpcontact.studies.sweep_spec import load_sweep
 
     times = []
     for sc in load_sweep(path).cases[:count]:

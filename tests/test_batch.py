@@ -158,7 +158,8 @@ def test_a_sweep_whose_worker_is_killed_finishes_with_every_case_written(tmp_pat
     """A real sweep (frictionless Hertz solves, 5 grids) on 2 local workers; a worker is killed
     (SIGKILL) once the first case is written. The sweep completes: every case written once, the
     first case's file unchanged, sweep.json complete."""
-    from warpcontact.studies.sweep import load_sweep, run_sweep
+    from warpcontact.studies.sweep import run_sweep
+    from warpcontact.studies.sweep_spec import load_sweep
 
     (tmp_path / "sweep.toml").write_text(f'base = "{HERTZ_CASE.as_posix()}"\n[sweep]\n'
                                          '"load.steps" = [3, 4, 5, 6, 7]\n[run]\ntask = "solve"\n')
@@ -367,7 +368,8 @@ def test_a_sweep_runs_on_a_scheduler_given_by_address(tmp_path, alarm):
     the cluster keeps running after the sweep."""
     from distributed import LocalCluster
 
-    from warpcontact.studies.sweep import load_sweep, run_sweep
+    from warpcontact.studies.sweep import run_sweep
+    from warpcontact.studies.sweep_spec import load_sweep
 
     with LocalCluster(n_workers=1, threads_per_worker=1, processes=True, dashboard_address=None,
                       host="127.0.0.1") as cluster:
@@ -390,7 +392,7 @@ def test_an_unreachable_scheduler_is_an_input_error(tmp_path, monkeypatch):
 
 
 def test_bad_run_scheduler_names_the_key(tmp_path):
-    from warpcontact.studies.sweep import load_sweep
+    from warpcontact.studies.sweep_spec import load_sweep
 
     (tmp_path / "sweep.toml").write_text(f'base = "{HERTZ_CASE.as_posix()}"\n[sweep]\n"grid.n" = [32]\n'
                                          "[run]\nscheduler = 8786\n")

@@ -449,7 +449,8 @@ def test_sweep_rows_carry_the_summary_keys_and_pull_off_is_a_task(tmp_path):
     pull-off sweep runs and its rows have the pull-off keys."""
     import csv
 
-    from warpcontact.studies.sweep import run_sweep, sweep_from_dict
+    from warpcontact.studies.sweep import run_sweep
+    from warpcontact.studies.sweep_spec import sweep_from_dict
 
     base = afm_dict(16, adhesion=False)
     sw = sweep_from_dict({"base": base, "sweep": {"friction.k_tau": [0.6]}, "run": {"task": "gross-slip"}})

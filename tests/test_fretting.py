@@ -305,7 +305,7 @@ def test_a_fretting_sweep_maps_the_regime_and_the_energy(tmp_path, capsys):
 
     from warpcontact.cli import main
     from warpcontact.errors import InputError
-    from warpcontact.studies.sweep import sweep_from_dict
+    from warpcontact.studies.sweep_spec import sweep_from_dict
 
     base = case(32, steps=4)
     sweep = {"base": base, "sweep": {"load.delta_z": [DZ], "load.delta_x_amplitude": [0.5 * DELTA_S, 1.5 * DELTA_S]},

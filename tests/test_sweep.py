@@ -13,7 +13,7 @@ import pytest
 from warpcontact.studies import runner
 from warpcontact.cli.sweep import add_parser, cmd_sweep
 from warpcontact.errors import InputError
-from warpcontact.studies.sweep import case_id, load_sweep
+from warpcontact.studies.sweep_spec import case_id, load_sweep
 
 ROOT = Path(__file__).resolve().parents[1]
 PAPER_CASE = ROOT / "examples" / "table2_k080_dz5e-5.toml"

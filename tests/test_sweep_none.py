@@ -23,7 +23,7 @@ from warpcontact.cli import main
 from warpcontact.cli.sweep import add_parser, cmd_sweep
 from warpcontact.errors import InputError
 from warpcontact.records.case import case_from_dict
-from warpcontact.studies.sweep import load_sweep
+from warpcontact.studies.sweep_spec import load_sweep
 
 ROOT = Path(__file__).resolve().parents[1]
 #: SMC adhesion in the DMT regime at delta_z = 1 nm; 32 cells: a solve in about a tenth of a second

@@ -146,7 +146,8 @@ def cmd_sweep(args) -> int:
     129 SIGHUP). A bad sweep file raises InputError; a write that fails, OutputError (naming the
     finished cases kept)."""
     from .. import interrupts
-    from ..studies.sweep import load_sweep, run_sweep
+    from ..studies.sweep import run_sweep
+    from ..studies.sweep_spec import load_sweep
 
     sweep = load_sweep(args.sweep, device=args.device, dtype=args.dtype, fft=args.fft)
     placement = placement_from(args, sweep.scheduler)

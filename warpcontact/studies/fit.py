@@ -51,7 +51,7 @@ import numpy as np
 from .. import interrupts
 from .._version import __version__
 from ..errors import OutputError
-from .sweep import short_float
+from .sweep_spec import short_float
 from .fit_evaluations import EvaluationFailed, _Evaluator, evaluation_hash
 from .fit_numerics import _correlation, _unit_steps, covariance, difference_step, model_noise
 from .fit_outputs import _write_outputs, case_toml, fit_figure, fitted_case

@@ -14,7 +14,8 @@ import numpy as np
 from .. import interrupts
 from .._version import __version__
 from ..records.case import Case
-from .sweep import flatten, jsonable
+from .sweep import flatten
+from .sweep_spec import jsonable
 from .fit_spec import Fit, _row_case, _show
 
 

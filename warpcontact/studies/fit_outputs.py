@@ -12,7 +12,7 @@ from typing import Mapping
 import numpy as np
 
 from ..records.case import case_from_dict
-from .sweep import short_float
+from .sweep_spec import short_float
 from .fit_spec import Fit
 
 

@@ -12,7 +12,7 @@ from typing import Mapping
 
 from ..errors import InputError
 from ..records.case import Case, case_from_dict, read_toml, substitute
-from .sweep import (
+from .sweep_spec import (
     CASE_SCHEMA,
     DOTTED_KEYS,
     SweepCase,
