@@ -30,7 +30,7 @@ def test_status_codes_agree():
 
 @pytest.mark.skipif(not (ROOT / "pyproject.toml").exists(), reason="needs the source tree")
 def test_pip_install_into_a_folder(tmp_path):
-    """``pip install .`` (not editable) lays out warpcontact/ with kernels/ inside it."""
+    """``pip install .`` (not editable) lays out warpcontact/ with kernels/ and every subpackage inside it."""
     target = tmp_path / "site"
     r = subprocess.run(
         [sys.executable, "-m", "pip", "install", "--no-deps", "--quiet", "--target", str(target), str(ROOT)],
@@ -38,6 +38,9 @@ def test_pip_install_into_a_folder(tmp_path):
     )
     assert r.returncode == 0, r.stderr[-2000:]
     assert (target / "warpcontact" / "kernels" / "normal.py").exists()
+    for init in sorted((ROOT / "warpcontact").rglob("__init__.py")):  # every subpackage, plots/ included
+        package = init.parent.relative_to(ROOT)
+        assert (target / package / "__init__.py").exists(), f"{package} is not installed: list it in pyproject.toml"
     code = "import warpcontact.kernels.normal as k, sys; print(k.__file__)"
     r = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, cwd=tmp_path,
                        env={"PYTHONPATH": str(target), "PATH": "/usr/bin:/bin"}, timeout=300)

@@ -113,7 +113,7 @@ def section_figure(result):
     """Von Mises in the section through the centre along the sliding direction: the sphere above
     the interface (depth upwards), the flat below; the yield strength as a contour, each body's
     maximum marked."""
-    from ..plots import _figure
+    from ..plots.base import _figure
 
     axis = result.section_axis
     coord = result.x if axis == "x" else result.y
@@ -156,7 +156,7 @@ def section_figure(result):
 
 def profiles_figure(result):
     """Stresses on the axis (the cell nearest the centre) against depth, one panel per body."""
-    from ..plots import _figure
+    from ..plots.base import _figure
 
     depths = result.depths
     scale, unit = _length_unit(depths)
