@@ -49,6 +49,15 @@ def accumulate_slip(
     slip_y[i] = shift_y - uy
 
 
+# slots of the turns' ``change`` sums (``change_sums`` adds |current - previous|^2 at a slot and
+# |current|^2 at the next): the pressure's pair, the shear's (x; the minimised turns add every
+# shear component there) and the shear's y pair
+CHANGE_PRESSURE = 0
+CHANGE_SHEAR_X = 2
+CHANGE_SHEAR_Y = 4
+N_CHANGE_SUMS = 6
+
+
 @wp.kernel
 def change_sums(
     current: wp.array(dtype=Any),

@@ -38,7 +38,7 @@ import warp as wp
 
 from .overloads import register_float_overloads
 from .reduce import (  # noqa: F401  (shared slots)
-    C_DELTA, C_G_OLD, C_ITER, N_SCALARS, N_PARAMETERS, P_APPROACH, P_CHUNK, P_EXACT, P_MAX_ITER, P_TOL, S_G, S_GT, S_RHS,
+    C_DELTA, C_G_OLD, C_ITER, N_SCALARS, N_PARAMETERS, N_SHARED_SUMS, P_APPROACH, P_CHUNK, P_EXACT, P_MAX_ITER, P_TOL, S_G, S_GT, S_RHS,
     S_RT, S_VIOL, advance, residual_of, stop_loop,
     block_add, block_add_vector, block_max, cell_index, cg_converged, cg_step_length, conjugacy,
 )
@@ -47,13 +47,14 @@ from .reduce import S_RESTART as S_IOL  # cells that re-enter contact (or leave 
 # no adjoints: nothing differentiates these kernels, and compiling them doubles the build
 wp.set_module_options({"enable_backward": False})
 
-# slots of ``sums`` (0-2 and 5 shared with kernels/reduce.py: g^2 on the free set, violation,
-# right-hand side, re-entries; 0-2 describe the iterate the iteration starts from)
-S_CORRECTION = wp.constant(6)  # sum |p - (p_old - tau t)|: what the projection changed, which K t misses
-S_NEXT_G = wp.constant(7)  # slots 0-2 of the updated iterate, with the carried gap (normal_update)
-S_NEXT_VIOL = wp.constant(8)
-S_NEXT_RHS = wp.constant(9)
-N_SUMS = wp.constant(10)
+# the normal solver's own slots of ``sums``, after the shared ones of kernels/reduce.py (whose
+# S_G, S_VIOL, S_RHS describe the iterate the iteration starts from); S_IOL and these four are
+# consecutive (``normal_update`` adds them as one vector)
+S_CORRECTION = wp.constant(N_SHARED_SUMS + 0)  # sum |p - (p_old - tau t)|: what the projection changed, which K t misses
+S_NEXT_G = wp.constant(N_SHARED_SUMS + 1)  # S_G, S_VIOL, S_RHS of the updated iterate, with the carried gap
+S_NEXT_VIOL = wp.constant(N_SHARED_SUMS + 2)
+S_NEXT_RHS = wp.constant(N_SHARED_SUMS + 3)
+N_SUMS = wp.constant(N_SHARED_SUMS + 4)
 
 
 @wp.func

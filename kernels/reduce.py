@@ -16,11 +16,15 @@ from .overloads import register_float_overloads
 # no adjoints: nothing differentiates these kernels, and compiling them doubles the build
 wp.set_module_options({"enable_backward": False})
 
-# slots shared by the conjugate-gradient solvers (kernels/normal.py, kernels/tangential.py)
+# slots of ``sums`` shared by the conjugate-gradient solvers (kernels/normal.py,
+# kernels/tangential.py); a solver's own slots follow from N_SHARED_SUMS on
 S_G = wp.constant(0)  # the (preconditioned) squared gradient over the free set
 S_VIOL = wp.constant(1)  # squared violation of the optimality conditions
 S_RHS = wp.constant(2)  # squared right-hand side over the active cells
+S_GT = wp.constant(3)  # g . t over the free set
+S_RT = wp.constant(4)  # t . (K t) (+ curvature) over the free set
 S_RESTART = wp.constant(5)  # cells that re-entered the free set: restart the conjugacy
+N_SHARED_SUMS = 6
 # slots of a solver's ``scalars`` array, carried from one iteration to the next
 C_G_OLD = wp.constant(0)  # S_G of the last iteration
 C_DELTA = wp.constant(1)  # 0: restart the conjugacy in the next iteration
@@ -69,10 +73,6 @@ def block_max(out: wp.array(dtype=Any), slot: int, value: Any, lane: int):
     largest = wp.tile_extract(wp.tile_max(wp.tile(value)), 0)
     if lane == 0:
         wp.atomic_max(out, slot, largest)
-
-
-S_GT = wp.constant(3)  # g . t over the free set
-S_RT = wp.constant(4)  # t . (K t) (+ curvature) over the free set
 
 
 @wp.func

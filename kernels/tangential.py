@@ -41,7 +41,7 @@ import warp as wp
 
 from .overloads import register_float_overloads
 from .reduce import (  # noqa: F401  (shared slots)
-    C_DELTA, C_G_OLD, N_SCALARS, N_PARAMETERS, P_EXACT, P_TOL, S_G, S_GT, S_RHS, S_RT, S_VIOL, advance, block_add,
+    C_DELTA, C_G_OLD, N_SCALARS, N_PARAMETERS, N_SHARED_SUMS, P_EXACT, P_TOL, S_G, S_GT, S_RHS, S_RT, S_VIOL, advance, block_add,
     block_add_vector, cell_index, cg_converged, cg_step_length, conjugacy, residual_of, stop_loop,
 )
 from .reduce import S_RESTART as S_RELEASED  # slip cells released into stick by the last step
@@ -49,9 +49,10 @@ from .reduce import S_RESTART as S_RELEASED  # slip cells released into stick by
 # no adjoints: nothing differentiates these kernels, and compiling them doubles the build
 wp.set_module_options({"enable_backward": False})
 
-# slots of ``sums`` (0-2 and 5 shared with kernels/reduce.py; S_G holds g.z, z = M^-1 P g)
-S_STICK = wp.constant(6)  # count of stick cells
-N_SUMS = 7
+# the tangential solver's own slots of ``sums``, after the shared ones of kernels/reduce.py (S_G
+# holds g . z, z = M^-1 P g)
+S_STICK = wp.constant(N_SHARED_SUMS + 0)  # count of stick cells
+N_SUMS = N_SHARED_SUMS + 1
 
 OUT = wp.constant(0)
 STICK = wp.constant(1)
@@ -358,13 +359,13 @@ def tangential_update(
 
 
 
-# --- the preconditioned iteration (TangentialSolver.preconditioned) ---
+# --- the preconditioned iteration (SolverSettings.tangential_preconditioner) ---
 # slots of ``sums`` besides 0-5: what the projections changed (which the carried g misses), and
 # slots S_G and S_VIOL of the updated iterate (S_RHS does not change within a solve)
-S_CORRECTION = wp.constant(7)
-S_NEXT_G = wp.constant(8)
-S_NEXT_VIOL = wp.constant(9)
-N_SUMS_PRECONDITIONED = 10
+S_CORRECTION = wp.constant(N_SUMS + 0)
+S_NEXT_G = wp.constant(N_SUMS + 1)
+S_NEXT_VIOL = wp.constant(N_SUMS + 2)
+N_SUMS_PRECONDITIONED = N_SUMS + 3
 
 
 @wp.kernel

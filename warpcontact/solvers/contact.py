@@ -11,7 +11,7 @@ from warpcontact.kernels import adhesion as ak
 from warpcontact.kernels import coupling as ck
 
 from ..numerics.state import SolveInfo, check_contact_fits
-from .turns import AdhesiveSolve, LaggedTurns, MinimisedTurns, NestedStart
+from .turns import AdhesiveSolve, LaggedTurns, MinimisedTurns, NestedStart, ratio
 from .adhesive import AdhesiveNormalSolver
 from .fixed_point import AndersonMixing
 from .normal import NormalSolver
@@ -96,7 +96,7 @@ class ContactSolver:
         f = model.field
         self.known_z, self.known_x, self.known_y = f(), f(), f()
         self.previous = [f(), f(), f()]
-        self.change = model.scalars(6)
+        self.change = model.scalars(ck.N_CHANGE_SUMS)
         #: the adhesive tractions' displacements of a turn, and the scratch of a turn's slip:
         #: with adhesion only (n = 8192 float64: 0.5 GiB each)
         self.adhesive_z = self.adhesive_x = self.adhesive_y = self.scratch_x = self.scratch_y = None
@@ -274,10 +274,9 @@ class ContactSolver:
         """Largest relative change of pressure and shear since the last turn; updates the copies."""
         m = self.model
         self.change.zero_()
-        for slot, (prev, cur) in zip((0, 2, 4), zip(self.previous, (state.pressure, state.shear_x, state.shear_y))):
+        slots = (ck.CHANGE_PRESSURE, ck.CHANGE_SHEAR_X, ck.CHANGE_SHEAR_Y)
+        for slot, prev, cur in zip(slots, self.previous, (state.pressure, state.shear_x, state.shear_y)):
             m.launch_reduce(ck.change_sums, [cur.flatten(), slot], [prev.flatten(), self.change])
         s = self.change.numpy().astype(np.float64)
-        dp = math.sqrt(s[0] / s[1]) if s[1] > 0 else 0.0
-        qn = s[3] + s[5]
-        dq = math.sqrt((s[2] + s[4]) / qn) if qn > 0 else 0.0
-        return max(dp, dq)
+        x, y = ck.CHANGE_SHEAR_X, ck.CHANGE_SHEAR_Y
+        return max(ratio(s[ck.CHANGE_PRESSURE], s[ck.CHANGE_PRESSURE + 1]), ratio(s[x] + s[y], s[x + 1] + s[y + 1]))

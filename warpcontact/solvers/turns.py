@@ -58,6 +58,11 @@ def stalled(changes) -> bool:
     return min(changes[-4:]) > 0.5 * min(changes[-STALL_TURNS - 4:-STALL_TURNS])
 
 
+def ratio(change: float, norm: float) -> float:
+    """sqrt(change / norm): a relative change from the sums of ``change_sums`` (0 where the norm is)."""
+    return math.sqrt(change / norm) if norm > 0 else 0.0
+
+
 def starting_residual(info) -> float:
     """The relative residual a solve started from (its last residual if it made no iteration)."""
     return info.history[0] if info.iterations > 0 and info.history else info.residual
@@ -222,13 +227,13 @@ class LaggedTurns:
         shear)."""
         s = self.solver
         s.change.zero_()
-        s.model.launch_reduce(ck.change_sums, [state.pressure.flatten(), 0], [s.previous[0].flatten(), s.change])
+        s.model.launch_reduce(ck.change_sums, [state.pressure.flatten(), ck.CHANGE_PRESSURE],
+                              [s.previous[0].flatten(), s.change])
         for image, shear in zip(mixing.residual, (state.shear_x, state.shear_y)):
             wp.copy(image, shear.flatten())
         shear_change = mixing.step([s.previous[1].flatten(), s.previous[2].flatten()])
         sums = s.change.numpy().astype(np.float64)
-        dp = math.sqrt(sums[0] / sums[1]) if sums[1] > 0 else 0.0
-        return max(dp, shear_change)
+        return max(ratio(sums[ck.CHANGE_PRESSURE], sums[ck.CHANGE_PRESSURE + 1]), shear_change)
 
 
 class MinimisedTurns:
@@ -281,12 +286,12 @@ class MinimisedTurns:
             if outer == 1:  # a contact far past the domain's edge: stop now, not at max_turns
                 check_contact_fits(state, (dx, dy, dz), EDGE_SHARE_AT_FIRST_TURN)
             s.friction.shear_limit(m, state.pressure.flatten(), s.shear_limit.flatten())
-            # the total normal traction, and (slots 0, 1) its change since the last turn
+            # the total normal traction, and its change since the last turn (slot CHANGE_PRESSURE)
             wp.copy(self.total_pressure, state.pressure)
             m.launch(ak.add_to, dim=m.n_cells, inputs=[state.adhesive_pressure.flatten()],
                      outputs=[self.total_pressure.flatten()])
             s.change.zero_()
-            m.launch_reduce(ck.change_sums, [self.total_pressure.flatten(), 0],
+            m.launch_reduce(ck.change_sums, [self.total_pressure.flatten(), ck.CHANGE_PRESSURE],
                             [s.previous[0].flatten(), s.change])
             self._tangential_known(x)
             tangential_info = s.tangential.solve(state, s.target_x, s.target_y, s.shear_limit,
@@ -302,14 +307,13 @@ class MinimisedTurns:
                 for src, image in zip(sources, mixing.residual):
                     wp.copy(image, src.flatten())
                 mixing.step([a.flatten() for a in x], beta=1.0)
-            else:  # (slots 2, 3) of the change, and x <- G(x)
+            else:  # the shear's change (slot CHANGE_SHEAR_X), and x <- G(x)
                 for src, dst in zip(sources, x):
-                    m.launch_reduce(ck.change_sums, [src.flatten(), 2], [dst.flatten(), s.change])
+                    m.launch_reduce(ck.change_sums, [src.flatten(), ck.CHANGE_SHEAR_X], [dst.flatten(), s.change])
             sums = s.change.numpy().astype(np.float64)
-            shear_sums = mixing.norms if mixed else (sums[2], sums[3])
-            pressure_change = math.sqrt(sums[0] / sums[1]) if sums[1] > 0 else 0.0
-            scale = max(shear_sums[1], sums[1])
-            shear_change = math.sqrt(shear_sums[0] / scale) if scale > 0 else 0.0
+            shear_sums = mixing.norms if mixed else (sums[ck.CHANGE_SHEAR_X], sums[ck.CHANGE_SHEAR_X + 1])
+            pressure_change = ratio(sums[ck.CHANGE_PRESSURE], sums[ck.CHANGE_PRESSURE + 1])
+            shear_change = ratio(shear_sums[0], max(shear_sums[1], sums[ck.CHANGE_PRESSURE + 1]))
             change = max(pressure_change, shear_change)
             if s.on_turn is not None:
                 s.on_turn(outer, change)
