@@ -4,7 +4,7 @@ For each grid size N, on the problem of bench_normal.py (paper pair, R = 10 um, 
 domain 4a):
 
 - normal: the Hertz normal solve (Polonsky-Keer, without the preconditioner: one convolution
-  per iteration, the issue's measure) from rest (the pressure of a state allocated
+  per iteration, the measure of the solver's cost) from rest (the pressure of a state allocated
   once zeroed before each solve) as the solver runs it by default otherwise (CUDA: graphs,
   one convolution per iteration, pruned cuFFT transforms); ms per iteration; on CUDA side by side
   with the same solve in three alternatives, each differing from the default in one thing:
@@ -17,7 +17,7 @@ domain 4a):
   alone (on CUDA cuFFT's 2-D D2Z + Z2D plans of the padded grid, as a user of the library would
   call them; on the CPU the scipy backend's transforms, which skip the padding already), without
   the padding and cropping passes, plus one elementwise pass (a device copy of an N x N field):
-  the issue's floor; ratio = normal / floor1;
+  the floor an iteration is measured against; ratio = normal / floor1;
 - precond: the same solve as the solver runs it by default, preconditioned (a second padded
   transform pair per iteration: ``NormalSolver.preconditioned``): iterations, ms per iteration
   against floor2 (two pairs and one pass), and the whole solve's time against the plain one's

@@ -1,7 +1,7 @@
 """Iterations, time per step and memory against the grid: the frictionless and the coupled step,
 the tangential solver as Chen & Wang publish it and preconditioned, side by side in one run.
 
-The problem is the issue's: copper on steel (``PAPER_PAIR``), R = 10 um, domain 4 sqrt(R delta_z),
+The problem: copper on steel (``PAPER_PAIR``), R = 10 um, domain 4 sqrt(R delta_z),
 delta_z = 1e-10 m then delta_x = 2e-11 m, one step per leg. Rows:
 
 - ``normal``: frictionless, the step to delta_z from rest (one preconditioned normal solve);
@@ -10,7 +10,7 @@ delta_z = 1e-10 m then delta_x = 2e-11 m, one step per leg. Rows:
   Wang's iteration: two applications of K_tt per iteration) or True (one application and the
   block-circulant inverse on the stick cells, ``TangentialSolver``): the solver's defaults
   otherwise (the turns' normal solves preconditioned, their tolerance from the coupled residual);
-- ``coupled before``: the coupled step as it was before those two defaults (preconditioned
+- ``coupled before``: the coupled step without those two defaults (preconditioned
   tangential solves; plain normal solves in the turns, their tolerance from the last turn's
   change), side by side with ``coupled precond``;
 - ``coupled nested``: ``coupled precond`` with the nested start (``ContactSolver.nested``: each
@@ -19,7 +19,7 @@ delta_z = 1e-10 m then delta_x = 2e-11 m, one step per leg. Rows:
 - ``coupled default`` / ``coupled window`` / ``coupled whole``: the solver's defaults (the nested
   start where ``nested = "auto"`` takes it; the window where ``window = "auto"`` takes it), then
   with the tangential solves always on the window of the grid that holds the contact
-  (``TangentialSolver.window``), then always on the whole grid, as before the window.
+  (``TangentialSolver.window``), then always on the whole grid (no window).
 
 - ``coupled exact``: the solver's defaults, every turn's solves at the full tolerance
   (``turn_tolerance = "exact"``: fewer, more exact turns) instead of loose early

@@ -169,7 +169,7 @@ def test_cross_references_point_at_objects_on_the_page():
     refs = [ref for block in docs.values() for ref in references(block)]
     assert not [ref for ref in refs if ref[2] not in on_page]
     targets = {target for _, _, target in refs}
-    # the links written for the issue: solve -> PathResult, ContactModel; path -> solve; ...
+    # the page's main links: solve -> PathResult, ContactModel; path -> solve; ...
     assert {"warpcontact.studies.runner.PathResult", "warpcontact.numerics.model.ContactModel",
             "warpcontact.solve", "warpcontact.Case", "warpcontact.studies.batch.Task",
             "warpcontact.studies.batch.BatchStats",

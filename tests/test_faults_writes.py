@@ -122,7 +122,7 @@ def test_a_folder_that_cannot_be_made_is_named(tmp_path, monkeypatch):
 
 
 def test_solve_fields_that_do_not_fit_name_the_option_that_writes_fewer(tmp_path, monkeypatch, capsys):
-    """The issue's case: result.json fits, fields.npz does not. One line naming fields.npz, the space
+    """A disk with room for result.json, not for fields.npz. One line naming fields.npz, the space
     it needs and --fields; result.json holds every state, marked not complete, the error in it."""
     out = tmp_path / "out"
     failed = fail_writes(monkeypatch, errno.ENOSPC, lambda path, data: path.name == "fields.npz")
@@ -332,7 +332,7 @@ def small_tmpfs(tmp_path):
 
 
 def test_a_real_full_disk_then_read_only(small_tmpfs, tmp_path):
-    """The issue's case, as a user meets it: Hertz at n = 256 (fields.npz of 717 KiB) into 600 KiB."""
+    """A real full disk, as a user meets it: Hertz at n = 256 (fields.npz of 717 KiB) into 600 KiB."""
     case = case_file(tmp_path, HERTZ.replace("n = 128 ", "n = 256 "))
     out = small_tmpfs / "out"
 

@@ -98,7 +98,7 @@ task = "gross-slip"
 
 
 def test_k_tau_recovered_from_three_gross_slip_rows_and_a_rerun_computes_nothing(gs_data, tmp_path, capsys):
-    """The issue's check: k_tau = 0.7 from mu and delta_x_max at three delta_z, start 0.5, within
+    """A known answer: k_tau = 0.7 from mu and delta_x_max at three delta_z, start 0.5, within
     0.005 and within 3 stderr (noise-free data: the stderr is the residual variance of the model's
     own bisection noise, so the two tests are not the same one). Then the same command again: every
     evaluation comes from DIR/evaluations, none is computed, the result is the same."""

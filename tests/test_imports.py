@@ -17,10 +17,10 @@ ROOT = Path(__file__).resolve().parents[1]
 PACKAGES = {"warpcontact": ROOT / "warpcontact", "warpcontact.kernels": ROOT / "kernels"}
 
 #: cycles known and not yet removed, each the set of its modules; a new cycle fails the test, and
-#: so does a known one that is gone (remove it here). None is left: the last one (runner calls
-#: stress.yield_check, while stress.subsurface_stress solved a path through runner.run_path) went
-#: with subsurface_stress's move to stress_study. warpcontact/__init__.py's lazy names (importlib,
-#: PEP 562) are not seen here, and its TYPE_CHECKING block is skipped.
+#: so does a known one that is gone (remove it here). None is left: the stress study, which solves a
+#: path through runner.run_path, lives in studies.stress_study, apart from the yield check that runner
+#: runs (numerics.yielding). warpcontact/__init__.py's lazy names (importlib, PEP 562) are not seen
+#: here, and its TYPE_CHECKING block is skipped.
 KNOWN_CYCLES = []
 
 
@@ -153,8 +153,8 @@ def test_the_graph_is_read():
 
 def test_the_command_line_modules_import_one_way():
     """No warpcontact module imports the command line's package (``python -m warpcontact.cli``,
-    cli/__main__.py, calls its main); cli.solve imports no other module of it (the cycle
-    cli <-> cli.figure through cmd_solve is gone)."""
+    cli/__main__.py, calls its main); cli.solve imports no other module of it (cli and cli.figure
+    both import its cmd_solve, so no cycle runs through it)."""
     g = graph()
     assert not [m for m, targets in g.items() if "warpcontact.cli" in targets and m != "warpcontact.cli.__main__"]
     assert not [t for t in g["warpcontact.cli.solve"] if t.startswith("warpcontact.cli")]

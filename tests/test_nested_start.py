@@ -2,7 +2,7 @@
 the cells per side, its tractions and statuses starting the fine step. The answer is the fine
 step's own (its tolerances decide it); only the start changes.
 
-The issue's problem (copper on steel, R = 10 um, Tabor k_tau = 0.8, delta_z = 1e-10 m then
+The problem of bench/scaling.py (copper on steel, R = 10 um, Tabor k_tau = 0.8, delta_z = 1e-10 m then
 delta_x = 2e-11 m, domain 4 sqrt(R delta_z)) on 128 cells (2 CPU cores, a few seconds).
 """
 

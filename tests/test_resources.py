@@ -80,7 +80,7 @@ def build(n, dtype="float64", fft="scipy", friction=True, adhesion=False):
      pytest.param(256, "float32", "fftw", False, True, marks=NEEDS_FFTW)],
 )
 def test_estimate_matches_what_is_allocated(n, dtype, fft, friction, adhesion):
-    """estimate_bytes within 30 % of the Warp memory the objects hold (the brief's bound: the
+    """estimate_bytes within 30 % of the Warp memory the objects hold (the bound allowed: the
     estimate adds the FFT library's temporaries and the solves' Python-side residual histories,
     which the objects do not hold); the counted arrays alone within 2 % (a count that no longer matches the code: a buffer
     was added to or removed from a class without updating resources.py)."""

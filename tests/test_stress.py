@@ -398,7 +398,7 @@ def _hertz_case(n=65, steps=3, sphere_yield=200e6, **solver):
 
 
 def test_solved_hertz_contact_puts_each_maximum_where_hertz_does():
-    """The issue's acceptance test: frictionless Hertz between two materials (nu 0.33 and 0.22),
+    """The stress of a solved contact against Hertz's: frictionless Hertz between two materials (nu 0.33 and 0.22),
     solved by the contact solver at n = 65 (a = 21.7 cells) and the stress evaluated at 32 depths
     down to 2 a: each body's von Mises maximum within 2 % of Hertz's closed form (0.606 and 0.658
     p0) and its depth within 5 % of a (0.491 a and 0.454 a). The solver's pressure differs from

@@ -35,7 +35,7 @@ def write_sweep(tmp_path, text, name="sweep.toml"):
 
 def paper_base(tmp_path, n=36):
     """The paper's k_tau = 0.80 case with n cells, beside the sweep file. (n = 36: at n = 32 one
-    state of the k_tau = 0.80 gross-slip path stops at 2.6e-10 > tol since commit 480dfdd.)"""
+    state of the k_tau = 0.80 gross-slip path stops at a residual of 2.6e-10 > tol, not converged.)"""
     text = PAPER_CASE.read_text().replace("n = 96", f"n = {n}")
     (tmp_path / "base.toml").write_text(text)
     return 'base = "base.toml"\n'

@@ -99,7 +99,7 @@ def mindlin_step(n, device, dtype, preconditioned, tol=None):
 
 
 def coupled_step(device, dtype, preconditioned):
-    """The issue's case at n = 48: copper on steel, Tabor + von Mises k_tau = 0.8, delta_z =
+    """The coupled problem of bench/scaling.py at n = 48: copper on steel, Tabor + von Mises k_tau = 0.8, delta_z =
     1e-10 m then delta_x = 2e-11 m, domain 4a (the normal-tangential turns)."""
     model = ContactModel(PAPER_PAIR, Sphere(R), Grid(48, 4 * A), device=device, dtype=dtype)
     solver = ContactSolver(model, TaborVonMises(0.8, PAPER_PAIR.softer.yield_strength),

@@ -159,7 +159,7 @@ def coupled_steps(n, device, window: bool):
 
 
 def test_coupled_step_on_the_window_is_the_whole_grid_step(device):
-    """The issue's coupled problem (Tabor k_tau 0.8, delta_z then delta_x) at n = 64, the
+    """The coupled problem of bench/scaling.py (Tabor k_tau 0.8, delta_z then delta_x) at n = 64, the
     tangential solves on the window and on the whole grid. The turns end at a relative change of
     1e-8 (100 x tol, 2-norm) and the two runs' iterates differ in rounding, so they may stop a
     turn apart: the tractions agree within 1e-6 of their largest value (measured: 1.7e-8 for the

@@ -234,7 +234,7 @@ def _law_text(record) -> str:
 
 def _elastic_text(record) -> str:
     """The elastic column: "yes" or "no, yielded", with the margin S_Y / von Mises max; "-" when not
-    checked (a record of an earlier version, or no check)."""
+    checked (a record without the yield keys, or no check)."""
     y, m = record.get("yielded"), record.get("yield_margin")
     if y is None:
         return "-"
