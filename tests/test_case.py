@@ -260,7 +260,7 @@ BAD_CASES = [
     ("radius-array", _set("sphere.radius", [1e-5]), "sphere.radius"),
     ("nu-bool", _set("flat.nu", False), "flat.nu"),
     ("yield-strength-string", _set("sphere.yield_strength", "big"), "sphere.yield_strength"),
-    ("profile-unknown", _set("sphere.profile", "cone"), "sphere.profile"),
+    ("profile-unknown", _set("sphere.profile", "cylinder"), "sphere.profile"),
     ("profile-not-string", _set("sphere.profile", 1), "sphere.profile"),
     # NaN and inf through TOML's nan / inf
     ("E-nan", _set("sphere.E", math.nan), "sphere.E"),

@@ -15,6 +15,7 @@ import math
 import re
 import subprocess
 import sys
+import tempfile
 import tomllib
 import warnings
 from pathlib import Path
@@ -144,6 +145,19 @@ ADHESION = {
 }
 
 
+def _map_file() -> str:
+    """A 16 x 16 height map (.npy) for the variants that read one: a bowl of 1.6 nm depth."""
+    import numpy as np
+
+    folder = Path(tempfile.mkdtemp(prefix="wc-schema-"))
+    x = np.arange(16) - 7.5
+    np.save(folder / "bowl.npy", 0.1 * (x[:, None] ** 2 + x[None, :] ** 2) / 7.5)
+    return str(folder / "bowl.npy")
+
+
+MAP_FILE = _map_file()
+
+
 def variants() -> list:
     """Valid cases that between them hold every key of the schema."""
     base = case_from_dict(_example("hertz.toml")).to_dict()
@@ -164,6 +178,23 @@ def variants() -> list:
         rigid = copy.deepcopy(base)
         rigid[body] = {k: v for k, v in base[body].items() if k not in MATERIAL_KEYS} | {"rigid": True}
         out.append(rigid)
+    size = base["grid"]["size"]
+    punch = copy.deepcopy(base)  # the other profiles and height maps (docs/surfaces.md)
+    punch["sphere"] = {k: v for k, v in base["sphere"].items() if k != "radius"} | {
+        "profile": "flat_punch", "radius": 0.3 * size, "edge_radius": 0.05 * size}
+    out.append(punch)
+    cone = copy.deepcopy(base)
+    cone["sphere"] = {k: v for k, v in base["sphere"].items() if k != "radius"} | {
+        "profile": "cone", "half_angle": 80.0, "tip_radius": 1e-7}
+    out.append(cone)
+    mapped = copy.deepcopy(base)
+    mapped["sphere"] = {k: v for k, v in base["sphere"].items() if k != "radius"} | {
+        "profile": "height_map", "height_map": MAP_FILE, "pixel_size": size / 16, "height_unit": "nm"}
+    mapped["grid"] = {"n": "map", "size": "map"}
+    out.append(mapped)
+    rough = copy.deepcopy(base)
+    rough["flat"] |= {"height_map": MAP_FILE, "pixel_size": size / 16, "height_unit": "pm"}
+    out.append(rough)
     adhesive = case_from_dict(_example("pull_off_dmt.toml")).to_dict()
     for law in SCHEMA["properties"]["adhesion"]["properties"]["law"]["enum"]:
         assert law in ADHESION, f"no test values for the adhesion law {law!r}: add them to ADHESION"

@@ -23,6 +23,7 @@ import json
 import math
 import re
 
+from .records import bodies as B
 from .records import case as C
 from .physics.geometry import MIN_CELLS, Grid
 
@@ -51,13 +52,19 @@ VALUES = {
     "sphere.hardness": _STRENGTH,
     "sphere.profile": _enum(C.PROFILES),
     "sphere.rigid": {"type": "boolean"},
+    "sphere.edge_radius": {"type": "number", "minimum": 0},
+    "sphere.half_angle": {"type": "number", "exclusiveMinimum": 0, "exclusiveMaximum": 90},
+    "sphere.tip_radius": {"type": "number", "minimum": 0},
+    **{f"{body}.{k}": v for body in ("sphere", "flat") for k, v in (
+        ("height_map", {"type": "string"}), ("pixel_size", _POSITIVE),
+        ("height_unit", _enum(B.HEIGHT_UNITS)))},
     "flat.E": _POSITIVE,
     "flat.nu": {"type": "number", "exclusiveMinimum": -1, "maximum": 0.5},
     "flat.yield_strength": _STRENGTH,
     "flat.hardness": _STRENGTH,
     "flat.rigid": {"type": "boolean"},
-    "grid.n": _integer(MIN_CELLS),
-    "grid.size": _POSITIVE,
+    "grid.n": {"anyOf": [_integer(MIN_CELLS), {"const": "map"}]},
+    "grid.size": {"anyOf": [_POSITIVE, {"const": "map"}]},
     "load.delta_z": _NUMBER,
     "load.delta_x": _NUMBER,
     "load.delta_y": _NUMBER,
@@ -189,6 +196,23 @@ def _elastic_or_rigid() -> list:
             {"properties": {"rigid": {"const": True}, **{k: False for k in C.MATERIAL_KEYS}}, "required": ["rigid"]}]
 
 
+def _profiles() -> list:
+    """The sphere's alternatives, one per profile: its keys required (but the optional ones), the
+    other profiles' keys refused; "sphere", the default, also where profile is left out."""
+    owned = set(k for keys in B.PROFILE_KEYS.values() for k in keys)
+    rules = []
+    for profile, keys in B.PROFILE_KEYS.items():
+        needed = [k for k in keys if k not in B.PROFILE_OPTIONAL]
+        rules.append({"properties": {"profile": {"const": profile}, **{k: False for k in sorted(owned - set(keys))}},
+                      "required": needed if profile == "sphere" else ["profile", *needed]})
+    return rules
+
+
+def _flat_map() -> list:
+    """The flat with a height map (its file and pixel size) or without (none of its keys)."""
+    return [{"required": ["height_map", "pixel_size"]}, {"properties": {k: False for k in B.MAP_KEYS}}]
+
+
 def case_schema() -> dict:
     """The JSON Schema of a case file (a dict; :func:`schema_json` for the text)."""
     tables = {}
@@ -213,6 +237,7 @@ def case_schema() -> dict:
         else:
             if table in ("sphere", "flat"):  # E and nu required unless the body is rigid
                 t["oneOf"] = _elastic_or_rigid()
+                t["anyOf"] = _profiles() if table == "sphere" else _flat_map()
             required = [k for k in keys if defaults[k] is dataclasses.MISSING]
             if required:
                 t["required"] = required

@@ -299,8 +299,11 @@ def cmd_pull_off(args) -> int:
     if not args.quiet:
         for line in _contact_event_lines(r):
             print(line, file=sys.stderr)
-        print(f"pull-off force {r['pull_off_force']:.4e} N = {r['pull_off_force'] / (math.pi * R * w):.3f} pi R w "
-              f"(Tabor parameter {result['tabor_parameter']:.3g}) -> {out}", file=sys.stderr)
+        if case.sphere.hertzian:
+            print(f"pull-off force {r['pull_off_force']:.4e} N = {r['pull_off_force'] / (math.pi * R * w):.3f} pi R w "
+                  f"(Tabor parameter {result['tabor_parameter']:.3g}) -> {out}", file=sys.stderr)
+        else:
+            print(f"pull-off force {r['pull_off_force']:.4e} N ({case.sphere.description}) -> {out}", file=sys.stderr)
     return 0
 
 

@@ -23,7 +23,7 @@ class ContactModel:
 
     Args:
         pair: sphere and flat materials.
-        sphere: the sphere's geometry.
+        sphere: body 1's shape over the flat (``Sphere``: any profile, height maps included).
         grid: the surface grid.
         device: "cpu", "cuda" or "cuda:N".
         dtype: "float64" or "float32".
@@ -46,19 +46,20 @@ class ContactModel:
         #: launches recorded once and replayed when they repeat (see warpcontact.numerics.launch)
         self.launches = LaunchCache(self.device)
         with wp.ScopedDevice(self.device):
-            if self.device.is_cuda:  # on the device (n = 8192: about 1 s of numpy on the host and the copy)
+            if self.device.is_cuda and sphere.hertzian:  # on the device (n = 8192: about 1 s of numpy on the host)
                 sphere.check_domain(grid)
                 self.initial_gap = self.field()
                 wp.launch(geometry.sphere_gap, dim=grid.shape,
                           inputs=[grid.n, wp.float64(sphere.radius / grid.dx), int(sphere.profile == "paraboloid")],
                           outputs=[self.initial_gap])
-            else:
+            else:  # the other profiles and height maps: numpy on the host, then copied
                 self.initial_gap = self.field(sphere.initial_gap(grid) / self.length_scale)
             self.operator = ElasticOperator(pair, grid, self.device, self.dtype, fft, influence)
 
     def on_grid(self, grid: Grid) -> "ContactModel":
         """A model of the same materials, sphere, device, float type and FFT backend on ``grid``
-        (the nested start's coarse grid, a tangential solve's window)."""
+        (the nested start's coarse grid, a tangential solve's window): the gap made again on it (a
+        height map resampled to its cells)."""
         return ContactModel(self.pair, self.sphere, grid, device=self.device, dtype=self.dtype_name, fft=self.fft_name)
 
     @property

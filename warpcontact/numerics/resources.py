@@ -2,7 +2,9 @@
 
 The estimate is counted from the allocations in the code, not fitted:
 
-- ``ContactModel``: ``initial_gap``, one (n, n) field; its ``ElasticOperator``: 6 influence
+- ``ContactModel``: ``initial_gap``, one (n, n) field (a shape other than a sphere or paraboloid
+  is made on the host with numpy first, a few (n, n) float64 arrays for a moment, before the
+  influence spectra; a height map's own array stays in host memory with the case, not counted); its ``ElasticOperator``: 6 influence
   spectra in real entries (each spectrum is real or imaginary: only that part is kept) and 3
   spectral buffers in complex entries (``operator.py``), each of the FFT backend's ``spectral_shape``
   in the model's float type (scipy and cupy: (2n, n + 1); warp: (L/2 + 1, L),

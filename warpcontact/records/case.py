@@ -22,15 +22,12 @@ Example::
 from __future__ import annotations
 
 import copy
-import difflib
 import math
-import numbers
 import re
 from dataclasses import dataclass, field, replace
 from os import PathLike
-from typing import Any, Mapping, Sequence
-
-import numpy as np
+from pathlib import Path
+from typing import Any, Mapping
 
 try:
     import tomllib
@@ -40,23 +37,23 @@ except ModuleNotFoundError:  # Python < 3.11
 from ..errors import InputError
 from ..fft.names import BACKENDS as FFT_BACKENDS  # FFT backends by name (warpcontact.fft)
 from ..fft.names import DEVICE_KIND as FFT_DEVICE_KIND  # those that run on one kind of device only
-from ..physics.geometry import MIN_CELLS, Grid, Sphere
+from ..physics.geometry import MIN_CELLS, PROFILES, PUNCH_WALL_IN_RADII, Grid, Sphere
+from .bodies import (FLAT_KEYS, MATERIAL_KEYS, SPHERE_KEYS, FlatSpec, SphereSpec, flat_dict, flat_from_table,  # noqa: F401
+                     sphere_dict, sphere_from_table)
 from .guards import profile_note
-from ..physics.materials import Material, MaterialPair
-from .plausibility import PREFIXES, check_case
+from ..physics.materials import MaterialPair
+from .loads import (CYCLIC_KEYS, DEFAULT_PATH_KEYS, LOAD_KEYS, MAX_CYCLES, MAX_STEPS, LoadSpec,  # noqa: F401
+                    _load_from)
+from .plausibility import check_case
+from .values import (_check_keys, _choice, _got, _integer, _is_bool, _list, _number, _positive, _require, _set,
+                     _table)
 
 #: Tables of a case file, in the order they are documented and written.
 TABLES = ("sphere", "flat", "grid", "load", "solver", "friction", "adhesion")
 #: Tables a case file must have.
 REQUIRED_TABLES = ("sphere", "flat", "grid", "load")
 
-SPHERE_KEYS = ("radius", "E", "nu", "yield_strength", "hardness", "profile", "rigid")
-FLAT_KEYS = ("E", "nu", "yield_strength", "hardness", "rigid")
-#: The keys of a body's material: an elastic body needs E and nu, a rigid one (rigid = true) takes none.
-MATERIAL_KEYS = ("E", "nu", "yield_strength", "hardness")
 GRID_KEYS = ("n", "size")
-LOAD_KEYS = ("delta_z", "delta_x", "delta_y", "steps", "normal_steps", "tangential_steps", "delta_x_amplitude",
-             "delta_y_amplitude", "cycles", "path")
 SOLVER_KEYS = ("device", "dtype", "tol", "max_iter", "max_turns", "fft", "nested", "window")
 FRICTION_KEYS = {"coulomb": ("law", "mu"), "tabor": ("law", "k_tau", "k_vm", "hardness_cap")}
 ADHESION_KEYS = {"smc": ("law", "sigma_max", "tau_max", "delta_n", "delta_t", "contact_shear"),
@@ -74,7 +71,6 @@ DUGDALE_RAMPS = ("centred", "both")
 #: Every key an [adhesion] table may hold.
 ADHESION_ALL_KEYS = tuple(dict.fromkeys(k for keys in ADHESION_KEYS.values() for k in keys))
 
-PROFILES = ("sphere", "paraboloid")
 DTYPES = ("float64", "float32")
 #: Default relative tolerance of the conjugate-gradient solves, per dtype.
 DEFAULT_TOL = {"float64": 1e-10, "float32": 1e-5}
@@ -85,152 +81,10 @@ DEFAULT_MAX_ITER = 2000
 DEFAULT_MAX_TURNS = 1000
 #: von Mises ratio T_S / S_Y (MODEL.md section 5).
 DEFAULT_K_VM = 1.0 / math.sqrt(3.0)
-#: Most load steps per leg of the default path (a guard against typos such as 1e9 steps).
-MAX_STEPS = 100_000
-#: Most whole cycles of a cyclic path (load.cycles); the path's states are bounded too (2 MAX_STEPS).
-MAX_CYCLES = 10_000
 #: The suggested smallest domain, in Hertz contact radii.
 SUGGESTED_SIZE_IN_A = 2.5
 
 _DEVICE_RE = re.compile(r"cpu|cuda(:\d+)?")
-
-State = tuple[float, float, float]
-
-
-# ---------------------------------------------------------------------------------------------
-# Value checks. Each takes the dotted key it reports and returns the normalised value.
-
-
-def _is_bool(v) -> bool:
-    return isinstance(v, (bool, np.bool_))
-
-
-def _type_name(v) -> str:
-    """The TOML name of a value's type, for messages."""
-    if _is_bool(v):
-        return "boolean"
-    if isinstance(v, str):
-        return "string"
-    if isinstance(v, numbers.Integral):
-        return "integer"
-    if isinstance(v, numbers.Real):
-        return "float"
-    if isinstance(v, Mapping):
-        return "table"
-    if isinstance(v, (list, tuple)):
-        return "array"
-    if v is None:
-        return "nothing"
-    return type(v).__name__
-
-
-def _show(v) -> str:
-    """A short one-line rendering of a value, for messages."""
-    if _is_bool(v):
-        return "true" if v else "false"
-    if isinstance(v, numbers.Real) and not isinstance(v, numbers.Integral):
-        return repr(float(v))
-    text = repr(v)
-    text = " ".join(text.split())
-    return text if len(text) <= 60 else text[:57] + "..."
-
-
-def _got(v) -> str:
-    return f"got {_type_name(v)} {_show(v)}" if v is not None else "got nothing"
-
-
-#: units a value may be written with by mistake ("10 um"): the factor to SI and the SI unit named
-#: in the hint (case files take bare numbers in SI units)
-_UNITS = {prefix + written: (factor, si)
-          for written, si in {"m": "m", "Pa": "Pa", "J/m^2": "J/m^2", "J/m2": "J/m^2", "N/m": "J/m^2"}.items()
-          for factor, prefix in {1.0: "", **PREFIXES}.items()}
-_UNITS |= {"\u00b5m": (1e-6, "m"), "\u03bcm": (1e-6, "m"), "A": (1e-10, "m"), "\u00c5": (1e-10, "m")}
-_WITH_UNIT = re.compile(r"\s*([-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?)\s*([^\s\d].*?)?\s*")
-
-
-def _string_hint(v: str, unit: str = "") -> str:
-    """What to write instead of a number given as a string: the number itself, in SI units where
-    the string carries one of ``_UNITS`` ("10 um" -> 1e-05 m) of the key's ``unit`` (any, where
-    not given); "" when the string is no number."""
-    m = _WITH_UNIT.fullmatch(v)
-    if not m:
-        return ""
-    value, written = float(m.group(1)), m.group(2)
-    if written is None:
-        return f"; write it without quotes: {value!r}"
-    if written in _UNITS and _UNITS[written][1] == (unit or _UNITS[written][1]):
-        factor, si = _UNITS[written]
-        return f"; case files take SI numbers: write {value * factor:.6g} ({v.strip()} in {si})"
-    return f"; case files take bare numbers in SI units ({unit})" if unit else ""
-
-
-def _number(key: str, v, *, allow_inf: bool = False, unit: str = "") -> float:
-    """A real number (int accepted, bool refused), finite unless ``allow_inf`` (+inf only);
-    ``unit``: the key's SI unit, for the hint where the number came as a string with a unit."""
-    if _is_bool(v) or not isinstance(v, numbers.Real):
-        hint = _string_hint(v, unit) if isinstance(v, str) else ""
-        raise InputError(key, f"must be a number, {_got(v)}{hint}")
-    try:
-        x = float(v)
-    except OverflowError:
-        raise InputError(key, f"must be a finite number, got an integer too large for a float ({_show(v)})") from None
-    if math.isnan(x):
-        raise InputError(key, "must be a number, got nan")
-    if math.isinf(x) and not (allow_inf and x > 0):
-        raise InputError(key, f"must be finite, got {x!r}")
-    return x
-
-
-def _positive(key: str, v, unit: str, *, allow_inf: bool = False) -> float:
-    x = _number(key, v, allow_inf=allow_inf, unit=unit)
-    if not x > 0.0:
-        raise InputError(key, f"must be > 0{' ' + unit if unit else ''}, got {x!r}")
-    return x
-
-
-def _strength(key: str, v) -> float:
-    """A yield strength or hardness [Pa]: positive, or +inf (TOML ``inf`` or the string "inf") for no limit."""
-    if isinstance(v, str) and v.strip().lower() in ("inf", "+inf"):
-        return math.inf
-    if isinstance(v, str):
-        raise InputError(key, f'must be a number in Pa or "inf" (no limit), {_got(v)}{_string_hint(v, "Pa")}')
-    return _positive(key, v, "Pa", allow_inf=True)
-
-
-def _integer(key: str, v, minimum: int, maximum: int | None = None) -> int:
-    if _is_bool(v) or not isinstance(v, numbers.Integral):
-        raise InputError(key, f"must be an integer, {_got(v)}")
-    n = int(v)
-    if n < minimum:
-        raise InputError(key, f"must be at least {minimum}, got {n}")
-    if maximum is not None and n > maximum:
-        raise InputError(key, f"must be at most {maximum}, got {n}")
-    return n
-
-
-def _choice(key: str, v, choices: Sequence[str]) -> str:
-    if not isinstance(v, str):
-        raise InputError(key, f"must be a string, one of {_list(choices)}; {_got(v)}")
-    if v not in choices:
-        raise InputError(key, f"must be one of {_list(choices)}; got {v!r}")
-    return v
-
-
-def _list(names: Sequence[str]) -> str:
-    return ", ".join(repr(n) for n in names)
-
-
-def _table(key: str, v) -> Mapping:
-    if not isinstance(v, Mapping):
-        raise InputError(key, f"must be a table, {_got(v)}")
-    return v
-
-
-#: The [load] keys of the default path (an explicit ``path`` replaces them all).
-DEFAULT_PATH_KEYS = ("delta_z", "delta_x", "delta_y", "steps", "normal_steps", "tangential_steps",
-                     "delta_x_amplitude", "delta_y_amplitude", "cycles")
-#: The [load] keys of a cyclic path (fretting): the amplitudes and the number of whole cycles.
-CYCLIC_KEYS = ("delta_x_amplitude", "delta_y_amplitude", "cycles")
 
 
 def substitute(base: dict, params: Mapping) -> dict:
@@ -252,370 +106,8 @@ def substitute(base: dict, params: Mapping) -> dict:
     return d
 
 
-def _check_keys(table: str, d: Mapping, allowed: Sequence[str], why: str = "unknown key") -> None:
-    """Refuse any key of ``d`` outside ``allowed``, naming it (and, for a typo, the nearest allowed key)."""
-    for k in d:
-        if k in allowed:
-            continue
-        name = k if isinstance(k, str) else repr(k)
-        typo = why.startswith("unknown") and isinstance(k, str)
-        same = [a for a in allowed if a.lower() == name.lower()] if typo else []  # e for E
-        near = same or (difflib.get_close_matches(name, allowed, n=1) if typo else [])
-        hint = f"did you mean {near[0]!r}? " if near else ""
-        raise InputError(f"{table}.{name}" if table else name, f"{why}; {hint}expected one of {', '.join(allowed)}")
-
-
-def _require(table: str, d: Mapping, keys: Sequence[str], extra: str = "") -> None:
-    for k in keys:
-        if k not in d:
-            raise InputError(f"{table}.{k}", "is required" + extra)
-
-
-def _inf_out(x: float):
-    """JSON-safe form of a strength: the string "inf" for no limit."""
-    return "inf" if math.isinf(x) else x
-
-
-def _set(obj, name: str, value) -> None:
-    object.__setattr__(obj, name, value)  # normalising a field of a frozen dataclass
-
-
-# ---------------------------------------------------------------------------------------------
-# The parts of a case.
-
-
-def _boolean(key: str, v) -> bool:
-    if not _is_bool(v):
-        raise InputError(key, f"must be true or false, {_got(v)}")
-    return bool(v)
-
-
-def _unused_by_rigid(table: str, key: str) -> InputError:
-    return InputError(f"{table}.{key}", f"is not used by a rigid body ({table}.rigid = true: no modulus, no Poisson "
-                                        f"ratio, it never yields); leave it out, or set {table}.rigid = false for an "
-                                        f"elastic {table}")
-
-
-def _material(table: str, E, nu, yield_strength, hardness, rigid: bool = False) -> Material:
-    """A validated :class:`Material` named after its table, so its own checks report ``table.key``:
-    elastic from E and nu, or with ``rigid`` a rigid body (``Material.rigid``), which takes no E
-    or nu (None) and no finite yield strength or hardness."""
-    if rigid:
-        for key, v in (("E", E), ("nu", nu), ("yield_strength", yield_strength), ("hardness", hardness)):
-            if v is None or (key in ("yield_strength", "hardness") and _strength(f"{table}.{key}", v) == math.inf):
-                continue
-            raise _unused_by_rigid(table, key)
-        return Material.rigid(table)
-    for key, v in (("E", E), ("nu", nu)):
-        if v is None:
-            raise InputError(f"{table}.{key}", "is required")
-    if E == math.inf:
-        raise InputError(f"{table}.E", f"must be finite, got inf; for a rigid {table}, set {table}.rigid = true "
-                                       "and leave E and nu out")
-    E = _positive(f"{table}.E", E, "Pa")
-    nu = _number(f"{table}.nu", nu)
-    if not -1.0 < nu <= 0.5:
-        raise InputError(f"{table}.nu", f"must lie in (-1, 0.5], got {nu!r}")
-    return Material(
-        E=E,
-        nu=nu,
-        yield_strength=_strength(f"{table}.yield_strength", yield_strength),
-        hardness=_strength(f"{table}.hardness", hardness),
-        name=table,
-    )
-
-
-def _material_dict(m: Material) -> dict:
-    if m.is_rigid:
-        return {"rigid": True}
-    return {"E": m.E, "nu": m.nu, "yield_strength": _inf_out(m.yield_strength), "hardness": _inf_out(m.hardness),
-            "rigid": False}
-
-
-def _check_body(spec, table: str) -> None:
-    """Validate and normalise the material fields (E, nu, yield_strength, hardness, rigid) of a
-    body's table (``SphereSpec``, ``FlatSpec``) in place."""
-    _set(spec, "rigid", _boolean(f"{table}.rigid", spec.rigid))
-    m = _material(table, spec.E, spec.nu, spec.yield_strength, spec.hardness, spec.rigid)
-    if not m.is_rigid:
-        for name in MATERIAL_KEYS:
-            _set(spec, name, getattr(m, name))
-
-
-def _body_material(spec, table: str) -> Material:
-    """The Material of a validated body table, named after it."""
-    if spec.rigid:
-        return Material.rigid(table)
-    return Material(spec.E, spec.nu, spec.yield_strength, spec.hardness, name=table)
-
-
-@dataclass(frozen=True)
-class SphereSpec:
-    """The ``[sphere]`` table: the asperity's geometry and material (body 1).
-
-    Attributes:
-        radius: R [m].
-        E: Young's modulus [Pa]; required unless rigid.
-        nu: Poisson ratio [-], in (-1, 0.5]; required unless rigid.
-        yield_strength: S_Y [Pa]; inf for no limit.
-        hardness: H [Pa]; inf for no limit.
-        profile: "sphere" (exact cap) or "paraboloid" (r^2 / 2R).
-        rigid: true for a rigid sphere (the limit E -> inf: a glass lens on rubber), which takes no
-            E, nu, yield_strength or hardness; the flat must then be elastic.
-    """
-
-    radius: float
-    E: float | None = None
-    nu: float | None = None
-    yield_strength: float = math.inf
-    hardness: float = math.inf
-    profile: str = "sphere"
-    rigid: bool = False
-
-    def __post_init__(self):
-        _set(self, "radius", _positive("sphere.radius", self.radius, "m"))
-        _set(self, "profile", _choice("sphere.profile", self.profile, PROFILES))
-        _check_body(self, "sphere")
-
-    @property
-    def material(self) -> Material:
-        """The sphere's material (named "sphere")."""
-        return _body_material(self, "sphere")
-
-    @property
-    def geometry(self) -> Sphere:
-        return Sphere(self.radius, self.profile)
-
-    def to_dict(self) -> dict:
-        return {"radius": self.radius, **_material_dict(self.material), "profile": self.profile}
-
-
-@dataclass(frozen=True)
-class FlatSpec:
-    """The ``[flat]`` table: the flat's material (body 2).
-
-    Attributes:
-        E: Young's modulus [Pa]; required unless rigid.
-        nu: Poisson ratio [-], in (-1, 0.5]; required unless rigid.
-        yield_strength: S_Y [Pa]; inf for no limit.
-        hardness: H [Pa]; inf for no limit.
-        rigid: true for a rigid flat (the limit E -> inf: an elastic sphere on a rigid flat), which
-            takes no E, nu, yield_strength or hardness; the sphere must then be elastic.
-    """
-
-    E: float | None = None
-    nu: float | None = None
-    yield_strength: float = math.inf
-    hardness: float = math.inf
-    rigid: bool = False
-
-    def __post_init__(self):
-        _check_body(self, "flat")
-
-    @property
-    def material(self) -> Material:
-        """The flat's material (named "flat")."""
-        return _body_material(self, "flat")
-
-
 #: The ``[grid]`` table is a :class:`~warpcontact.physics.geometry.Grid` (n cells per side, size in m).
 GridSpec = Grid
-
-
-@dataclass(frozen=True)
-class LoadSpec:
-    """The ``[load]`` table: the path of rigid-body approaches (MODEL.md section 3).
-
-    Either the default path (``delta_z`` required; ``delta_x``, ``delta_y``, ``steps``), the
-    cyclic path of fretting (``delta_z`` and ``delta_x_amplitude`` or ``delta_y_amplitude``,
-    ``cycles``) or an explicit path (``states``, the file's ``path`` key), never two of them.
-
-    Attributes:
-        delta_z: final normal approach [m] of the default or cyclic path; None with an explicit path.
-        delta_x: final tangential approach along x [m] of the default path.
-        delta_y: final tangential approach along y [m] of the default path.
-        steps: equal steps per leg of the default path (normal leg, then tangential leg).
-        normal_steps: equal steps of the normal leg where they differ from ``steps`` (None: ``steps``).
-        tangential_steps: equal steps of the tangential leg where they differ from ``steps`` (None:
-            ``steps``); on a cyclic path, the steps of each quarter cycle.
-        delta_x_amplitude: displacement amplitude along x [m], > 0, of a cyclic path (fretting): after
-            the normal leg, delta_x goes 0 -> +amplitude (the first quarter), then ``cycles`` times
-            +amplitude -> -amplitude -> +amplitude; None: no cyclic path.
-        delta_y_amplitude: displacement amplitude along y [m], > 0, of a cyclic path, in phase with
-            ``delta_x_amplitude``; None: none along y.
-        cycles: whole cycles of a cyclic path after its first quarter, 1 to 10000 (default 1).
-        states: the explicit path, (delta_x, delta_y, delta_z) triples [m] in order; None for the
-            default path.
-    """
-
-    delta_z: float | None = None
-    delta_x: float = 0.0
-    delta_y: float = 0.0
-    steps: int = 1
-    tangential_steps: int | None = None
-    states: tuple[State, ...] | None = None
-    normal_steps: int | None = None
-    delta_x_amplitude: float | None = None
-    delta_y_amplitude: float | None = None
-    cycles: int = 1
-
-    def __post_init__(self):
-        if self.states is not None:
-            if self.delta_z is not None:
-                raise InputError("load.delta_z", "must not be given together with load.path (the path lists every state)")
-            for name, default in (("delta_x", 0.0), ("delta_y", 0.0), ("steps", 1), ("normal_steps", None),
-                                  ("tangential_steps", None), ("delta_x_amplitude", None),
-                                  ("delta_y_amplitude", None), ("cycles", 1)):
-                if getattr(self, name) != default:
-                    raise InputError(f"load.{name}", "must not be given together with load.path (the path lists every state)")
-            _set(self, "states", _path_states(self.states))
-            return
-        if self.delta_z is None:
-            raise InputError("load.delta_z", "is required (or give load.path)")
-        _set(self, "delta_z", _number("load.delta_z", self.delta_z, unit="m"))
-        _set(self, "delta_x", _number("load.delta_x", self.delta_x, unit="m"))
-        _set(self, "delta_y", _number("load.delta_y", self.delta_y, unit="m"))
-        _set(self, "steps", _integer("load.steps", self.steps, 1, MAX_STEPS))
-        for name in ("normal_steps", "tangential_steps"):
-            if getattr(self, name) is not None:
-                _set(self, name, _integer(f"load.{name}", getattr(self, name), 1, MAX_STEPS))
-        for name in ("delta_x_amplitude", "delta_y_amplitude"):
-            if getattr(self, name) is not None:
-                _set(self, name, _positive(f"load.{name}", getattr(self, name), "m"))
-        _set(self, "cycles", _integer("load.cycles", self.cycles, 1, MAX_CYCLES))
-        if not self.cyclic:
-            if self.cycles != 1:
-                raise _cycles_without_amplitude()
-            return
-        for name in ("delta_x", "delta_y"):
-            if getattr(self, name) != 0.0:
-                amplitude = f"load.{name}_amplitude"
-                raise InputError(f"load.{name}", f"must be left out of a cyclic path (its tangential approach runs "
-                                                 f"between -{amplitude} and +{amplitude}); give one or the other")
-        quarters = 1 + 4 * self.cycles
-        total = self.normal_leg_steps + quarters * self.tangential_leg_steps
-        if total > 2 * MAX_STEPS:
-            raise InputError("load.cycles", f"{self.cycles} cycle(s) of 4 x {self.tangential_leg_steps} steps after "
-                                            f"the first quarter and {self.normal_leg_steps} normal steps give {total} "
-                                            f"states; a path holds at most {2 * MAX_STEPS}: take fewer cycles or fewer "
-                                            "load.tangential_steps")
-
-    @property
-    def explicit(self) -> bool:
-        """True when the path was given state by state (the ``path`` key)."""
-        return self.states is not None
-
-    @property
-    def cyclic(self) -> bool:
-        """True for a cyclic (fretting) path: an amplitude was given."""
-        return self.delta_x_amplitude is not None or self.delta_y_amplitude is not None
-
-    @property
-    def normal_leg_steps(self) -> int | None:
-        """The normal leg's equal steps: ``normal_steps``, else ``steps`` (an explicit path: None)."""
-        if self.states is not None:
-            return None
-        return self.steps if self.normal_steps is None else self.normal_steps
-
-    @property
-    def tangential_leg_steps(self) -> int | None:
-        """The tangential leg's equal steps (a cyclic path: per quarter cycle): ``tangential_steps``,
-        else ``steps`` (an explicit path: None)."""
-        if self.states is not None:
-            return None
-        return self.steps if self.tangential_steps is None else self.tangential_steps
-
-    def cycle_bounds(self) -> list[tuple[int, int]]:
-        """The whole cycles of a cyclic path as (first, last) indices into :meth:`path`: each cycle
-        runs from the state at +amplitude (the last of the first quarter, or of the cycle before)
-        through -amplitude back to +amplitude, 4 ``tangential_leg_steps`` steps. Empty for a path
-        that is not cyclic."""
-        if not self.cyclic:
-            return []
-        n, q = self.normal_leg_steps, self.tangential_leg_steps
-        first = n + q - 1
-        return [(first + 4 * q * c, first + 4 * q * (c + 1)) for c in range(self.cycles)]
-
-    def path(self) -> list[State]:
-        """The (delta_x, delta_y, delta_z) states [m] of the path, in the order they are solved.
-
-        Default path: delta_z in ``normal_steps`` (default ``steps``) equal steps with delta_x =
-        delta_y = 0, then delta_x and delta_y together in ``tangential_steps`` (default ``steps``)
-        equal steps at the final delta_z (that leg is left out when delta_x = delta_y = 0). A cyclic
-        path has the same normal leg, then the tangential approach s (delta_x_amplitude,
-        delta_y_amplitude) with s going 0 -> 1 in ``tangential_steps`` steps (the first quarter)
-        and ``cycles`` times 1 -> -1 -> 1 in 4 ``tangential_steps`` steps. The unloaded state
-        (0, 0, 0) is not part of the path.
-        """
-        if self.states is not None:
-            return list(self.states)
-        n = self.normal_leg_steps
-        states = [(0.0, 0.0, self.delta_z * k / n) for k in range(1, n + 1)]
-        states[-1] = (0.0, 0.0, self.delta_z)
-        q = self.tangential_leg_steps
-        if self.cyclic:
-            ax, ay = self.delta_x_amplitude or 0.0, self.delta_y_amplitude or 0.0
-            # s at each step: 1 - k / q on the way down, k / q - 1 back up (exact at 0 and +-1)
-            s = [k / q for k in range(1, q + 1)]
-            for _ in range(self.cycles):
-                s += [1.0 - k / q for k in range(1, 2 * q + 1)] + [k / q - 1.0 for k in range(1, 2 * q + 1)]
-            return states + [(ax * f + 0.0, ay * f + 0.0, self.delta_z) for f in s]  # + 0.0: no -0.0
-        if self.delta_x != 0.0 or self.delta_y != 0.0:
-            states += [(self.delta_x * k / q, self.delta_y * k / q, self.delta_z) for k in range(1, q + 1)]
-            states[-1] = (self.delta_x, self.delta_y, self.delta_z)
-        return states
-
-    @property
-    def delta_z_max(self) -> float:
-        """The largest normal approach on the path [m]."""
-        return max(s[2] for s in self.path())
-
-    def to_dict(self) -> dict:
-        if self.states is not None:
-            return {"path": [list(s) for s in self.states]}
-        out = {"delta_z": self.delta_z}
-        if self.cyclic:
-            out.update({k: getattr(self, k) for k in CYCLIC_KEYS if getattr(self, k) is not None})
-        else:
-            out.update(delta_x=self.delta_x, delta_y=self.delta_y)
-        out["steps"] = self.steps
-        for name in ("normal_steps", "tangential_steps"):
-            if getattr(self, name) is not None:
-                out[name] = getattr(self, name)
-        return out
-
-
-def _cycles_without_amplitude() -> InputError:
-    return InputError("load.cycles", "belongs to a cyclic path: give load.delta_x_amplitude or load.delta_y_amplitude "
-                                     "(m) with it")
-
-
-def _path_states(v) -> tuple[State, ...]:
-    key = "load.path"
-    shape = "an array of [delta_x, delta_y, delta_z] arrays in m"
-    if isinstance(v, (str, bytes, Mapping)) or not isinstance(v, (Sequence, np.ndarray)):
-        raise InputError(key, f"must be {shape}, {_got(v)}")
-    if len(v) == 0:
-        raise InputError(key, f"must hold at least one state ({shape}), got an empty array")
-    if len(v) > 2 * MAX_STEPS:
-        raise InputError(key, f"must hold at most {2 * MAX_STEPS} states, got {len(v)}")
-    states = []
-    for i, s in enumerate(v):
-        if isinstance(s, (str, bytes, Mapping)) or not isinstance(s, (Sequence, np.ndarray)) or len(s) != 3:
-            raise InputError(key, f"entry {i} must be [delta_x, delta_y, delta_z] (3 numbers in m), {_got(s)}")
-        state = []
-        for j, (name, x) in enumerate(zip(("delta_x", "delta_y", "delta_z"), s)):
-            if _is_bool(x) or not isinstance(x, numbers.Real):
-                raise InputError(key, f"entry {i} ({name}) must be a number in m, {_got(x)}")
-            try:
-                x = float(x)
-            except OverflowError:
-                x = math.inf
-            if not math.isfinite(x):
-                raise InputError(key, f"entry {i} ({name}) must be finite, got {x!r}")
-            state.append(x)
-        states.append(tuple(state))
-    return tuple(states)
 
 
 @dataclass(frozen=True)
@@ -904,35 +396,38 @@ class Case:
                 )
 
     def _check_domain(self) -> None:
-        """The Hertz contact at the deepest state must fit in the domain, and the domain in the sphere."""
-        R, size = self.sphere.radius, self.grid.size
+        """The contact at the deepest state must fit in the domain (Hertz's, the punch's, Love's
+        cone's), the domain in the sphere and in any height map, and a punch's approach stay far
+        below its side wall."""
+        shape, size = self.sphere, self.grid.size
         dz = self.load.delta_z_max
-        if dz > 0.0:
-            a = math.sqrt(R * dz)
-            if not 2.0 * a < size:
-                raise InputError(
-                    "grid.size",
-                    f"must exceed 2 a = {2.0 * a:.4g} m, the Hertz contact diameter at the largest delta_z = {dz:.4g} m "
-                    f"(a = sqrt(R delta_z) = {a:.4g} m), got {size:.4g} m; use at least "
-                    f"{SUGGESTED_SIZE_IN_A * a:.4g} m ({SUGGESTED_SIZE_IN_A:g} a), more with adhesion"
-                    f"{profile_note(SUGGESTED_SIZE_IN_A * a, self.sphere)}",
-                )
-        if self.sphere.profile == "sphere":
+        a = shape.contact_radius(dz)
+        if a is not None and dz > 0.0 and not 2.0 * a < size:
+            what = {"flat_punch": "the punch's diameter 2 a (a = sphere.radius)",
+                    "cone": f"the cone's contact diameter 2 a at the largest delta_z = {dz:.4g} m (Love: a = 2 "
+                            "delta_z tan(half_angle) / pi)"}.get(
+                shape.profile, f"the Hertz contact diameter at the largest delta_z = {dz:.4g} m (a = sqrt(R delta_z))")
+            raise InputError(
+                "grid.size",
+                f"must exceed 2 a = {2.0 * a:.4g} m, {what}, got {size:.4g} m; use at least "
+                f"{SUGGESTED_SIZE_IN_A * a:.4g} m ({SUGGESTED_SIZE_IN_A:g} a), more with adhesion"
+                f"{profile_note(SUGGESTED_SIZE_IN_A * a, shape)}",
+            )
+        if shape.profile == "flat_punch" and not dz < 0.1 * PUNCH_WALL_IN_RADII * shape.radius:
+            raise InputError("load.path" if self.load.explicit else "load.delta_z",
+                             f"the largest delta_z = {dz:.4g} m reaches a tenth of the punch's radius "
+                             f"{shape.radius:.4g} m: far beyond the small strains of the half-space model (the "
+                             f"punch's side is a wall {PUNCH_WALL_IN_RADII:g} radius high)")
+        if shape.profile == "sphere":
             corner = math.sqrt(2.0) * 0.5 * (self.grid.n - 1) * self.grid.dx
-            if corner >= R:
+            if corner >= shape.radius:
                 raise InputError(
                     "grid.size",
                     f"the domain's corner cells lie {corner:.4g} m from the centre, beyond the sphere radius "
-                    f"{R:.4g} m; use grid.size below {math.sqrt(2.0) * R:.4g} m or sphere.profile = 'paraboloid'",
+                    f"{shape.radius:.4g} m; use grid.size below {math.sqrt(2.0) * shape.radius:.4g} m or "
+                    "sphere.profile = 'paraboloid'",
                 )
-
-    @property
-    def sphere_spec(self) -> SphereSpec:
-        """The ``[sphere]`` table: geometry and material of the sphere."""
-        m = self.pair.sphere
-        if m.is_rigid:
-            return SphereSpec(self.sphere.radius, profile=self.sphere.profile, rigid=True)
-        return SphereSpec(self.sphere.radius, m.E, m.nu, m.yield_strength, m.hardness, self.sphere.profile)
+        shape.check_domain(self.grid)  # a height map must cover the domain
 
     def with_overrides(self, keys: Mapping | None = None, *, device: str | None = None, dtype: str | None = None,
                        fft: str | None = None) -> Case:
@@ -956,8 +451,8 @@ class Case:
         included, so the dict records the run on its own.
         """
         d = {
-            "sphere": self.sphere_spec.to_dict(),
-            "flat": _material_dict(self.pair.flat),
+            "sphere": sphere_dict(self.sphere, self.pair.sphere),
+            "flat": flat_dict(self.sphere, self.pair.flat),
             "grid": {"n": int(self.grid.n), "size": float(self.grid.size)},
             "load": self.load.to_dict(),
             "solver": self.solver.to_dict(),
@@ -973,8 +468,10 @@ class Case:
 # Reading.
 
 
-def case_from_dict(d: Mapping) -> Case:
+def case_from_dict(d: Mapping, base: str | PathLike | None = None) -> Case:
     """Build and validate a [`Case`][warpcontact.Case] from parsed TOML (or ``Case.to_dict()`` output).
+    ``base``: the folder that relative file paths (``height_map``) are taken from; None: the
+    current folder.
 
     Raises:
         InputError: with the dotted key of the first problem found.
@@ -990,29 +487,21 @@ def case_from_dict(d: Mapping) -> Case:
 
     s = tables["sphere"]
     _check_keys("sphere", s, SPHERE_KEYS)
-    _require("sphere", s, ("radius",) if _rigid("sphere", s) else ("radius", "E", "nu"))
-    sphere = SphereSpec(
-        radius=s["radius"],
-        E=s.get("E"),
-        nu=s.get("nu"),
-        yield_strength=s.get("yield_strength", math.inf),
-        hardness=s.get("hardness", math.inf),
-        profile=s.get("profile", "sphere"),
-        rigid=s.get("rigid", False),
-    )
-
+    sphere = sphere_from_table(s, base)
     f = tables["flat"]
     _check_keys("flat", f, FLAT_KEYS)
-    _require("flat", f, () if _rigid("flat", f) else ("E", "nu"))
-    flat = FlatSpec(**f).material
+    flat_spec = flat_from_table(f, base)
+    flat = flat_spec.material
     pair = MaterialPair(sphere.material, flat)  # refuses two rigid bodies
+    shape = replace(sphere.geometry, flat_map=flat_spec.surface)
 
     g = tables["grid"]
     _check_keys("grid", g, GRID_KEYS)
     _require("grid", g, GRID_KEYS)
-    n = _integer("grid.n", g["n"], MIN_CELLS)
-    size = _positive("grid.size", g["size"], "m")
-    grid = Grid(n, size)
+    grid = _grid_from(g, shape.height_map or shape.flat_map)
+    for surface in (shape.height_map, shape.flat_map):  # a map that misses the domain, before plausibility
+        if surface is not None:
+            surface.check_covers(grid)
 
     load = _load_from(tables["load"])
 
@@ -1044,7 +533,7 @@ def case_from_dict(d: Mapping) -> Case:
     check_case(sphere, flat, grid, load, adhesion)
     return Case(
         pair=pair,
-        sphere=sphere.geometry,
+        sphere=shape,
         grid=grid,
         load=load,
         solver=solver,
@@ -1052,28 +541,25 @@ def case_from_dict(d: Mapping) -> Case:
         adhesion=adhesion,
     )
 
-
-def _rigid(table: str, d: Mapping) -> bool:
-    """A body table's ``rigid`` key (false when absent); a rigid body's table holds none of MATERIAL_KEYS."""
-    rigid = _boolean(f"{table}.rigid", d.get("rigid", False))
-    for key in MATERIAL_KEYS if rigid else ():
-        if key in d:
-            raise _unused_by_rigid(table, key)
-    return rigid
-
-
-def _load_from(ld: Mapping) -> LoadSpec:
-    _check_keys("load", ld, LOAD_KEYS)
-    if "path" in ld:
-        for k in DEFAULT_PATH_KEYS:
-            if k in ld:
-                raise InputError(f"load.{k}", "must not be given together with load.path (the path lists every state)")
-        return LoadSpec(states=_path_states(ld["path"]))
-    if "delta_z" not in ld:
-        raise InputError("load.delta_z", "is required (or give load.path)")
-    if "cycles" in ld and not any(k in ld for k in ("delta_x_amplitude", "delta_y_amplitude")):
-        raise _cycles_without_amplitude()
-    return LoadSpec(**{k: ld[k] for k in DEFAULT_PATH_KEYS if k in ld})
+def _grid_from(g: Mapping, surface) -> Grid:
+    """The ``[grid]`` table: n and size as numbers, or "map" to take them from ``surface``, the
+    sphere's height map (else the flat's): one cell per pixel, the map's side."""
+    values = {}
+    for key in GRID_KEYS:
+        if g[key] != "map":
+            continue
+        if surface is None:
+            raise InputError(f"grid.{key}", '"map" takes the grid from a height map (sphere.height_map or '
+                                            "flat.height_map); the case has none: give a number")
+        nx, ny = surface.heights.shape
+        if nx != ny:
+            raise InputError(f"grid.{key}", f'"map" needs a square map; {surface.key}.height_map is {nx} x {ny} '
+                                            "pixels: give a number")
+        values[key] = nx if key == "n" else nx * surface.pixel_size
+    n = values.get("n") or _integer("grid.n", g["n"], MIN_CELLS)
+    if n < MIN_CELLS:
+        raise InputError("grid.n", f"= \"map\" gives {n} cells per side, fewer than {MIN_CELLS}")
+    return Grid(n, values.get("size") or _positive("grid.size", g["size"], "m"))
 
 
 def read_toml(path: str | PathLike, what: str = "case file") -> dict:
@@ -1110,10 +596,18 @@ def load_case(path: str | PathLike) -> Case:
         InputError: key = the file path when the file is missing, unreadable, not UTF-8 or not
             TOML; otherwise the dotted case-file key of the first problem.
     """
-    return case_from_dict(read_toml(path, "case file"))
+    return case_from_dict(read_toml(path, "case file"), base=Path(path).resolve().parent)
 
 
 __all__ = [
+    "CYCLIC_KEYS",
+    "FLAT_KEYS",
+    "LOAD_KEYS",
+    "MATERIAL_KEYS",
+    "MAX_CYCLES",
+    "MAX_STEPS",
+    "PROFILES",
+    "SPHERE_KEYS",
     "AdhesionSpec",
     "Case",
     "FlatSpec",

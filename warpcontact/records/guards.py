@@ -171,7 +171,7 @@ class RunChecks:
             return math.sqrt((s["adhesive_area"] + s["contact_area"]) / math.pi) - contact_radius
         if contact_radius > 0.0:  # no adhesive cell: the zone is narrower than a cell; estimate it
             law_range = ad.length
-            if law_range:
+            if law_range and self.case.sphere.hertzian:  # (the estimate is the Hertz gap's)
                 return adhesive_zone_estimate(contact_radius, self.case.sphere.radius, law_range)
         return None
 
@@ -267,8 +267,17 @@ def suggested_adhesive_size(radius: float, delta_z: float, adhesion) -> float:
     """Smallest domain side [m] that holds the law's tail at normal approach ``delta_z`` [m] of a
     sphere of ``radius`` [m]: the rigid paraboloid's gap r^2 / 2R - delta_z reaches the tail's
     gap at r_edge = sqrt(2 R (delta_z + tail)); side = 2 r_edge DOMAIN_MARGIN. (The bodies'
-    deformation opens the gap outside the contact, so the rigid gap errs on the large side.)"""
+    deformation opens the gap outside the contact, so the rigid gap errs on the large side.)
+    Other shapes: :func:`suggested_shape_size`."""
     return 2.0 * DOMAIN_MARGIN * math.sqrt(2.0 * radius * max(0.0, delta_z + adhesion_tail(adhesion)))
+
+
+def suggested_shape_size(shape, delta_z: float, adhesion) -> float | None:
+    """:func:`suggested_adhesive_size` for any shape (a :class:`~warpcontact.physics.geometry.Sphere`):
+    r_edge = ``shape.gap_radius(delta_z + tail)``, where the rigid profile's gap reaches the tail's
+    (a sphere's: sqrt(2 R (delta_z + tail))); None for a height map."""
+    r_edge = shape.gap_radius(delta_z + adhesion_tail(adhesion))
+    return None if r_edge is None else 2.0 * DOMAIN_MARGIN * r_edge
 
 
 def warn_if_adhesion_at_edge(state, adhesion, delta_z: float | None = None) -> bool:
@@ -294,8 +303,8 @@ def warn_if_adhesion_at_edge(state, adhesion, delta_z: float | None = None) -> b
         return False
     m = state.model
     dz = state.approach[2] if delta_z is None else delta_z
-    need = suggested_adhesive_size(m.sphere.radius, dz, adhesion)
-    if not need > m.grid.size:  # the deformed gap closes faster than the rigid estimate: grow by half
+    need = suggested_shape_size(m.sphere, dz, adhesion)
+    if need is None or not need > m.grid.size:  # the deformed gap closes faster than the rigid estimate: grow by half
         need = 1.5 * m.grid.size
     warnings.warn(
         f"the adhesive tension on the edge of the {m.grid.size:.4g} m domain is {100 * edge / peak:.0f} % of its "

@@ -348,19 +348,23 @@ def check_shift(load, size: float) -> None:
 
 def check_case(sphere, flat, grid, load, adhesion=None) -> None:
     """Every plausibility check of a case's parts, in the order a user reads them: the bodies, the
-    contact's scale against the domain, the adhesive law. ``sphere``: SphereSpec; ``flat``:
+    contact's scale against the domain (a sphere's or paraboloid's: Hertz's scales), the adhesive
+    law. ``sphere``: SphereSpec; ``flat``:
     Material; ``grid``: Grid; ``load``: LoadSpec; ``adhesion``: AdhesionSpec or None. A rigid
     body enters as E = inf (``check_moduli`` passes it over)."""
     bodies = {name: (m.E, m.nu, m.yield_strength, m.hardness) for name, m in (("sphere", sphere.material),
                                                                               ("flat", flat))}
     check_moduli(bodies)
     key = "load.path" if load.explicit else "load.delta_z"
-    check_contact_scale(sphere.radius, sphere.profile, grid.size, load.delta_z_max, key)
+    hertzian = sphere.profile in ("sphere", "paraboloid")  # Hertz's scales judge these profiles alone
+    if hertzian:
+        check_contact_scale(sphere.radius, sphere.profile, grid.size, load.delta_z_max, key)
     check_shift(load, grid.size)
     if adhesion is not None:
         E_star = MaterialPair(sphere.material, flat).E_star
         check_adhesion(adhesion, E_star, bodies)
-        check_adhesion_force(adhesion, E_star, sphere.radius, load.delta_z_max)
+        if hertzian:
+            check_adhesion_force(adhesion, E_star, sphere.radius, load.delta_z_max)
 
 
 __all__ = ["PlausibilityWarning", "check_adhesion", "check_adhesion_force", "check_case", "check_contact_scale", "check_moduli", "check_shift"]

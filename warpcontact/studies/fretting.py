@@ -36,7 +36,7 @@ def check_fretting_case(case) -> None:
 def closed_form_note(case) -> str | None:
     """Why Mindlin and Deresiewicz's closed form does not describe the case (None where it does):
     it needs Coulomb friction, an uncoupled pair (Dundurs beta = 0: identical materials, or a rigid
-    body on an incompressible one) and no adhesion."""
+    body on an incompressible one), no adhesion and a sphere's (or paraboloid's) Hertz contact."""
     if case.friction.law != "coulomb":
         return f"the closed form is for Coulomb friction; friction.law is {case.friction.law!r}"
     beta = case.pair.dundurs_beta
@@ -45,6 +45,8 @@ def closed_form_note(case) -> str | None:
                 f"is {beta:.3g}, so the normal and tangential tractions couple")
     if case.adhesion is not None:
         return "the closed form has no adhesion; the case has an [adhesion] table"
+    if not case.sphere.hertzian:
+        return f"the closed form is a sphere's (Hertz's contact); this case's shape is {case.sphere.description}"
     return None
 
 

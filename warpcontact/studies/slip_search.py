@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 import time
 
 import numpy as np
@@ -22,12 +23,19 @@ def stick_cells(state) -> int:
 
 def estimate_delta_x_max(pair, radius: float, delta_z: float, friction) -> float:
     """Mindlin's delta_x at gross slip with the friction law's slope at zero pressure [m]:
-    3 mu P / (16 a) ((2 - nu1)/G1 + (2 - nu2)/G2), mu = Coulomb's mu or Tabor's mu_b."""
+    3 mu P / (16 a) ((2 - nu1)/G1 + (2 - nu2)/G2), mu = Coulomb's mu or Tabor's mu_b, with
+    Hertz's P and a for a sphere of ``radius`` [m] at ``delta_z`` [m]."""
+    h = hertz(pair, radius, delta_z)
+    return mindlin_estimate(pair, h["force"], h["a"], friction)
+
+
+def mindlin_estimate(pair, force: float, a: float, friction) -> float:
+    """Mindlin's delta_x at gross slip [m] for normal force ``force`` [N] on a contact of radius
+    ``a`` [m]: 3 mu P / (16 a) ((2 - nu1)/G1 + (2 - nu2)/G2) (the bracket's first step of any shape)."""
     mu = getattr(friction, "mu", None)
     if mu is None:
         mu = friction.mu_b
-    h = hertz(pair, radius, delta_z)
-    return 3.0 * mu * h["force"] / (16.0 * h["a"]) * pair.mindlin_compliance
+    return 3.0 * mu * max(force, 0.0) / (16.0 * a) * pair.mindlin_compliance
 
 
 #: why mu is None: a net tensile (or zero) normal load
@@ -85,7 +93,11 @@ def find_gross_slip(
     for k in range(1, normal_steps + 1):
         solve(state, (0.0, 0.0, delta_z * k / normal_steps), "normal")
     warn_if_adhesion_at_edge(state, solver.adhesion, delta_z)
-    step = estimate_delta_x_max(pair, radius, delta_z, solver.friction) / tangential_steps
+    if model.sphere.hertzian:
+        step = estimate_delta_x_max(pair, radius, delta_z, solver.friction) / tangential_steps
+    else:  # Mindlin's estimate with the solved normal force and contact radius in place of Hertz's
+        a = math.sqrt(max(path[-1]["contact_area"], model.grid.cell_area) / math.pi)
+        step = mindlin_estimate(pair, path[-1]["force"]["z"], a, solver.friction) / tangential_steps
     last_stick = ContactState(model)
     last_stick.copy_from(state)
     lo, lo_summary, hi = 0.0, path[-1], None

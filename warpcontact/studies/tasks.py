@@ -88,7 +88,8 @@ def run_pull_off(case: Case, model, solver, steps: int = 20, retract_to: float |
     """The approach-retract curve of ``case`` on a built model and solver, with the run's checks,
     as a summary: the curve, pull_off_force [N], pull_off_delta_z [m], work_of_adhesion [J/m^2],
     tabor_parameter [-] (with the law's range), dmt_pull_off = -2 pi R w and jkr_pull_off =
-    -1.5 pi R w [N], cell_softening [-] (``warpcontact.physics.adhesion.cell_softening``: above 2 a
+    -1.5 pi R w [N] (None for a shape other than a sphere or paraboloid on a smooth flat, with a
+    reference_note saying so), cell_softening [-] (``warpcontact.physics.adhesion.cell_softening``: above 2 a
     warning of lattice trapping); the results withheld when a state did not converge. The one
     builder of a pull-off summary."""
     import math
@@ -123,9 +124,14 @@ def run_pull_off(case: Case, model, solver, steps: int = 20, retract_to: float |
 
     warn_if_jagged_pull_off(r, model.grid.n)
     R, w = case.sphere.radius, law.work_of_adhesion
-    result = {**r, "work_of_adhesion": w, "tabor_parameter": tabor_parameter(case.pair, R, w, law.range),
-              "dmt_pull_off": -2.0 * math.pi * R * w, "jkr_pull_off": -1.5 * math.pi * R * w,
-              "cell_softening": cell_softening(law, model)}
+    if case.sphere.hertzian:
+        reference = {"tabor_parameter": tabor_parameter(case.pair, R, w, law.range),
+                     "dmt_pull_off": -2.0 * math.pi * R * w, "jkr_pull_off": -1.5 * math.pi * R * w}
+    else:  # the closed forms are a sphere's: no number rather than a wrong one
+        reference = {"tabor_parameter": None, "dmt_pull_off": None, "jkr_pull_off": None,
+                     "reference_note": f"Tabor's parameter and the DMT and JKR pull-off forces are a sphere's; "
+                                       f"this case's shape is {case.sphere.description}"}
+    result = {**r, "work_of_adhesion": w, **reference, "cell_softening": cell_softening(law, model)}
     return withhold_if_unconverged(result, PULL_OFF_RESULTS)
 
 
