@@ -306,17 +306,17 @@ def _advance(correction, deferred, violation, it, rhs=1.0, tol=1e-10, column_nor
         sums[slot] = value
     scalars = np.zeros(nk.N_SCALARS)
     scalars[nk.C_ITER] = it - 1
-    settings = np.zeros(nk.N_PARAMETERS)
-    settings[[nk.P_TOL, nk.P_MAX_ITER, nk.P_CHUNK, nk.P_EXACT]] = tol, max_iter, chunk, exact
+    parameters = np.zeros(nk.N_PARAMETERS)
+    parameters[[nk.P_TOL, nk.P_MAX_ITER, nk.P_CHUNK, nk.P_EXACT]] = tol, max_iter, chunk, exact
     held = wp.array([deferred], dtype=wp.float64, device="cpu")
     flag, refresh, inner = (wp.zeros(1, dtype=wp.int32, device="cpu") for _ in range(3))
     loop = wp.ones(1, dtype=wp.int32, device="cpu")  # as loop_start leaves it: the kernel only stops the loop
-    sums_wp = wp.array(sums, dtype=wp.float64)
+    sums_wp = wp.array(sums, dtype=wp.float64, device="cpu")
     wp.launch(nk.normal_advance, dim=1, device="cpu",
-              inputs=[sums_wp, wp.array(settings, dtype=wp.float64), exact_every, wp.float64(column_norm),
-                      wp.float64(deferral)],
-              outputs=[wp.array(scalars, dtype=wp.float64), wp.zeros(max_iter + 1, dtype=wp.float64), held, flag, loop,
-                       refresh, inner])
+              inputs=[sums_wp, wp.array(parameters, dtype=wp.float64, device="cpu"), exact_every,
+                      wp.float64(column_norm), wp.float64(deferral)],
+              outputs=[wp.array(scalars, dtype=wp.float64, device="cpu"),
+                       wp.zeros(max_iter + 1, dtype=wp.float64, device="cpu"), held, flag, loop, refresh, inner])
     flags = [int(a.numpy()[0]) for a in (flag, loop, refresh, inner)]
     return flags[0], float(held.numpy()[0]), flags[1], sums_wp.numpy(), flags[2], flags[3]
 
