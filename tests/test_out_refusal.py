@@ -28,6 +28,7 @@ COMMANDS = {
     "stress": ["stress", EXAMPLES / "hertz.toml"],
     "fit": ["fit", EXAMPLES / "fit_k_tau.toml", "--workers", "1"],
     "schema": ["schema"],
+    "surface": ["surface", "--size", "1e-7", "--rms-height", "1e-9"],
 }
 FILE_OUT = {"schema"}  # --out names a file; the others' a folder
 

@@ -14,6 +14,7 @@ if TYPE_CHECKING:  # for readers, type checkers and the documentation's static a
     from .records.case import Case, case_from_dict, load_case
     from .errors import ConvergenceError, InputError, NonFiniteError
     from .physics.geometry import Grid, Sphere
+    from .physics.roughness import rough_surface, surface_statistics
     from .physics.materials import COPPER, HARDENED_STEEL, PAPER_PAIR, Material, MaterialPair
     from .studies.stress_study import subsurface_stress
 
@@ -22,6 +23,7 @@ if TYPE_CHECKING:  # for readers, type checkers and the documentation's static a
 _LAZY = {
     "ConvergenceError": "errors", "InputError": "errors", "NonFiniteError": "errors",
     "Grid": "physics.geometry", "Sphere": "physics.geometry",
+    "rough_surface": "physics.roughness", "surface_statistics": "physics.roughness",
     "COPPER": "physics.materials", "HARDENED_STEEL": "physics.materials", "PAPER_PAIR": "physics.materials",
     "Material": "physics.materials",
     "MaterialPair": "physics.materials",
@@ -67,6 +69,8 @@ __all__ = [
     "pull_off",
     "fretting",
     "subsurface_stress",
+    "rough_surface",
+    "surface_statistics",
     "InputError",
     "ConvergenceError",
     "NonFiniteError",

@@ -168,6 +168,9 @@ def _parser():
     from .fit import add_parser as add_fit_parser
 
     add_fit_parser(sub)
+    from .surface import add_parser as add_surface_parser
+
+    add_surface_parser(sub)
     t.add_argument("--k-tau", type=float, nargs="+", help="only these k_tau columns (0.50, 0.80, 0.95)")
     t.add_argument("--delta-z-um", type=float, nargs="+", help="only these delta_z rows in um (1e-5, 5e-5, 1e-4, 1.5e-4)")
     _common(t)
@@ -446,13 +449,14 @@ def main(argv=None) -> int:
         from .stress import cmd_stress
         from .fit import cmd_fit
         from .fretting import cmd_fretting
+        from .surface import cmd_surface
         from .table2 import cmd_table2
 
         if getattr(args, "out", None) is not None:  # before any command starts: nothing is solved in vain
             check_out(args.out, getattr(args, "out_is_file", False))
         commands = {"solve": cmd_solve, "gross-slip": cmd_gross_slip, "table2": cmd_table2, "figure": cmd_figure,
                     "pull-off": cmd_pull_off, "sweep": cmd_sweep, "stress": cmd_stress, "fit": cmd_fit,
-                    "schema": cmd_schema, "fretting": cmd_fretting}
+                    "schema": cmd_schema, "fretting": cmd_fretting, "surface": cmd_surface}
         return commands[args.command](args)
     except InputError as e:
         end_line()  # of a progress bar being drawn
