@@ -66,3 +66,50 @@ def test_launch_captures_only_once_every_part_ran(monkeypatch):
     solver._ran_eagerly.add("body")
     ProjectedCG._launch(solver, "k", lambda: runs.append(1), needs=("body",))
     assert len(captures) == 1 and "k" in solver._graphs
+
+
+def test_a_failed_capture_leaves_the_solve_to_eager_launches(monkeypatch):
+    """A capture that fails (CUDA error 901 from its first operation) after the work ran eagerly:
+    the solve goes on with its result, the solver launches eagerly from then on (no graph kept,
+    ``capture_failure`` says why) and warns once. A Hertz solve made so on the CPU (its launches
+    are the same kernels either way) equals the plain solve to the last bit."""
+    import numpy as np
+    import pytest
+
+    from warpcontact.solvers.normal import NormalSolver
+
+    class FailingCapture:  # stands for wp.ScopedCapture: the capture is invalid from its start
+        def __init__(self, **kwargs):
+            self.graph = None
+
+        def __enter__(self):
+            raise RuntimeError("Warp CUDA error 901: operation failed due to a previous error during capture")
+
+        def __exit__(self, *exc):
+            return False
+
+    model = ContactModel(MaterialPair(COPPER, COPPER), Sphere(R), Grid(32, 4 * math.sqrt(R * DZ)))
+    plain_state = ContactState(model)
+    plain = NormalSolver(model).solve(plain_state, DZ)
+    solver = NormalSolver(model)
+    solver.use_graphs = True  # as on CUDA; every part marked as run, so the first launch captures
+    monkeypatch.setattr(ProjectedCG, "_run", _run_marking_everything(ProjectedCG._run))
+    monkeypatch.setattr(wp, "ScopedCapture", FailingCapture)
+    state = ContactState(model)
+    with pytest.warns(RuntimeWarning, match="graph capture failed") as seen:
+        info = solver.solve(state, DZ)
+    assert len(seen) == 1
+    assert not solver.use_graphs and not solver._graphs and "901" in solver.capture_failure
+    assert info.converged and info.iterations == plain.iterations
+    np.testing.assert_array_equal(state.pressure.numpy(), plain_state.pressure.numpy())
+
+
+def _run_marking_everything(run):
+    """ProjectedCG._run with every part of the iteration counted as run before (so that the first
+    launch tries a capture at once)."""
+
+    def marked(self, key, start, exact, body, *args, **kwargs):
+        self._ran_eagerly.add(getattr(body, "__code__", body))
+        return run(self, key, start, exact, body, *args, **kwargs)
+
+    return marked

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import gc
 import math
+import warnings
 from collections import OrderedDict
 
 import numpy as np
@@ -85,6 +86,8 @@ class ProjectedCG:
             raise ValueError("settings.use_graphs: the solver's graphs need a CUDA device with conditional graph "
                              "nodes (CUDA toolkit and driver 12.4+)")
         self._graphs: OrderedDict = OrderedDict()
+        #: why a capture failed, after which the solver launches eagerly (None: none failed)
+        self.capture_failure: str | None = None
         #: the parts of an iteration (the code of a loop body) that have run eagerly: their kernels
         #: are loaded for this float type; a capture waits until they have (see _launch)
         self._ran_eagerly: set = set()
@@ -136,6 +139,19 @@ class ProjectedCG:
         try:
             with wp.ScopedCapture(device=self.model.device, force_module_load=False) as capture:
                 work()
+        except RuntimeError as e:
+            if "capture" not in str(e):
+                raise
+            # the work ran eagerly above, so the solve goes on without the graph (a capture
+            # invalidated from its first operation, CUDA error 901, was seen with many worker
+            # processes sharing one GPU): this solver launches eagerly from now on
+            self.use_graphs = False
+            self._graphs.clear()
+            self.capture_failure = str(e)
+            warnings.warn(f"{type(self).__name__}: a CUDA graph capture failed ({e}); this solver runs its "
+                          f"launches without graphs from now on (the same results, more host time)",
+                          RuntimeWarning, stacklevel=2)
+            return
         finally:
             if collecting:
                 gc.enable()

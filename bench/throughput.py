@@ -1,0 +1,142 @@
+"""Cases per second of many small coupled cases on one device: one at a time against worker processes.
+
+    python3 bench/throughput.py --device cuda --sizes 128 256 --cases 200 --workers 1 4 8 16
+    python3 bench/throughput.py --device cpu --sizes 64 128 --cases 24 --workers 1 2
+
+The case is a sweep's: the paper's pair (Table 1), R = 10 um, Tabor + von Mises (k_tau 0.8),
+domain 4 sqrt(R delta_z), one normal step to delta_z = 1e-10 m and one tangential step to
+delta_x, the cases' delta_x spread over 1.0e-11 ... 3.0e-11 m (every one in partial slip). Each
+size runs, side by side in one process:
+
+- ``api``: ``warpcontact.solve(case, fields="none", model=...)`` one case after another in this
+  process, the model built once (kernels compiled and FFT plans made by one warm-up case first);
+- ``W workers``: the sweep engine (``run_sweep``) on a local cluster of W processes on the same
+  device (on CUDA every worker on GPU 0: several to a GPU), each worker building its model once;
+  the first case of each worker pays for its kernels' load from the on-disk cache.
+
+Reported: the wall time from the first case to the last result [s], the cluster's start [s]
+(apart), cases per second over the wall time, and the ratio to ``api``. Every case must converge.
+Times are wall-clock on whatever machine runs it. ``--out DIR`` writes the rows as JSON lines
+(default bench_results/throughput/, git-ignored).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import shutil
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+R, DZ = 10e-6, 1.0e-10
+A = math.sqrt(R * DZ)
+
+
+def base_case(n: int, device: str, dtype: str) -> str:
+    """The case as TOML text (the paper's pair, Tabor k_tau 0.8)."""
+    from warpcontact.physics.materials import PAPER_PAIR
+
+    def material(m):
+        return f"E = {m.E!r}\nnu = {m.nu!r}\nyield_strength = {m.yield_strength!r}\nhardness = {m.hardness!r}\n"
+
+    return (f"[sphere]\nradius = {R!r}\n{material(PAPER_PAIR.sphere)}\n[flat]\n{material(PAPER_PAIR.flat)}\n"
+            f"[grid]\nn = {n}\nsize = {4 * A!r}\n\n[load]\ndelta_z = {DZ!r}\ndelta_x = 2e-11\nsteps = 1\n\n"
+            f"[friction]\nlaw = \"tabor\"\nk_tau = 0.8\n\n"
+            f"[solver]\ndevice = \"{device}\"\ndtype = \"{dtype}\"\n")
+
+
+def slips(cases: int) -> list[float]:
+    return [1.0e-11 + 2.0e-11 * i / max(1, cases - 1) for i in range(cases)]
+
+
+def sweep_file(folder: Path, n: int, cases: int, device: str, dtype: str) -> Path:
+    (folder / "base.toml").write_text(base_case(n, device, dtype))
+    values = ", ".join(f"{v:.6e}" for v in slips(cases))
+    path = folder / "sweep.toml"
+    path.write_text(f'base = "base.toml"\n[sweep]\n"load.delta_x" = [{values}]\n[run]\ntask = "solve"\n')
+    return path
+
+
+def one_at_a_time(path: Path) -> dict:
+    """``api``: the cases one after another in this process, one model."""
+    import warpcontact as wc
+    from warpcontact.studies.runner import build_model
+    from warpcontact.studies.sweep_spec import load_sweep
+
+    cases = [sc.case for sc in load_sweep(path).cases]
+    model = build_model(cases[0])
+    wc.solve(cases[0], fields="none", model=model)  # warm-up: kernels, plans
+    t0 = time.perf_counter()
+    results = [wc.solve(case, fields="none", model=model) for case in cases]
+    wall = time.perf_counter() - t0
+    assert all(r.converged for r in results), "a case did not converge"
+    return {"placement": "api", "workers": 1, "cases": len(cases), "start_s": 0.0, "wall_s": wall}
+
+
+def with_workers(path: Path, workers: int) -> dict:
+    """``W workers``: the sweep engine on a local cluster of ``workers`` processes."""
+    from warpcontact.studies.batch import Placement
+    from warpcontact.studies.sweep import run_sweep
+    from warpcontact.studies.sweep_spec import load_sweep
+
+    sweep = load_sweep(path)
+    out = Path(tempfile.mkdtemp(prefix="throughput_"))
+    try:
+        report = run_sweep(sweep, out, quiet=True, placement=Placement(workers=workers))
+    finally:
+        shutil.rmtree(out, ignore_errors=True)
+    assert len(report.records) == len(sweep.cases) and all(r["converged"] for r in report.records), \
+        "a case did not converge"
+    b = report.batch
+    return {"placement": f"{workers} workers", "workers": b.workers, "cases": len(report.records),
+            "start_s": b.start_s, "wall_s": b.wall_s}
+
+
+def main(argv=None):
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("--device", default="cpu")
+    ap.add_argument("--dtype", default="float64", choices=["float64", "float32"])
+    ap.add_argument("--sizes", type=int, nargs="+", default=[64, 128])
+    ap.add_argument("--cases", type=int, default=24)
+    ap.add_argument("--workers", type=int, nargs="+", default=[2],
+                    help="worker counts of the local clusters (besides the one-at-a-time row)")
+    ap.add_argument("--out", default="bench_results/throughput")
+    args = ap.parse_args(argv)
+    if any(w < 2 for w in args.workers):
+        ap.error("--workers: counts of at least 2 (one worker is the 'api' row)")
+    import warp as wp
+
+    wp.config.quiet = True
+    out_dir = Path(args.out)
+    out_dir.mkdir(parents=True, exist_ok=True)
+    log = out_dir / f"throughput_{args.device.replace(':', '')}_{time.strftime('%Y%m%d_%H%M%S')}.jsonl"
+    rows = []
+    for n in args.sizes:
+        folder = Path(tempfile.mkdtemp(prefix="throughput_case_"))
+        try:
+            path = sweep_file(folder, n, args.cases, args.device, args.dtype)
+            base = one_at_a_time(path)
+            runs = [base] + [with_workers(path, w) for w in args.workers]
+        finally:
+            shutil.rmtree(folder, ignore_errors=True)
+        for r in runs:
+            r.update(n=n, device=args.device, dtype=args.dtype, cases_per_s=r["cases"] / r["wall_s"],
+                     ratio=base["wall_s"] / r["wall_s"])
+            rows.append(r)
+            with log.open("a") as f:
+                f.write(json.dumps(r) + "\n")
+            print(f"n={n} {r['placement']}: {r['cases_per_s']:.1f} cases/s ({r['ratio']:.2f}x)", file=sys.stderr,
+                  flush=True)
+    print("\n| n | placement | cases | wall [s] | cluster start [s] | cases/s | against api |")
+    print("|---|---|---|---|---|---|---|")
+    for r in rows:
+        print(f"| {r['n']} | {r['placement']} | {r['cases']} | {r['wall_s']:.2f} | {r['start_s']:.1f} | "
+              f"{r['cases_per_s']:.1f} | {r['ratio']:.2f}x |")
+    print(f"\n({args.device}, {args.dtype}; one JSON line a row: {log})")
+
+
+if __name__ == "__main__":
+    main()
