@@ -272,6 +272,22 @@ def suggested_adhesive_size(radius: float, delta_z: float, adhesion) -> float:
     return 2.0 * DOMAIN_MARGIN * math.sqrt(2.0 * radius * max(0.0, delta_z + adhesion_tail(adhesion)))
 
 
+def grid_holding(n: int, size: float, need: float):
+    """The grid of ``n`` cells over ``size`` [m], grown to a side of at least ``need`` [m] with the
+    cell side kept: the cell count rises to a fast FFT length (``scipy.fft.next_fast_len``) and
+    the side with it. ``need`` <= ``size`` leaves the grid as it is.
+    Returns a :class:`~warpcontact.physics.geometry.Grid`."""
+    from ..physics.geometry import Grid
+
+    if need > size:
+        from scipy.fft import next_fast_len
+
+        grown = next_fast_len(math.ceil(n * need / size))
+        size *= grown / n
+        n = grown
+    return Grid(n, size)
+
+
 def suggested_shape_size(shape, delta_z: float, adhesion) -> float | None:
     """:func:`suggested_adhesive_size` for any shape (a :class:`~warpcontact.physics.geometry.Sphere`):
     r_edge = ``shape.gap_radius(delta_z + tail)``, where the rigid profile's gap reaches the tail's

@@ -72,7 +72,7 @@ class _Evaluator:
 
         fit = self.fit
         plan, tasks, pending = [], [], {}
-        cases = [[_row_case(fit.base_dict, row, values, fit.overrides, self.data_name) for row in fit.rows]
+        cases = [[_row_case(fit.base_dict, row, values, fit.overrides, self.data_name, fit.grid_size) for row in fit.rows]
                  for values in points]
         # the models of one point's rows, kept by each process across the fit's batches (the next
         # Jacobian's cases differ from these in the fitted values only)

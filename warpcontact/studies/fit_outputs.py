@@ -13,7 +13,7 @@ import numpy as np
 
 from ..records.case import case_from_dict
 from .sweep_spec import short_float
-from .fit_spec import Fit
+from .fit_spec import Fit, dict_rule_grid
 
 
 def _fmt(v) -> str:
@@ -54,11 +54,15 @@ def case_toml(case: dict, header: str = "") -> str:
 
 
 def fitted_case(fit: Fit, values: Mapping) -> dict:
-    """The base case's dict with the fitted values put in (the base's conditions, not a row's)."""
+    """The base case's dict with the fitted values put in (the base's conditions, not a row's); with
+    ``[run] grid_size``, on the domain the rule gives the base at those values."""
     d = copy.deepcopy(fit.base.to_dict())
     for key, v in values.items():
         table, name = key.split(".", 1)
         d[table][name] = float(v)
+    if fit.grid_size is not None:
+        grid = dict_rule_grid(d, fit.grid_size)
+        d["grid"] = {"n": int(grid.n), "size": float(grid.size)}
     return d
 
 

@@ -32,7 +32,13 @@ SCALES = ("linear", "log")
 #: Keys of ``[data]``.
 DATA_KEYS = ("file",)
 #: Keys of ``[run]``.
-RUN_KEYS = ("task", "rel_tol", "scheduler", "max_evaluations", "rescale_stderr", "diff_step")
+RUN_KEYS = ("task", "rel_tol", "scheduler", "max_evaluations", "rescale_stderr", "diff_step", "grid_size")
+#: What ``grid.size`` may say in a CSV row (or ``[run] grid_size`` for every row) to give each case
+#: the domain its own adhesion law needs, the cell side kept (:func:`rule_grid`): "law" grows the
+#: base's domain until it holds the law's tail at the path's deepest approach; "table2" is the
+#: Table 2 cell's domain (:func:`warpcontact.studies.table2.cell_grid`: grid.n cells over 3 Hertz
+#: radii, grown likewise).
+GRID_SIZE_RULES = ("law", "table2")
 #: Bisection bracket of delta_x_max in a fit (relative). Finer than a sweep's 0.01: the difference
 #: step must rise above this noise (see :func:`difference_step`), and at 0.01 it would be 10 % of
 #: the parameter; 0.001 costs about 3 bisection states more per case (21 states instead of 18 at
@@ -133,6 +139,8 @@ class Fit:
         source: the fit file, or None.
         scheduler: ``[run] scheduler`` (a dask scheduler's address) or None.
         overrides: device, dtype, fft given on the command line (None: the case's).
+        grid_size: ``[run] grid_size``, a rule of :data:`GRID_SIZE_RULES` for every row's domain, or
+            None (each row's grid.size, a number or a rule, else the base's).
     """
 
     base: Case
@@ -151,6 +159,7 @@ class Fit:
     source: str | None = None
     scheduler: str | None = None
     overrides: dict = field(default_factory=dict)
+    grid_size: str | None = None
 
     @property
     def base_dict(self) -> dict:
@@ -232,8 +241,12 @@ def _run_settings(data: Mapping, base: Case) -> dict:
     if step is not None and (isinstance(step, bool) or not isinstance(step, numbers.Real)
                              or not 0.0 < float(step) <= 0.5):
         raise InputError("run.diff_step", f"must be a number in (0, 0.5] (relative difference step), got {step!r}")
+    rule = run.get("grid_size")
+    if rule is not None and rule not in GRID_SIZE_RULES:
+        raise InputError("run.grid_size", f"must be one of {', '.join(repr(r) for r in GRID_SIZE_RULES)} (the "
+                                          f"domain of every row follows the adhesion law), got {rule!r}")
     return {"task": task, "rel_tol": rel_tol, "max_evaluations": int(n), "rescale_stderr": rescale,
-            "diff_step": None if step is None else float(step), "scheduler": run_scheduler(data)}
+            "diff_step": None if step is None else float(step), "scheduler": run_scheduler(data), "grid_size": rule}
 
 
 def _cell_value(text: str):
@@ -359,16 +372,89 @@ def read_data(path: Path, task: str, name: str | None = None) -> tuple:
     return tuple(conditions), tuple(outputs), columns, tuple(rows), weighted
 
 
-def _row_case(fit_base: dict, row: Row, values: Mapping, overrides: Mapping, data_name: str) -> Case:
+def rule_grid(case: Case, rule: str, size: float):
+    """The domain of ``case`` under a rule of :data:`GRID_SIZE_RULES`, from the case's own sphere,
+    adhesion law and deepest approach delta_z_max; the cell count follows so that the cell side
+    stays that of ``case.grid.n`` cells over ``size`` [m] ("law": the base's side) or over 3 Hertz
+    radii ("table2"). Returns a :class:`~warpcontact.physics.geometry.Grid`.
+
+    Raises:
+        InputError: key "grid.size" where the rule does not apply (no adhesion law for "law", a
+            shape other than a sphere or paraboloid on a flat, no approach for "table2").
+    """
+    from ..records.guards import grid_holding, suggested_adhesive_size
+    from .runner import adhesion_law
+    from .table2 import Table2Settings, cell_grid
+
+    shape, dz, n = case.sphere, case.load.delta_z_max, case.grid.n
+    if not shape.hertzian:
+        raise _not_hertzian(rule, shape.description)
+    if rule == "law":
+        if case.adhesion is None:
+            raise InputError("grid.size", '= "law" sizes the domain by the adhesion law\'s tail; the case has no '
+                                          "[adhesion]: give grid.size as a number, or \"table2\"")
+        return grid_holding(n, size, suggested_adhesive_size(shape.radius, dz, adhesion_law(case)))
+    if not dz > 0.0:
+        raise InputError("grid.size", f'= "table2" spans 3 Hertz radii sqrt(R delta_z) of the deepest approach; the '
+                                      f"case's delta_z_max is {dz!r}")
+    return cell_grid(dz, Table2Settings(n=n), adhesion_law(case), radius=shape.radius)
+
+
+def _not_hertzian(rule: str, what: str) -> InputError:
+    return InputError("grid.size", f"= {rule!r} sizes the domain from a sphere's or paraboloid's gap; the case has "
+                                   f"{what}: give grid.size as a number")
+
+
+def dict_rule_grid(d: Mapping, rule: str):
+    """:func:`rule_grid` of a case dict ``d`` (its ``grid.size`` a number: the rule's "law" side to
+    grow from). A first build on a domain of one sphere radius (any contact a case may hold fits in
+    it) reads the sphere, the law and the approach; warnings wait for the build on the rule's grid."""
+    import copy
+    import warnings
+
+    sphere, flat = d.get("sphere"), d.get("flat")
+    profile = sphere.get("profile", "sphere") if isinstance(sphere, Mapping) else None
+    if profile not in ("sphere", "paraboloid"):
+        raise _not_hertzian(rule, f"sphere.profile = {profile!r}")
+    if isinstance(flat, Mapping) and flat.get("height_map") is not None:
+        raise _not_hertzian(rule, "a flat with a height map")
+    probe = copy.deepcopy(dict(d))
+    probe["grid"] = {**d["grid"], "size": sphere.get("radius", 1.0)}
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        case = case_from_dict(probe)
+    return rule_grid(case, rule, float(d["grid"]["size"]))
+
+
+def _rule_case(d: dict, rule: str) -> Case:
+    """The case of the dict ``d`` on the domain of ``rule`` (:func:`dict_rule_grid`), every case
+    check made on that grid."""
+    grid = dict_rule_grid(d, rule)
+    return case_from_dict({**d, "grid": {"n": grid.n, "size": grid.size}})
+
+
+def _row_case(fit_base: dict, row: Row, values: Mapping, overrides: Mapping, data_name: str,
+              grid_size: str | None = None) -> Case:
     """The case of one data row at the parameter ``values``: the sweep's build (the base's dict
-    with the row's conditions and the values put in, through case_from_dict)."""
+    with the row's conditions and the values put in, through case_from_dict). A grid.size of
+    :data:`GRID_SIZE_RULES` (the row's, else ``grid_size``, the fit's ``[run] grid_size``) gives
+    the case the domain of its own parameters (:func:`rule_grid`, from the base's grid.size)."""
     params = {**row.conditions, **{k: float(v) for k, v in values.items()}}
+    rule = params.get("grid.size", grid_size)
+    rule = rule if isinstance(rule, str) and rule in GRID_SIZE_RULES else None
     try:
-        case = case_from_dict(substitute(fit_base, params))
+        if rule is None:
+            case = case_from_dict(substitute(fit_base, params))
+        else:
+            d = substitute(fit_base, {k: v for k, v in params.items() if k != "grid.size"})
+            case = _rule_case(d, rule)
         return case.with_overrides(**overrides)
     except InputError as e:
         if e.key in row.conditions:
             raise InputError(f"{data_name} line {row.line}", f"column {e}") from None
+        if rule is not None and e.key == "grid.size":
+            raise InputError("run.grid_size", f"{e.problem} (the case of {data_name} line {row.line} at "
+                                              f"{_show(values)})") from None
         key = f"fit.{e.key}" if e.key in values else e.key
         raise InputError(key, f"{e.problem} (the case of {data_name} line {row.line} at {_show(values)})") from None
 
@@ -408,6 +494,13 @@ def fit_from_dict(data: Mapping, source: str | PathLike | None = None, device: s
     if not data_path.is_absolute() and src is not None:
         data_path = src.parent / data_path
     conditions, outputs, columns, rows, weighted = read_data(data_path, task)
+    for row in rows:
+        v = row.conditions.get("grid.size")
+        if isinstance(v, str) and v not in GRID_SIZE_RULES + ("map",):
+            raise InputError(f"{data_path.name} line {row.line}",
+                             f"column grid.size: {v!r} is neither a number (m) nor one of "
+                             f"{', '.join(repr(r) for r in GRID_SIZE_RULES + ('map',))}; {near(v, GRID_SIZE_RULES)}"
+                             "'law' and 'table2' give the case the domain its adhesion law needs")
 
     table = data.get("fit")
     if not isinstance(table, Mapping) or not table:
@@ -427,6 +520,13 @@ def fit_from_dict(data: Mapping, source: str | PathLike | None = None, device: s
     if n_measured < len(parameters):
         raise InputError("fit", f"{len(parameters)} parameters cannot be fixed by {n_measured} measured value(s) "
                                 f"({len(rows)} row(s) x {len(outputs)} output(s))")
+    if run["grid_size"] is not None:
+        if "grid.size" in conditions:
+            raise InputError("run.grid_size", f"the grid.size column of {data_path.name} sets each row's domain "
+                                              "(a number, 'law' or 'table2'): give the rule there or here, not both")
+        if any(p.key == "grid.size" for p in parameters):
+            raise InputError("run.grid_size", "grid.size is a fitted parameter: a domain cannot be both fitted "
+                                              "and follow the law")
     overrides = {"device": device, "dtype": dtype, "fft": fft}
     for name, v in overrides.items():
         if v is not None and (f"solver.{name}" in conditions or any(p.key == f"solver.{name}" for p in parameters)):
@@ -437,7 +537,7 @@ def fit_from_dict(data: Mapping, source: str | PathLike | None = None, device: s
     points = [start] + [{**start, p.key: b} for p in parameters for b in (p.min, p.max)]
     for row in rows:
         for values in points:
-            case = _row_case(base_dict, row, values, overrides, data_path.name)
+            case = _row_case(base_dict, row, values, overrides, data_path.name, run["grid_size"])
             if values is start:
                 label = f"{data_path.name} line {row.line}"
                 check_task(SweepCase(0, {**row.conditions, **values}, "", label, case), task)
@@ -445,7 +545,8 @@ def fit_from_dict(data: Mapping, source: str | PathLike | None = None, device: s
                conditions=conditions, task=task, rel_tol=run["rel_tol"], weighted=weighted,
                rescale_stderr=run["rescale_stderr"] if run["rescale_stderr"] is not None else not weighted,
                max_evaluations=run["max_evaluations"], diff_step=run["diff_step"], data_file=str(data_path),
-               source=str(src) if src is not None else None, scheduler=run["scheduler"], overrides=overrides)
+               source=str(src) if src is not None else None, scheduler=run["scheduler"], overrides=overrides,
+               grid_size=run["grid_size"])
 
 
 def load_fit(path: str | PathLike, device: str | None = None, dtype: str | None = None,

@@ -16,7 +16,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from ..physics.geometry import Grid, Sphere
-from ..records.guards import suggested_adhesive_size, withhold_if_unconverged
+from ..records.guards import grid_holding, suggested_adhesive_size, withhold_if_unconverged
 from ..physics.materials import PAPER_PAIR
 
 # the solvers (Warp, SciPy) are imported where a cell is computed: the command line's parser reads
@@ -108,25 +108,20 @@ class Table2Settings:
         return SMC(self.sigma_max, self.tau_max, self.delta_n, self.delta_t, contact_shear=self.contact_shear)
 
 
-def cell_grid(delta_z: float, settings: Table2Settings, adhesion=None) -> Grid:
+def cell_grid(delta_z: float, settings: Table2Settings, adhesion=None, radius: float = RADIUS) -> Grid:
     """The grid of a cell at normal approach ``delta_z`` [m]: ``settings.n`` cells over
-    ``settings.size_in_a`` Hertz radii; with an adhesive law whose tail (the gap where its
+    ``settings.size_in_a`` Hertz radii sqrt(``radius`` delta_z) (``radius``: the sphere's, Table 2's
+    10 um by default); with an adhesive law whose tail (the gap where its
     traction falls to 1 % of its peak) lies beyond that domain, the domain grows to hold it
     (:func:`warpcontact.records.guards.suggested_adhesive_size`) and the cell count with it, so the cell side
-    stays the same. Outside the contact the adhesive annulus at gap h carries 2 pi R sigma(h) dh, a
+    stays the same (:func:`warpcontact.records.guards.grid_holding`). Outside the contact the adhesive
+    annulus at gap h carries 2 pi R sigma(h) dh, a
     force that does not fall with r: a domain that cuts the tail cuts the adhesive force (for the
     SMC law, a fraction (1 + x) e^-x of it is left out beyond gap x delta_n)."""
-    a = math.sqrt(RADIUS * delta_z)
-    size = settings.size_in_a * a
-    n = settings.n
-    if adhesion is not None:
-        need = suggested_adhesive_size(RADIUS, delta_z, adhesion)
-        if need > size:
-            from scipy.fft import next_fast_len
-
-            n = next_fast_len(math.ceil(settings.n * need / size))
-            size *= n / settings.n
-    return Grid(n, size)
+    size = settings.size_in_a * math.sqrt(radius * delta_z)
+    if adhesion is None:
+        return Grid(settings.n, size)
+    return grid_holding(settings.n, size, suggested_adhesive_size(radius, delta_z, adhesion))
 
 
 def table2_cell(k_tau: float, delta_z_um: float, settings: Table2Settings, on_state=None, adhesion: bool = False,
