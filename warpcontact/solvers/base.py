@@ -31,7 +31,7 @@ class ProjectedCG:
     A solve is one launch of device work, or a few: ``start`` (what the solve sets up on the
     device), ``exact`` (the exact fields and residual sums of the current iterate), then the
     iterations in a loop on the device (``wp.capture_while`` on ``self.loop``, ``body`` the device
-    work of one iteration, whose last kernel calls :func:`warpcontact.kernels.reduce.advance`:
+    work of one iteration, whose last kernel calls ``warpcontact.kernels.reduce.advance``:
     it records the residual of the iterate the iteration started from, counts the iteration and
     sets the loop flag). The loop settles as soon as an iterate's residual is under the tolerance,
     is not finite, or the iteration limit is reached, and ``exact`` then runs again (unless it
@@ -59,7 +59,7 @@ class ProjectedCG:
 
     def __init__(self, model, settings: SolverSettings, n_sums: int, n_scalars: int):
         self.model = model
-        #: the solver's choices (:class:`~warpcontact.solvers.settings.SolverSettings`), fixed
+        #: the solver's choices ([`SolverSettings`][warpcontact.solvers.settings.SolverSettings]), fixed
         self.settings = settings
         #: relative residual a solve aims for (``settings.tol``, or the float type's default)
         self.tol = default_tolerance(model.dtype) if settings.tol is None else float(settings.tol)
@@ -93,7 +93,7 @@ class ProjectedCG:
         self._ran_eagerly: set = set()
 
     def _stage(self, slot: int, value: float):
-        """parameters[slot] <- value on the host; :meth:`_upload` sends them."""
+        """parameters[slot] <- value on the host; ``_upload`` sends them."""
         self._parameters[slot] = value
 
     def _upload(self):
@@ -169,7 +169,7 @@ class ProjectedCG:
 
     def _run(self, key, start, exact, body, on_non_finite, on_disagreement=None, start_exact=None,
              prelude=None) -> SolveInfo:
-        """The solve after :meth:`_begin` (see the class docstring). ``exact`` fills the slots
+        """The solve after ``_begin`` (see the class docstring). ``exact`` fills the slots
         S_VIOL and S_RHS of ``sums`` (zeroed before) for the current iterate; ``start_exact``
         (default ``exact``) does it right after ``start()``, for a start that made part of it
         already. ``on_disagreement()`` is called when an iteration's residual said "converged"

@@ -44,7 +44,7 @@ class ContactSolver:
     tractions a fixed point of their own) or minimised (each turn's normal solve the whole
     adhesive minimisation), by ``settings.turns``.
 
-    A step runs the solver's ``strategies`` (:mod:`warpcontact.solvers.turns`) in order, each
+    A step runs the solver's ``strategies`` (``warpcontact.solvers.turns``) in order, each
     from the last one's iterate, until one converges: the minimisation or the turns chosen first,
     then the other kind where the law allows it (a law with a fixed point: ``tractions``; the
     lagged turns alone know a hardness cap). The nested start wraps the first strategy where
@@ -57,7 +57,7 @@ class ContactSolver:
         adhesion: an adhesion law (``warpcontact.physics.adhesion``) or None.
         pressure_cap: upper bound of the contact pressure [Pa], e.g. the softer body's hardness
             (elastic-perfectly-plastic surface); inf for none.
-        settings: the solvers' choices (:class:`~warpcontact.solvers.settings.SolverSettings`),
+        settings: the solvers' choices ([`SolverSettings`][warpcontact.solvers.settings.SolverSettings]),
             fixed for the solver's life; default: the defaults.
         on_turn: called after each turn of a step as ``on_turn(turn, change)``: the turn (from 1
             in each strategy's run) and its relative change [-], the number the turns stop on

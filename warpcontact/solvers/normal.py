@@ -52,7 +52,7 @@ class NormalSolver(ProjectedCG):
 
     Args:
         model: the [`ContactModel`][warpcontact.numerics.model.ContactModel].
-        settings: the solver's choices (:class:`~warpcontact.solvers.settings.SolverSettings`;
+        settings: the solver's choices ([`SolverSettings`][warpcontact.solvers.settings.SolverSettings];
             this solver reads ``tol``, ``max_iter``, ``normal_preconditioner``, ``one_convolution``,
             ``exact_every``, ``deferral``, ``fourier_step_sums``, ``iterations_per_launch``,
             ``use_graphs``); default: the defaults.

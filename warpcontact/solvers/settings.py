@@ -1,8 +1,8 @@
 """How the solvers solve: one frozen settings object, chosen when a solver is made.
 
-Every solver of a step (the coupled :class:`~warpcontact.solvers.contact.ContactSolver`, its
+Every solver of a step (the coupled [`ContactSolver`][warpcontact.solvers.contact.ContactSolver], its
 normal, tangential and adhesive solvers, the windows and the coarse grids of the nested start)
-takes the same :class:`SolverSettings`. A choice is fixed for the solver's life: the captured CUDA
+takes the same [`SolverSettings`][warpcontact.solvers.settings.SolverSettings]. A choice is fixed for the solver's life: the captured CUDA
 graphs of a solver are built from it, so nothing a graph depends on can change after. To solve with
 other settings, make another solver (``dataclasses.replace(settings, ...)`` gives the settings).
 """

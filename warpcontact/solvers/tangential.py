@@ -112,7 +112,7 @@ class TangentialSolver(ProjectedCG):
 
     Args:
         model: the [`ContactModel`][warpcontact.numerics.model.ContactModel].
-        settings: the solver's choices (:class:`~warpcontact.solvers.settings.SolverSettings`;
+        settings: the solver's choices ([`SolverSettings`][warpcontact.solvers.settings.SolverSettings];
             this solver reads ``tol``, ``max_iter``, ``tangential_preconditioner``, ``exact_every``,
             ``deferral``, ``window``, ``iterations_per_launch``, ``use_graphs``); default: the
             defaults.

@@ -1,16 +1,16 @@
 """The ways a coupled step is solved (its strategies), behind ``ContactSolver.step``.
 
-A strategy solves a step of a :class:`~warpcontact.solvers.contact.ContactSolver` from the
+A strategy solves a step of a [`ContactSolver`][warpcontact.solvers.contact.ContactSolver] from the
 tractions in the state, with the solver's buffers and inner solvers, and returns its
-:class:`~warpcontact.numerics.state.SolveInfo`; the solver tries its strategies in order, the
+[`SolveInfo`][warpcontact.numerics.state.SolveInfo]; the solver tries its strategies in order, the
 next from the last one's iterate, until one converges (``ContactSolver.strategies``):
 
-- :class:`AdhesiveSolve`: adhesion without friction, one adhesive normal minimisation;
-- :class:`LaggedTurns`: normal and tangential solves in turns, each holding the other's coupling
+- [`AdhesiveSolve`][warpcontact.solvers.turns.AdhesiveSolve]: adhesion without friction, one adhesive normal minimisation;
+- [`LaggedTurns`][warpcontact.solvers.turns.LaggedTurns]: normal and tangential solves in turns, each holding the other's coupling
   displacement (and the adhesive tractions, a fixed point of their own) fixed;
-- :class:`MinimisedTurns`: with adhesion and friction, turns whose normal solve is the whole
+- [`MinimisedTurns`][warpcontact.solvers.turns.MinimisedTurns]: with adhesion and friction, turns whose normal solve is the whole
   adhesive minimisation;
-- :class:`NestedStart`: a wrapper that starts any of them from the step solved on the grid of
+- [`NestedStart`][warpcontact.solvers.turns.NestedStart]: a wrapper that starts any of them from the step solved on the grid of
   half the cells per side.
 
 Which strategies a step uses, and why: docs/model.md, "The turns".
