@@ -420,9 +420,13 @@ class SubsurfaceStress:
         """``kernel`` over a (rows, columns) ``shape``, its last input the first row of the launch
         (``row0``): on the CPU, where Warp runs a launch on one thread and lets go of the GIL, the
         rows split in blocks over the CPU's threads as the solvers' launches are
-        (``LaunchCache.split``, its threshold and threads); one launch on CUDA."""
+        (``LaunchCache.split``, its threshold and threads); one plain launch on CUDA (the
+        arguments change with the depth and the basis, so a recorded launch would not repeat)."""
         from .launch import FirstRow
 
+        if self.device.is_cuda:
+            self._launch(kernel, shape, [*inputs, 0], outputs)
+            return
         columns = shape[1]
         args = [*inputs, FirstRow()]
         self.launches.split(kernel, shape, lambda r0, r1: ((r1 - r0, columns), args), args, outputs)

@@ -6,6 +6,7 @@ stresses are evaluated by ``warpcontact.numerics.stress``."""
 from __future__ import annotations
 
 import math
+from collections import OrderedDict
 
 import numpy as np
 
@@ -79,6 +80,29 @@ def _restrict_mean(t: np.ndarray) -> np.ndarray:
     return 0.25 * (rows[:, 0::2] + rows[:, 1::2])
 
 
+#: grids of at most this many cells per side keep their stress evaluators between yield checks
+#: (``_evaluator``): on them making the evaluator (its arrays and FFT plans) costs as much as a
+#: check, and a sweep or fit checks thousands of small cases; larger grids make it each time, so
+#: its memory is not held beside the next solve
+CACHED_EVALUATOR_MAX_N = 256
+_evaluators: OrderedDict = OrderedDict()
+
+
+def _evaluator(pair, grid, depths, device, dtype, fft) -> SubsurfaceStress:
+    """A ``SubsurfaceStress`` of the pair on the grid (the last few of small grids kept:
+    ``CACHED_EVALUATOR_MAX_N``; the yield check passes its depths to each evaluation)."""
+    if grid.n > CACHED_EVALUATOR_MAX_N:
+        return SubsurfaceStress(pair, grid, depths, device=device, dtype=dtype, fft=fft)
+    key = (pair, grid, str(device), str(dtype), str(fft))
+    stress = _evaluators.get(key)
+    if stress is None:
+        stress = _evaluators[key] = SubsurfaceStress(pair, grid, depths, device=device, dtype=dtype, fft=fft)
+        while len(_evaluators) > 4:
+            _evaluators.popitem(last=False)
+    _evaluators.move_to_end(key)
+    return stress
+
+
 class _YieldEvaluator:
     """The von Mises maxima of one state's tractions at any depths, each on the fine grid or, from
     ``COARSE_STRESS_DEPTH_CELLS`` down and where the contact ``radius`` [m] spans
@@ -91,14 +115,14 @@ class _YieldEvaluator:
 
         self.grid = grid
         self.tractions = totals
-        self.fine = SubsurfaceStress(pair, grid, depths, device=device, dtype=dtype, fft=fft)
+        self.fine = _evaluator(pair, grid, depths, device, dtype, fft)
         self.coarse = self.coarse_tractions = None
         n = grid.n
         if n % 2 == 0 and radius >= COARSE_STRESS_MIN_RADIUS_CELLS * grid.dx:
             from ..physics.geometry import Grid
 
             h = n // 2
-            self.coarse = SubsurfaceStress(pair, Grid(h, grid.size), depths, device=device, dtype=dtype, fft=fft)
+            self.coarse = _evaluator(pair, Grid(h, grid.size), depths, device, dtype, fft)
             if isinstance(totals[0], wp.array):  # on the device: the half grid's there too
                 from warpcontact.kernels import grids as gk
 
