@@ -101,8 +101,8 @@ def main(argv=None):
     ap.add_argument("--dtype", default="float64", choices=["float64", "float32"])
     ap.add_argument("--sizes", type=int, nargs="+", default=[64, 128])
     ap.add_argument("--cases", type=int, default=24)
-    ap.add_argument("--workers", type=int, nargs="+", default=[2],
-                    help="worker counts of the local clusters (besides the one-at-a-time row)")
+    ap.add_argument("--workers", type=int, nargs="*", default=[2],
+                    help="worker counts of the local clusters (besides the one-at-a-time row; none: that row alone)")
     ap.add_argument("--out", default="bench_results/throughput")
     args = ap.parse_args(argv)
     if any(w < 2 for w in args.workers):
