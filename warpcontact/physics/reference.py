@@ -1,5 +1,6 @@
-"""Closed-form reference solutions (MODEL.md section 8): Hertz and Cattaneo-Mindlin in SI units; the
-Maugis-Dugdale adhesive sphere in Johnson & Greenwood's (1997) units, with an SI wrapper."""
+"""Closed-form reference solutions (MODEL.md section 8): Hertz, Cattaneo-Mindlin, Mindlin-Deresiewicz
+and Savkoor-Briggs in SI units; the Maugis-Dugdale adhesive sphere in Johnson & Greenwood's (1997)
+units, with an SI wrapper."""
 
 from __future__ import annotations
 
@@ -90,6 +91,52 @@ def mindlin_deresiewicz_loop(normal_force: float, contact_radius: float, mu: flo
         return 2.0 * mu_p * (1.0 - (1.0 - np.clip(travel / (2.0 * d_s), 0.0, 1.0)) ** 1.5)
 
     return q - turned(amplitude - d), -q + turned(d + amplitude)
+
+
+def savkoor_briggs(normal_force: float, tangential_force: float, radius: float, E_star: float, compliance: float,
+                   work_of_adhesion: float) -> dict:
+    """Contact radius of an adhesive elastic sphere on a flat under a normal force P and a
+    tangential force T in full stick (Savkoor, A. R. & Briggs, G. A. D. (1977), Proc. R. Soc.
+    Lond. A 356, 103-114; JKR at T = 0).
+
+    The tangential force adds Mindlin's full-stick shear, a mode II stress intensity at the
+    contact edge, and its energy release rate T^2 / (32 pi a^3 G*) to JKR's (mode I): with the
+    edge advancing where their sum equals w (an ideally brittle interface, the same toughness in
+    both modes),
+      a^3 = (R / K) [P + 3 pi w R + sqrt(6 pi w R P + (3 pi w R)^2 - T^2 E* / (4 G*))],  K = 4 E* / 3,
+    up to the critical force T_c^2 = (4 G* / E*)(6 pi w R P + (3 pi w R)^2), where the root
+    vanishes and the contact peels to a_c^3 = (R / K)(P + 3 pi w R); beyond T_c there is no
+    stuck equilibrium. For P = 0: a_c^3 = a_0^3 / 2.
+
+    ``normal_force`` P [N], compressive positive, at least -3 pi w R / 2 (JKR's pull-off under
+    load control); ``tangential_force`` T [N] (its sign does not matter); ``radius`` R [m];
+    ``E_star`` E* [Pa] (``MaterialPair.E_star``); ``compliance`` 1/G* = (2 - nu1)/G1 + (2 - nu2)/G2
+    [1/Pa] (``MaterialPair.mindlin_compliance``: full stick gives delta_x = T / (8 a G*));
+    ``work_of_adhesion`` w [J/m^2].
+
+    Returns "a" [m] (nan beyond T_c), "a_jkr" [m] (JKR's radius at P, T = 0), "critical_force"
+    T_c [N], "a_critical" a_c [m] and "ratio" |T| / T_c [-].
+    """
+    P, T = float(normal_force), abs(float(tangential_force))
+    for name, value in (("radius", radius), ("E_star", E_star), ("compliance", compliance),
+                        ("work_of_adhesion", work_of_adhesion)):
+        if not (value > 0.0 and math.isfinite(value)):
+            raise ValueError(f"savkoor_briggs: {name} must be positive and finite, got {value!r}")
+    adhesion = 3.0 * math.pi * work_of_adhesion * radius  # 3 pi w R [N]
+    root_jkr = 2.0 * adhesion * P + adhesion**2  # 6 pi w R P + (3 pi w R)^2 [N^2]
+    if not root_jkr >= 0.0:
+        raise ValueError(f"savkoor_briggs: P = {P!r} N is below JKR's pull-off -3 pi w R / 2 = {-adhesion / 2:.6g} N")
+    G_star = 1.0 / compliance
+    scale = radius / (4.0 * E_star / 3.0)  # R / K [m^3/N]
+    root = root_jkr - T * T * E_star / (4.0 * G_star)
+    critical = math.sqrt(4.0 * G_star / E_star * root_jkr)
+    return {
+        "a": (scale * (P + adhesion + math.sqrt(root))) ** (1.0 / 3.0) if root >= 0.0 else math.nan,
+        "a_jkr": (scale * (P + adhesion + math.sqrt(root_jkr))) ** (1.0 / 3.0),
+        "critical_force": critical,
+        "a_critical": (scale * (P + adhesion)) ** (1.0 / 3.0),
+        "ratio": T / critical if critical > 0.0 else math.inf,
+    }
 
 
 def maugis_dugdale_pull_off(lam: float) -> float:
