@@ -14,13 +14,17 @@ a = sqrt(A_c / pi) (A_c: the cells with p_c > 0, the gap closed) is compared wit
     python validation/savkoor_briggs.py                          # 2 CPU cores: n = 96, Tabor 3, ~5 s
     python validation/savkoor_briggs.py --n 128 --tabor 5 --size 2.5
 
-The spec's case resolved, on one H100 (float64; ~3 GiB of device memory by
-``numerics.resources.estimate_bytes``, a few minutes; the script prints both, measured):
+The case resolved at Tabor 10, on one H100 (float64: 27.6 GiB of device memory by
+``numerics.resources.estimate_bytes``; about 5 minutes, under 10, by the CPU runs' iterations per
+state and the JKR study's time per iteration at n = 2048; the script prints the time and the
+device memory in use):
 
-    python validation/savkoor_briggs.py --device cuda --n 4096 --size 2.5 --tabor 10 --steps 12
+    python validation/savkoor_briggs.py --device cuda --n 4096 --size 2.5 --tabor 10 --steps 12 \
+        --out bench_results/savkoor_briggs_tabor10
 
 (Tabor 10: rho = 0.2414 um; domain 2.5 a0 = 0.939 mm, cells of 0.229 um = 0.95 rho, cell_softening
-0.16, the JKR edge 1640 cells from the centre.) Prints the table (Markdown) and writes ``--out``
+0.16, a0 = 1640 cells, the cohesive zone at the edge about 1 um = 4-5 cells; Maugis-Dugdale puts
+a at zero load 0.2 % below JKR's there.) Prints the table (Markdown) and writes ``--out``
 (default bench_results/savkoor_briggs/): table.md, result.json and savkoor_briggs.png (a / a0
 against T / T_c, the model's states on the closed form).
 """
