@@ -45,7 +45,6 @@ class ContactModel:
         self.reduction = ReductionLaunch.for_cells(self.n_cells, self.device)
         #: launches recorded once and replayed when they repeat (see warpcontact.numerics.launch)
         self.launches = LaunchCache(self.device)
-        self._mirrors: dict = {}  # pinned host arrays that ``read`` copies device arrays into
         with wp.ScopedDevice(self.device):
             if self.device.is_cuda and sphere.hertzian:  # on the device (n = 8192: about 1 s of numpy on the host)
                 sphere.check_domain(grid)
@@ -86,22 +85,6 @@ class ContactModel:
         `warpcontact.numerics.launch.Rows` and its sums `warpcontact.numerics.launch.Sums`, split by
         rows over the CPU's threads (``LaunchCache.split``)."""
         self.launches.launch_reduce(kernel, self.reduction, self.n_cells, inputs, outputs, rows=self.grid.shape)
-
-    def read(self, array: wp.array) -> np.ndarray:
-        """The values of a small device array (a solver's scalars or sums) on the host, valid
-        until the next ``read`` of an array of its address and shape: on CUDA copied into a pinned
-        host array kept for it, so that a read makes no allocation (``array.numpy()`` allocates a
-        host array at every call, about as long as the copy and the wait for the device
-        together); on the CPU the array itself."""
-        if not self.device.is_cuda:
-            return array.numpy()
-        key = (array.ptr, array.shape, array.dtype)
-        mirror = self._mirrors.get(key)
-        if mirror is None:
-            mirror = self._mirrors[key] = wp.empty(array.shape, dtype=array.dtype, device="cpu", pinned=True)
-        wp.copy(mirror, array)
-        wp.synchronize_stream(self.device.stream)
-        return mirror.numpy()
 
     def scalar(self, value: float):
         """``value`` as a Warp scalar of the model's float type (for kernel arguments)."""

@@ -198,7 +198,7 @@ class AdhesiveNormalSolver:
         self.model.launch(kernel, dim, inputs, outputs)
 
     def _sums(self) -> np.ndarray:
-        return self.model.read(self.sums).astype(np.float64)
+        return self.sums.numpy().astype(np.float64)
 
     def _evaluate(self, displacement, traction, gradient, eps: float) -> np.ndarray:
         """The gradient and sums (energy, projected gradient, traction, force) at a point."""

@@ -160,7 +160,7 @@ class ProjectedCG:
             self._graphs.popitem(last=False)
 
     def _relative_residual(self, viol_slot: int, rhs_slot: int) -> float:
-        s = self.model.read(self.sums).astype(np.float64)
+        s = self.sums.numpy().astype(np.float64)
         if not (math.isfinite(s[viol_slot]) and math.isfinite(s[rhs_slot])):
             return math.nan  # a non-finite traction or displacement: the caller raises NonFiniteError
         if s[rhs_slot] > 0:
@@ -232,7 +232,7 @@ class ProjectedCG:
         self._launch(("first", *key), lambda: work(True), needs)
         last = -1
         while True:
-            scalars = self.model.read(self.scalars)
+            scalars = self.scalars.numpy()
             it = int(scalars[C_ITER])
             if scalars[C_STOP]:  # settled: the sums are the exact residual's
                 residual = self._relative_residual(S_VIOL, S_RHS)
@@ -246,7 +246,7 @@ class ProjectedCG:
                 last = it
             interrupts.check()
             self._launch(("again", *key), lambda: work(False), needs)
-        hist = self.model.read(self.history[:it]).astype(np.float64) if it else np.zeros(0)
+        hist = self.history.numpy()[:it].astype(np.float64)
         return SolveInfo(converged=bool(residual < tol), iterations=it, residual=residual, history=hist.tolist())
 
 

@@ -277,6 +277,6 @@ class ContactSolver:
         slots = (ck.CHANGE_PRESSURE, ck.CHANGE_SHEAR_X, ck.CHANGE_SHEAR_Y)
         for slot, prev, cur in zip(slots, self.previous, (state.pressure, state.shear_x, state.shear_y)):
             m.launch_reduce(ck.change_sums, [cur.flatten(), slot], [prev.flatten(), self.change])
-        s = self.model.read(self.change).astype(np.float64)
+        s = self.change.numpy().astype(np.float64)
         x, y = ck.CHANGE_SHEAR_X, ck.CHANGE_SHEAR_Y
         return max(ratio(s[ck.CHANGE_PRESSURE], s[ck.CHANGE_PRESSURE + 1]), ratio(s[x] + s[y], s[x + 1] + s[y + 1]))

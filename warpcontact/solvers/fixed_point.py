@@ -94,7 +94,7 @@ class AndersonMixing:
                 for k in range(len(iterates)):
                     m.launch_reduce(fk.anderson_dots, [self.residual[k], self.residual_diff[k], column, j, self.depth],
                                     [self.sums])
-        s = m.read(self.sums).astype(np.float64)
+        s = self.sums.numpy().astype(np.float64)
         gamma = np.zeros(self.depth)
         if self.columns:
             for j in self.columns:

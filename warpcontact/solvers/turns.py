@@ -232,7 +232,7 @@ class LaggedTurns:
         for image, shear in zip(mixing.residual, (state.shear_x, state.shear_y)):
             wp.copy(image, shear.flatten())
         shear_change = mixing.step([s.previous[1].flatten(), s.previous[2].flatten()])
-        sums = s.model.read(s.change).astype(np.float64)
+        sums = s.change.numpy().astype(np.float64)
         return max(ratio(sums[ck.CHANGE_PRESSURE], sums[ck.CHANGE_PRESSURE + 1]), shear_change)
 
 
@@ -310,7 +310,7 @@ class MinimisedTurns:
             else:  # the shear's change (slot CHANGE_SHEAR_X), and x <- G(x)
                 for src, dst in zip(sources, x):
                     m.launch_reduce(ck.change_sums, [src.flatten(), ck.CHANGE_SHEAR_X], [dst.flatten(), s.change])
-            sums = s.model.read(s.change).astype(np.float64)
+            sums = s.change.numpy().astype(np.float64)
             shear_sums = mixing.norms if mixed else (sums[ck.CHANGE_SHEAR_X], sums[ck.CHANGE_SHEAR_X + 1])
             pressure_change = ratio(sums[ck.CHANGE_PRESSURE], sums[ck.CHANGE_PRESSURE + 1])
             shear_change = ratio(shear_sums[0], max(shear_sums[1], sums[ck.CHANGE_PRESSURE + 1]))
