@@ -13,13 +13,13 @@ delta_z = 1e-10 m then delta_x = 2e-11 m, one step per leg. Rows:
 - ``coupled before``: the coupled step without those two defaults (preconditioned
   tangential solves; plain normal solves in the turns, their tolerance from the last turn's
   change), side by side with ``coupled precond``;
-- ``coupled nested``: ``coupled precond`` with the nested start (``ContactSolver.nested``: each
+- ``coupled nested``: ``coupled precond`` with the nested start (``SolverSettings.nested``: each
   step solved first on the grids of n/2, n/4, ... down to 64 cells, its tractions and statuses
   starting the step on n); the coarse grids' iterations are shown after a "+".
 - ``coupled default`` / ``coupled window`` / ``coupled whole``: the solver's defaults (the nested
   start where ``nested = "auto"`` takes it; the window where ``window = "auto"`` takes it), then
   with the tangential solves always on the window of the grid that holds the contact
-  (``TangentialSolver.window``), then always on the whole grid (no window).
+  (``SolverSettings.window``), then always on the whole grid (no window).
 
 - ``coupled exact``: the solver's defaults, every turn's solves at the full tolerance
   (``turn_tolerance = "exact"``: fewer, more exact turns) instead of loose early

@@ -77,7 +77,7 @@ DEFAULT_TOL = {"float64": 1e-10, "float32": 1e-5}
 #: Largest accepted tolerance.
 MAX_TOL = 1e-2
 DEFAULT_MAX_ITER = 2000
-#: coupling / adhesive fixed-point turns per load step (ContactSolver.max_outer)
+#: coupling / adhesive fixed-point turns per load step (SolverSettings.max_turns)
 DEFAULT_MAX_TURNS = 1000
 #: von Mises ratio T_S / S_Y (MODEL.md section 5).
 DEFAULT_K_VM = 1.0 / math.sqrt(3.0)
@@ -124,10 +124,10 @@ class SolverSpec:
             adhesive fixed point); a step that reaches it is reported as not converged.
         fft: "auto", "scipy" (CPU only), "cupy" (CUDA only) or "warp".
         nested: start each step with friction (no adhesion) from its solution on the grid of half
-            the cells per side (``ContactSolver.nested``): fewer iterations on large grids. true,
+            the cells per side (``SolverSettings.nested``): fewer iterations on large grids. true,
             false or "auto" (the default: from 512 cells per side on the CPU, 2048 on CUDA).
         window: solve each step's shear on the smallest window of the grid that holds the contact
-            (``TangentialSolver.window``): the same answer, smaller transforms where the contact
+            (``SolverSettings.window``): the same answer, smaller transforms where the contact
             is a fraction of the domain. true, false or "auto" (the default: from 128 cells per
             side on the CPU, 1024 on CUDA).
         tol_default: True when ``tol`` came from the dtype's default; such a tol follows a dtype
