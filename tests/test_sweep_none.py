@@ -259,3 +259,15 @@ def test_sweep_figure_lines_categories_and_panels():
     fig = plots.sweep_figure(recs, ["load.delta_z", "adhesion.w"], "pull-off")
     assert len(fig.axes) == 1 and "pull-off force" in fig.axes[0].get_ylabel()
     assert any("adhesion.w ignored" in t.get_text() for t in fig.texts)
+
+
+def test_a_pull_off_line_without_a_tabor_parameter():
+    """A pull-off case of a shape with no Hertz reference (a punch, a cone, a height map) has no
+    Tabor parameter (None in its summary): its line gives the force alone, where a sphere's also
+    gives the parameter."""
+    from warpcontact.studies.sweep import _result_text
+
+    sphere = _result_text("pull-off", {"pull_off_force": -1.5e-9, "tabor_parameter": 0.25})
+    punch = _result_text("pull-off", {"pull_off_force": -1.5e-9, "tabor_parameter": None})
+    assert sphere == "pull-off force -1.5000e-09 N (Tabor parameter 0.25)"
+    assert punch == "pull-off force -1.5000e-09 N"

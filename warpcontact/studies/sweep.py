@@ -260,7 +260,9 @@ def _result_text(task: str, summary: dict) -> str:
     if task == "pull-off":
         if summary["pull_off_force"] is None:
             return "not converged"
-        return f"pull-off force {summary['pull_off_force']:.4e} N (Tabor parameter {summary['tabor_parameter']:.3g})"
+        tabor = summary.get("tabor_parameter")  # None where the shape is not a sphere's (no Hertz reference)
+        return f"pull-off force {summary['pull_off_force']:.4e} N" + (
+            f" (Tabor parameter {tabor:.3g})" if tabor is not None else "")
     if task == "fretting":
         if summary.get("energy") is None:
             return "no whole cycle converged"
