@@ -19,7 +19,7 @@ from typing import Any
 
 import warp as wp
 
-from .reduce import block_add_vector, block_max, cell_index
+from .reduce import block_add, block_add_vector, block_max, cell_index
 from .tangential import STICK
 
 # no adjoints: nothing differentiates these kernels, and compiling them doubles the build
@@ -39,7 +39,8 @@ S_STICK_X = wp.constant(9)  # sum over stick cells of the centre's x offset in c
 S_STICK_Y = wp.constant(10)  # sum over stick cells of the centre's y offset in cells, i - (n_y - 1) / 2
 S_MAX_PRESSURE = wp.constant(11)  # the largest p (max, not a sum)
 S_MAX_TENSION = wp.constant(12)  # the largest adhesive tension -p_adh (max, not a sum)
-N_SUMMARY = 13
+S_GAP = wp.constant(13)  # sum of the gap g (in cells): the mean separation of the surfaces x n_cells
+N_SUMMARY = 14
 
 
 @wp.func
@@ -91,6 +92,7 @@ def summary_sums(
     adhesive_cells = zero
     stick_x = zero
     stick_y = zero
+    gap_sum = zero
     largest = type(zero)(-wp.inf)
     largest_tension = type(zero)(-wp.inf)
     for k in range(per):
@@ -105,6 +107,7 @@ def summary_sums(
             elastic_z += p
             elastic_x += qx
             elastic_y += qy
+            gap_sum += type(zero)(gap[i])
             largest = wp.max(largest, p)
             largest_tension = wp.max(largest_tension, -type(zero)(adhesive_pressure[i]))
             if p > zero:
@@ -118,6 +121,7 @@ def summary_sums(
                 stick_y += centre_offset(first_row + i // columns, rows, zero)
     block_add_vector(sums, S_FORCE_Z, wp.vector(force_z, force_x, force_y, elastic_z, elastic_x, elastic_y,
                                                 contact_cells, stick_cells, adhesive_cells, stick_x, stick_y), lane)
+    block_add(sums, S_GAP, gap_sum)
     block_max(sums, S_MAX_PRESSURE, largest, lane)
     block_max(sums, S_MAX_TENSION, largest_tension, lane)
 

@@ -295,3 +295,42 @@ def test_no_hertz_number_for_other_shapes():
     case = case_from_dict(d)
     assert not case.sphere.hertzian and "a flat punch" in closed_form_note(case)
     assert case.sphere.contact_radius(1e-11) == 10e-9 and case.sphere.curvature_radius == math.inf
+
+
+# ---------------------------------------------------------------------------------------------
+# Summaries of a contact of many patches.
+
+
+def test_contact_patches_count_regions_joined_across_an_edge():
+    """Cells in contact joined across an edge are one patch; cells that touch at a corner only
+    are two (the grid resolves nothing between them)."""
+    from warpcontact.records.results import contact_patches
+
+    p = np.zeros((6, 6))
+    p[1, 1] = p[1, 2] = p[2, 2] = 1.0  # one patch of three cells
+    p[3, 3] = 2.0  # touches (2, 2) at a corner only: a second patch
+    p[5, 0] = 0.5  # a third
+    assert contact_patches(p) == 3
+    assert contact_patches(np.zeros((4, 4))) == 0
+
+
+def test_two_bumps_touch_in_two_patches(tmp_path):
+    """A height map of two paraboloid bumps (R = 10 um each, 0.1 nm apart in height) pressed
+    0.15 nm into the flat: both bumps touch, the summary counts two patches, and its mean gap is
+    the mean of the gap field; the sphere's summary has no patch count (one contact by its shape)."""
+    n, size = 64, 200e-9
+    pixel = size / n
+    x = (np.arange(n) - 0.5 * (n - 1)) * pixel
+    X, Y = np.meshgrid(x, x, indexing="ij")
+    bumps = np.minimum(((X + 50e-9) ** 2 + Y ** 2) / (2 * R), ((X - 50e-9) ** 2 + Y ** 2) / (2 * R) + 0.1e-9)
+    path = tmp_path / "bumps.npy"
+    np.save(path, bumps)
+    d = sphere_case(n, size, profile="height_map", height_map=str(path), pixel_size=pixel)
+    d["load"]["delta_z"] = 0.15e-9
+    result = wc.solve(case_from_dict(d), fields="last")
+    s = result.states[-1]
+    assert s["converged"] and s["contact_patches"] == 2
+    gap = result.fields[-1]["gap"]
+    assert s["mean_gap"] == pytest.approx(float(gap.mean()), rel=1e-12, abs=1e-25)
+    sphere = wc.solve(case_from_dict(sphere_case(32, 4.0 * math.sqrt(R * DZ))), fields="none")
+    assert "contact_patches" not in sphere.states[-1] and sphere.states[-1]["mean_gap"] > 0

@@ -83,6 +83,7 @@ def host_reference(state, adhesion):
         "max_pressure": float(f["pressure"].max()),
         "centroid": (float(X[stick].mean()), float(Y[stick].mean())) if stick.any() else None,
         "max_abs_x": float(np.abs(X).max()),
+        "mean_gap": float(f["gap"].mean()), "mean_abs_gap": float(np.abs(f["gap"]).mean()),
     }
     return ref
 
@@ -98,6 +99,8 @@ def assert_matches(s: dict, ref: dict, model):
     assert s["adhesive_area"] == ref["adhesive_cells"] * dA
     assert s["contact_radius"] == math.sqrt(ref["contact_cells"] * dA / math.pi)
     assert s["max_pressure"] == ref["max_pressure"]
+    tol = 2 * (n_cells + 4) * U * ref["mean_abs_gap"]  # a sum's rounding, as the forces'
+    assert abs(s["mean_gap"] - ref["mean_gap"]) <= tol, (s["mean_gap"], ref["mean_gap"], tol)
     if ref["centroid"] is None:
         assert s["stick_centroid"] is None
     else:

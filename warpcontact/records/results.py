@@ -71,7 +71,11 @@ def state_summary(state, adhesion=None) -> dict:
     force: total force the sphere exerts on the flat [N] (z: compressive positive, adhesive
     part included; x, y: the tangential load carried by the interface); force_elastic: the
     contact tractions alone. Areas in m^2 (contact A_c, stick A_st, adhesive A_adh), lengths in
-    m, pressures in Pa.
+    m, pressures in Pa. ``mean_gap`` [m]: the gap averaged over the domain, the mean separation of
+    the deformed surfaces (zero in contact). For shapes other than the sphere and the paraboloid (a
+    punch, a cone, height maps: ``Sphere.hertzian`` False) also ``contact_patches``: the number
+    of connected regions of contact cells (neighbours across an edge; :func:`contact_patches`),
+    from the pressure read on the host.
 
     Reduced on the model's device (:func:`summary_sums`): no field reaches the host. The forces
     agree with float64 sums of the SI fields on the host to the rounding of a float64 sum, about
@@ -104,6 +108,7 @@ def state_summary(state, adhesion=None) -> dict:
         "contact_area": area,
         "contact_radius": math.sqrt(area / math.pi),
         "max_pressure": float(s[sk.S_MAX_PRESSURE] * E),
+        "mean_gap": float(s[sk.S_GAP] * m.length_scale / m.n_cells),
         "stick_area": float(stick_cells * dA),
         "stick_centroid": (
             {"x": float(s[sk.S_STICK_X] * m.grid.dx / stick_cells),
@@ -114,7 +119,18 @@ def state_summary(state, adhesion=None) -> dict:
         "outer_iterations": int(info.outer_iterations) if info else 0,
         "residual": float(info.residual) if info else math.nan,
     }
+    if not m.sphere.hertzian:
+        out["contact_patches"] = contact_patches(state.pressure.numpy())
     return out
+
+
+def contact_patches(pressure: np.ndarray) -> int:
+    """The number of patches of a contact: connected regions of cells with p > 0, cells joined
+    across an edge (4-connectivity: cells touching at a corner only are apart, as the DC-FFT
+    grid resolves nothing between them). ``pressure``: (n, n), any units."""
+    from scipy import ndimage
+
+    return int(ndimage.label(np.asarray(pressure) > 0)[1])
 
 
 def shear_limit_si(state, friction=None) -> np.ndarray:

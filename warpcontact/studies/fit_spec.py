@@ -53,7 +53,8 @@ OUTPUTS = {
                    "force_elastic_x", "force_elastic_y", "force_elastic_z", "stick_area", "contact_area",
                    "yield_margin"),
     "solve": ("force_x", "force_y", "force_z", "force_elastic_x", "force_elastic_y", "force_elastic_z",
-              "contact_area", "contact_radius", "max_pressure", "stick_area", "adhesive_area", "yield_margin"),
+              "contact_area", "contact_radius", "max_pressure", "mean_gap", "stick_area", "adhesive_area",
+              "yield_margin"),
     "pull-off": ("pull_off_force", "pull_off_delta_z", "work_of_adhesion", "tabor_parameter"),
 }
 
