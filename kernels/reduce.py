@@ -58,8 +58,7 @@ def block_add(sums: wp.array(dtype=Any), slot: int, value: Any):
 def block_add_vector(sums: wp.array(dtype=Any), slot: int, values: Any, lane: int):
     """sums[slot + c] += the sum of ``values[c]`` over the threads of this block, for each
     component c of the vector ``values``: one block reduction of vectors (lane 0 adds the
-    components), cheaper than one ``block_add`` per slot (``bench/reduction_launch.py``, a probe
-    in git history)."""
+    components), cheaper than one ``block_add`` per slot."""
     total = wp.tile_extract(wp.tile_sum(wp.tile(values, preserve_type=True)), 0)
     if lane == 0:
         for c in range(len(values)):

@@ -238,7 +238,7 @@ def test_lagged_and_minimised_turns_give_the_same_table2_cell(monkeypatch):
     """One adhesive Table 2 cell (k_tau 0.8, delta_z 1e-4 um, n = 32) by the lagged turns (the
     default there) and by the minimised turns: the same delta_x_max (its 1 % bracket lands in the
     same place) and mu within 1e-4 relative (the two stop on different criteria; 3e-5 at most over
-    the 12 cells at n = 48 and 256, bench/coupled_turns.py, a probe in git history). Then a lagged
+    the 12 cells at n = 48 and 256, docs/performance.md). Then a lagged
     step made to fail is solved by the minimised turns from its iterate (turn_fallbacks)."""
     from warpcontact.studies import table2 as t2
     from warpcontact.solvers import contact

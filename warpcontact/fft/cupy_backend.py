@@ -28,9 +28,8 @@ float64 0.104 / 0.124 at n = 1024, 0.483 / 0.575 at 2048, 2.59 / 2.98 at 4096
 (``bench/iteration_parts.py``, which times both layouts); float32 0.057 / 0.062, 0.258 / 0.295,
 1.24 / 1.14 (``bench_results/onecond_gpu/layouts.log``). Where 2 n is not a power of two the
 column transforms take more passes, and pruned loses in float64 at every size measured, 300 to
-4000 (``bench/fft_small_sizes.py``, a probe in git history, padding and cropping included:
-0.056 / 0.042 ms at n = 315, 0.116 / 0.077 at 588, 0.272 / 0.195 at 1000, 4.85 / 3.09 at 4000;
-the adhesive Table 2 cells' grids are 300-588). The default is :func:`prune_by_default`.
+4000 (padding and cropping included: 0.056 / 0.042 ms at n = 315, 4.85 / 3.09 at 4000; the
+adhesive Table 2 cells' grids are 300-588). The default is :func:`prune_by_default`.
 
 Unpruned (``pruned=False``, one 2-D plan each way): forward D2Z (R2C in float32) of the
 (2 ny, 2 nx) padded buffer into the spectrum, shape (2 ny, nx + 1), the layout of
@@ -258,7 +257,7 @@ class CupyFFT(FFTBackend):
         In float64 the spectra equal the host's (scipy) to 3.3e-16 of the largest entry (H100, n
         up to 8191); in float32 the transform is in float32, where the host made them in float64
         and cast: within 1e-5 of the largest entry (tested), and the float32 Hertz solve is as
-        close to float64 either way (``bench/float32_hertz.py``, a probe in git history). Set-up
+        close to float64 either way. Set-up
         times: README "Scale".
         """
         ny, nxh = self.ny, self.nx + 1

@@ -77,13 +77,8 @@ def available() -> bool:
 
 
 #: grids of at least this many cells get measured plans (``FFTW_MEASURE``, their wisdom kept on
-#: disk: planned once per machine and size), smaller ones estimated plans. The pair of an iteration,
-#: estimated -> measured, 2 cores, float64 (``bench/fftw_planning.py``, a probe in git history, one
-#: run; planning in brackets): on one thread (``THREADS_FROM_CELLS``) n = 56 0.049 -> 0.039 ms (0.14 s), 110 0.260
-#: -> 0.200 ms (0.11 s), 128 0.261 -> 0.199 ms (0.26 s), 192 0.580 -> 0.490 ms (0.68 s); on two
-#: n = 512 4.64 -> 3.88 ms (0.89 s), 1024 30.8 -> 20.9 ms (1.8 s), 2048 216 -> 160 ms (4.9 s). A
-#: Table 2 adhesive cell at n = 48 (grids 56-110) makes about 7000 pairs: 0.4 s saved for a
-#: planning paid once.
+#: disk: planned once per machine and size), smaller ones estimated plans: a measured plan's
+#: transforms are 15-30 % faster, and its planning (0.1-5 s) is paid once per machine and size
 MEASURE_FROM_CELLS = 48 * 48
 #: the folder measured plans are kept in between runs (FFTW's "wisdom", a text per precision), one
 #: file per machine; None: $XDG_CACHE_HOME/warpcontact or ~/.cache/warpcontact. The environment
@@ -185,11 +180,8 @@ class FFTWPlans:
 
 class FFTWBackend(ScipyFFT):
     name = "fftw"
-    #: FFTW's threads from this many cells on (``base.cpu_threads``). A transform pair on 2 cores,
-    #: 1 / 2 threads (``bench/fft_threads.py``, a probe in git history, best of 5): 0.028 / 0.231 ms
-    #: at n = 32, 0.361 / 0.511 at 128, 0.745 / 0.794 at 192, 1.60 / 1.39 at 256, 6.03 / 5.13 at 512. A table2 column
-    #: at n = 32 in one process (4 cells) took 7.5 s with 2 threads at every size, 3.3 s under
-    #: OMP_NUM_THREADS=1.
+    #: FFTW's threads from this many cells on (``base.cpu_threads``): below it a transform is faster
+    #: on one thread than on two (docs/performance.md, "Many cases: the batch engine")
     THREADS_FROM_CELLS = 256 * 256
 
     def __init__(self, ny, nx, device, dtype, workers: int | None = None, measure: bool | None = None):

@@ -23,9 +23,8 @@ from .base import FFTBackend, cpu_threads
 
 class ScipyFFT(FFTBackend):
     name = "scipy"
-    #: worker threads from this many cells on (``base.cpu_threads``). A transform pair on 2 cores,
-    #: 1 / 2 workers (``bench/fft_threads.py``, a probe in git history, best of 5): 0.106 / 0.383 ms
-    #: at n = 64, 1.52 / 1.54 at 256, 7.99 / 7.88 at 512, 42.8 / 32.2 at 1024
+    #: worker threads from this many cells on (``base.cpu_threads``): below it a transform is
+    #: faster on one thread than on two (docs/performance.md, "Many cases: the batch engine")
     THREADS_FROM_CELLS = 1024 * 1024
 
     def __init__(self, ny, nx, device, dtype, workers: int | None = None):

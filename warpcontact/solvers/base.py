@@ -178,8 +178,8 @@ class ProjectedCG:
 
         ``prelude`` = (flag, step): an iteration starts with ``step()`` where ``flag[0]`` is 1 (the
         normal solver's recompute of K p: a few iterations in a solve). In a graph, an IF node in
-        every iteration would cost more than a turn of the loop (H100: about 4 us each,
-        ``bench/graph_turns.py``, a probe in git history), so the loop has two levels instead: the
+        every iteration would cost more than a turn of the loop (about 4 us each on an H100), so
+        the loop has two levels instead: the
         inner loop runs the iterations while ``inner_loop[0]`` is 1 (the body's last kernel sets it
         to 0 when the loop stops or the flag is raised), the outer loop runs ``step()`` if the flag
         is raised and enters the inner loop again. The iterations are the same either way."""

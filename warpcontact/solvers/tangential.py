@@ -78,10 +78,8 @@ class TangentialSolver(ProjectedCG):
     Jacobi scaling of g's tangent part (1 / (self-influence + lambda / q_max)). An iteration makes
     two transform pairs (K t and M g), as the plain one does (K q and K t). Cells that slipped
     when the last solve ended start as slip cells on their new circle (``tangential_classify``'s
-    ``keep_slip``). Measured on the CPU (``bench/tangential_precond.py``, a probe in git history):
-    one solve from rest, the Mindlin problem at Q / mu P = 0.5, 32, 31, 42 iterations at n = 64,
-    128, 256 against 65, 86, 93 plain; the coupled step of copper on steel (Tabor k_tau = 0.8, delta_x = 2e-11 m after
-    delta_z = 1e-10 m) 96, 67, 77 tangential iterations over its turns against 109, 145, 183.
+    ``keep_slip``). It takes half the iterations of the plain one and fewer as the grid grows
+    (docs/model.md, "Partial slip"; ``tests/test_tangential_precond.py``).
     The iteration's floor in float64 lies near a relative residual of 1e-11 for both (the last
     iterations before 1e-10 can wander). Related work: Zhao, Vollebregt & Oosterlee, "A fast
     nonlinear conjugate gradient based method for 3D frictional contact problems", J. Comput.
