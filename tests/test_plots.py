@@ -498,3 +498,47 @@ def test_field_maps_says_a_state_without_shear_has_none(fields):
     assert any(t.get_text() == "no shear in this state" for t in shear_map.texts)
     bar = next(ax for ax in fig.axes if "shear magnitude" in ax.get_ylabel())
     assert list(bar.get_yticks()) == [0.0]
+
+
+def _load_result(patches: bool) -> dict:
+    states = [{"force": {"z": f}, "contact_area": a, "mean_gap": g} for f, a, g in
+              ((0.0, 0.0, 7.8e-9), (1.27e-7, 7.4e-17, 6.8e-9), (7.72e-7, 3.63e-16, 6.3e-9))]
+    if patches:
+        for s, p in zip(states, (0, 3, 6)):
+            s["contact_patches"] = p
+    return {"states": states}
+
+
+@pytest.mark.parametrize("patches", [True, False])
+def test_contact_load_draws_area_patches_and_gap_against_the_force(patches):
+    """One panel each: the area in nm^2 (its length's prefix squared: 3.63e-16 m^2 is 363 nm^2),
+    the patches where every state has them, the mean gap in nm; F_z in uN."""
+    fig = plots.contact_load(_load_result(patches))
+    axes = fig.axes
+    assert len(axes) == (3 if patches else 2)
+    assert axes[0].get_ylabel() == "contact area [nm$^2$]"
+    assert max(axes[0].lines[0].get_ydata()) == pytest.approx(363.0)
+    assert axes[0].get_xlabel() == "$F_z$ [µN]"
+    assert axes[-1].get_ylabel() == "mean gap [nm]"
+    if patches:
+        assert list(axes[1].lines[0].get_ydata()) == [0, 3, 6]
+
+
+def test_solve_draws_the_load_figure_for_shapes_other_than_the_sphere(tmp_path):
+    """``warpcontact solve`` of a flat punch writes load.png beside result.json; of a sphere it
+    does not (one contact, Hertz's curve)."""
+    import subprocess
+    import sys
+
+    base = ("[sphere]\nradius = {r}\nE = 100e9\nnu = 0.3\n{profile}\n[flat]\nE = 100e9\nnu = 0.3\n"
+            "[grid]\nn = 16\nsize = {size}\n[load]\ndelta_z = 1e-10\nsteps = 2\n")
+    cases = {"punch": base.format(r="5e-9", profile='profile = "flat_punch"', size="1.6e-8"),
+             "sphere": base.format(r="10e-6", profile="", size="1.3e-7")}
+    for name, text in cases.items():
+        path = tmp_path / f"{name}.toml"
+        path.write_text(text)
+        out = tmp_path / name
+        r = subprocess.run([sys.executable, "-m", "warpcontact.cli", "solve", str(path), "--out", str(out), "--quiet"],
+                           capture_output=True, text=True)
+        assert r.returncode == 0, r.stderr
+        assert (out / "load.png").exists() == (name == "punch"), (name, sorted(p.name for p in out.iterdir()))

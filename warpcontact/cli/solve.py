@@ -28,7 +28,12 @@ def cmd_solve(args) -> int:
     from ..records.case import load_case
 
     case = load_case(args.case).with_overrides(device=args.device, dtype=args.dtype, fft=args.fft)
-    return solve_and_write(case, args, "solve")
+    figures = ()
+    if not case.sphere.hertzian:  # a punch, a cone, a height map: the area and patches against the load
+        from ..plots import contact_load
+
+        figures = (("load.png", contact_load),)
+    return solve_and_write(case, args, "solve", figures=figures)
 
 
 def solve_and_write(case, args, command: str, extra=None, figures=(), report=None) -> int:

@@ -1,6 +1,7 @@
-"""Curves of a run's load path: a pull-off's force-approach curve (:func:`pull_off_curve`) and a
-fretting run's loops and energies per cycle (:func:`fretting_loop`, :func:`fretting_energy`), each
-from the run's result (its result.json, or the Python API's dict)."""
+"""Curves of a run's load path: a pull-off's force-approach curve (:func:`pull_off_curve`), a
+fretting run's loops and energies per cycle (:func:`fretting_loop`, :func:`fretting_energy`) and a
+contact's area, patches and mean gap against the load (:func:`contact_load`), each from the run's
+result (its result.json, or the Python API's dict)."""
 
 from __future__ import annotations
 
@@ -53,6 +54,31 @@ def pull_off_curve(result: dict) -> Figure:
                  fontsize="medium")
     ax.legend(fontsize="small")
     ax.grid(alpha=0.3)
+    return fig
+
+
+def contact_load(result: dict) -> Figure:
+    """The contact area, the number of contact patches (where the result has them: shapes other
+    than the sphere) and the mean gap of every state against its normal force F_z (total,
+    adhesion included), in the order of the path: what a rough contact is read by."""
+    states = result["states"]
+    f_scale, f_unit = si_scale([s["force"]["z"] for s in states], "N")
+    l_scale, l_unit = si_scale([math.sqrt(s["contact_area"]) for s in states], "m")  # the area in (prefix m)^2
+    a_scale, a_unit = l_scale ** 2, f"{l_unit}$^2$"
+    g_scale, g_unit = si_scale([s["mean_gap"] for s in states], "m")
+    force = [s["force"]["z"] / f_scale for s in states]
+    panels = [("contact area", [s["contact_area"] / a_scale for s in states], f"[{a_unit}]")]
+    if all(s.get("contact_patches") is not None for s in states):
+        panels.append(("contact patches", [s["contact_patches"] for s in states], ""))
+    panels.append(("mean gap", [s["mean_gap"] / g_scale for s in states], f"[{g_unit}]"))
+    fig = _figure((4.0 * len(panels), 3.6))
+    for k, (name, values, unit) in enumerate(panels):
+        ax = fig.add_subplot(1, len(panels), k + 1)
+        ax.plot(force, values, "-o", ms=3, color=CONTACT_COLOR)
+        ax.set_xlabel(f"$F_z$ [{f_unit}]")
+        ax.set_ylabel(f"{name} {unit}".strip())
+        ax.grid(alpha=0.3)
+    fig.suptitle("the contact against the load", fontsize="medium")
     return fig
 
 
