@@ -99,7 +99,7 @@ class SolverSettings:
             if not isinstance(getattr(self, name), bool):
                 raise ValueError(f"settings.{name}: must be True or False, got {getattr(self, name)!r}")
         for name in ("fourier_step_sums", "use_graphs"):
-            if getattr(self, name) not in (None, True, False):
+            if not (getattr(self, name) is None or isinstance(getattr(self, name), bool)):
                 raise ValueError(f"settings.{name}: must be True, False or None (by device), got {getattr(self, name)!r}")
         for name, kind in (("turn_tolerance", TurnTolerance), ("turns", Turns), ("nested", Choice), ("window", Choice)):
             value = getattr(self, name)
