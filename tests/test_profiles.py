@@ -334,3 +334,32 @@ def test_two_bumps_touch_in_two_patches(tmp_path):
     assert s["mean_gap"] == pytest.approx(float(gap.mean()), rel=1e-12, abs=1e-25)
     sphere = wc.solve(case_from_dict(sphere_case(32, 4.0 * math.sqrt(R * DZ))), fields="none")
     assert "contact_patches" not in sphere.states[-1] and sphere.states[-1]["mean_gap"] > 0
+
+
+def test_a_grid_coarser_than_a_rough_maps_pixels_is_warned_of(tmp_path):
+    """A rough map (H = 0.8, relief down to two pixels) read by cells of two pixels leaves out
+    more than 1 % of its rms height: a PlausibilityWarning names grid.n and the n that reads every
+    pixel. The same map on its own pixels, and the sphere's map read every other pixel (a smooth
+    shape: about dx^2 / 8R left out), are not warned of."""
+    import warnings
+
+    from warpcontact.records.plausibility import PlausibilityWarning
+
+    pixel, m = 1e-9, 64
+    rough = wc.rough_surface(m, m * pixel, 0.8, rms_height=1e-9, seed=3)
+    path = tmp_path / "rough.npy"
+    np.save(path, rough)
+
+    def warned(n: int, sphere_kw: dict, size: float) -> list[str]:
+        with warnings.catch_warnings(record=True) as seen:
+            warnings.simplefilter("always")
+            case_from_dict(sphere_case(n, size, **sphere_kw))
+        return [str(w.message) for w in seen if issubclass(w.category, PlausibilityWarning)]
+
+    kw = {"profile": "height_map", "height_map": str(path), "pixel_size": pixel}
+    coarse = warned(32, kw, m * pixel)
+    assert len(coarse) == 1 and coarse[0].startswith("grid.n = 32 gives cells of 2e-9 m") and "grid.n = 64 reads" in coarse[0]
+    assert warned(64, kw, m * pixel) == []
+    n, size = 32, 4.0 * math.sqrt(R * DZ)
+    sphere_path, sphere_pixel = sphere_map(tmp_path, n, size)
+    assert warned(n, {"profile": "height_map", "height_map": sphere_path, "pixel_size": sphere_pixel}, size) == []

@@ -44,7 +44,7 @@ from .guards import profile_note
 from ..physics.materials import MaterialPair
 from .loads import (CYCLIC_KEYS, DEFAULT_PATH_KEYS, LOAD_KEYS, MAX_CYCLES, MAX_STEPS, LoadSpec,  # noqa: F401
                     _load_from)
-from .plausibility import check_case
+from .plausibility import check_case, check_map_sampling
 from .values import (_check_keys, _choice, _got, _integer, _is_bool, _list, _number, _positive, _require, _set,
                      _table)
 
@@ -502,6 +502,7 @@ def case_from_dict(d: Mapping, base: str | PathLike | None = None) -> Case:
     for surface in (shape.height_map, shape.flat_map):  # a map that misses the domain, before plausibility
         if surface is not None:
             surface.check_covers(grid)
+            check_map_sampling(surface, grid)
 
     load = _load_from(tables["load"])
 

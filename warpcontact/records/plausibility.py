@@ -346,6 +346,28 @@ def check_shift(load, size: float) -> None:
                           f"in m, like every length){hint}")
 
 
+#: a height map's relief left out by a grid coarser than its pixels, as a share of its rms
+#: height, above which ``check_map_sampling`` warns
+MAP_RELIEF_LEFT_OUT = 0.01
+
+
+def check_map_sampling(surface, grid) -> None:
+    """Warn where the grid's cells are coarser than a height map's pixels and leave out more than
+    ``MAP_RELIEF_LEFT_OUT`` of its rms height (``HeightMap.unresolved_relief``): the map is read
+    at the cell centres, so its relief between them (wavelengths under two cells) is not in the
+    gap, nor the small contacts it would make (a rough contact's area and patches depend on the
+    shortest wavelength resolved). ``surface``: a ``HeightMap``."""
+    left_out = surface.unresolved_relief(grid)
+    rms = float(surface.heights.std())
+    if left_out <= MAP_RELIEF_LEFT_OUT * rms:
+        return
+    n_needed = int(math.ceil(grid.size / surface.pixel_size))
+    warnings.warn(f"grid.n = {grid.n} gives cells of {_num(grid.dx)} m, coarser than the {surface.key} height map's "
+                  f"pixels of {_num(surface.pixel_size)} m: {_num(left_out)} m rms of its relief "
+                  f"({100 * left_out / rms:.0f} % of its rms height) lies under two cells and is left out of the "
+                  f"gap; grid.n = {n_needed} reads every pixel", PlausibilityWarning, stacklevel=4)
+
+
 def check_case(sphere, flat, grid, load, adhesion=None) -> None:
     """Every plausibility check of a case's parts, in the order a user reads them: the bodies, the
     contact's scale against the domain (a sphere's or paraboloid's: Hertz's scales), the adhesive
@@ -367,4 +389,5 @@ def check_case(sphere, flat, grid, load, adhesion=None) -> None:
             check_adhesion_force(adhesion, E_star, sphere.radius, load.delta_z_max)
 
 
-__all__ = ["PlausibilityWarning", "check_adhesion", "check_adhesion_force", "check_case", "check_contact_scale", "check_moduli", "check_shift"]
+__all__ = ["PlausibilityWarning", "check_adhesion", "check_adhesion_force", "check_case", "check_contact_scale",
+           "check_map_sampling", "check_moduli", "check_shift"]
