@@ -265,27 +265,6 @@ class Sphere:
         name = {"flat_punch": "a flat punch", "height_map": "a height map"}.get(self.profile, f"a {self.profile}")
         return name + (" on a flat with a height map" if self.flat_map is not None else "")
 
-    def unresolved_relief(self, grid: "Grid") -> float:
-        """The rms of the map's relief the grid leaves out [m]: the map's pixels inside the domain
-        less the bilinear interpolation of the heights the grid reads at its cell centres (``sample``);
-        0 where the cells are no coarser than the pixels. Smooth shapes leave out little (a sphere
-        of radius R about dx^2 / 8R), rough maps their wavelengths under two cells."""
-        from scipy.ndimage import map_coordinates
-
-        if grid.dx <= self.pixel_size * (1.0 + 1e-9):
-            return 0.0
-        nx, ny = self.heights.shape
-        # the pixels inside the domain, between the outermost cell centres
-        half = 0.5 * (grid.n - 1) * grid.dx
-        ix = np.arange(nx)[np.abs((np.arange(nx) - 0.5 * (nx - 1)) * self.pixel_size) <= half]
-        iy = np.arange(ny)[np.abs((np.arange(ny) - 0.5 * (ny - 1)) * self.pixel_size) <= half]
-        read = self.sample(grid)  # [row = y, column = x]
-        cx = ((ix - 0.5 * (nx - 1)) * self.pixel_size + half) / grid.dx  # the pixels in cell-centre units
-        cy = ((iy - 0.5 * (ny - 1)) * self.pixel_size + half) / grid.dx
-        CX, CY = np.meshgrid(cx, cy, indexing="ij")  # [x, y] as the map's axes
-        back = map_coordinates(read, [CY, CX], order=1, mode="nearest")
-        return float(np.sqrt(np.mean((self.heights[np.ix_(ix, iy)] - back) ** 2)))
-
     @property
     def curvature_radius(self) -> float:
         """Radius of curvature [m] at the first point of contact, for the adhesion regime
