@@ -368,7 +368,8 @@ def test_a_grid_coarser_than_a_rough_maps_pixels_is_warned_of(tmp_path):
 def test_a_height_map_body_may_touch_the_domains_edge(tmp_path):
     """A rigid rough indenter given as a height map over the whole domain, pressed until its
     contact reaches the edge: the body is its map (nothing beyond the domain), so the path solves
-    without the sphere's grid.size error, and the summary counts its patches."""
+    without the sphere's grid.size error, and the summary counts its patches; with adhesion its
+    tension on the edge is not taken for a tail the domain cuts."""
     pixel, n = 1e-9, 32
     np.save(tmp_path / "rough.npy", wc.rough_surface(n, n * pixel, 0.8, rms_slope=0.1, short_cutoff=4 * pixel, seed=2))
     d = {"sphere": {"profile": "height_map", "height_map": str(tmp_path / "rough.npy"), "pixel_size": pixel,
@@ -378,6 +379,17 @@ def test_a_height_map_body_may_touch_the_domains_edge(tmp_path):
     p = result.fields[-1]["pressure"]
     edge = np.concatenate([p[0], p[-1], p[:, 0], p[:, -1]])
     assert result.converged and (edge > 0).any() and result.states[-1]["contact_patches"] >= 1
+    # with adhesion, its tension at the edge is the map's own: no warning of a tail cut by the domain
+    import warnings
+
+    from warpcontact.records.guards import AdhesionAtEdgeWarning
+
+    d["adhesion"] = {"law": "exponential", "w": 0.05, "rho": 1e-9}
+    with warnings.catch_warnings(record=True) as seen:
+        warnings.simplefilter("always")
+        adhesive = wc.solve(case_from_dict(d), fields="last")
+    assert adhesive.converged and (-adhesive.fields[-1]["adhesive_pressure"][0]).max() > 0
+    assert not [w for w in seen if issubclass(w.category, AdhesionAtEdgeWarning)]
 
 
 @pytest.mark.slow

@@ -302,8 +302,10 @@ def warn_if_adhesion_at_edge(state, adhesion, delta_z: float | None = None) -> b
     law's tail, and the adhesive force it would add beyond the edge is missing from the total
     force (the pull-off force, the friction coefficient). The message names ``grid.size`` and
     suggests a side from :func:`suggested_adhesive_size` at ``delta_z`` [m] (default: the state's;
-    give the deepest approach of the path). Returns whether it warned (a path warns once)."""
-    if adhesion is None:
+    give the deepest approach of the path). Returns whether it warned (a path warns once). A body
+    given as a height map (``profile = "height_map"``) is its map, with nothing beyond the domain:
+    its adhesion at the edge is the map's own, and no tail is cut."""
+    if adhesion is None or getattr(state.model.sphere, "profile", None) == "height_map":
         return False
     from warpcontact.kernels.summary import S_MAX_TENSION
 
