@@ -131,7 +131,7 @@ def check_contact_fits(state, approach=None, edge_share: float = 0.0):
     edge's cells in contact above which it raises [-] (0: any cell). A body given as a height map
     (``profile = "height_map"``) is the map over the domain, with nothing beyond it: its contact
     may reach the edge."""
-    if getattr(state.model.sphere, "profile", None) == "height_map":
+    if state.model.sphere.fills_domain:
         return  # the body is its map, cut by nothing: the non-periodic contact of the map as given
     edge = domain_edge(state.pressure)  # the edge cells alone leave the device
     if np.mean(edge > 0) > edge_share:

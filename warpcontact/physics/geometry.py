@@ -260,6 +260,12 @@ class Sphere:
         return self.profile in HERTZIAN and self.flat_map is None
 
     @property
+    def fills_domain(self) -> bool:
+        """True where the body is its height map over the domain, with nothing beyond it (profile
+        "height_map"): its contact and adhesion may reach the domain's edge, which cuts nothing."""
+        return self.profile == "height_map"
+
+    @property
     def description(self) -> str:
         """The shape in words, for messages: "a sphere", "a cone", "a paraboloid on a flat with a height map"."""
         name = {"flat_punch": "a flat punch", "height_map": "a height map"}.get(self.profile, f"a {self.profile}")

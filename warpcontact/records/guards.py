@@ -237,8 +237,8 @@ class RunChecks:
         names = " and ".join(f"{m.name}.yield_strength = {m.yield_strength:.4g} Pa" for m in over)
         why = ""
         if fr is not None and fr.law == "tabor" and pair.softer in over:
-            why = (f"; the Tabor law's von Mises limit k_vm sqrt(S_Y^2 - p^2) of the softer body is zero where p >= "
-                   f"S_Y, so that zone carries no shear and lowers mu")
+            why = ("; the Tabor law's von Mises limit k_vm sqrt(S_Y^2 - p^2) of the softer body is zero where p >= "
+                   "S_Y, so that zone carries no shear and lowers mu")
         warnings.warn(f"the contact pressure reaches {p:.4g} Pa {self._where(s)}, above {names}: a real contact "
                       f"yields there (this model stays elastic){why}", YieldWarning, stacklevel=3)
 
@@ -305,7 +305,7 @@ def warn_if_adhesion_at_edge(state, adhesion, delta_z: float | None = None) -> b
     give the deepest approach of the path). Returns whether it warned (a path warns once). A body
     given as a height map (``profile = "height_map"``) is its map, with nothing beyond the domain:
     its adhesion at the edge is the map's own, and no tail is cut."""
-    if adhesion is None or getattr(state.model.sphere, "profile", None) == "height_map":
+    if adhesion is None or state.model.sphere.fills_domain:
         return False
     from warpcontact.kernels.summary import S_MAX_TENSION
 

@@ -19,6 +19,7 @@ Which strategies a step uses, and why: docs/model.md, "The turns".
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 
 import numpy as np
 import warp as wp
@@ -387,8 +388,6 @@ class NestedStart:
 
     def _coarse_pair(self):
         """The solver and state of the half grid, or None where n does not halve."""
-        from dataclasses import replace
-
         s = self.solver
         m = s.model
         n = m.grid.n
