@@ -210,7 +210,7 @@ def test_profile_in_mpa_and_nm_with_the_shear_limit_of_the_file(fields):
     assert np.allclose(fields["shear_limit"], law, rtol=1e-9, atol=1e-9 * s_y)
     assert any("limit" in line.get_label() for line in ax.get_lines())
     assert "no shear limit" not in ax.get_title()
-    # a file written before shear_limit was kept: the title says so
+    # a fields file without shear_limit: the title says so
     ax = plots.profile({k: v for k, v in fields.items() if k != "shear_limit"}).axes[0]
     assert not any("limit" in line.get_label() for line in ax.get_lines()) and "no shear limit" in ax.get_title()
 

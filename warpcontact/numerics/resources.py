@@ -187,7 +187,7 @@ def _padded_length(n: int) -> int:
 
 #: Warp keeps array strides as 32-bit ints (warp/native/array.h: ``int strides[]``), so a stride
 #: over 2^31 - 1 bytes wraps and the kernels read outside the array (measured: CUDA illegal
-#: address at n = 8192, float64, on an H100, when the spectra were complex). The operator stacks its
+#: address with complex float64 spectra at n = 8192 on an H100). The operator stacks its
 #: influence spectra in a (6, rows, cols) real array whose first stride is one whole spectrum:
 #: that spectrum must stay under 2 GiB.
 WARP_MAX_STRIDE_BYTES = 2**31 - 1

@@ -18,8 +18,7 @@ from .. import interrupts
 from ..numerics.launch import ReductionLaunch
 from ..numerics.state import SolveInfo
 
-#: L-BFGS pairs kept (5: the fewest FFT pairs per state on the Maugis-Dugdale curves at n = 96;
-#: bench/adhesive_algorithms.py)
+#: L-BFGS pairs kept: the fewest FFT pairs per state on the Maugis-Dugdale curves (docs/model.md)
 MEMORY = 5
 #: sufficient decrease of the line search (Armijo)
 ARMIJO = 1e-4
@@ -178,8 +177,8 @@ class AdhesiveNormalSolver:
         self.sums = model.scalars(ak.N_SUMS)
         #: the two-loop recursion's dot products (s_k . q in slot k, y_k . d in slot memory + k)
         #: and each stored pair's 1 / (s . y) (by storage slot): on the device, so that a direction
-        #: costs no read on the host (on a GPU each read is a synchronisation: about 15 an
-        #: iteration before, 2 now)
+        #: costs no read on the host (on a GPU each read is a synchronisation; docs/performance.md
+        #: gives the reads per iteration)
         self.two_loop_dots = model.scalars(2 * self.memory)
         self.rho = model.scalars(self.memory)
         self._reduction = ReductionLaunch.for_cells(self.n_padded, model.device)

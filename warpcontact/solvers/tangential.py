@@ -27,10 +27,9 @@ WINDOW_MAX_SHARE = 0.75
 #: window solvers kept (one per size), the least recently used let go
 WINDOW_CACHE = 2
 #: ``window = "auto"`` (the default): windows from these grids on (cells per side), by device
-#: kind, where they were measured to cost less than they save (``bench/scaling.py``, rows
-#: coupled-default and coupled-whole side by side; the issue's coupled problem, two steps).
-#: 2 CPU cores: 0.85x at n = 64, 1.75x at 128, 2.1x at 256, 1.6x at 512 (nested); H100: 0.77x at
-#: 256, 1.25-1.65x at 1024, 2.4-2.9x at 4096, 3.4x at 8192 (float64)
+#: kind, where they were measured to cost less than they save (docs/performance.md, "The
+#: tangential solves on the contact's window": ``bench/scaling.py``'s coupled problem, rows
+#: coupled-window and coupled-whole)
 WINDOW_AUTO_N = {"cpu": 128, "cuda": 1024}
 
 
