@@ -248,9 +248,9 @@ def test_iteration_limit_stops_the_device_loop():
 
 
 def test_cufft_layout_rule_follows_the_measurements():
-    """prune_by_default picks the layout that took less time in bench_results/fft_layouts/ (H100,
-    pruned / 2-D): float64 pruned only at powers of two; float32 pruned below 1000 and at powers
-    of two below 4096."""
+    """prune_by_default picks the layout that takes less time on an H100 (pruned / 2-D;
+    bench/iteration_parts.py times both): float64 pruned only at powers of two; float32 pruned
+    below 1000 and at powers of two below 4096."""
     from warpcontact.fft.cupy_backend import prune_by_default
 
     for n in (256, 512, 1024, 2048, 4096):

@@ -65,11 +65,12 @@ def test_cell_grid_holds_the_adhesive_tail_at_the_same_cell_side():
 
 
 def test_adhesive_cell_with_the_default_law_raises_mu_as_the_paper_does():
-    """Cell (k_tau 0.50, delta_z 1e-5 um) with the default SMC law (README "Adhesion defaults"):
-    the adhesive pull lowers the total F_z below the contact part, and adhesion raises mu and
-    delta_x_max over the adhesionless cell, as in the paper (+2.4 % and +4.8 % there; ours is
-    larger at this load: bench_results/adh). A coarse grid (n = 32, 12 cells across the contact
-    radius) keeps it short; the comparison is between two cells on the same cell side."""
+    """Cell (k_tau 0.50, delta_z 1e-5 um) with the default SMC law (docs/validation.md, "Adhesion
+    defaults"): the adhesive pull lowers the total F_z below the contact part, and adhesion raises
+    mu and delta_x_max over the adhesionless cell, as in the paper (+2.4 % and +4.8 % there; ours
+    is larger at this load: docs/validation.md, "The paper's Table 2 with adhesion"). A coarse
+    grid (n = 32, 12 cells across the contact radius) keeps it short; the comparison is between
+    two cells on the same cell side."""
     settings = Table2Settings(n=32)
     dry = table2_cell(0.50, 1.0e-5, settings)
     wet = table2_cell(0.50, 1.0e-5, settings, adhesion=True)
