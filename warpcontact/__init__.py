@@ -10,7 +10,7 @@ from ._version import __version__  # noqa: F401  (kept in sync with pyproject.to
 from typing import TYPE_CHECKING
 
 if TYPE_CHECKING:  # for readers, type checkers and the documentation's static analysis
-    from .api import fretting, gross_slip, path, pull_off, solve
+    from .api import fretting, gross_slip, path, pull_off, solve, solve_batch
     from .records.case import Case, case_from_dict, load_case
     from .errors import ConvergenceError, InputError, NonFiniteError
     from .physics.geometry import Grid, Sphere
@@ -28,7 +28,7 @@ _LAZY = {
     "Material": "physics.materials",
     "MaterialPair": "physics.materials",
     "Case": "records.case", "case_from_dict": "records.case", "load_case": "records.case",
-    "gross_slip": "api", "path": "api", "pull_off": "api", "solve": "api", "fretting": "api",
+    "gross_slip": "api", "path": "api", "pull_off": "api", "solve": "api", "solve_batch": "api", "fretting": "api",
     "subsurface_stress": "studies.stress_study",
 }
 
@@ -64,6 +64,7 @@ __all__ = [
     "case_from_dict",
     "load_case",
     "solve",
+    "solve_batch",
     "path",
     "gross_slip",
     "pull_off",

@@ -10,6 +10,7 @@
     gs = wc.gross_slip(case)                                    # delta_x_max [m], mu
     po = wc.pull_off(case)                                      # needs [adhesion]: pull_off_force [N]
     fr = wc.fretting(case)                                      # a cyclic path: energy per cycle [J]
+    results = wc.solve_batch([case_a, case_b, ...])             # many cases: normal contact batched
 
 The dicts returned are the result.json of the matching command less the run's record (device,
 software, case, complete): one builder per kind of result (:func:`run_gross_slip`,
@@ -59,6 +60,36 @@ def solve(case: CaseLike, device=None, dtype=None, fft=None, on_state=None, mode
     if fields not in FIELDS_CHOICES:
         raise InputError("fields", f"unknown choice {fields!r}; choose one of {', '.join(FIELDS_CHOICES)}")
     return run_path(_prepare(case, device, dtype, fft), on_state=on_state, model=model, fields=fields)
+
+
+def solve_batch(cases, device=None, dtype=None, fft=None, fields: str = "none", batch: int | None = None,
+                on_case=None) -> list:
+    """Solve many cases, those of normal contact together: one entry per case, in order, what
+    [`solve`][warpcontact.solve] returns for it.
+
+    Cases with no ``[friction]`` and no ``[adhesion]`` of one grid size, device and float type are
+    solved ``batch`` at a time (default: 8 on the CPU, up to 256 on CUDA as half the free memory
+    allows): each state of their load paths by one batched solve whose kernels and transforms are
+    launched once for all of them
+    ([`BatchNormalSolver`][warpcontact.solvers.normal_batch.BatchNormalSolver]), each case with its
+    own load path and convergence. Their summaries, fields, warnings and yield checks are made as
+    [`solve`][warpcontact.solve] makes them; the forces agree with it within the solves' tolerance.
+    Cases with friction or adhesion are solved one at a time. A case that fails (a contact past
+    its domain's edge) has the exception in its place and the others go on; a mistake in a case's
+    tables raises ``InputError`` before anything is solved. ``cases``: a list of cases as
+    [`solve`][warpcontact.solve] takes them; ``device``, ``dtype``, ``fft``: overrides for all;
+    ``fields``: as [`solve`][warpcontact.solve]'s (default "none": the summaries alone);
+    ``on_case(index, result)`` as each case ends (in the order they end). CUDA needs CuPy (the
+    ``cuda`` extra) for the batched transforms."""
+    from .studies.batch_solve import solve_batch as run_batch
+    from .studies.runner import FIELDS_CHOICES
+
+    if fields not in FIELDS_CHOICES:
+        raise InputError("fields", f"unknown choice {fields!r}; choose one of {', '.join(FIELDS_CHOICES)}")
+    if batch is not None and (isinstance(batch, bool) or not isinstance(batch, int) or batch < 1):
+        raise InputError("batch", f"must be a whole number of cases, at least 1, got {batch!r}")
+    prepared = [_prepare(case, device, dtype, fft) for case in cases]
+    return run_batch(prepared, fields=fields, batch=batch, on_case=on_case)
 
 
 def path(case: CaseLike, device=None, dtype=None, fft=None, fields: bool = False):

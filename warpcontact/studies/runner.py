@@ -145,6 +145,57 @@ class PathResult:
         return out
 
 
+class PathRecorder:
+    """What a path keeps of each solved state, whoever solved it (``run_path``, the batched
+    solves of ``warpcontact.studies.batch_solve``): the summary, the fields asked for, the
+    checks' warnings (one each per path), ``on_state``; at the end the last state's yield check.
+    Its ``result`` is the path's [`PathResult`][warpcontact.studies.runner.PathResult].
+
+    ``on_state(index, total, summary, result)`` and ``fields`` as ``run_path``'s."""
+
+    def __init__(self, case, model, fields: str = "all", on_state=None, adhesion=None, friction=None):
+        self.result = PathResult(case=case, model=model)
+        self.fields, self.on_state = fields, on_state
+        self.adhesion, self.friction = adhesion, friction
+        self.total = len(case.load.path())
+        self.edge_warned = False  # the adhesive tail cut by the domain: one warning per path
+        self.checks = RunChecks(case)  # resolution and yield: one warning each per path
+        self.started = time.perf_counter()
+
+    def record(self, k: int, state):
+        """State ``k`` of the path, solved in ``state``: summarised, its fields kept as asked,
+        ``on_state`` called (a stop that arrives meanwhile waits until the lists are in step)."""
+        from .. import interrupts
+
+        result = self.result
+        if not self.edge_warned:
+            self.edge_warned = warn_if_adhesion_at_edge(state, self.adhesion, result.case.load.delta_z_max)
+        summary = state_summary(state, self.adhesion)
+        self.checks.observe(summary, decisive=self.checks.decisive(summary))
+        kept = state_fields(state, self.adhesion, self.friction) if self.fields != "none" else None
+        with interrupts.deferred():  # the lists, and what on_state writes, stay in step
+            result.states.append(summary)
+            if kept is not None:
+                if self.fields == "last":  # the last finished state's: the one a stop leaves last
+                    result.fields.clear()
+                    result.field_states.clear()
+                result.fields.append(kept)
+                result.field_states.append(k)
+            result.elapsed_s = time.perf_counter() - self.started
+            if self.on_state is not None:
+                self.on_state(k, self.total, summary, result)
+
+    def finish(self, state):
+        """The last state against the bodies' yield strengths (below the surface), from the
+        state's tractions where they are (on the device: nothing copied to the host)."""
+        from ..numerics.yielding import state_yield_check
+
+        result = self.result
+        if result.states:
+            result.yield_check = state_yield_check(state, self.friction is not None, self.adhesion is not None)
+            self.checks.yielded(result.yield_check, result.states[-1])
+
+
 def run_path(case, on_state=None, keep_fields: bool = True, fields: str = "all", on_start=None,
              model=None) -> PathResult:
     """Solve every state of the case's load path in order (slip history carried along).
@@ -167,38 +218,17 @@ def run_path(case, on_state=None, keep_fields: bool = True, fields: str = "all",
         fields = "none"
     t0 = time.perf_counter()
     model, solver, state = build(case, model)
-    result = PathResult(case=case, model=model)
-    path = case.load.path()
-    edge_warned = False  # the adhesive tail cut by the domain: one warning per path
-    checks = RunChecks(case)  # resolution and yield: one warning each per path
+    recorder = PathRecorder(case, model, fields, on_state, solver.adhesion, solver.friction)
+    recorder.started = t0
+    result = recorder.result
     try:
         if on_start is not None:
             with interrupts.deferred():
                 on_start(result)
-        for k, approach in enumerate(path):
+        for k, approach in enumerate(case.load.path()):
             solver.step(state, approach)
-            if not edge_warned:
-                edge_warned = warn_if_adhesion_at_edge(state, solver.adhesion, case.load.delta_z_max)
-            summary = state_summary(state, solver.adhesion)
-            checks.observe(summary, decisive=checks.decisive(summary))
-            kept = state_fields(state, solver.adhesion, solver.friction) if fields != "none" else None
-            with interrupts.deferred():  # the lists, and what on_state writes, stay in step
-                result.states.append(summary)
-                if kept is not None:
-                    if fields == "last":  # the last finished state's: the one a stop leaves last
-                        result.fields.clear()
-                        result.field_states.clear()
-                    result.fields.append(kept)
-                    result.field_states.append(k)
-                result.elapsed_s = time.perf_counter() - t0
-                if on_state is not None:
-                    on_state(k, len(path), summary, result)
-        if result.states:  # the last state against the bodies' yield strengths (below the surface)
-            from ..numerics.yielding import state_yield_check
-
-            # from the state's tractions where they are (on the device): nothing copied to the host
-            result.yield_check = state_yield_check(state, solver.friction is not None, solver.adhesion is not None)
-            checks.yielded(result.yield_check, result.states[-1])
+            recorder.record(k, state)
+        recorder.finish(state)
     except KeyboardInterrupt as e:
         result.interrupted = True
         result.stop_signal = interrupts.signal_name(interrupts.stop_signal(e))

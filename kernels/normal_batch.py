@@ -1,0 +1,304 @@
+"""Batched normal contact: the projected conjugate gradients of ``kernels/normal.py`` for B cases
+of one grid size at once, each kernel launched once for all of them.
+
+Fields are (B, n_cells) arrays, one row a case (row-major cells); the padded transform buffers
+are (B, 2 n, 2 n), the field in each case's top-left corner. Each case has its own row of
+``sums``, ``scalars`` and ``parameters`` (the slots of ``kernels/reduce.py`` and
+``kernels/normal.py``) and its own convergence: a case whose residual is under its tolerance, or
+that reached the iteration limit, or whose fields are not finite, stops changing (``active`` = 0)
+while the others go on. The per-cell physics is the single solver's (``residual_terms``,
+``is_stepped``, ``projected_step``, ``overlap``); what differs is the case axis of the launch.
+
+Reducing kernels are launched with ``wp.launch_tiled`` over (B, blocks): thread (case, block,
+lane) visits the case's cells as in ``kernels/reduce.py`` and adds its block's sum to the case's
+row of ``sums``. Elementwise kernels are launched over (B, n_cells).
+
+An iteration (``solvers/normal_batch.py``): the exact gap of p (a convolution) and its residual
+sums; the preconditioned gap M g on the stepped cells (a transform pair with 1 / K(k)) and
+G = g . M g; the conjugate direction t; K t (a convolution) and the step sums g . t, (K t) . t;
+the projected step; ``batch_advance`` carries each case's scalars and says whether it goes on.
+"""
+
+from typing import Any
+
+import warp as wp
+
+from .normal import G_BMAX, G_POSITIVE, G_UB, G_UU, N_GUESS_SUMS, is_stepped, overlap, projected_step, residual_terms
+from .overloads import register_float_overloads
+from .reduce import (
+    C_DELTA, C_G_OLD, C_ITER, C_STOP, P_APPROACH, P_MAX_ITER, P_TOL, S_G, S_GT, S_RESTART, S_RHS, S_VIOL,
+    block_add, block_add_vector, block_max, cell_index, cg_converged, cg_step_length, conjugacy, residual_of,
+)
+
+wp.set_module_options({"enable_backward": False})
+
+#: slots of the batched solve's ``sums`` rows: the shared ones of kernels/reduce.py
+N_BATCH_SUMS = 6
+#: guess slots (``kernels/normal.py``), one row per case
+N_BATCH_GUESS_SUMS = N_GUESS_SUMS
+
+
+@wp.func
+def corner(padded: wp.array3d(dtype=Any), case: int, cell: int, width: int):
+    """Entry of cell ``cell`` of case ``case`` in the padded (B, 2 n, 2 n) buffer."""
+    row = cell // width
+    return padded[case, row, cell - row * width]
+
+
+@wp.kernel
+def batch_interference(initial_gap: wp.array2d(dtype=Any), parameters: wp.array2d(dtype=Any),
+                       interference: wp.array2d(dtype=Any)):
+    """b = delta_z - h0 of each case (no known displacement: frictionless, adhesionless)."""
+    case, i = wp.tid()
+    interference[case, i] = parameters[case, P_APPROACH] - initial_gap[case, i]
+
+
+@wp.kernel
+def batch_pad(field: wp.array2d(dtype=Any), width: int, padded: wp.array3d(dtype=Any)):
+    """Each case's field into the corner of its padded buffer (the padding stays zero)."""
+    case, i = wp.tid()
+    row = i // width
+    padded[case, row, i - row * width] = field[case, i]
+
+
+@wp.kernel
+def batch_gap(displacement: wp.array3d(dtype=Any), interference: wp.array2d(dtype=Any),
+              pressure: wp.array2d(dtype=Any), pressure_cap: wp.array(dtype=Any), width: int, n: int, outer: int,
+              inner: int, per: int, gap: wp.array2d(dtype=Any), displacement_field: wp.array2d(dtype=Any),
+              sums: wp.array2d(dtype=Any)):
+    """The exact gap g = K p - b (K p read from the corner of ``displacement``, normalised, and
+    kept in ``displacement_field``) and the residual sums S_VIOL, S_RHS of each case
+    (``residual_terms``); S_G comes from the preconditioner (``batch_free_gap_sum``)."""
+    case, block, lane = wp.tid()
+    thread = block * wp.block_dim() + lane
+    cap = pressure_cap[case]
+    zero = cap - cap
+    s_viol = zero
+    s_rhs = zero
+    for k in range(per):
+        i = cell_index(thread, outer, inner, k)
+        if i < n:
+            b = interference[case, i]
+            u = corner(displacement, case, i, width)
+            g = u - b
+            gap[case, i] = g
+            displacement_field[case, i] = u
+            dg, dv, dr = residual_terms(pressure[case, i], g, b, cap)
+            s_viol += dv
+            s_rhs += dr
+    block_add_vector(sums[case], S_VIOL, wp.vector(s_viol, s_rhs), lane)  # slots S_VIOL, S_RHS
+
+
+@wp.kernel
+def batch_free_gap(gap: wp.array2d(dtype=Any), pressure: wp.array2d(dtype=Any), pressure_cap: wp.array(dtype=Any),
+                   width: int, padded: wp.array3d(dtype=Any)):
+    """The gap on the stepped cells (``is_stepped``, preconditioned), 0 elsewhere, into the
+    corner of each case's padded buffer: what the preconditioner transforms."""
+    case, i = wp.tid()
+    cap = pressure_cap[case]
+    g = cap - cap
+    if is_stepped(pressure[case, i], gap[case, i], cap, 1):
+        g = gap[case, i]
+    row = i // width
+    padded[case, row, i - row * width] = g
+
+
+@wp.kernel
+def batch_free_gap_sum(gap: wp.array2d(dtype=Any), pressure: wp.array2d(dtype=Any),
+                       pressure_cap: wp.array(dtype=Any), preconditioned: wp.array3d(dtype=Any), width: int, n: int,
+                       outer: int, inner: int, per: int, sums: wp.array2d(dtype=Any)):
+    """G = g . M g over the stepped cells of each case into slot S_G (M g read from the corner of
+    ``preconditioned``, normalised): the preconditioned squared gradient the conjugacy uses."""
+    case, block, lane = wp.tid()
+    thread = block * wp.block_dim() + lane
+    cap = pressure_cap[case]
+    total = cap - cap
+    for k in range(per):
+        i = cell_index(thread, outer, inner, k)
+        if i < n:
+            g = gap[case, i]
+            if is_stepped(pressure[case, i], g, cap, 1):
+                total += g * corner(preconditioned, case, i, width)
+    block_add(sums[case], S_G, total)
+
+
+@wp.kernel
+def batch_direction(gap: wp.array2d(dtype=Any), pressure: wp.array2d(dtype=Any), pressure_cap: wp.array(dtype=Any),
+                    preconditioned: wp.array3d(dtype=Any), sums: wp.array2d(dtype=Any),
+                    scalars: wp.array2d(dtype=Any), width: int, direction: wp.array2d(dtype=Any),
+                    padded: wp.array3d(dtype=Any)):
+    """t = M g + beta t_last on the stepped cells, 0 elsewhere (``conjugate_direction`` of
+    ``kernels/normal.py``, preconditioned), into ``direction`` and the corner of ``padded``."""
+    case, i = wp.tid()
+    cap = pressure_cap[case]
+    t = cap - cap
+    if is_stepped(pressure[case, i], gap[case, i], cap, 1):
+        beta = conjugacy(sums[case], scalars[case])
+        t = corner(preconditioned, case, i, width) + beta * direction[case, i]
+    direction[case, i] = t
+    row = i // width
+    padded[case, row, i - row * width] = t
+
+
+@wp.kernel
+def batch_step_sums(gap: wp.array2d(dtype=Any), direction: wp.array2d(dtype=Any), response: wp.array3d(dtype=Any),
+                    width: int, n: int, outer: int, inner: int, per: int, sums: wp.array2d(dtype=Any)):
+    """g . t and (K t) . t of each case (K t read from the corner of ``response``, normalised)
+    into slots S_GT, S_RT."""
+    case, block, lane = wp.tid()
+    thread = block * wp.block_dim() + lane
+    zero = gap[0, 0] - gap[0, 0]
+    s_gt = zero
+    s_rt = zero
+    for k in range(per):
+        i = cell_index(thread, outer, inner, k)
+        if i < n:
+            t = direction[case, i]
+            if t != zero:
+                s_gt += gap[case, i] * t
+                s_rt += corner(response, case, i, width) * t
+    block_add_vector(sums[case], S_GT, wp.vector(s_gt, s_rt), lane)  # slots S_GT, S_RT
+
+
+@wp.kernel
+def batch_update(direction: wp.array2d(dtype=Any), response: wp.array3d(dtype=Any), width: int,
+                 pressure_cap: wp.array(dtype=Any), parameters: wp.array2d(dtype=Any), active: wp.array(dtype=wp.int32),
+                 n: int, outer: int, inner: int, per: int, pressure: wp.array2d(dtype=Any), gap: wp.array2d(dtype=Any),
+                 sums: wp.array2d(dtype=Any)):
+    """The projected step of each active case (``projected_step``: p <- clip(p - tau t, 0, cap),
+    the carried gap g <- g - tau K t), cells re-entering the free set counted into S_RESTART. A
+    case that is not active, or whose iterate already meets its tolerance, is left as it is."""
+    case, block, lane = wp.tid()
+    thread = block * wp.block_dim() + lane
+    row = sums[case]
+    cap = pressure_cap[case]
+    zero = cap - cap
+    count = zero
+    if active[case] != 0 and not cg_converged(row, parameters[case, P_TOL]):
+        tau = cg_step_length(row)
+        for k in range(per):
+            i = cell_index(thread, outer, inner, k)
+            if i < n:
+                p, g, entered, changed = projected_step(pressure[case, i], gap[case, i], direction[case, i],
+                                                        corner(response, case, i, width), tau, cap)
+                pressure[case, i] = p
+                gap[case, i] = g
+                count += entered
+    block_add(row, S_RESTART, count)
+
+
+@wp.kernel
+def batch_advance(sums: wp.array2d(dtype=Any), parameters: wp.array2d(dtype=Any), scalars: wp.array2d(dtype=Any),
+                  active: wp.array(dtype=wp.int32)):
+    """One thread a case, end of an iteration: a case whose iterate (the one the iteration
+    started from) meets its tolerance, reached its iteration limit or is not finite stops
+    (``active`` = 0; ``scalars[C_STOP]`` = 1); an active one counts the iteration and carries
+    G_old and delta (0 after a cell re-entered: the conjugacy restarts). The sums are zeroed for
+    the next iteration."""
+    case = wp.tid()
+    zero = sums[case, S_G] - sums[case, S_G]
+    if active[case] != 0:
+        res, finite = residual_of(sums[case, S_VIOL], sums[case, S_RHS])
+        it = int(scalars[case, C_ITER])
+        if (not finite) or res < parameters[case, P_TOL] or it >= int(parameters[case, P_MAX_ITER]):
+            active[case] = 0
+            scalars[case, C_STOP] = type(zero)(1.0)
+        else:
+            scalars[case, C_G_OLD] = sums[case, S_G]
+            scalars[case, C_DELTA] = wp.where(sums[case, S_RESTART] > zero, zero, type(zero)(1.0))
+            scalars[case, C_ITER] = type(zero)(it + 1)
+    for slot in range(N_BATCH_SUMS):
+        sums[case, slot] = zero
+
+
+@wp.kernel
+def batch_residual(sums: wp.array2d(dtype=Any), residual: wp.array(dtype=Any)):
+    """The relative residual of each case's iterate from its sums (``residual_of``)."""
+    case = wp.tid()
+    res, finite = residual_of(sums[case, S_VIOL], sums[case, S_RHS])
+    residual[case] = res
+
+
+@wp.kernel
+def batch_count_positive(pressure: wp.array2d(dtype=Any), n: int, outer: int, inner: int, per: int,
+                         guess_sums: wp.array2d(dtype=Any)):
+    """Cells with p > 0 of each case into G_POSITIVE, and each case's largest overlap max(b, 0)
+    into G_BMAX (zeroed before): whether a case starts from rest, and the guess's scale."""
+    case, block, lane = wp.tid()
+    thread = block * wp.block_dim() + lane
+    zero = pressure[0, 0] - pressure[0, 0]
+    count = zero
+    for k in range(per):
+        i = cell_index(thread, outer, inner, k)
+        if i < n and pressure[case, i] > zero:
+            count += type(zero)(1.0)
+    block_add(guess_sums[case], G_POSITIVE, count)
+
+
+@wp.kernel
+def batch_max_interference(interference: wp.array2d(dtype=Any), n: int, outer: int, inner: int, per: int,
+                           guess_sums: wp.array2d(dtype=Any)):
+    """Each case's largest overlap max(b, 0) into G_BMAX (``guess_max_interference``)."""
+    case, block, lane = wp.tid()
+    thread = block * wp.block_dim() + lane
+    largest = interference[0, 0] - interference[0, 0]
+    for k in range(per):
+        i = cell_index(thread, outer, inner, k)
+        if i < n:
+            largest = wp.max(largest, overlap(interference[case, i]))
+    block_max(guess_sums[case], G_BMAX, largest, lane)
+
+
+@wp.kernel
+def batch_guess_shape(interference: wp.array2d(dtype=Any), guess_sums: wp.array2d(dtype=Any), width: int,
+                      shape: wp.array2d(dtype=Any), padded: wp.array3d(dtype=Any)):
+    """s = sqrt(max(b - b_max / 2, 0)) of each case starting from rest (``guess_shape``: the
+    Hertz pressure's shape), 0 for the others, into ``shape`` and the corner of ``padded``."""
+    case, i = wp.tid()
+    b = overlap(interference[case, i])
+    zero = b - b
+    s = zero
+    if guess_sums[case, G_POSITIVE] <= zero:
+        s = wp.sqrt(wp.max(b - type(b)(0.5) * guess_sums[case, G_BMAX], zero))
+    shape[case, i] = s
+    row = i // width
+    padded[case, row, i - row * width] = s
+
+
+@wp.kernel
+def batch_guess_fit_sums(interference: wp.array2d(dtype=Any), shape: wp.array2d(dtype=Any),
+                         response: wp.array3d(dtype=Any), width: int, n: int, outer: int, inner: int, per: int,
+                         guess_sums: wp.array2d(dtype=Any)):
+    """Sums of (K s) b and (K s)^2 over each case's support s > 0 (``guess_fit_sums``)."""
+    case, block, lane = wp.tid()
+    thread = block * wp.block_dim() + lane
+    zero = shape[0, 0] - shape[0, 0]
+    s_ub = zero
+    s_uu = zero
+    for k in range(per):
+        i = cell_index(thread, outer, inner, k)
+        if i < n and shape[case, i] > zero:
+            u = corner(response, case, i, width)
+            s_ub += u * interference[case, i]
+            s_uu += u * u
+    block_add_vector(guess_sums[case], G_UB, wp.vector(s_ub, s_uu), lane)  # slots G_UB, G_UU
+
+
+@wp.kernel
+def batch_guess_scale(guess_sums: wp.array2d(dtype=Any), shape: wp.array2d(dtype=Any),
+                      pressure_cap: wp.array(dtype=Any), pressure: wp.array2d(dtype=Any)):
+    """p <- min(c s, cap), c = sum (K s) b / sum (K s)^2, for each case starting from rest
+    (``guess_scale``); the others keep their pressure (a warm start)."""
+    case, i = wp.tid()
+    zero = pressure_cap[case] - pressure_cap[case]
+    if guess_sums[case, G_POSITIVE] <= zero:
+        uu = guess_sums[case, G_UU]
+        c = wp.where(uu > zero, guess_sums[case, G_UB] / uu, zero)
+        pressure[case, i] = wp.min(c * shape[case, i], pressure_cap[case])
+
+
+for _k in (batch_interference, batch_pad, batch_gap, batch_free_gap, batch_free_gap_sum, batch_direction,
+           batch_step_sums, batch_update, batch_advance, batch_residual, batch_count_positive,
+           batch_max_interference, batch_guess_shape, batch_guess_fit_sums, batch_guess_scale):
+    register_float_overloads(_k)
+

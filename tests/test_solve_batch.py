@@ -1,0 +1,128 @@
+"""Many cases solved together (``warpcontact.solve_batch``): each case's result is what
+``warpcontact.solve`` gives it, whatever the batch around it."""
+
+import warnings
+
+import numpy as np
+import pytest
+
+import warpcontact as wc
+from warpcontact.errors import InputError
+
+# a small Hertz case: 32 cells over 4 contact radii at the deepest approach
+BASE = {
+    "sphere": {"radius": 1e-6, "E": 200e9, "nu": 0.3, "yield_strength": 3e9},
+    "flat": {"E": 70e9, "nu": 0.2, "yield_strength": 3e9},
+    "grid": {"n": 32, "size": 1.6e-7},
+    "load": {"delta_z": 1e-9, "steps": 1},
+}
+
+
+def case(**tables):
+    out = {k: dict(v) for k, v in BASE.items()}
+    for name, values in tables.items():
+        if name == "load" and "path" in values:  # a path lists every state: no delta_z beside it
+            out["load"] = {}
+        out.setdefault(name, {}).update(values)
+    return out
+
+
+def quiet(function, *args, **kwargs):
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")  # the coarse-grid warning of these small grids
+        return function(*args, **kwargs)
+
+
+def assert_same_path(batched, single, rel):
+    """Every state's forces, areas, largest pressure and mean gap within ``rel`` of the single
+    solve's; the contact areas (cell counts) identical."""
+    assert len(batched.states) == len(single.states)
+    for a, b in zip(batched.states, single.states):
+        assert a["converged"] and b["converged"]
+        assert a["delta"] == b["delta"]
+        assert a["contact_area"] == b["contact_area"]
+        for key in ("max_pressure", "mean_gap"):
+            assert a[key] == pytest.approx(b[key], rel=rel), key
+        assert a["force"]["z"] == pytest.approx(b["force"]["z"], rel=rel)
+        assert a["force"]["x"] == b["force"]["x"] == 0.0
+
+
+def test_a_batch_of_cases_gives_each_what_solve_gives():
+    """Five normal-contact cases of one grid in one batch (other materials, radius, profile,
+    load paths of 1 to 3 states, one of them unloading), float64: every state's forces, largest
+    pressure and mean gap within 1e-8 of solve's, the contact areas identical. Both solves stop
+    at a relative residual of 1e-10 and start from the same guess; their iterates differ only in
+    how the gap is kept (carried or recomputed) and summed: measured 1e-15."""
+    cases = [
+        case(),
+        case(load={"delta_z": 0.6e-9, "steps": 3}),
+        case(sphere={"radius": 1.5e-6}, load={"delta_z": 0.7e-9}),
+        case(flat={"E": 120e9, "nu": 0.35}, sphere={"profile": "sphere"}),
+        case(load={"path": [[0, 0, 1e-9], [0, 0, 0.5e-9]]}),
+    ]
+    batched = quiet(wc.solve_batch, cases)
+    for c, result in zip(cases, batched):
+        assert_same_path(result, quiet(wc.solve, c, fields="none"), rel=1e-8)
+        assert result.yield_check is not None and result.summary()["yielded"] is False
+
+
+def test_batches_smaller_than_the_cases_and_float32():
+    """Three cases in batches of 2 (a full batch, then one case) give the results of one batch
+    of 3; in float32 (tolerance 1e-5 on the relative residual) the forces are within 1e-4 of
+    float64's (the residual's tolerance and float32's rounding of the sums, about 1e-6)."""
+    cases = [case(load={"delta_z": dz}) for dz in (0.5e-9, 0.8e-9, 1e-9)]
+    whole = quiet(wc.solve_batch, cases)
+    parts = quiet(wc.solve_batch, cases, batch=2)
+    single32 = quiet(wc.solve_batch, cases, dtype="float32")
+    for a, b, c in zip(whole, parts, single32):
+        assert a.states[-1]["force"]["z"] == pytest.approx(b.states[-1]["force"]["z"], rel=1e-12)
+        assert c.states[-1]["force"]["z"] == pytest.approx(a.states[-1]["force"]["z"], rel=1e-4)
+        assert c.model.dtype_name == "float32"
+
+
+def test_friction_cases_go_one_at_a_time_and_a_failing_case_leaves_the_others(monkeypatch):
+    """A case with friction is solved as solve solves it; a case of the batch whose state fails
+    its check (here a contact check made to refuse its approach, as a contact past the domain's
+    edge is refused) gets the InputError in its place, and the cases beside it their results."""
+    from warpcontact.studies import batch_solve
+
+    refused = 0.7e-9
+    checked = batch_solve.check_contact_fits
+
+    def check(state, *args):
+        if state.approach[2] == refused:
+            raise InputError("grid.size", "the contact reaches the domain's edge")
+        checked(state, *args)
+
+    monkeypatch.setattr(batch_solve, "check_contact_fits", check)
+    friction = case(load={"delta_z": 1e-9, "delta_x": 2e-10, "steps": 2}, friction={"law": "coulomb", "mu": 0.3})
+    failing = case(load={"delta_z": refused})
+    normal = case()
+    ended = []
+    results = quiet(wc.solve_batch, [friction, failing, normal], on_case=lambda i, r: ended.append(i))
+    assert sorted(ended) == [0, 1, 2]
+    single = quiet(wc.solve, friction, fields="none")
+    assert results[0].states[-1]["force"]["x"] == pytest.approx(single.states[-1]["force"]["x"], rel=1e-12)
+    assert isinstance(results[1], InputError) and "grid.size" in str(results[1])
+    assert_same_path(results[2], quiet(wc.solve, normal, fields="none"), rel=1e-8)
+
+
+def test_fields_are_kept_as_solve_keeps_them():
+    """fields="last": the last state's fields as solve keeps them (pressure within 1e-8 of its
+    largest, as the forces)."""
+    c = case(load={"delta_z": 1e-9, "steps": 2})
+    (batched,) = quiet(wc.solve_batch, [c], fields="last")
+    single = quiet(wc.solve, c, fields="last")
+    assert batched.field_states == single.field_states == [1]
+    p, q = batched.fields[0]["pressure"], single.fields[0]["pressure"]
+    assert np.abs(p - q).max() < 1e-8 * q.max()
+    assert np.array_equal(batched.fields[0]["contact_mask"], single.fields[0]["contact_mask"])
+
+
+def test_mistakes_are_input_errors():
+    with pytest.raises(InputError, match="batch"):
+        wc.solve_batch([case()], batch=0)
+    with pytest.raises(InputError, match="fields"):
+        wc.solve_batch([case()], fields="some")
+    with pytest.raises(InputError, match="grid.n"):
+        wc.solve_batch([case(), case(grid={"n": -4})])

@@ -1,0 +1,168 @@
+"""Displacement-driven normal contact of B cases of one grid size, solved together.
+
+The projected conjugate gradients of [`NormalSolver`][warpcontact.solvers.normal.NormalSolver]
+(Polonsky & Keer 1999, preconditioned by the circulant inverse of K_zz) with a case axis: every
+kernel (``kernels/normal_batch.py``) and every transform (``fft/batch.py``) is launched once for
+all B cases, each case with its own approach, tolerance, iterate, conjugacy and convergence. A
+converged case stops changing while the others go on; the solve ends when every case has ended.
+
+What the single solver does to spare a GPU's launches and a CPU's passes (the gap carried
+between exact recomputations, sums in Fourier space, device loops in CUDA graphs) is not done
+here: one batched launch serves many cases, so an iteration recomputes the exact gap (three
+batched transform pairs: K p, M g, K t) and the host looks at the cases every
+``CHECK_EVERY`` iterations. The iterates differ from the single solver's in rounding and in
+the path to the solution; the converged pressures agree within the tolerance.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import warp as wp
+
+from warpcontact.kernels import normal_batch as bk
+from warpcontact.kernels import reduce as rk
+
+from ..fft.batch import BatchConvolution
+from ..numerics.device import numpy_dtype
+from ..numerics.launch import ReductionLaunch
+from ..numerics.state import SolveInfo
+
+#: iterations between two looks of the host at the cases' flags (one small transfer each)
+CHECK_EVERY = 8
+
+
+class BatchNormalSolver:
+    """Normal contact of up to ``batch`` cases of an n x n grid at once, in scaled units.
+
+    Args:
+        n: cells per side.
+        batch: cases B the buffers hold.
+        device: a Warp device.
+        dtype: ``wp.float32`` or ``wp.float64``.
+
+    The caller fills ``initial_gap`` (B, n^2) (h0 / dx of each case) and calls
+    [`solve`][warpcontact.solvers.normal_batch.BatchNormalSolver.solve]; ``pressure`` (p / E*),
+    ``gap`` (h / dx) and ``displacement`` (u_z / dx) then hold each case's solution, one row a
+    case. A case whose pressure is zero starts from the single solver's Hertz-shaped guess, the
+    others from their pressure (a warm start along a path).
+    """
+
+    def __init__(self, n: int, batch: int, device, dtype):
+        self.n, self.batch = int(n), int(batch)
+        self.device = wp.get_device(device)
+        self.dtype = dtype
+        self.np_dtype = numpy_dtype(dtype)
+        self.n_cells = self.n * self.n
+        cells = (self.batch, self.n_cells)
+
+        def field():
+            return wp.zeros(cells, dtype=dtype, device=self.device)
+
+        self.initial_gap, self.pressure, self.gap, self.displacement = field(), field(), field(), field()
+        self.interference, self.direction, self.shape = field(), field(), field()
+        self.convolution = BatchConvolution(self.n, self.batch, self.device, dtype)
+        self.sums = wp.zeros((self.batch, bk.N_BATCH_SUMS), dtype=dtype, device=self.device)
+        self.scalars = wp.zeros((self.batch, rk.N_SCALARS), dtype=dtype, device=self.device)
+        self.parameters = wp.zeros((self.batch, rk.N_PARAMETERS), dtype=dtype, device=self.device)
+        self.guess_sums = wp.zeros((self.batch, bk.N_BATCH_GUESS_SUMS), dtype=dtype, device=self.device)
+        self.pressure_cap = wp.zeros(self.batch, dtype=dtype, device=self.device)
+        self.residual = wp.zeros(self.batch, dtype=dtype, device=self.device)
+        self.active = wp.zeros(self.batch, dtype=wp.int32, device=self.device)
+        self.reduction = ReductionLaunch.for_cells(self.n_cells, self.device)
+
+    # -- launches ---------------------------------------------------------------------------
+    def _cells(self, kernel, inputs, outputs=()):
+        wp.launch(kernel, dim=(self.batch, self.n_cells), inputs=inputs, outputs=outputs, device=self.device)
+
+    def _reduce(self, kernel, inputs, outputs):
+        r = self.reduction
+        wp.launch_tiled(kernel, dim=(self.batch, r.num_blocks), inputs=[*inputs, *r.args(self.n_cells)],
+                        outputs=outputs, block_dim=r.block_dim, device=self.device)
+
+    def _cases(self, kernel, inputs, outputs=()):
+        wp.launch(kernel, dim=self.batch, inputs=inputs, outputs=outputs, device=self.device)
+
+    # -- the solve --------------------------------------------------------------------------
+    def solve(self, approach_z, tol, max_iter, pressure_cap=None, active=None) -> list:
+        """Solve every case at its rigid approach ``approach_z[b]`` (scaled: delta_z / dx) to the
+        relative residual ``tol`` (a number, or one per case) within ``max_iter`` iterations (a
+        number, or one per case). ``pressure_cap``: each case's cap / E* (None: none).
+        ``active``: which rows to solve (booleans, one per row; default all); the others are
+        left as they are. Returns one ``SolveInfo`` (``warpcontact.numerics.state``) per
+        row (for a row not solved: not converged, no iteration)."""
+        rows = self.batch
+        big = float(np.finfo(self.np_dtype).max)
+
+        def per_row(values, dtype=np.float64):  # a number for every row, or the first rows' values
+            out = np.zeros(rows, dtype=dtype)
+            out[: np.size(values) if np.ndim(values) else rows] = values
+            return out
+
+        active = per_row(True if active is None else active, bool)
+
+        tol, max_iter = per_row(tol), per_row(max_iter).astype(np.int64)
+        parameters = np.zeros((rows, rk.N_PARAMETERS))
+        parameters[:, rk.P_APPROACH] = per_row(approach_z)
+        parameters[:, rk.P_TOL] = tol
+        parameters[:, rk.P_MAX_ITER] = max_iter
+        self.parameters.assign(parameters.astype(self.np_dtype))
+        caps = np.full(rows, big) if pressure_cap is None else np.minimum(per_row(pressure_cap), big)
+        self.pressure_cap.assign(caps.astype(self.np_dtype))
+        self.active.assign(active.astype(np.int32))
+        self.scalars.zero_()
+        self.sums.zero_()
+        self.direction.zero_()
+        self._cells(bk.batch_interference, [self.initial_gap, self.parameters], [self.interference])
+        self._guess()
+        limit = int(max_iter[active].max()) if active.any() else 0
+        for it in range(limit + 1):
+            self._exact_gap()
+            if it % CHECK_EVERY == 0 and not self.active.numpy().any():
+                break
+            self._iteration()
+        else:
+            self._exact_gap()
+        self._cases(bk.batch_residual, [self.sums], [self.residual])
+        residual = self.residual.numpy().astype(np.float64)
+        iterations = self.scalars.numpy()[:, rk.C_ITER].astype(np.int64)
+        return [SolveInfo(converged=bool(on and math.isfinite(r) and r < t), iterations=int(k) if on else 0,
+                          residual=float(r) if on else math.nan)
+                for on, r, k, t in zip(active, residual, iterations, tol)]
+
+    def _guess(self):
+        """The first guess of each case whose pressure is zero (``NormalSolver._guess``)."""
+        c = self.convolution
+        self.guess_sums.zero_()
+        self._reduce(bk.batch_count_positive, [self.pressure], [self.guess_sums])
+        self._reduce(bk.batch_max_interference, [self.interference], [self.guess_sums])
+        self._cells(bk.batch_guess_shape, [self.interference, self.guess_sums, self.n], [self.shape, c.padded_input])
+        c.apply()
+        self._reduce(bk.batch_guess_fit_sums, [self.interference, self.shape, c.padded_output, self.n],
+                     [self.guess_sums])
+        self._cells(bk.batch_guess_scale, [self.guess_sums, self.shape, self.pressure_cap], [self.pressure])
+
+    def _exact_gap(self):
+        """The exact gap, displacement and residual sums of every case's pressure."""
+        c = self.convolution
+        self._cells(bk.batch_pad, [self.pressure, self.n], [c.padded_input])
+        c.apply()
+        self._reduce(bk.batch_gap, [c.padded_output, self.interference, self.pressure, self.pressure_cap, self.n],
+                     [self.gap, self.displacement, self.sums])
+
+    def _iteration(self):
+        """One preconditioned conjugate-gradient iteration of every active case, from the exact
+        gap and sums ``_exact_gap`` left."""
+        c = self.convolution
+        cap = self.pressure_cap
+        self._cells(bk.batch_free_gap, [self.gap, self.pressure, cap, self.n], [c.padded_input])
+        c.apply(inverse=True)
+        self._reduce(bk.batch_free_gap_sum, [self.gap, self.pressure, cap, c.padded_output, self.n], [self.sums])
+        self._cells(bk.batch_direction, [self.gap, self.pressure, cap, c.padded_output, self.sums, self.scalars, self.n],
+                    [self.direction, c.padded_input])
+        c.apply()
+        self._reduce(bk.batch_step_sums, [self.gap, self.direction, c.padded_output, self.n], [self.sums])
+        self._reduce(bk.batch_update, [self.direction, c.padded_output, self.n, cap, self.parameters, self.active],
+                     [self.pressure, self.gap, self.sums])
+        self._cases(bk.batch_advance, [self.sums, self.parameters], [self.scalars, self.active])

@@ -1,0 +1,167 @@
+"""Many cases solved together: the batched normal solve behind ``warpcontact.solve_batch``.
+
+Cases of normal contact (no ``[friction]``, no ``[adhesion]``) of one grid size, device and
+float type are solved in batches of B
+([`BatchNormalSolver`][warpcontact.solvers.normal_batch.BatchNormalSolver]): their load paths
+walk in step, state k of every case solved by one batched solve (warm-started from each case's
+state k - 1, as a path is), each case stopping when its own path ends. Each solved state then
+goes through what a single path does with it ([`PathRecorder`][warpcontact.studies.runner.PathRecorder]:
+the summary, the fields asked for, the checks and their warnings, the last state's yield check),
+on a state of the case's own model, so a case's result is what ``warpcontact.solve`` returns for
+it, up to the solves' tolerance. Cases with friction or adhesion are solved one at a time
+(``run_path``): their turns are not batched.
+"""
+
+from __future__ import annotations
+
+import time
+from collections import OrderedDict
+from dataclasses import replace
+
+import numpy as np
+import warp as wp
+
+from ..numerics.device import resolve_device, resolve_dtype
+from ..numerics.state import ContactState, check_contact_fits
+from ..solvers.base import default_tolerance
+from ..solvers.normal_batch import BatchNormalSolver
+from .runner import PathRecorder, build_model, run_path
+
+#: cases a batch holds at most by default: on the CPU a batch saves the per-case overhead of the
+#: launches but not their work; on CUDA it is bounded by the device's free memory
+DEFAULT_BATCH = {"cpu": 8, "cuda": 256}
+#: device bytes a case of a batch takes per cell, about (seven fields, two padded buffers and the
+#: transforms' temporaries of four cells each, in the float type's bytes)
+BYTES_PER_CELL = 27
+
+
+def batchable(case) -> bool:
+    """Whether a case's states are solved by the batched normal solve: normal contact alone."""
+    return case.friction is None and case.adhesion is None
+
+
+def batch_size(n: int, device, dtype, cases: int, batch: int | None = None) -> int:
+    """B for ``cases`` cases of an n x n grid: ``batch`` if given, else the device's default
+    (``DEFAULT_BATCH``), on CUDA at most what half its free memory holds."""
+    if batch is not None:
+        return max(1, min(int(batch), cases))
+    device = wp.get_device(device)
+    size = DEFAULT_BATCH["cpu" if device.is_cpu else "cuda"]
+    if device.is_cuda:
+        per_case = BYTES_PER_CELL * n * n * (8 if dtype == wp.float64 else 4)
+        size = min(size, max(1, int(0.5 * device.free_memory // per_case)))
+    return max(1, min(size, cases))
+
+
+def solve_batch(cases: list, fields: str = "none", batch: int | None = None, on_case=None) -> list:
+    """Solve every state of each case's load path (prepared cases: ``studies.tasks.prepare``).
+
+    Returns one entry per case, in order: a [`PathResult`][warpcontact.studies.runner.PathResult],
+    or the exception the case raised (an ``InputError`` for a contact past the domain's edge),
+    so that one case's failure leaves the others' results. ``fields``: as ``run_path``'s.
+    ``batch``: cases per batched solve (default: ``batch_size``). ``on_case(index, result)`` is
+    called as each case ends."""
+    results: list = [None] * len(cases)
+
+    def done(index, result):
+        results[index] = result
+        if on_case is not None:
+            on_case(index, result)
+
+    groups: OrderedDict = OrderedDict()
+    for index, case in enumerate(cases):
+        if not batchable(case):
+            try:
+                result = run_path(case, fields=fields)
+            except Exception as e:  # noqa: BLE001 (the case's failure is its result)
+                result = e
+            done(index, result)
+            continue
+        s = case.solver
+        key = (case.grid.n, str(resolve_device(s.device)), s.dtype)
+        groups.setdefault(key, []).append(index)
+    for (n, device, dtype), indices in groups.items():
+        size = batch_size(n, device, resolve_dtype(dtype), len(indices), batch)
+        solver = BatchNormalSolver(n, size, device, resolve_dtype(dtype))
+        for start in range(0, len(indices), size):
+            chunk = indices[start:start + size]
+            for index, result in _solve_chunk(solver, [cases[i] for i in chunk], chunk, fields):
+                done(index, result)
+    return results
+
+
+def _solve_chunk(solver: BatchNormalSolver, cases: list, indices: list, fields: str):
+    """Walk the paths of ``cases`` (at most the solver's B) in step; yields (index, result) as
+    each case ends."""
+    t0 = time.perf_counter()
+    models: dict = {}
+    members = []
+    for row, case in enumerate(cases):
+        key = _model_key(case, row)
+        if key not in models:  # cases of one body and grid share a model (a sweep over loads)
+            models[key] = build_model(case)
+        model = models[key]
+        members.append(_Member(row, indices[row], case, model, fields))
+    solver.pressure.zero_()
+    for member in members:
+        wp.copy(solver.initial_gap, member.model.initial_gap.flatten(), dest_offset=member.row * solver.n_cells)
+    rows = len(members)
+    tol = np.array([m.case.solver.tol or default_tolerance(solver.dtype) for m in members])
+    max_iter = np.array([m.case.solver.max_iter for m in members])
+    for k in range(max(len(m.path) for m in members)):
+        running = [m for m in members if m.error is None and k < len(m.path)]
+        if not running:
+            break
+        approach = np.zeros(rows)
+        active = np.zeros(rows, dtype=bool)
+        for m in running:
+            approach[m.row] = m.path[k][2] / m.model.length_scale
+            active[m.row] = True
+        infos = solver.solve(approach, tol, max_iter, active=active)
+        for m in running:
+            m.record(solver, k, infos[m.row])
+            if m.error is not None or k == len(m.path) - 1:
+                yield m.index, m.finish(time.perf_counter() - t0)
+
+
+def _model_key(case, row: int):
+    """What makes two cases' models the same (materials, body, grid, FFT backend); a body that
+    does not hash (a height map's array) gets a model of its own."""
+    key = (case.pair, case.sphere, case.grid, case.solver.fft)
+    try:
+        hash(key)
+    except TypeError:
+        return ("own", row)
+    return key
+
+
+class _Member:
+    """One case of a batch: its state on its model and what its path keeps."""
+
+    def __init__(self, row: int, index: int, case, model, fields: str):
+        self.row, self.index, self.case, self.model = row, index, case, model
+        self.path = case.load.path()
+        self.state = ContactState(model)
+        self.recorder = PathRecorder(case, model, fields)
+        self.error: Exception | None = None
+
+    def record(self, solver: BatchNormalSolver, k: int, info):
+        """State ``k`` from the solver's row: the fields into this case's state, then recorded."""
+        state, cells = self.state, solver.n_cells
+        for name, source in (("pressure", solver.pressure), ("gap", solver.gap), ("disp_z", solver.displacement)):
+            wp.copy(getattr(state, name).flatten(), source, src_offset=self.row * cells, count=cells)
+        state.approach = tuple(float(a) for a in self.path[k])
+        state.info = replace(info, outer_iterations=1)  # a step of normal contact is one turn, as a path counts it
+        try:
+            check_contact_fits(state)
+            self.recorder.record(k, state)
+        except Exception as e:  # noqa: BLE001 (the case's failure is its result)
+            self.error = e
+
+    def finish(self, elapsed: float):
+        """This case's result (or its error) once its path has ended."""
+        if self.error is not None:
+            return self.error
+        self.recorder.finish(self.state)
+        self.recorder.result.elapsed_s = elapsed
+        return self.recorder.result
