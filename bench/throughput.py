@@ -1,7 +1,8 @@
-"""Cases per second of many small coupled cases on one device: one at a time against worker processes.
+"""Cases per second of many small cases on one device: one at a time, worker processes, batched solves.
 
-    python3 bench/throughput.py --device cuda --sizes 128 256 --cases 200 --workers 1 4 8 16
-    python3 bench/throughput.py --device cpu --sizes 64 128 --cases 24 --workers 1 2
+    python3 bench/throughput.py --device cuda --sizes 128 256 --cases 200 --workers 4 8 16
+    python3 bench/throughput.py --device cpu --sizes 64 128 --cases 24 --workers 2
+    python3 bench/throughput.py --problem normal --device cuda --sizes 64 128 256 512 --cases 512 --batches 16 64 256
 
 The case is a sweep's: the paper's pair (Table 1), R = 10 um, Tabor + von Mises (k_tau 0.8),
 domain 4 sqrt(R delta_z), one normal step to delta_z = 1e-10 m and one tangential step to
@@ -13,6 +14,10 @@ size runs, side by side in one process:
 - ``W workers``: the sweep engine (``run_sweep``) on a local cluster of W processes on the same
   device (on CUDA every worker on GPU 0: several to a GPU), each worker building its model once;
   the first case of each worker pays for its kernels' load from the on-disk cache.
+
+``--problem normal``: the same pair and sphere without ``[friction]``, one normal step to delta_z
+spread over 0.5 ... 1.5 x 1e-10 m; besides ``api``, ``batch B`` rows: ``warpcontact.solve_batch(cases,
+batch=B)`` (each batch's kernels launched once for its B cases; one warm-up batch first).
 
 Reported: the wall time from the first case to the last result [s], the cluster's start [s]
 (apart), cases per second over the wall time, and the ratio to ``api``. Every case must converge.
@@ -76,6 +81,49 @@ def one_at_a_time(path: Path) -> dict:
     return {"placement": "api", "workers": 1, "cases": len(cases), "start_s": 0.0, "wall_s": wall}
 
 
+def normal_cases(n: int, cases: int, device: str, dtype: str) -> list:
+    """``--problem normal``: the paper's pair without friction, one step to delta_z spread over
+    0.5 ... 1.5 x DZ, the domain 4 contact radii at the deepest."""
+    import warpcontact as wc
+    from warpcontact.physics.materials import PAPER_PAIR
+
+    def material(m):
+        return {"E": m.E, "nu": m.nu, "yield_strength": m.yield_strength, "hardness": m.hardness}
+
+    size = 4 * math.sqrt(R * 1.5 * DZ)
+    return [wc.case_from_dict({"sphere": {"radius": R, **material(PAPER_PAIR.sphere)}, "flat": material(PAPER_PAIR.flat),
+                               "grid": {"n": n, "size": size},
+                               "load": {"delta_z": DZ * (0.5 + i / max(1, cases - 1)), "steps": 1},
+                               "solver": {"device": device, "dtype": dtype}})
+            for i in range(cases)]
+
+
+def normal_one_at_a_time(cases: list) -> dict:
+    """``api`` of ``--problem normal``: ``solve`` case after case, one model."""
+    import warpcontact as wc
+    from warpcontact.studies.runner import build_model
+
+    model = build_model(cases[0])
+    wc.solve(cases[0], fields="none", model=model)  # warm-up: kernels, plans
+    t0 = time.perf_counter()
+    results = [wc.solve(case, fields="none", model=model) for case in cases]
+    wall = time.perf_counter() - t0
+    assert all(r.converged for r in results), "a case did not converge"
+    return {"placement": "api", "workers": 1, "cases": len(cases), "start_s": 0.0, "wall_s": wall}
+
+
+def batched(cases: list, batch: int) -> dict:
+    """``batch B``: ``solve_batch`` with batches of B cases."""
+    import warpcontact as wc
+
+    wc.solve_batch(cases[:batch], batch=batch)  # warm-up: kernels, plans of this batch size
+    t0 = time.perf_counter()
+    results = wc.solve_batch(cases, batch=batch)
+    wall = time.perf_counter() - t0
+    assert all(not isinstance(r, Exception) and r.converged for r in results), "a case did not converge"
+    return {"placement": f"batch {batch}", "workers": 1, "cases": len(cases), "start_s": 0.0, "wall_s": wall}
+
+
 def with_workers(path: Path, workers: int) -> dict:
     """``W workers``: the sweep engine on a local cluster of ``workers`` processes."""
     from warpcontact.studies.batch import Placement
@@ -103,6 +151,10 @@ def main(argv=None):
     ap.add_argument("--cases", type=int, default=24)
     ap.add_argument("--workers", type=int, nargs="*", default=[2],
                     help="worker counts of the local clusters (besides the one-at-a-time row; none: that row alone)")
+    ap.add_argument("--problem", default="coupled", choices=["coupled", "normal"],
+                    help="coupled: Tabor friction, a normal and a tangential step; normal: no friction, one step")
+    ap.add_argument("--batches", type=int, nargs="*", default=[16, 64],
+                    help="batch sizes of the batched rows (--problem normal)")
     ap.add_argument("--out", default="bench_results/throughput")
     args = ap.parse_args(argv)
     if any(w < 2 for w in args.workers):
@@ -115,13 +167,18 @@ def main(argv=None):
     log = out_dir / f"throughput_{args.device.replace(':', '')}_{time.strftime('%Y%m%d_%H%M%S')}.jsonl"
     rows = []
     for n in args.sizes:
-        folder = Path(tempfile.mkdtemp(prefix="throughput_case_"))
-        try:
-            path = sweep_file(folder, n, args.cases, args.device, args.dtype)
-            base = one_at_a_time(path)
-            runs = [base] + [with_workers(path, w) for w in args.workers]
-        finally:
-            shutil.rmtree(folder, ignore_errors=True)
+        if args.problem == "normal":
+            cases = normal_cases(n, args.cases, args.device, args.dtype)
+            base = normal_one_at_a_time(cases)
+            runs = [base] + [batched(cases, b) for b in args.batches]
+        else:
+            folder = Path(tempfile.mkdtemp(prefix="throughput_case_"))
+            try:
+                path = sweep_file(folder, n, args.cases, args.device, args.dtype)
+                base = one_at_a_time(path)
+                runs = [base] + [with_workers(path, w) for w in args.workers]
+            finally:
+                shutil.rmtree(folder, ignore_errors=True)
         for r in runs:
             r.update(n=n, device=args.device, dtype=args.dtype, cases_per_s=r["cases"] / r["wall_s"],
                      ratio=base["wall_s"] / r["wall_s"])
@@ -135,7 +192,7 @@ def main(argv=None):
     for r in rows:
         print(f"| {r['n']} | {r['placement']} | {r['cases']} | {r['wall_s']:.2f} | {r['start_s']:.1f} | "
               f"{r['cases_per_s']:.1f} | {r['ratio']:.2f}x |")
-    print(f"\n({args.device}, {args.dtype}; one JSON line a row: {log})")
+    print(f"\n({args.device}, {args.dtype}, {args.problem}; one JSON line a row: {log})")
 
 
 if __name__ == "__main__":

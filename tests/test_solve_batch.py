@@ -6,8 +6,13 @@ import warnings
 import numpy as np
 import pytest
 
+import warp as wp
+
 import warpcontact as wc
 from warpcontact.errors import InputError
+
+DEVICES = ["cpu", pytest.param("cuda", marks=pytest.mark.skipif(wp.get_cuda_device_count() == 0,
+                                                                reason="no CUDA device here"))]
 
 # a small Hertz case: 32 cells over 4 contact radii at the deepest approach
 BASE = {
@@ -47,7 +52,8 @@ def assert_same_path(batched, single, rel):
         assert a["force"]["x"] == b["force"]["x"] == 0.0
 
 
-def test_a_batch_of_cases_gives_each_what_solve_gives():
+@pytest.mark.parametrize("device", DEVICES)
+def test_a_batch_of_cases_gives_each_what_solve_gives(device):
     """Five normal-contact cases of one grid in one batch (other materials, radius, profile,
     load paths of 1 to 3 states, one of them unloading), float64: every state's forces, largest
     pressure and mean gap within 1e-8 of solve's, the contact areas identical. Both solves stop
@@ -60,9 +66,10 @@ def test_a_batch_of_cases_gives_each_what_solve_gives():
         case(flat={"E": 120e9, "nu": 0.35}, sphere={"profile": "sphere"}),
         case(load={"path": [[0, 0, 1e-9], [0, 0, 0.5e-9]]}),
     ]
-    batched = quiet(wc.solve_batch, cases)
+    batched = quiet(wc.solve_batch, cases, device=device)
     for c, result in zip(cases, batched):
-        assert_same_path(result, quiet(wc.solve, c, fields="none"), rel=1e-8)
+        assert str(result.model.device).startswith(device)
+        assert_same_path(result, quiet(wc.solve, c, device=device, fields="none"), rel=1e-8)
         assert result.yield_check is not None and result.summary()["yielded"] is False
 
 
