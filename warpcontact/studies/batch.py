@@ -15,10 +15,11 @@ Where the cases run:
   at its end (dask.distributed's ``SpecCluster`` of ``Nanny`` workers, as ``LocalCluster`` builds
   it, with one thread per worker). The run's process computes cases from the start, while the
   cluster starts in a thread (a worker's start, interpreter, imports and CUDA, takes seconds), and
-  takes the next case whenever no worker process is free; a cluster that fails to start leaves
-  the run to this process. On CUDA each worker is pinned to one GPU (the run's process to the
-  first, the worker processes by ``CUDA_VISIBLE_DEVICES``; the workers take the GPUs in turn when
-  there are more workers than GPUs) and a case's ``cuda`` or ``cuda:N`` runs on its worker's GPU.
+  takes the next case whenever each worker process holds its CASES_PER_WORKER; a cluster that
+  fails to start leaves the run to this process (:class:`BatchRun`). On CUDA each worker is
+  pinned to one GPU (the run's process to the first, the worker processes by
+  ``CUDA_VISIBLE_DEVICES``; the workers take the GPUs in turn when there are more workers than
+  GPUs) and a case's ``cuda`` or ``cuda:N`` runs on its worker's GPU.
 - ``scheduler="tcp://host:8786"``: the workers of a cluster started by hand (``dask scheduler``,
   ``dask worker``; several GPUs, several hosts: docs/scaling.md).
 
@@ -43,7 +44,8 @@ import os
 import signal
 import socket
 import time
-from collections import OrderedDict
+import warnings
+from collections import OrderedDict, deque
 from dataclasses import dataclass, field
 from typing import Callable
 
@@ -391,12 +393,12 @@ class _Cluster:
 
 
 class _ClusterStart:
-    """A local cluster of the workers ``envs`` started in a thread of its own, while the run's
-    process computes cases itself (:func:`_run_on_cluster`): dask is imported there too. Once the
-    cluster has started, the thread hands the workers their first cases (``submit_first``), so that
-    none waits for the case the run's process is computing."""
+    """A local cluster of the workers ``envs`` started in a thread of its own, while this process
+    computes cases (:class:`BatchRun`): a worker's start (interpreter, imports, CUDA) takes seconds,
+    and dask is imported there too. Once :meth:`running` is False, ``cluster`` is the started
+    cluster, or None when its start failed (``error``)."""
 
-    def __init__(self, placement: Placement, pending: int, envs: list, submit_first: Callable):
+    def __init__(self, placement: Placement, pending: int, envs: list):
         import threading
 
         self.cluster: _Cluster | None = None
@@ -405,39 +407,30 @@ class _ClusterStart:
         self._ended = False
         self._before: set | None = None
         self._t0 = time.perf_counter()
-        self._thread = threading.Thread(target=self._start, args=(placement, pending, envs, submit_first),
+        self._thread = threading.Thread(target=self._start, args=(placement, pending, envs),
                                         name="warpcontact-cluster-start", daemon=True)
         self._thread.start()
 
-    def _start(self, placement, pending, envs, submit_first) -> None:
+    def _start(self, placement, pending, envs) -> None:
         try:
             from distributed.deploy.spec import SpecCluster
 
             self._before = set(SpecCluster._instances)
             cluster = _Cluster(placement, pending, envs)
-        except BaseException as e:  # the run goes on in its own process (``_run_on_cluster``)
+        except BaseException as e:  # the run goes on in its own process (``BatchRun.started``)
             self.error = e
             return
         if self._ended:  # the run ended while the workers started
             cluster.close(finished=False)
             return
         self.start_s = time.perf_counter() - self._t0
-        try:
-            submit_first(cluster)
-        except BaseException as e:
-            self.error = e
-            cluster.close(finished=False)
-            return
         self.cluster = cluster
 
-    def ready(self) -> _Cluster | None:
-        """The cluster once started (its first cases submitted), else None (still starting, or
-        failed: ``error``)."""
-        if self._thread.is_alive():
-            return None
-        return self.cluster
+    def running(self) -> bool:
+        """Whether the cluster is still starting."""
+        return self._thread.is_alive()
 
-    def end(self, futures=(), finished: bool = True) -> None:
+    def close(self, futures=(), finished: bool = True) -> None:
         """Close the cluster (:meth:`_Cluster.close`). One still starting is not waited for: the
         worker processes started so far are killed (``_abandon``), and the thread closes the
         cluster once it has started."""
@@ -529,6 +522,208 @@ def _grouped(tasks: list) -> list:
 # ---------------------------------------------------------------------------------------------
 # Running a batch.
 
+#: cases a local worker process holds at once: the one it computes and the next, which it starts
+#: while this process computes a case of its own and submits nothing (a worker that dies may take
+#: both with it: each is computed again, and the death counts toward its ``allowed-failures``)
+CASES_PER_WORKER = 2
+
+
+class BatchRun:
+    """One run of :func:`run_tasks`: its cases not yet started (``queue``, grouped by model), where
+    they run, its :class:`Tally` and :class:`BatchStats`, and the cases on a cluster (``futures``,
+    each to its task, followed by ``completed``, dask's ``as_completed``).
+
+    Everything happens in the caller's thread, one turn of :meth:`turn` at a time: the cases the
+    cluster has finished are handed back, each replaced by the next of the queue, so that the cluster
+    holds ``window`` cases at most; beside a local cluster this process computes the next case itself
+    whenever the window is full (it is the run's first worker), and the whole run while the cluster
+    starts or if it fails to."""
+
+    def __init__(self, tasks, on_result: Callable, placement: Placement, progress=None,
+                 failed: Callable | None = None, on_error: Callable | None = None,
+                 on_state: Callable | None = None, before: int = 0):
+        self.queue = deque(_grouped(list(tasks)))
+        self.placement = placement
+        self.on_result, self.on_error, self.on_state, self.progress = on_result, on_error, on_state, progress
+        self.failed = failed or (lambda value: False)
+        self.tally = Tally(total=before + len(self.queue), before=before)
+        self.stats = BatchStats(tasks=len(self.queue))
+        self.here = 0  # cases this process is computing: 1 or 0
+        self.beside = placement.scheduler is None  # this process is a worker beside a local cluster
+        self.starting: _ClusterStart | None = None  # a local cluster until its start is over
+        self.cluster: _Cluster | None = None
+        self.slots = 0  # cases the cluster's workers compute at once
+        self.window = 0  # cases the cluster holds at once (computing, or waiting for a worker)
+        self.futures: dict = {}  # submitted and not yet handed back, each to its task
+        self.completed = None  # distributed.as_completed over ``futures``
+        self.token = os.urandom(4).hex()  # a rerun's tasks are new tasks on a long-lived cluster
+
+    def run(self, keep_models: bool = False) -> BatchStats:
+        """Run every case (:func:`run_tasks`) and return the stats; this process's models are
+        dropped at the end unless ``keep_models``."""
+        if not self.queue:
+            return self.stats
+        t0 = time.perf_counter()
+        built = _cache_stats["built"]
+        try:
+            if self.placement.in_process(len(self.queue)):
+                self.run_in_process()
+            else:
+                self.run_on_cluster()
+        finally:
+            self.stats.models_built = _cache_stats["built"] - built
+            if not keep_models:
+                clear_models()
+        self.stats.wall_s = time.perf_counter() - t0
+        self.stats.task_s = sum(self.stats.task_times)
+        return self.stats
+
+    # --- the bookkeeping of a case -------------------------------------------------------------
+
+    def show(self, extra: str = "") -> None:
+        """Redraw the progress line: cases done, running (here and on the workers), failed."""
+        self.tally.running = self.here + min(len(self.futures), self.slots)
+        if self.progress is not None:
+            text = self.tally.text() + ("  " + extra if extra else "")
+            self.progress.status(self.tally.before + self.tally.done, extra=text)
+
+    def error(self, task: Task, e: BaseException) -> bool:
+        """A case that raised: to ``on_error`` (False ends the run), or raised without one."""
+        self.tally.failed += 1
+        if self.on_error is None:
+            raise e
+        return self.on_error(task, e) is not False
+
+    def hand_back(self, task: Task, value) -> bool:
+        """A finished case to ``on_result``, which writes it; False ends the run."""
+        self.tally.done += 1
+        if self.failed(value):
+            self.tally.failed += 1
+        return self.on_result(task, value) is not False
+
+    def run_here(self, task: Task) -> bool:
+        """Compute ``task`` in this process, its states to ``on_state``, and hand it back; False ends
+        the run. Errors other than warpcontact's end the run."""
+        from ..errors import ConvergenceError, InputError, NonFiniteError
+
+        kwargs = {} if self.on_state is None else {"on_state": lambda *a: self.on_state(task, *a)}
+        self.here = 1
+        self.show(task.label)
+        t1 = time.perf_counter()
+        try:
+            value = task.fn(*task.args, **kwargs)
+        except (InputError, ConvergenceError, NonFiniteError) as e:
+            return self.error(task, e)
+        finally:
+            self.here = 0
+        self.stats.task_times.append(time.perf_counter() - t1)
+        return self.hand_back(task, value)
+
+    def run_in_process(self) -> None:
+        """Every case in this process, one after another."""
+        while self.queue:
+            if not self.run_here(self.queue.popleft()):
+                return
+            self.show()
+
+    # --- a cluster -------------------------------------------------------------------------------
+
+    def run_on_cluster(self) -> None:
+        """The cases on a cluster given by address (every case submitted at once: they wait at its
+        scheduler for a free worker), or beside a local cluster started in a thread
+        (:class:`_ClusterStart`), where this process is the first worker. The cluster is closed at
+        the end: in order once every case is handed back, else (a stop, an error, a callback
+        ending the run) its worker processes are killed and the cases left abandoned."""
+        pending = len(self.queue)
+        t0 = time.perf_counter()
+        if self.beside:
+            envs = worker_environments(self.placement, pending)[1:]  # the first worker's place is this process's
+            self.slots, self.window = len(envs), CASES_PER_WORKER * len(envs)
+            self.show(f"this process, and {len(envs)} local worker(s) starting")
+            self.starting = owner = _ClusterStart(self.placement, pending, envs)
+        else:
+            self.show("reaching the workers")
+            owner = _Cluster(self.placement, pending)
+        finished = False
+        try:
+            if not self.beside:
+                self.slots = self.stats.workers = owner.threads()
+                self.window = pending
+                self.join(owner, time.perf_counter() - t0, owner.where)
+            while self.turn():
+                pass
+            finished = not self.futures and not self.queue
+        finally:
+            owner.close(list(self.futures), finished)
+
+    def turn(self) -> bool:
+        """One turn of the loop: take up the local cluster once started; hand back the cases the
+        cluster has finished; compute the next case here when this process is a worker and one is
+        left, else wait for the cluster's next. False ends the run: nothing left, or a callback
+        said so."""
+        if self.starting is not None and not self.starting.running():
+            self.started()
+        for fut in self.completed.next_batch(block=False) if self.completed is not None else ():
+            if not self.collect(fut):
+                return False
+        if self.beside and self.queue:
+            return self.run_here(self.queue.popleft())
+        if not self.futures:
+            return False
+        self.show(f"on {self.stats.where}")
+        return self.collect(next(self.completed))
+
+    def started(self) -> None:
+        """The local cluster's start is over: its workers join the run, or (it failed) this process
+        computes every case alone, and a warning says why."""
+        start, self.starting = self.starting, None
+        if start.cluster is not None:
+            self.stats.workers = self.slots + 1
+            self.join(start.cluster, start.start_s, f"this process and {start.cluster.where}")
+            return
+        self.stats.where = f"this process alone (its local workers did not start: {start.error})"
+        warnings.warn(f"the {self.slots} local worker process(es) did not start ({start.error}); "
+                      f"the cases run in this process alone", RuntimeWarning, stacklevel=2)
+
+    def join(self, cluster: _Cluster, start_s: float, where: str) -> None:
+        """Take ``cluster`` for the run and submit its first cases."""
+        from distributed import as_completed
+
+        self.cluster = cluster
+        self.completed = as_completed(loop=cluster.client.loop)
+        self.stats.start_s, self.stats.where = start_s, where
+        self.submit()
+
+    def submit(self) -> None:
+        """Fill the cluster's window from the front of the queue."""
+        while self.queue and len(self.futures) < self.window:
+            task = self.queue.popleft()
+            fut = self.cluster.client.submit(call_task, task.fn, task.args, key=f"warpcontact-{task.key}-{self.token}",
+                                             pure=False)
+            self.futures[fut] = task
+            self.completed.add(fut)
+
+    def collect(self, fut) -> bool:
+        """Hand back the case of a finished future, the next case submitted in its place first (the
+        worker need not wait for the writing); False ends the run. A case whose workers died every
+        time it was tried is a :class:`LostTask`."""
+        from distributed.client import FutureCancelledError
+        from distributed.scheduler import KilledWorker
+
+        task = self.futures.pop(fut)
+        self.submit()
+        try:
+            outcome = fut.result()
+        except KilledWorker as e:
+            lost = LostTask(f"the case {task.label} was given up: the workers computing it died ({e})")
+            return self.error(task, lost)
+        except FutureCancelledError:
+            return True
+        if isinstance(outcome, _Raised):
+            return self.error(task, outcome.error())
+        self.stats.task_times.append(outcome.seconds)
+        return self.hand_back(task, outcome.value)
+
 
 def run_tasks(tasks, on_result: Callable, placement: Placement | None = None, progress=None,
               failed: Callable | None = None, on_error: Callable | None = None,
@@ -561,193 +756,8 @@ def run_tasks(tasks, on_result: Callable, placement: Placement | None = None, pr
     A stop (KeyboardInterrupt: Ctrl-C, SIGTERM, SIGHUP) ends the run at once: a local cluster's
     workers end with it, and the stop is raised after them.
     """
-    placement = placement or Placement(workers=1)
-    tasks = _grouped(list(tasks))
-    tally = Tally(total=before + len(tasks), before=before)
-    stats = BatchStats(tasks=len(tasks))
-    if not tasks:
-        return stats
-    failed = failed or (lambda value: False)
-
-    def show(extra=""):
-        if progress is not None:
-            progress.status(tally.before + tally.done, extra=f"{tally.text()}{'  ' + extra if extra else ''}")
-
-    def error(task, e) -> bool:
-        tally.failed += 1
-        if on_error is None:
-            raise e
-        return on_error(task, e) is not False
-
-    def hand_back(task, value) -> bool:
-        tally.done += 1
-        if failed(value):
-            tally.failed += 1
-        return on_result(task, value) is not False
-
-    def run_here(task) -> bool:
-        """Compute ``task`` in this process and hand it back; False ends the run."""
-        kwargs = {} if on_state is None else {"on_state": lambda *a, task=task: on_state(task, *a)}
-        t1 = time.perf_counter()
-        try:
-            value = task.fn(*task.args, **kwargs)
-        except Exception as e:
-            from ..errors import ConvergenceError, InputError, NonFiniteError
-
-            if not isinstance(e, (InputError, ConvergenceError, NonFiniteError)):
-                raise
-            return error(task, e)
-        stats.task_times.append(time.perf_counter() - t1)
-        return hand_back(task, value)
-
-    t0 = time.perf_counter()
-    built = _cache_stats["built"]
-    try:
-        if placement.in_process(len(tasks)):
-            for task in tasks:
-                tally.running = 1
-                show(task.label)
-                go_on = run_here(task)
-                tally.running = 0
-                if not go_on:
-                    break
-                show()
-        else:
-            _run_on_cluster(tasks, placement, stats, tally, show, error, hand_back, run_here)
-    finally:
-        stats.models_built = _cache_stats["built"] - built
-        if not keep_models:
-            clear_models()
-    stats.wall_s = time.perf_counter() - t0
-    stats.task_s = sum(stats.task_times)
-    return stats
-
-
-def _run_on_cluster(tasks, placement, stats, tally, show, error, hand_back, run_here) -> None:
-    """:func:`run_tasks` on a cluster. On one given by address, every case runs there. Beside a
-    local cluster the run's process computes cases too, in the place of its first worker (the GPU
-    of that worker, or a CPU core): it starts at once, while the other workers start in a thread
-    (:class:`_ClusterStart`; they take a few seconds: interpreter, imports, CUDA), and it takes
-    the next case whenever no worker is free. Cases are handed back in the order they finish."""
-    import threading
-    from collections import deque
-
-    # dask is imported where it is first needed (in the starting thread, beside a local cluster):
-    # about a second of this process's time on 2 cores
-    queue = deque(tasks)
-    futures: dict = {}  # submitted and not yet handed back
-    lock = threading.RLock()  # the queue, the futures and the count, shared with dask's threads
-    token = os.urandom(4).hex()  # a rerun's tasks are new tasks on a long-lived cluster
-    slots = [0]  # cases the workers may hold at once
-    computing = [0]  # cases submitted and not yet finished there
-    ending = [False]
-
-    def submit(cluster) -> None:
-        """Fill the workers' free places from the front of the queue. Each case submitted submits
-        the next when it finishes (its done callback, which dask runs in a thread of its own), so
-        that a worker is not kept waiting for a case this process is computing."""
-        with lock:
-            while queue and computing[0] < slots[0] and not ending[0]:
-                task = queue.popleft()
-                fut = cluster.client.submit(call_task, task.fn, task.args, key=f"warpcontact-{task.key}-{token}",
-                                            pure=False)
-                futures[fut] = task
-                computing[0] += 1
-                fut.add_done_callback(lambda f: finished_there(cluster))
-
-    def finished_there(cluster) -> None:
-        with lock:
-            computing[0] -= 1
-        try:
-            submit(cluster)
-        except Exception:  # the run is ending (its client closed): nothing more to submit
-            pass
-
-    def collect(fut) -> bool:
-        """Hand back one finished future's case; False ends the run."""
-        from distributed.client import FutureCancelledError
-
-        try:
-            from distributed.scheduler import KilledWorker
-        except ImportError:  # pragma: no cover - older distributed
-            from distributed import KilledWorker
-
-        with lock:
-            task = futures.pop(fut)
-        try:
-            outcome = fut.result()
-        except KilledWorker as e:
-            return error(task, LostTask(f"the case {task.label} was given up: the workers computing it died ({e})"))
-        except FutureCancelledError:
-            return True
-        if isinstance(outcome, _Raised):
-            return error(task, outcome.error())
-        stats.task_times.append(outcome.seconds)
-        return hand_back(task, outcome.value)
-
-    here = placement.scheduler is None
-    t0 = time.perf_counter()
-    start = cluster = None
-    if here:
-        envs = worker_environments(placement, len(tasks))[1:]  # the first worker's place is this process's
-        slots[0] = len(envs)
-
-        show(f"this process, and {len(envs)} local worker(s) starting")
-        start = _ClusterStart(placement, len(tasks), envs, submit)
-        stats.where = "this process"
-    else:
-        show("reaching the workers")
-        cluster = _Cluster(placement, len(tasks))
-        slots[0] = len(tasks)  # every case at once: they wait at the scheduler for a free worker
-        stats.start_s = time.perf_counter() - t0
-        stats.workers = cluster.threads()
-        stats.where = cluster.where
-        submit(cluster)
-    finished = False
-    try:
-        while True:
-            if start is not None and cluster is None:
-                cluster = start.ready()
-                if cluster is not None:
-                    stats.start_s = start.start_s
-                    stats.workers = slots[0] + 1
-                    stats.where = f"this process and {cluster.where}"
-                elif start.error is not None and stats.where == "this process":  # computed here, all
-                    import warnings
-
-                    stats.where = f"this process alone (its local workers did not start: {start.error})"
-                    warnings.warn(f"the {slots[0]} local worker process(es) did not start ({start.error}); "
-                                  f"the cases run in this process alone", RuntimeWarning, stacklevel=2)
-            if cluster is not None:  # the workers' next cases are submitted by their done callbacks
-                with lock:
-                    done = [f for f in futures if f.done()]
-                if not all(collect(f) for f in done):
-                    break
-            with lock:
-                task = queue.popleft() if here and queue else None
-                remote = len(futures)
-                tally.running = computing[0] + (task is not None)
-            if task is not None:
-                show(task.label)
-                if not run_here(task):
-                    break
-                continue
-            if not remote:
-                break
-            show(f"on {stats.where}")
-            from distributed import wait
-
-            with lock:
-                pending = list(futures)
-            wait(pending, return_when="FIRST_COMPLETED")
-        finished = not futures and not queue
-    finally:
-        with lock:
-            ending[0] = True
-        if start is not None:
-            start.end(list(futures), finished)
-        elif cluster is not None:
-            cluster.close(list(futures), finished)
+    return BatchRun(tasks, on_result, placement or Placement(workers=1), progress, failed, on_error, on_state,
+                    before).run(keep_models)
 
 
 @contextlib.contextmanager
