@@ -26,7 +26,7 @@ against 1.39 ms at n = 4096.)
 Which is faster depends on the size. H100, cuFFT's forward + inverse alone, pruned / 2-D, ms:
 float64 0.104 / 0.124 at n = 1024, 0.483 / 0.575 at 2048, 2.59 / 2.98 at 4096
 (``bench/iteration_parts.py``, which times both layouts); float32 0.057 / 0.062, 0.258 / 0.295,
-1.24 / 1.14 (``bench_results/onecond_gpu/layouts.log``). Where 2 n is not a power of two the
+1.24 / 1.14. Where 2 n is not a power of two the
 column transforms take more passes, and pruned loses in float64 at every size measured, 300 to
 4000 (padding and cropping included: 0.056 / 0.042 ms at n = 315, 4.85 / 3.09 at 4000; the
 adhesive Table 2 cells' grids are 300-588). The default is :func:`prune_by_default`.
@@ -119,7 +119,7 @@ def _power_of_two(k: int) -> bool:
 
 
 def prune_by_default(ny: int, nx: int, dtype) -> bool:
-    """The layout that took less time on the H100 (``bench_results/fft_layouts/``: forward +
+    """The layout that took less time on the H100 (``bench/iteration_parts.py``: forward +
     inverse, padding and cropping included, pruned against 2-D plans):
 
     - float64: pruned where 2 ny and 2 nx are powers of two (n = 256-4096: 5-16 % less time),

@@ -132,8 +132,8 @@ class ProjectedCG:
         if not set(needs) <= self._ran_eagerly:
             return
         # no garbage collection while capturing: a collected FFT backend's plans destroyed there
-        # (cufftDestroy frees device memory) invalidate the capture (CUDA error 901). Seen on an
-        # H100 when a test's solvers, held in a reference cycle, were collected during a capture.
+        # (cufftDestroy frees device memory) invalidate the capture (CUDA error 901): solvers
+        # held in a reference cycle can be collected during a capture.
         collecting = gc.isenabled()
         gc.disable()
         try:
@@ -142,9 +142,9 @@ class ProjectedCG:
         except RuntimeError as e:
             if "capture" not in str(e):
                 raise
-            # the work ran eagerly above, so the solve goes on without the graph (a capture
-            # invalidated from its first operation, CUDA error 901, was seen with many worker
-            # processes sharing one GPU): this solver launches eagerly from now on
+            # the work ran eagerly above, so the solve goes on without the graph (a capture can be
+            # invalidated from its first operation, CUDA error 901, with many worker processes
+            # sharing one GPU): this solver launches eagerly from now on
             self.use_graphs = False
             self._graphs.clear()
             self.capture_failure = str(e)

@@ -190,9 +190,9 @@ class NormalSolver(ProjectedCG):
         b = max(delta_z - h0 - u_known, 0) the rigid interference, and c the least-squares fit
         of K p to b on the support of s, capped at the hardness. For a paraboloid s is the Hertz
         pressure's shape on the Hertz contact area (an elastic contact closes half the rigid
-        interference), so a Hertz solve starts near its answer: 125 -> 52 iterations at n = 256,
-        127 -> 74 at 512, 153 -> 87 at 1024 (CPU, against the old guess c b, whose support was
-        twice the contact area). On the device (``guess_sums`` zeroed before).
+        interference), so a Hertz solve starts near its answer: 52 iterations at n = 256, 74 at
+        512, 87 at 1024 (CPU), against 125, 127 and 153 from the guess c b, whose support is
+        twice the contact area. On the device (``guess_sums`` zeroed before).
 
         Leaves K p in ``state.disp_z``: c K s, from the convolution the fit made, so a solve from
         rest makes its first exact gap without a convolution of its own; with a finite cap, which
