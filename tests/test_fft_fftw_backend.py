@@ -201,6 +201,23 @@ def test_a_damaged_wisdom_file_is_measured_again(monkeypatch, tmp_path):
     assert isinstance(json.loads(wisdom.read_text()), list)
 
 
+def test_a_transient_grid_plans_from_wisdom_or_estimates(monkeypatch, tmp_path):
+    """A backend marked transient (a tangential solve's window) measures nothing: without wisdom
+    for its layout its plans are estimated and no wisdom is written; with wisdom for it (a grid
+    of that size measured before) its plans come from the wisdom."""
+    n, wisdom = 56, tmp_path / "wisdom.json"
+    window = _measured_backend(n, monkeypatch, wisdom)
+    window.transient()
+    plans = window._plans_for(window.alloc_spectra(1)[0])
+    assert "FFTW_ESTIMATE" in plans.rows_forward.flags and not wisdom.exists()
+    _measured_backend(n, monkeypatch, wisdom)._plans_for(window.alloc_spectra(1)[0])  # a grid of this size measured
+    assert wisdom.exists()
+    later = fftw_backend.FFTWBackend(n, n, "cpu", wp.float64, measure=True)
+    later.transient()
+    plans = later._plans_for(later.alloc_spectra(1)[0])
+    assert "FFTW_WISDOM_ONLY" in plans.rows_forward.flags
+
+
 def test_no_wisdom_file_when_switched_off(monkeypatch, tmp_path):
     monkeypatch.setenv("WARPCONTACT_FFTW_WISDOM", "")
     monkeypatch.setattr(fftw_backend, "_wisdom_loaded", False)

@@ -149,6 +149,10 @@ class FFTBackend:
         self.transform_input(spectrum)
         self.transform_to_output(spectrum)
 
+    def transient(self):
+        """Say that this backend's grid serves only a few solves (a tangential solve's window):
+        a backend whose plans cost time to make may make cheaper ones. Here: nothing."""
+
     def check_field(self, name: str, a: wp.array):
         """Raise ValueError naming ``name`` unless ``a`` is an (ny, nx) array of this dtype and device."""
         if a.shape != (self.ny, self.nx) or a.dtype != self.dtype or a.device != self.device:

@@ -156,11 +156,13 @@ class FFTWPlans:
                                         normalise_idft=False, **common)
 
     @staticmethod
-    def measured(rows_in: np.ndarray, spectrum: np.ndarray, rows_out: np.ndarray, threads: int) -> "FFTWPlans":
+    def measured(rows_in: np.ndarray, spectrum: np.ndarray, rows_out: np.ndarray, threads: int,
+                 measure_new: bool = True) -> "FFTWPlans":
         """Measured plans for these arrays, without touching them: from wisdom (kept on disk,
         :func:`wisdom_path`) when there is some for their layout; else measured first on scratch
         arrays of the same layout (``FFTW_MEASURE`` runs the transforms on the arrays it plans
-        for) and the wisdom written back."""
+        for) and the wisdom written back, or with ``measure_new`` False estimated plans (a grid
+        used for a few solves, whose measuring would cost more than it saves)."""
         pyfftw = import_pyfftw()
 
         _load_wisdom()
@@ -169,6 +171,8 @@ class FFTWPlans:
             return FFTWPlans(rows_in, spectrum, rows_out, threads, wise)
         except RuntimeError:  # no wisdom for this layout yet
             pass
+        if not measure_new:
+            return FFTWPlans(rows_in, spectrum, rows_out, threads)
         scratch = [pyfftw.empty_aligned(a.shape, a.dtype) for a in (rows_in, spectrum, rows_out)]
         FFTWPlans(*scratch, threads, ("FFTW_MEASURE",))
         _save_wisdom()
@@ -192,7 +196,17 @@ class FFTWBackend(ScipyFFT):
         self.output_scale = dtype(1.0 / (4 * nx * ny))
         #: measured plans (default: from MEASURE_FROM_CELLS cells on), else estimated
         self.measure = ny * nx >= MEASURE_FROM_CELLS if measure is None else bool(measure)
+        #: layouts without wisdom are measured (a grid solved on for a whole path); False: estimated
+        #: (``transient``)
+        self.measure_new = True
         self._plans: dict[int, FFTWPlans] = {}
+
+    def transient(self):
+        """This backend's grid serves a few solves (a tangential solve's window, whose size
+        follows the contact from state to state): plans from the machine's wisdom where it has
+        some, else estimated, not measured. A path at n = 512 on a machine without wisdom met 19
+        layouts, and measuring them took 14 s of its solve."""
+        self.measure_new = False
 
     def spectrum_of_padded(self, padded):
         """The scipy backend's spectrum (layout (2 ny, nx + 1)), made by FFTW with an estimated
@@ -209,7 +223,7 @@ class FFTWBackend(ScipyFFT):
         plans = self._plans.get(spectrum.ptr)
         if plans is None or plans.spectrum.shape != spectrum.shape:
             arrays = (self._rows, self._complex_view(spectrum), self._output, self.workers)
-            plans = FFTWPlans.measured(*arrays) if self.measure else FFTWPlans(*arrays)
+            plans = FFTWPlans.measured(*arrays, measure_new=self.measure_new) if self.measure else FFTWPlans(*arrays)
             self._plans[spectrum.ptr] = plans
         return plans
 

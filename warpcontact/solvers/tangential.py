@@ -410,6 +410,7 @@ class _Window:
         self.cells = int(cells)
         self.row0 = self.col0 = 0
         model = m.on_grid(Grid(self.cells, self.cells * m.grid.dx))
+        model.operator.fft.transient()  # its size follows the contact: plans not worth measuring
         self.solver = TangentialSolver(model, replace(parent.settings, tol=parent.tol, window=False))
         f = model.field
         # the state the window's solve works on (the attributes of ContactState it reads and writes)
