@@ -43,7 +43,7 @@ S_CLIPPED = wp.constant(3)  # cells a trial step put against the bound
 S_SLOPE = wp.constant(4)  # g . s of a trial step
 S_DOT = wp.constant(5)  # a dot product (two-loop recursion)
 S_FORCE = wp.constant(6)  # sum of the traction over the physical cells
-S_SY = wp.constant(7)  # s . y of a new L-BFGS pair (pair_sums)
+S_SY = wp.constant(7)  # s . y of a new L-BFGS pair (``reduce.sums_of_products``)
 S_SS = wp.constant(8)  # s . s
 S_YY = wp.constant(9)  # y . y
 N_SUMS = 10
@@ -253,56 +253,6 @@ def adhesive_scale(
         else:
             phi, t, kk = law_values(law, h, opening_t[j], a, b, c)
             field[i] = field[i] / wp.sqrt(type(a)(1.0) + wp.max(kk, zero) * self_compliance)
-
-
-@wp.kernel
-def dot_sum(
-    x: wp.array(dtype=Any),
-    y: wp.array(dtype=Any),
-    slot: int,
-    n: int,
-    outer: int,
-    inner: int,
-    per: int,
-    sums: wp.array(dtype=Any),
-):
-    """sums[slot] += x . y"""
-    block, lane = wp.tid()
-    thread = block * wp.block_dim() + lane
-    s = x[0] - x[0]
-    for k in range(per):
-        i = cell_index(thread, outer, inner, k)
-        if i < n:
-            s += x[i] * y[i]
-    block_add(sums, slot, s)
-
-
-@wp.kernel
-def pair_sums(
-    s: wp.array(dtype=Any),
-    y: wp.array(dtype=Any),
-    n: int,
-    outer: int,
-    inner: int,
-    per: int,
-    sums: wp.array(dtype=Any),
-):
-    """sums[S_SY] += s . y, sums[S_SS] += s . s, sums[S_YY] += y . y: a new L-BFGS pair (s, y)
-    (step, gradient change), whether its curvature s . y is kept, in one pass."""
-    block, lane = wp.tid()
-    thread = block * wp.block_dim() + lane
-    s_sy = s[0] - s[0]
-    s_ss = s_sy
-    s_yy = s_sy
-    for k in range(per):
-        i = cell_index(thread, outer, inner, k)
-        if i < n:
-            s_sy += s[i] * y[i]
-            s_ss += s[i] * s[i]
-            s_yy += y[i] * y[i]
-    block_add(sums, S_SY, s_sy)
-    block_add(sums, S_SS, s_ss)
-    block_add(sums, S_YY, s_yy)
 
 
 @wp.kernel
@@ -523,7 +473,7 @@ def spectral_scale(spectrum: wp.array2d(dtype=Any), influence: wp.array2d(dtype=
         spectrum[r, q] = spectrum[r, q] * kval
 
 
-for _k in (adhesive_evaluate, adhesive_free, adhesive_scale, dot_sum, pair_sums, pair_curvature, two_loop_first,
+for _k in (adhesive_evaluate, adhesive_free, adhesive_scale, pair_curvature, two_loop_first,
            two_loop_second, difference, scaled_copy, adhesive_trial, adhesive_change, adhesive_state,
            adhesive_start, adhesive_offset, project_to_bound, smc_opening):
     register_float_overloads(_k)

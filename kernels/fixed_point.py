@@ -67,35 +67,6 @@ def anderson_residual(
 
 
 @wp.kernel
-def anderson_dots(
-    residual: wp.array(dtype=Any),
-    residual_diff: wp.array2d(dtype=Any),
-    column: int,
-    j: int,
-    depth: int,
-    n: int,
-    outer: int,
-    inner: int,
-    per: int,
-    sums: wp.array(dtype=Any),
-):
-    """sums[GRAM_SLOTS + j] += dF_column . dF_j; sums[GRAM_SLOTS + depth + j] += dF_j . f."""
-    block, lane = wp.tid()
-    thread = block * wp.block_dim() + lane
-    zero = residual[0] - residual[0]
-    s_gram = zero
-    s_rhs = zero
-    for k in range(per):
-        i = cell_index(thread, outer, inner, k)
-        if i < n:
-            d = residual_diff[j, i]
-            s_gram += residual_diff[column, i] * d
-            s_rhs += d * residual[i]
-    block_add(sums, GRAM_SLOTS + j, s_gram)
-    block_add(sums, GRAM_SLOTS + depth + j, s_rhs)
-
-
-@wp.kernel
 def anderson_update(
     residual: wp.array(dtype=Any),
     residual_diff: wp.array2d(dtype=Any),
@@ -113,5 +84,5 @@ def anderson_update(
     iterate[i] = x
 
 
-for _k in (anderson_residual, anderson_dots, anderson_update):
+for _k in (anderson_residual, anderson_update):
     register_float_overloads(_k)

@@ -195,5 +195,36 @@ def cg_advance(sums: wp.array(dtype=Any), parameters: wp.array(dtype=Any), resta
     done, stopped = advance(sums, parameters, restart_every, scalars, residual_history, loop, refresh)
 
 
+@wp.kernel
+def sums_of_products(a0: wp.array(dtype=Any), b0: wp.array(dtype=Any), a1: wp.array(dtype=Any),
+                     b1: wp.array(dtype=Any), a2: wp.array(dtype=Any), b2: wp.array(dtype=Any), slot0: int,
+                     slot1: int, slot2: int, count: int, n: int, outer: int, inner: int, per: int,
+                     sums: wp.array(dtype=Any)):
+    """sums[slot_k] += a_k . b_k for the first ``count`` (1 to 3) pairs, in one pass: the dot
+    products of the solvers' vector algebra (the L-BFGS recursion and its new pairs, Anderson
+    mixing's Gram matrix). The pairs past ``count`` are not read (any arrays will do); the
+    Python side is ``numerics.launch.products``."""
+    block, lane = wp.tid()
+    thread = block * wp.block_dim() + lane
+    zero = a0[0] - a0[0]
+    s0 = zero
+    s1 = zero
+    s2 = zero
+    for k in range(per):
+        i = cell_index(thread, outer, inner, k)
+        if i < n:
+            s0 += a0[i] * b0[i]
+            if count > 1:
+                s1 += a1[i] * b1[i]
+            if count > 2:
+                s2 += a2[i] * b2[i]
+    block_add(sums, slot0, s0)
+    if count > 1:
+        block_add(sums, slot1, s1)
+    if count > 2:
+        block_add(sums, slot2, s2)
+
+
+register_float_overloads(sums_of_products)
 register_float_overloads(loop_start)
 register_float_overloads(cg_advance)

@@ -67,6 +67,16 @@ class ReductionLaunch:
         return [n, self.outer, self.inner, self.per]
 
 
+def products(*pairs) -> list:
+    """The inputs of ``kernels/reduce.py``'s ``sums_of_products`` for one to three
+    ``(a, b, slot)``: sums[slot] += a . b for each, in one pass (the pairs not given are not read:
+    the first pair's arrays stand in for them)."""
+    if not 1 <= len(pairs) <= 3:
+        raise ValueError(f"products: one to three pairs, got {len(pairs)}")
+    full = list(pairs) + [(pairs[0][0], pairs[0][1], pairs[0][2])] * (3 - len(pairs))
+    return [*(a for a, b, _ in full for a in (a, b)), *(int(slot) for _, _, slot in full), len(pairs)]
+
+
 @dataclass(frozen=True)
 class Rows:
     """A field argument of a launch the CPU may split by rows (:class:`LaunchCache`): each part

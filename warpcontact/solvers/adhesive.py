@@ -13,9 +13,10 @@ import numpy as np
 import warp as wp
 
 from warpcontact.kernels import adhesive as ak
+from warpcontact.kernels import reduce as rk
 
 from .. import interrupts
-from ..numerics.launch import ReductionLaunch
+from ..numerics.launch import ReductionLaunch, products
 from ..numerics.state import SolveInfo
 
 #: L-BFGS pairs kept: the fewest FFT pairs per state on the Maugis-Dugdale curves (docs/model.md)
@@ -225,7 +226,7 @@ class AdhesiveNormalSolver:
 
     def _dot(self, x, y) -> float:
         self.sums.zero_()
-        self._reduce(ak.dot_sum, [x, y, int(ak.S_DOT)], [self.sums])
+        self._reduce(rk.sums_of_products, products((x, y, ak.S_DOT)), [self.sums])
         return float(self._sums()[ak.S_DOT])
 
     def _direction(self, pairs, eps: float):
@@ -240,7 +241,7 @@ class AdhesiveNormalSolver:
         if pairs:
             dots.zero_()
         for k, slot in enumerate(newest_first):  # alpha_k = rho_k s_k . q; q <- q - alpha_k y_k
-            self._reduce(ak.dot_sum, [self.steps[slot], q, k], [dots])
+            self._reduce(rk.sums_of_products, products((self.steps[slot], q, k)), [dots])
             self._launch(ak.two_loop_first, self.n_padded, [dots, k, self.rho, slot, self.gradient_changes[slot]], [q])
         free_in = [self.displacement, self.gradient, self.offset.flatten(), m.scalar(eps), m.grid.n]
         scale_in = [self.displacement, self.gradient, self.offset.flatten(), self.opening_t.flatten(), self.law_id,
@@ -250,7 +251,8 @@ class AdhesiveNormalSolver:
         self._launch(ak.adhesive_scale, self.n_padded, scale_in, [self.direction])
         for k in reversed(range(len(newest_first))):  # oldest first: d <- d + (alpha_k - rho_k y_k . d) s_k
             slot = newest_first[k]
-            self._reduce(ak.dot_sum, [self.gradient_changes[slot], self.direction, self.memory + k], [dots])
+            self._reduce(rk.sums_of_products, products((self.gradient_changes[slot], self.direction, self.memory + k)),
+                         [dots])
             self._launch(ak.two_loop_second, self.n_padded,
                          [dots, k, self.memory, self.rho, slot, self.steps[slot]], [self.direction])
         self._launch(ak.adhesive_free, self.n_padded, free_in, [self.direction])
@@ -322,7 +324,7 @@ class AdhesiveNormalSolver:
                 self.convolution.apply(self.direction, self.direction_traction, inverse=True)
                 transforms += 2
                 self.sums.zero_()
-                self._reduce(ak.dot_sum, [self.gradient, self.direction, int(ak.S_DOT)], [self.sums])
+                self._reduce(rk.sums_of_products, products((self.gradient, self.direction, ak.S_DOT)), [self.sums])
                 t = self._add_trial(1.0)
                 descent = t[ak.S_DOT] < 0
                 if descent or not pairs:
@@ -371,7 +373,8 @@ class AdhesiveNormalSolver:
             self._launch(ak.difference, self.n_padded, [self.trial_displacement, self.displacement], [self.steps[slot]])
             self._launch(ak.difference, self.n_padded, [self.trial_gradient, self.gradient],
                          [self.gradient_changes[slot]])
-            self._reduce(ak.pair_sums, [self.steps[slot], self.gradient_changes[slot]], [self.sums])
+            s, y = self.steps[slot], self.gradient_changes[slot]
+            self._reduce(rk.sums_of_products, products((s, y, ak.S_SY), (s, s, ak.S_SS), (y, y, ak.S_YY)), [self.sums])
             read = self._sums()
             if evaluate:
                 trial_sums = read

@@ -20,6 +20,9 @@ import numpy as np
 import warp as wp
 
 from warpcontact.kernels import fixed_point as fk
+from warpcontact.kernels import reduce as rk
+
+from ..numerics.launch import products
 
 #: history columns kept (5 reached the tolerance in the fewest turns on the Table 2 cases)
 DEPTH = 5
@@ -92,7 +95,11 @@ class AndersonMixing:
             self._next = (column + 1) % self.depth
             for j in self.columns:
                 for k in range(len(iterates)):
-                    m.launch_reduce(fk.anderson_dots, [self.residual[k], self.residual_diff[k], column, j, self.depth],
+                    # dF_column . dF_j into the Gram matrix's slot j, dF_j . f into the right side's
+                    diff = self.residual_diff[k]
+                    m.launch_reduce(rk.sums_of_products,
+                                    products((diff[column], diff[j], fk.GRAM_SLOTS + j),
+                                             (diff[j], self.residual[k], fk.GRAM_SLOTS + self.depth + j)),
                                     [self.sums])
         s = self.sums.numpy().astype(np.float64)
         gamma = np.zeros(self.depth)
