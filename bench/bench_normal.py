@@ -26,6 +26,7 @@ import warp as wp
 from warpcontact.fft import available_backends
 from warpcontact.physics.geometry import Grid, Sphere
 from warpcontact.physics.materials import PAPER_PAIR
+from warpcontact.numerics.launch import LaunchCache
 from warpcontact.numerics.model import ContactModel
 from warpcontact.physics.reference import hertz
 from warpcontact.solvers import NormalSolver
@@ -40,12 +41,21 @@ MODES = {
     "default": {},  # preconditioned, one convolution per iteration
     "plain": {"normal_preconditioner": False},  # Polonsky-Keer without the preconditioner
     "two-conv": {"one_convolution": False},  # the gap recomputed (K p) at every iteration
+    # the launch layer (numerics/launch.py): the default replays recorded launches and, on the CPU,
+    # splits a launch by rows over the CPU's threads; "one-thread" replays without splitting;
+    # "plain-launches" neither (a wp.launch per kernel, on one thread)
+    "one-thread": {"launches": {"threads": 1}},
+    "plain-launches": {"launches": {"threads": 1, "replay": False}},
 }
 
 
 def time_warpcontact(n, device, dtype, fft, repeats, mode="default"):
+    choices = dict(MODES[mode])
+    launches = {"threads": None, "replay": True, **choices.pop("launches", {})}
+    for name, value in launches.items():  # the launch layer's defaults, for the caches made below
+        setattr(LaunchCache, name, value)
     model = ContactModel(PAPER_PAIR, Sphere(R, "paraboloid"), Grid(n, 4 * A), device=device, dtype=dtype, fft=fft)
-    solver = NormalSolver(model, **MODES[mode])
+    solver = NormalSolver(model, **choices)
     best = math.inf
     info = None
     for rep in range(repeats + 1):  # the first solve compiles and warms caches: not timed
@@ -111,7 +121,8 @@ def main():
     ap.add_argument("--slippy-python", help="interpreter of a venv with slippy 0.5.2: time it side by side")
     ap.add_argument("--modes", nargs="*", default=["default"], choices=list(MODES),
                     help="normal-solver variants to time side by side: the default (preconditioned), plain "
-                         "(no preconditioner), two convolutions per iteration")
+                         "(no preconditioner), two convolutions per iteration; the launch layer without the "
+                         "CPU's split launches (one-thread) and without replays either (plain-launches)")
     ap.add_argument("--json", help="also write the rows to this file")
     args = ap.parse_args()
     wp.config.quiet = True

@@ -25,6 +25,9 @@ Paths (``--paths``, names or "all"; default: the examples and the extras):
 - ``table2:K:DZ`` (``:adh`` at the end: with adhesion): a Table 2 cell's path to the paper's delta_x_max (k_tau K, delta_z DZ um; the
   cell's domain as ``table2`` builds it, n replaced), ``--table2`` adds all 24 (both columns).
 
+``--choices one-thread plain-launches``: the launch layer's alternatives beside ``auto`` (on the
+CPU, launches not split over its threads; and every launch a plain ``wp.launch``).
+
 Usage (the ratios between choices matter, not the seconds: run them in one call):
 
     python bench/paths.py --device cuda --sizes 256 1024 2048 4096 --choices auto nested-off
@@ -54,6 +57,12 @@ CHOICES = {
     "window-on": ("auto", True),
     "window-off": ("auto", False),
     "both-off": (False, False),
+}
+#: choices of the launch layer (numerics/launch.py, ``LaunchCache``'s class defaults), the solver's
+#: choices "auto": on the CPU, launches not split over its threads; and not replayed either
+LAUNCH_CHOICES = {
+    "one-thread": {"threads": 1},
+    "plain-launches": {"threads": 1, "replay": False},
 }
 
 
@@ -136,6 +145,10 @@ def child(args) -> None:
     """One path in this process: print one JSON line."""
     d = json.loads(args.child)
     import warpcontact as wc
+    from warpcontact.numerics.launch import LaunchCache
+
+    for name, value in d.pop("launches", {}).items():
+        setattr(LaunchCache, name, value)
 
     t0 = time.perf_counter()
     result = wc.solve(d, fields="none")
@@ -155,9 +168,11 @@ def child(args) -> None:
 def run_one(name: str, n: int, choice: str, device: str, timeout: float) -> dict:
     d = case_dict(name)
     d["grid"]["n"] = int(n)
-    nested, window = CHOICES[choice]
+    nested, window = CHOICES.get(choice, CHOICES["auto"])
     solver = d.setdefault("solver", {})
     solver.update({"device": device, "nested": nested, "window": window})
+    if choice in LAUNCH_CHOICES:
+        d["launches"] = LAUNCH_CHOICES[choice]
     row = {"path": name, "n": n, "choice": choice, "device": device, "dtype": solver.get("dtype", "float64")}
     t0 = time.perf_counter()
     try:
@@ -198,7 +213,8 @@ def main(argv=None):
     p.add_argument("--sizes", type=int, nargs="+", default=[256, 512])
     p.add_argument("--paths", nargs="+", default=["all"])
     p.add_argument("--table2", action="store_true", help="add Table 2's 24 cells")
-    p.add_argument("--choices", nargs="+", default=["auto"], help=f"of {list(CHOICES)} or 'all'")
+    p.add_argument("--choices", nargs="+", default=["auto"],
+                   help=f"of {list(CHOICES)} or 'all' (the solver's), or of {list(LAUNCH_CHOICES)} (the launch layer's)")
     p.add_argument("--timeout", type=float, default=300.0, help="seconds a path may take (its whole process)")
     p.add_argument("--out", default=str(ROOT / "bench_results" / "paths"))
     p.add_argument("--child", help=argparse.SUPPRESS)
@@ -210,8 +226,8 @@ def main(argv=None):
         names = names + table2_names()
     choices = list(CHOICES) if args.choices == ["all"] else args.choices
     for c in choices:
-        if c not in CHOICES:
-            raise SystemExit(f"paths.py: --choices takes {list(CHOICES)} or all, not {c!r}")
+        if c not in CHOICES and c not in LAUNCH_CHOICES:
+            raise SystemExit(f"paths.py: --choices takes {list(CHOICES) + list(LAUNCH_CHOICES)} or all, not {c!r}")
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
     log = out / f"paths_{args.device.replace(':', '')}_{time.strftime('%Y%m%d_%H%M%S')}.jsonl"

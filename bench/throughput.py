@@ -65,13 +65,11 @@ def sweep_file(folder: Path, n: int, cases: int, device: str, dtype: str) -> Pat
     return path
 
 
-def one_at_a_time(path: Path) -> dict:
+def one_at_a_time(cases: list) -> dict:
     """``api``: the cases one after another in this process, one model."""
     import warpcontact as wc
     from warpcontact.studies.runner import build_model
-    from warpcontact.studies.sweep_spec import load_sweep
 
-    cases = [sc.case for sc in load_sweep(path).cases]
     model = build_model(cases[0])
     wc.solve(cases[0], fields="none", model=model)  # warm-up: kernels, plans
     t0 = time.perf_counter()
@@ -96,20 +94,6 @@ def normal_cases(n: int, cases: int, device: str, dtype: str) -> list:
                                "load": {"delta_z": DZ * (0.5 + i / max(1, cases - 1)), "steps": 1},
                                "solver": {"device": device, "dtype": dtype}})
             for i in range(cases)]
-
-
-def normal_one_at_a_time(cases: list) -> dict:
-    """``api`` of ``--problem normal``: ``solve`` case after case, one model."""
-    import warpcontact as wc
-    from warpcontact.studies.runner import build_model
-
-    model = build_model(cases[0])
-    wc.solve(cases[0], fields="none", model=model)  # warm-up: kernels, plans
-    t0 = time.perf_counter()
-    results = [wc.solve(case, fields="none", model=model) for case in cases]
-    wall = time.perf_counter() - t0
-    assert all(r.converged for r in results), "a case did not converge"
-    return {"placement": "api", "workers": 1, "cases": len(cases), "start_s": 0.0, "wall_s": wall}
 
 
 def batched(cases: list, batch: int) -> dict:
@@ -169,13 +153,15 @@ def main(argv=None):
     for n in args.sizes:
         if args.problem == "normal":
             cases = normal_cases(n, args.cases, args.device, args.dtype)
-            base = normal_one_at_a_time(cases)
+            base = one_at_a_time(cases)
             runs = [base] + [batched(cases, b) for b in args.batches]
         else:
             folder = Path(tempfile.mkdtemp(prefix="throughput_case_"))
             try:
+                from warpcontact.studies.sweep_spec import load_sweep
+
                 path = sweep_file(folder, n, args.cases, args.device, args.dtype)
-                base = one_at_a_time(path)
+                base = one_at_a_time([sc.case for sc in load_sweep(path).cases])
                 runs = [base] + [with_workers(path, w) for w in args.workers]
             finally:
                 shutil.rmtree(folder, ignore_errors=True)

@@ -156,11 +156,16 @@ class LaunchCache:
             change every time (a load step's shifts) take a place each.
     """
 
-    #: CPU: launches over fewer entries than this run whole on one thread. A split costs about
-    #: 0.1 ms (waking the other thread, merging the sums): on this project's 2-core machine
-    #: ``normal_step_sums`` took 0.020 -> 0.12 ms split at n = 16, 0.11 -> 0.18 at 128,
-    #: 0.38 -> 0.31 at 256 and 1.49 -> 0.92 at 512.
-    min_split_entries = 2**16
+    #: CPU: launches over fewer entries than this (512 x 512) run whole on one thread. A split
+    #: costs about 0.1 ms (waking the other thread, merging the sums); along whole paths on 2
+    #: cores it paid from n = 512 on, not at 256 (docs/performance.md, "The launch layer").
+    min_split_entries = 2**18
+    #: CPU threads a cache splits launches over by default (None: one per CPU); 1: no split (what
+    #: ``bench/paths.py --choices one-thread`` compares with)
+    threads: int | None = None
+    #: replay recorded launches; False: every launch is a plain ``wp.launch`` (``bench/paths.py
+    #: --choices plain-launches``)
+    replay = True
 
     def __init__(self, device, capacity: int = 2048, workers: int | None = None):
         self.device = device
@@ -168,7 +173,7 @@ class LaunchCache:
         self._launches: OrderedDict = OrderedDict()
         self._pool = None
         self._splits: OrderedDict = OrderedDict()
-        self.workers = workers or os.cpu_count() or 1
+        self.workers = workers or self.threads or os.cpu_count() or 1
 
     @property
     def workers(self) -> int:
@@ -191,6 +196,10 @@ class LaunchCache:
     def launch(self, kernel, dim, inputs, outputs=(), block_dim=None):
         """``wp.launch(kernel, dim, inputs, outputs, block_dim=block_dim)`` on the cache's device
         (:class:`Rows` and :class:`Sums` arguments taken as their arrays)."""
+        if not self.replay:
+            wp.launch(kernel, dim=dim, inputs=[_plain(a) for a in inputs], outputs=[_plain(a) for a in outputs],
+                      device=self.device, block_dim=block_dim)
+            return
         key = self._key(kernel, dim, block_dim, inputs, outputs)
         cmd = self._launches.get(key)
         if cmd is None:
