@@ -15,6 +15,7 @@ it, up to the solves' tolerance. Cases with friction or adhesion are solved one 
 from __future__ import annotations
 
 import time
+import warnings
 from collections import OrderedDict
 from dataclasses import replace
 
@@ -62,31 +63,44 @@ def solve_batch(cases: list, fields: str = "none", batch: int | None = None, on_
     ``batch``: cases per batched solve (default: ``batch_size``). ``on_case(index, result)`` is
     called as each case ends."""
     results: list = [None] * len(cases)
+    ended = set()
 
     def done(index, result):
         results[index] = result
+        ended.add(index)
         if on_case is not None:
             on_case(index, result)
+
+    def alone(index):  # one case as solve solves it
+        try:
+            result = run_path(cases[index], fields=fields)
+        except Exception as e:  # noqa: BLE001 (the case's failure is its result)
+            result = e
+        done(index, result)
 
     groups: OrderedDict = OrderedDict()
     for index, case in enumerate(cases):
         if not batchable(case):
-            try:
-                result = run_path(case, fields=fields)
-            except Exception as e:  # noqa: BLE001 (the case's failure is its result)
-                result = e
-            done(index, result)
+            alone(index)
             continue
         s = case.solver
         key = (case.grid.n, str(resolve_device(s.device)), s.dtype)
         groups.setdefault(key, []).append(index)
     for (n, device, dtype), indices in groups.items():
-        size = batch_size(n, device, resolve_dtype(dtype), len(indices), batch)
-        solver = BatchNormalSolver(n, size, device, resolve_dtype(dtype))
-        for start in range(0, len(indices), size):
-            chunk = indices[start:start + size]
-            for index, result in _solve_chunk(solver, [cases[i] for i in chunk], chunk, fields):
-                done(index, result)
+        try:
+            size = batch_size(n, device, resolve_dtype(dtype), len(indices), batch)
+            solver = BatchNormalSolver(n, size, device, resolve_dtype(dtype))
+            for start in range(0, len(indices), size):
+                chunk = indices[start:start + size]
+                for index, result in _solve_chunk(solver, [cases[i] for i in chunk], chunk, fields):
+                    done(index, result)
+        except (RuntimeError, MemoryError, OSError) as e:  # the batched solve itself failed (a device's
+            # refusal, a library's error): the cases it had not ended are solved one at a time
+            left = [i for i in indices if i not in ended]
+            warnings.warn(f"the batched solve of {len(left)} case(s) at n = {n} on {device} failed "
+                          f"({type(e).__name__}: {e}); they are solved one at a time", RuntimeWarning, stacklevel=3)
+            for index in left:
+                alone(index)
     return results
 
 
