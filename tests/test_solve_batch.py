@@ -73,6 +73,31 @@ def test_a_batch_of_cases_gives_each_what_solve_gives(device):
         assert result.yield_check is not None and result.summary()["yielded"] is False
 
 
+def test_other_shapes_in_one_batch(tmp_path):
+    """A flat punch, a cone and a rough height map (non-Hertzian bodies: a model each, the
+    punch's edge singularity, several contact patches) batched together: each within 1e-8 of
+    solve, contact patches and areas identical."""
+    rng = np.random.default_rng(5)
+    heights = 2e-10 * rng.standard_normal((33, 33))
+    heights -= heights.min()
+    np.save(tmp_path / "rough.npy", heights)
+    common = {"flat": {"E": 100e9, "nu": 0.3}, "grid": {"n": 32, "size": 2.5e-8}}
+    cases = [
+        {**common, "sphere": {"profile": "flat_punch", "radius": 1e-8, "E": 100e9, "nu": 0.3},
+         "load": {"delta_z": 1e-10}},
+        {**common, "sphere": {"profile": "cone", "half_angle": 80.0, "E": 100e9, "nu": 0.3},
+         "load": {"delta_z": 1e-10, "steps": 2}},
+        {**common, "sphere": {"profile": "height_map", "height_map": str(tmp_path / "rough.npy"),
+                              "pixel_size": 2.5e-8 / 32, "E": 100e9, "nu": 0.3},
+         "load": {"delta_z": 6e-10}},  # the cells' lowest gap is 3.5e-10 m (the map's lowest pixel between them)
+    ]
+    for c, result in zip(cases, quiet(wc.solve_batch, cases)):
+        single = quiet(wc.solve, c, fields="none")
+        assert_same_path(result, single, rel=1e-8)
+        assert result.states[-1]["contact_patches"] == single.states[-1]["contact_patches"]
+    assert single.states[-1]["contact_patches"] > 1  # the rough map touches in several patches
+
+
 def test_batches_smaller_than_the_cases_and_float32():
     """Three cases in batches of 2 (a full batch, then one case) give the results of one batch
     of 3; in float32 (tolerance 1e-5 on the relative residual) the forces are within 1e-4 of
