@@ -281,15 +281,15 @@ def test_the_adhesive_zone_is_judged_by_the_same_rule():
 
 
 def test_table2_grids_are_judged_by_the_same_rule():
-    from warpcontact.cli.table2 import _table2_resolution
+    from warpcontact.studies.table2 import check_resolution
     from warpcontact.records.guards import CoarseGridWarning
 
     law = {"delta_n": 5e-12}
     with pytest.warns(CoarseGridWarning, match=r"table2 --n 16: the contact radius .* spans 5.3 cells .* --n 112"):
-        _table2_resolution([(16, 0.8, 5e-5, False), (16, 0.8, 1.5e-4, True)], 3.0, law)
+        check_resolution([(16, 0.8, 5e-5, False), (16, 0.8, 1.5e-4, True)], 3.0, law)
     with warnings.catch_warnings():  # the defaults (n = 128 over 3 a) resolve every cell
         warnings.simplefilter("error", CoarseGridWarning)
-        _table2_resolution([(128, k, dz, adh) for k in (0.5, 0.8) for dz in (1e-5, 1.5e-4) for adh in (0, 1)], 3.0, law)
+        check_resolution([(128, k, dz, adh) for k in (0.5, 0.8) for dz in (1e-5, 1.5e-4) for adh in (0, 1)], 3.0, law)
 
 
 def test_pressure_above_a_yield_strength_warns_once_naming_the_body(capsys, tmp_path):

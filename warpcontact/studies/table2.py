@@ -5,6 +5,10 @@ cells k_tau in (0.50, 0.80, 0.95) x delta_z in (1.0e-5, 5.0e-5, 1.0e-4, 1.5e-4) 
 with adhesion (the SMC law with ``Table2Settings``' parameters; the paper gives none:
 docs/validation.md, "Adhesion defaults", gives the reasoning and docs/img/adhesion_sensitivity.png
 the dependence).
+
+A run of the table (:class:`Table2Run`, the ``warpcontact table2`` command's work) computes its cells
+on the batch engine and writes ``OUT/table2.json``, ``.md`` and ``.csv`` after each finished cell; a
+rerun with the same settings skips the cells finished before.
 """
 
 from __future__ import annotations
@@ -15,6 +19,8 @@ import time
 from dataclasses import dataclass
 from pathlib import Path
 
+from .. import interrupts
+from ..errors import InputError, OutputError
 from ..physics.geometry import Grid, Sphere
 from ..records.guards import grid_holding, suggested_adhesive_size, withhold_if_unconverged
 from ..physics.materials import PAPER_PAIR
@@ -257,3 +263,273 @@ def markdown(records: list) -> str:
             f"{mu} | {r['paper_mu']:.3f} | {dmu} | {r['n']} | {r['converged']} | {_elastic_text(r)} |"
         )
     return "\n".join(lines) + "\n"
+
+
+# ---------------------------------------------------------------------------------------------
+# A run of the table: its cells on the batch engine, each finished cell written at once.
+
+#: the SMC law's columns of table2.csv
+_CSV_LAW = ("sigma_max", "tau_max", "delta_n", "delta_t", "contact_shear")
+
+
+def cell_law(settings: Table2Settings) -> dict:
+    """The SMC law's parameters of ``settings`` that tell adhesive cells apart: sigma_max, tau_max
+    [Pa], delta_n, delta_t [m], and contact_shear only when not "bounded" (so the cells of the
+    default match the records written without that key)."""
+    law = {k: getattr(settings, k) for k in ("sigma_max", "tau_max", "delta_n", "delta_t")}
+    if settings.contact_shear != "bounded":
+        law["contact_shear"] = settings.contact_shear
+    return law
+
+
+def check_law(settings: Table2Settings, adhesive: bool = True) -> None:
+    """InputError (keyed as in a case file: adhesion.sigma_max, ...) for an SMC law of ``settings``
+    out of range and, when adhesive cells run, for one implausible on the paper's pair (a length in
+    nm written as m, ...: :func:`warpcontact.records.plausibility.check_adhesion`)."""
+    settings.adhesion_law()
+    if adhesive:
+        from ..records.case import AdhesionSpec
+        from ..records.plausibility import check_adhesion
+
+        bodies = {k: (m.E, m.nu, m.yield_strength, m.hardness)
+                  for k, m in (("sphere", PAPER_PAIR.sphere), ("flat", PAPER_PAIR.flat))}
+        check_adhesion(AdhesionSpec("smc", **cell_law(settings)), PAPER_PAIR.E_star, bodies)
+
+
+def select_cells(k_tau=(), delta_z_um=()) -> list:
+    """The (k_tau, delta_z_um) cells of each column whose k_tau is among ``k_tau`` and delta_z [um]
+    among ``delta_z_um`` (empty: all); InputError (key "k_tau" or "delta_z_um") for a value that is
+    no cell of the table."""
+    selected = cells()
+    for name, values, column in (("k_tau", k_tau, 0), ("delta_z_um", delta_z_um, 1)):
+        if values:
+            known = sorted({c[column] for c in cells()})
+            for v in values:
+                if not any(math.isclose(v, k, rel_tol=1e-9) for k in known):
+                    raise InputError(name, f"{v!r} is not a cell of Table 2; choose from {known}")
+            selected = [c for c in selected if any(math.isclose(c[column], v, rel_tol=1e-9) for v in values)]
+    return selected
+
+
+def check_resolution(todo, size_in_a: float, law: dict) -> None:
+    """One warning when a Table 2 cell's grid is too coarse by the rule of every command
+    (guards.resolution_advice), judged before the run on each cell's Hertz contact radius
+    a = sqrt(R delta_z) and, in the adhesive columns, the adhesive zone that the Hertz gap
+    leaves within the law's range delta_n (the DMT side's width, an upper bound). ``todo``: the
+    cells (n, k_tau, delta_z_um, adhesion); ``law``: the SMC law's parameters (delta_n [m])."""
+    import warnings
+
+    from ..records.guards import (
+        CoarseGridWarning,
+        adhesive_zone_estimate,
+        resolution_advice,
+        resolution_needs,
+    )
+
+    worst = None
+    for n, _, dz_um, adh in todo:
+        a = math.sqrt(RADIUS * dz_um * UM)
+        widths = {"contact_radius": a}
+        if adh:
+            widths["adhesive_zone"] = adhesive_zone_estimate(a, RADIUS, law["delta_n"])
+        needs = resolution_needs(n, size_in_a * a, **widths)
+        if needs and (worst is None or max(x[-1] for x in needs) > worst[0]):
+            worst = (max(x[-1] for x in needs), n, dz_um, widths)
+    if worst is not None:
+        need, n, dz_um, widths = worst
+        text = resolution_advice(n, size_in_a * math.sqrt(RADIUS * dz_um * UM), f"at delta_z = {dz_um:g} um",
+                                 **widths)
+        warnings.warn(f"table2 --n {n}: {text.split(' on the ')[0]}: results carry a large discretisation error; "
+                      f"--n {need} would do", CoarseGridWarning, stacklevel=2)
+
+
+def result_text(rec) -> str:
+    """A finished cell's result line: delta_x_max [um] and mu against the paper, the time [s]."""
+    if not rec["converged"]:
+        return f"not converged (a state of the path did not converge), {rec['elapsed_s']:.0f} s"
+    mu = ("undefined (F_z <= 0)" if rec["mu"] is None
+          else f"{rec['mu']:.4f} ({100 * rec['rel_diff_mu']:+.1f} %)")
+    return (f"delta_x_max {rec['delta_x_max_um']:.3e} um ({100 * rec['rel_diff_delta_x_max']:+.1f} %), "
+            f"mu {mu}, {rec['elapsed_s']:.0f} s")
+
+
+def write_table2(out, records, status: dict) -> None:
+    """OUT/table2.json (``status``: complete, interrupted, cells planned and done; the cells),
+    then table2.md and table2.csv, each whole (atomic: a failure raises OutputError and leaves
+    the file as it was)."""
+    import io
+
+    from ..files import atomic_write_bytes, atomic_write_json
+
+    out = Path(out)
+    records = sorted(records, key=lambda r: (r.get("adhesion", False), r["n"], r["k_tau"], r["delta_z_um"]))
+    atomic_write_json(out / "table2.json", {**status, "cells": records})
+    atomic_write_bytes(out / "table2.md", markdown(records).encode())
+    buf = io.StringIO()
+    keys = ["n", "k_tau", "delta_z_um", "adhesion", *_CSV_LAW, "delta_x_max_um", "paper_delta_x_max_um",
+            "rel_diff_delta_x_max", "mu", "paper_mu", "rel_diff_mu", "mu_elastic", "converged", "yielded",
+            "yield_margin", "elapsed_s"]
+    w = csv.DictWriter(buf, fieldnames=keys, extrasaction="ignore")
+    w.writeheader()
+
+    def law_value(r, k):
+        law = r.get("adhesion_law") or {}
+        return law.get(k, "bounded" if k == "contact_shear" and law else "")
+
+    w.writerows({**r, **{k: law_value(r, k) for k in _CSV_LAW}} for r in records)
+    atomic_write_bytes(out / "table2.csv", buf.getvalue().encode())
+
+
+def _cell_key(n, k, dz, adh, size_in_a, device, dtype, fft, law=None) -> tuple:
+    """What a finished cell must match to stand for a planned one: its place in the table, grid and
+    solver settings and, for an adhesive cell, the law's parameters (a tuple of sorted items)."""
+    return (n, k, dz, adh, size_in_a, device, dtype, fft, law if adh else None)
+
+
+def _record_key(r: dict, law_names) -> tuple:
+    """:func:`_cell_key` of a record of table2.json (the defaults for the keys an older record
+    lacks), its law read for the parameters ``law_names``."""
+    law = r.get("adhesion_law") or {}
+    return _cell_key(r["n"], r["k_tau"], r["delta_z_um"], r.get("adhesion", False), r.get("size_in_a", 3.0),
+                     r.get("device", "cpu"), r.get("dtype", "float64"), r.get("fft", "auto"),
+                     tuple(sorted((name, law.get(name)) for name in law_names)))
+
+
+class Table2Run:
+    """A run of Table 2 into the folder ``out``: the cells of each n of ``ns`` (default:
+    ``settings.n``), each column of ``columns`` (adhesion False, True) and the cells of
+    :func:`select_cells` (``k_tau``, ``delta_z_um``: empty for all), with the grid, solver and
+    law settings of ``settings`` (its n replaced by each of ``ns``).
+
+    Made, it reads ``out/table2.json`` (the cells finished by earlier runs), selects the cells
+    (InputError for one that is no cell of the table), warns once of a grid too coarse
+    (:func:`check_resolution`) and counts the planned cells finished before: those whose record
+    matches their place, grid, solver settings and, adhesive, their law (:func:`_cell_key`).
+    :meth:`run` computes the others.
+
+    Attributes:
+        records: every cell of table2.json, those of earlier runs first, then each one finished
+            by this run.
+        todo: the planned cells (n, k_tau, delta_z_um, adhesion).
+        finished: the planned cells finished (before or by this run).
+        kept: the cells in table2.json on disk.
+        interrupted: a stop (Ctrl-C, SIGTERM, SIGHUP) ended :meth:`run`; the finished cells are written.
+        write_error: the OutputError that ended :meth:`run` (no space left, ...), or None.
+        write_error_at_end: whether it came at the last write, after the run's cells, rather than
+            at a finished cell's (the cells still to compute were left).
+    """
+
+    def __init__(self, settings: Table2Settings, out, ns=None, columns=(False, True), k_tau=(), delta_z_um=()):
+        import json
+
+        self.settings = settings
+        self.out = Path(out)
+        self.path = self.out / "table2.json"
+        self.records = json.loads(self.path.read_text())["cells"] if self.path.exists() else []
+        selected = select_cells(k_tau, delta_z_um)
+        self.todo = [(n, k, dz, adh) for adh in columns for n in (ns or (settings.n,)) for k, dz in selected]
+        law = cell_law(settings)
+        check_resolution(self.todo, settings.size_in_a, law)
+        law_key = tuple(sorted(law.items()))
+        done = {_record_key(r, law) for r in self.records}
+        self._pending = [(i, c) for i, c in enumerate(self.todo)
+                         if _cell_key(*c, *self._settings_key(), law_key) not in done]
+        self.finished = len(self.todo) - len(self._pending)
+        self.kept = len(self.records)
+        self.interrupted = False
+        self.write_error = None
+        self.write_error_at_end = False
+
+    def _settings_key(self) -> tuple:
+        """The settings a finished cell must share beside its place: size_in_a, device, dtype, fft."""
+        s = self.settings
+        return (s.size_in_a, s.device, s.dtype, s.fft)
+
+    @property
+    def not_converged(self) -> list:
+        """The records of table2.json whose path did not converge."""
+        return [r for r in self.records if not r["converged"]]
+
+    @property
+    def check_failed(self) -> bool:
+        """Whether a record's yield check failed (:func:`warpcontact.records.guards.check_failure`)."""
+        from ..records.guards import check_failure
+
+        return any(check_failure(r.get("yield_check")) for r in self.records)
+
+    def _write(self, complete=False, stopped=False) -> None:
+        """The tables with the run's status (:func:`write_table2`); ``kept`` follows what is on disk."""
+        status = {"complete": complete, "interrupted": stopped, "cells_planned": len(self.todo),
+                  "cells_done": self.finished, "stop_signal": interrupts.signal_name(interrupts.stop_signal())
+                  if stopped else None}
+        try:
+            write_table2(self.out, self.records, status)
+        except OutputError as e:
+            if Path(e.path).name != "table2.json":  # the JSON, written first, holds them all
+                self.kept = len(self.records)
+            raise
+        self.kept = len(self.records)
+
+    def _finish(self, i, cell, rec, settings, progress) -> bool:
+        """Keep a finished cell and write the tables at once; False if stopped meanwhile (a stop
+        signal, a write error)."""
+        from ..records.guards import RunChecks
+
+        rec.update(size_in_a=settings.size_in_a, device=settings.device, dtype=settings.dtype, fft=settings.fft)
+        with interrupts.deferred():  # the tables are written whole, then a stop that came meanwhile is raised
+            self.records.append(rec)
+            self.finished += 1
+            try:
+                self._write()
+            except OutputError as e:
+                self.write_error = e
+                return False
+        progress.write(f"table2 [{i + 1}/{len(self.todo)}] {cell}: {result_text(rec)}")
+        RunChecks(None).yielded(rec.get("yield_check"), f"in Table 2 cell {cell} (at delta_x_max)")  # each cell a run
+        progress.status(self.finished)
+        return True
+
+    def run(self, placement=None, quiet: bool = False, log=None) -> "Table2Run":
+        """Compute the planned cells not finished before where ``placement`` says
+        (:class:`warpcontact.studies.batch.Placement`; default: this process) and write the tables
+        after each (:func:`write_table2`; table2.json's ``complete`` is false until the last write).
+        A stop ends the run with ``interrupted`` set; a write that fails, with ``write_error``. Unless
+        quiet, a result line per cell goes to ``log`` (stderr), under a progress bar on a terminal.
+        Returns self."""
+        import dataclasses
+
+        from .batch import Placement, Task, run_tasks
+        from ..records.progress import Progress
+
+        placement = placement or Placement(workers=1, device=self.settings.device)
+        progress = Progress("table2", total=len(self.todo), quiet=quiet, stream=log, start=self.finished)
+        try:
+            with interrupts.deferred():
+                self._write()  # this run's marker (complete: false) replaces the last run's before any cell
+            tasks = []
+            for i, (n, k, dz, adh) in self._pending:  # one task of the batch engine per cell
+                settings = dataclasses.replace(self.settings, n=n)
+                label = f"n {n} k_tau {k:.2f} delta_z {dz:.1e} um {'adhesive' if adh else 'adhesionless'}"
+                tasks.append(Task(str(i), label, run_cell, (k, dz, settings, adh), cell_model_key(dz, settings, adh)))
+
+            def on_result(task, rec):
+                return self._finish(int(task.key), task.label, rec, task.args[2], progress)
+
+            def on_state(task, j, s):  # the states of a cell computed in this process, on a terminal
+                progress.status(self.finished, s["iterations"], s["residual"],
+                                f"{task.label}: state {j + 1} ({s['kind']})")
+
+            run_tasks(tasks, on_result, placement, progress=progress, failed=lambda rec: not rec["converged"],
+                      on_state=on_state, before=self.finished)
+        except KeyboardInterrupt as e:
+            interrupts.stopping(e)  # a second signal does not cut the last writes
+            self.interrupted = True
+        progress.close()
+        if self.write_error is not None:
+            return self
+        with interrupts.deferred(raise_after=False):
+            try:
+                self._write(complete=not self.interrupted, stopped=self.interrupted)
+            except OutputError as e:
+                self.write_error, self.write_error_at_end = e, True
+        return self
