@@ -24,7 +24,7 @@ from typing import Any
 import warp as wp
 
 from .overloads import register_float_overloads
-from .reduce import block_add, cell_index
+from .reduce import Cells, block_add, cell_index
 
 # no adjoints: nothing differentiates these kernels, and compiling them doubles the build
 wp.set_module_options({"enable_backward": False})
@@ -163,10 +163,7 @@ def adhesive_evaluate(
     c: Any,
     eps: Any,
     n_side: int,
-    n: int,
-    outer: int,
-    inner: int,
-    per: int,
+    cells: Cells,
     grad: wp.array(dtype=Any),
     sums: wp.array(dtype=Any),
 ):
@@ -179,9 +176,9 @@ def adhesive_evaluate(
     s_pg = zero
     s_traction = zero
     s_force = zero
-    for k in range(per):
-        i = cell_index(thread, outer, inner, k)
-        if i < n:
+    for k in range(cells.per):
+        i = cell_index(thread, cells, k)
+        if i < cells.n:
             ui = u[i]
             pi = p[i]
             g = pi
@@ -309,10 +306,7 @@ def adhesive_trial(
     c: Any,
     step: Any,
     n_side: int,
-    n: int,
-    outer: int,
-    inner: int,
-    per: int,
+    cells: Cells,
     u_trial: wp.array(dtype=Any),
     p_trial: wp.array(dtype=Any),
     sums: wp.array(dtype=Any),
@@ -326,9 +320,9 @@ def adhesive_trial(
     s_change = zero
     s_slope = zero
     s_clipped = zero
-    for k in range(per):
-        i = cell_index(thread, outer, inner, k)
-        if i < n:
+    for k in range(cells.per):
+        i = cell_index(thread, cells, k)
+        if i < cells.n:
             ui = u[i]
             ut = ui + step * direction[i]
             pt = p[i] + step * direction_traction[i]
@@ -358,10 +352,7 @@ def adhesive_change(
     b: Any,
     c: Any,
     n_side: int,
-    n: int,
-    outer: int,
-    inner: int,
-    per: int,
+    cells: Cells,
     sums: wp.array(dtype=Any),
 ):
     """sums[S_ENERGY] += the energy change from (u, p) to (u_trial, p_trial) (a trial whose
@@ -370,9 +361,9 @@ def adhesive_change(
     thread = block * wp.block_dim() + lane
     zero = a - a
     s_change = zero
-    for k in range(per):
-        i = cell_index(thread, outer, inner, k)
-        if i < n:
+    for k in range(cells.per):
+        i = cell_index(thread, cells, k)
+        if i < cells.n:
             s_change += cell_energy_change(u[i], u_trial[i], p[i], p_trial[i], physical_cell(i, n_side), offset,
                                            opening_t, law, a, b, c)
     block_add(sums, S_ENERGY, s_change)

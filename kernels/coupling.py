@@ -5,7 +5,7 @@ from typing import Any
 import warp as wp
 
 from .overloads import register_float_overloads
-from .reduce import block_add, cell_index
+from .reduce import Cells, block_add, cell_index
 
 # no adjoints: nothing differentiates these kernels, and compiling them doubles the build
 wp.set_module_options({"enable_backward": False})
@@ -62,10 +62,7 @@ N_CHANGE_SUMS = 6
 def change_sums(
     current: wp.array(dtype=Any),
     slot: int,
-    n: int,
-    outer: int,
-    inner: int,
-    per: int,
+    cells: Cells,
     previous: wp.array(dtype=Any),
     sums: wp.array(dtype=Any),
 ):
@@ -75,9 +72,9 @@ def change_sums(
     zero = current[0] - current[0]
     s_change = zero
     s_norm = zero
-    for k in range(per):
-        i = cell_index(thread, outer, inner, k)
-        if i < n:
+    for k in range(cells.per):
+        i = cell_index(thread, cells, k)
+        if i < cells.n:
             c = current[i]
             d = c - previous[i]
             s_change += d * d

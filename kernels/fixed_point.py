@@ -12,7 +12,7 @@ from typing import Any
 import warp as wp
 
 from .overloads import register_float_overloads
-from .reduce import block_add, cell_index
+from .reduce import Cells, block_add, cell_index
 
 # no adjoints: nothing differentiates these kernels, and compiling them doubles the build
 wp.set_module_options({"enable_backward": False})
@@ -29,10 +29,7 @@ def anderson_residual(
     column: int,
     has_previous: int,
     depth: int,
-    n: int,
-    outer: int,
-    inner: int,
-    per: int,
+    cells: Cells,
     residual: wp.array(dtype=Any),
     previous_residual: wp.array(dtype=Any),
     previous_iterate: wp.array(dtype=Any),
@@ -48,9 +45,9 @@ def anderson_residual(
     zero = iterate[0] - iterate[0]
     s_res = zero
     s_img = zero
-    for k in range(per):
-        i = cell_index(thread, outer, inner, k)
-        if i < n:
+    for k in range(cells.per):
+        i = cell_index(thread, cells, k)
+        if i < cells.n:
             g = residual[i]
             x = iterate[i]
             f = g - x

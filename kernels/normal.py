@@ -38,7 +38,7 @@ import warp as wp
 
 from .overloads import register_float_overloads
 from .reduce import (  # noqa: F401  (shared slots)
-    C_DELTA, C_G_OLD, C_ITER, N_SCALARS, N_PARAMETERS, N_SHARED_SUMS, P_APPROACH, P_CHUNK, P_EXACT, P_MAX_ITER, P_TOL, S_G, S_GT, S_RHS,
+    Cells, C_DELTA, C_G_OLD, C_ITER, N_SCALARS, N_PARAMETERS, N_SHARED_SUMS, P_APPROACH, P_CHUNK, P_EXACT, P_MAX_ITER, P_TOL, S_G, S_GT, S_RHS,
     S_RT, S_VIOL, advance, residual_of, stop_loop,
     block_add, block_add_vector, block_max, cell_index, cg_converged, cg_step_length, conjugacy,
 )
@@ -106,10 +106,7 @@ def normal_gap(
     interference: wp.array(dtype=Any),
     pressure: wp.array(dtype=Any),
     pressure_cap: Any,
-    n: int,
-    outer: int,
-    inner: int,
-    per: int,
+    cells: Cells,
     gap: wp.array(dtype=Any),
     sums: wp.array(dtype=Any),
 ):
@@ -121,9 +118,9 @@ def normal_gap(
     s_g = zero
     s_viol = zero
     s_rhs = zero
-    for k in range(per):
-        i = cell_index(thread, outer, inner, k)
-        if i < n:
+    for k in range(cells.per):
+        i = cell_index(thread, cells, k)
+        if i < cells.n:
             b = interference[i]
             g = displacement[i] - b
             gap[i] = g
@@ -256,10 +253,7 @@ def normal_direction_sum(
     output_scale: Any,
     precondition: int,
     width: int,
-    n: int,
-    outer: int,
-    inner: int,
-    per: int,
+    cells: Cells,
     direction: wp.array(dtype=Any),
     padded_input: wp.array2d(dtype=Any),
 ):
@@ -270,9 +264,9 @@ def normal_direction_sum(
     thread = block * wp.block_dim() + lane
     beta = conjugacy(sums, scalars)
     s_gt = beta - beta
-    for k in range(per):
-        i = cell_index(thread, outer, inner, k)
-        if i < n:
+    for k in range(cells.per):
+        i = cell_index(thread, cells, k)
+        if i < cells.n:
             t, gt = conjugate_direction(pressure, gap, preconditioned, output_scale, precondition, direction, i,
                                         width, beta, pressure_cap)
             s_gt += gt
@@ -289,10 +283,7 @@ def normal_step_sums(
     padded_output: wp.array2d(dtype=Any),
     output_scale: Any,
     width: int,
-    n: int,
-    outer: int,
-    inner: int,
-    per: int,
+    cells: Cells,
     sums: wp.array(dtype=Any),
 ):
     """Sums of g t and (K t) t over the free set (where t can be non-zero), K t read from the FFT
@@ -302,9 +293,9 @@ def normal_step_sums(
     zero = output_scale - output_scale
     s_gt = zero
     s_rt = zero
-    for k in range(per):
-        i = cell_index(thread, outer, inner, k)
-        if i < n:
+    for k in range(cells.per):
+        i = cell_index(thread, cells, k)
+        if i < cells.n:
             t = direction[i]
             if t != zero:
                 s_gt += gap[i] * t
@@ -351,10 +342,7 @@ def normal_update(
     interference: wp.array(dtype=Any),
     pressure_cap: Any,
     parameters: wp.array(dtype=Any),
-    n: int,
-    outer: int,
-    inner: int,
-    per: int,
+    cells: Cells,
     pressure: wp.array(dtype=Any),
     gap: wp.array(dtype=Any),
     sums: wp.array(dtype=Any),
@@ -379,9 +367,9 @@ def normal_update(
     s_viol = zero
     s_rhs = zero
     done = cg_converged(sums, parameters[P_TOL])
-    for k in range(per):
-        i = cell_index(thread, outer, inner, k)
-        if i < n:
+    for k in range(cells.per):
+        i = cell_index(thread, cells, k)
+        if i < cells.n:
             # every load before any store: the compiler may not move a load above a store to
             # another array (they might alias), which would serialise the memory round trips
             p = pressure[i]
@@ -471,15 +459,15 @@ N_GUESS_SUMS = 4
 
 
 @wp.kernel
-def count_positive(pressure: wp.array(dtype=Any), n: int, outer: int, inner: int, per: int, guess_sums: wp.array(dtype=Any)):
+def count_positive(pressure: wp.array(dtype=Any), cells: Cells, guess_sums: wp.array(dtype=Any)):
     """guess_sums[G_POSITIVE] += the number of cells with p > 0."""
     block, lane = wp.tid()
     thread = block * wp.block_dim() + lane
     zero = type(guess_sums[0])(0.0)
     count = zero
-    for k in range(per):
-        i = cell_index(thread, outer, inner, k)
-        if i < n and pressure[i] > zero:
+    for k in range(cells.per):
+        i = cell_index(thread, cells, k)
+        if i < cells.n and pressure[i] > zero:
             count += type(zero)(1.0)
     block_add(guess_sums, G_POSITIVE, count)
 
@@ -500,16 +488,16 @@ def overlap(interference: Any):
 
 
 @wp.kernel
-def guess_max_interference(interference: wp.array(dtype=Any), n: int, outer: int, inner: int, per: int,
+def guess_max_interference(interference: wp.array(dtype=Any), cells: Cells,
                            guess_sums: wp.array(dtype=Any)):
     """guess_sums[G_BMAX] <- max(guess_sums[G_BMAX], the largest overlap max(b, 0)) (zeroed
     before)."""
     block, lane = wp.tid()
     thread = block * wp.block_dim() + lane
     largest = type(guess_sums[0])(0.0)
-    for k in range(per):
-        i = cell_index(thread, outer, inner, k)
-        if i < n:
+    for k in range(cells.per):
+        i = cell_index(thread, cells, k)
+        if i < cells.n:
             largest = wp.max(largest, overlap(interference[i]))
     block_max(guess_sums, G_BMAX, largest, lane)
 
@@ -527,7 +515,7 @@ def guess_shape(interference: wp.array(dtype=Any), guess_sums: wp.array(dtype=An
 
 @wp.kernel
 def guess_fit_sums(interference: wp.array(dtype=Any), shape: wp.array(dtype=Any), response: wp.array(dtype=Any),
-                   n: int, outer: int, inner: int, per: int, guess_sums: wp.array(dtype=Any)):
+                   cells: Cells, guess_sums: wp.array(dtype=Any)):
     """Sums of (K s) b and (K s)^2 over the support s > 0, for the least-squares scale of the
     first guess (``response`` = K s; b > 0 there)."""
     block, lane = wp.tid()
@@ -535,9 +523,9 @@ def guess_fit_sums(interference: wp.array(dtype=Any), shape: wp.array(dtype=Any)
     zero = type(guess_sums[0])(0.0)
     s_ub = zero
     s_uu = zero
-    for k in range(per):
-        i = cell_index(thread, outer, inner, k)
-        if i < n and shape[i] > zero:
+    for k in range(cells.per):
+        i = cell_index(thread, cells, k)
+        if i < cells.n and shape[i] > zero:
             s_ub += response[i] * interference[i]
             s_uu += response[i] * response[i]
     block_add(guess_sums, G_UB, s_ub)

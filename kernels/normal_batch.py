@@ -26,7 +26,7 @@ import warp as wp
 from .normal import G_BMAX, G_POSITIVE, G_UB, G_UU, N_GUESS_SUMS, is_stepped, overlap, projected_step, residual_terms
 from .overloads import register_float_overloads
 from .reduce import (
-    C_DELTA, C_G_OLD, C_ITER, C_STOP, P_APPROACH, P_MAX_ITER, P_TOL, S_G, S_GT, S_RESTART, S_RHS, S_VIOL,
+    Cells, C_DELTA, C_G_OLD, C_ITER, C_STOP, P_APPROACH, P_MAX_ITER, P_TOL, S_G, S_GT, S_RESTART, S_RHS, S_VIOL,
     block_add, block_add_vector, block_max, cell_index, cg_converged, cg_step_length, conjugacy, residual_of,
 )
 
@@ -63,8 +63,7 @@ def batch_pad(field: wp.array2d(dtype=Any), width: int, padded: wp.array3d(dtype
 
 @wp.kernel
 def batch_gap(displacement: wp.array3d(dtype=Any), interference: wp.array2d(dtype=Any),
-              pressure: wp.array2d(dtype=Any), pressure_cap: wp.array(dtype=Any), width: int, n: int, outer: int,
-              inner: int, per: int, gap: wp.array2d(dtype=Any), displacement_field: wp.array2d(dtype=Any),
+              pressure: wp.array2d(dtype=Any), pressure_cap: wp.array(dtype=Any), width: int, cells: Cells, gap: wp.array2d(dtype=Any), displacement_field: wp.array2d(dtype=Any),
               sums: wp.array2d(dtype=Any)):
     """The exact gap g = K p - b (K p read from the corner of ``displacement``, normalised, and
     kept in ``displacement_field``) and the residual sums S_VIOL, S_RHS of each case
@@ -75,9 +74,9 @@ def batch_gap(displacement: wp.array3d(dtype=Any), interference: wp.array2d(dtyp
     zero = cap - cap
     s_viol = zero
     s_rhs = zero
-    for k in range(per):
-        i = cell_index(thread, outer, inner, k)
-        if i < n:
+    for k in range(cells.per):
+        i = cell_index(thread, cells, k)
+        if i < cells.n:
             b = interference[case, i]
             u = corner(displacement, case, i, width)
             g = u - b
@@ -105,17 +104,16 @@ def batch_free_gap(gap: wp.array2d(dtype=Any), pressure: wp.array2d(dtype=Any), 
 
 @wp.kernel
 def batch_free_gap_sum(gap: wp.array2d(dtype=Any), pressure: wp.array2d(dtype=Any),
-                       pressure_cap: wp.array(dtype=Any), preconditioned: wp.array3d(dtype=Any), width: int, n: int,
-                       outer: int, inner: int, per: int, sums: wp.array2d(dtype=Any)):
+                       pressure_cap: wp.array(dtype=Any), preconditioned: wp.array3d(dtype=Any), width: int, cells: Cells, sums: wp.array2d(dtype=Any)):
     """G = g . M g over the stepped cells of each case into slot S_G (M g read from the corner of
     ``preconditioned``, normalised): the preconditioned squared gradient the conjugacy uses."""
     case, block, lane = wp.tid()
     thread = block * wp.block_dim() + lane
     cap = pressure_cap[case]
     total = cap - cap
-    for k in range(per):
-        i = cell_index(thread, outer, inner, k)
-        if i < n:
+    for k in range(cells.per):
+        i = cell_index(thread, cells, k)
+        if i < cells.n:
             g = gap[case, i]
             if is_stepped(pressure[case, i], g, cap, 1):
                 total += g * corner(preconditioned, case, i, width)
@@ -142,7 +140,7 @@ def batch_direction(gap: wp.array2d(dtype=Any), pressure: wp.array2d(dtype=Any),
 
 @wp.kernel
 def batch_step_sums(gap: wp.array2d(dtype=Any), direction: wp.array2d(dtype=Any), response: wp.array3d(dtype=Any),
-                    width: int, n: int, outer: int, inner: int, per: int, sums: wp.array2d(dtype=Any)):
+                    width: int, cells: Cells, sums: wp.array2d(dtype=Any)):
     """g . t and (K t) . t of each case (K t read from the corner of ``response``, normalised)
     into slots S_GT, S_RT."""
     case, block, lane = wp.tid()
@@ -150,9 +148,9 @@ def batch_step_sums(gap: wp.array2d(dtype=Any), direction: wp.array2d(dtype=Any)
     zero = gap[0, 0] - gap[0, 0]
     s_gt = zero
     s_rt = zero
-    for k in range(per):
-        i = cell_index(thread, outer, inner, k)
-        if i < n:
+    for k in range(cells.per):
+        i = cell_index(thread, cells, k)
+        if i < cells.n:
             t = direction[case, i]
             if t != zero:
                 s_gt += gap[case, i] * t
@@ -163,7 +161,7 @@ def batch_step_sums(gap: wp.array2d(dtype=Any), direction: wp.array2d(dtype=Any)
 @wp.kernel
 def batch_update(direction: wp.array2d(dtype=Any), response: wp.array3d(dtype=Any), width: int,
                  pressure_cap: wp.array(dtype=Any), parameters: wp.array2d(dtype=Any), active: wp.array(dtype=wp.int32),
-                 n: int, outer: int, inner: int, per: int, pressure: wp.array2d(dtype=Any), gap: wp.array2d(dtype=Any),
+                 cells: Cells, pressure: wp.array2d(dtype=Any), gap: wp.array2d(dtype=Any),
                  sums: wp.array2d(dtype=Any)):
     """The projected step of each active case (``projected_step``: p <- clip(p - tau t, 0, cap),
     the carried gap g <- g - tau K t), cells re-entering the free set counted into S_RESTART. A
@@ -176,9 +174,9 @@ def batch_update(direction: wp.array2d(dtype=Any), response: wp.array3d(dtype=An
     count = zero
     if active[case] != 0 and not cg_converged(row, parameters[case, P_TOL]):
         tau = cg_step_length(row)
-        for k in range(per):
-            i = cell_index(thread, outer, inner, k)
-            if i < n:
+        for k in range(cells.per):
+            i = cell_index(thread, cells, k)
+            if i < cells.n:
                 p, g, entered, changed = projected_step(pressure[case, i], gap[case, i], direction[case, i],
                                                         corner(response, case, i, width), tau, cap)
                 pressure[case, i] = p
@@ -220,7 +218,7 @@ def batch_residual(sums: wp.array2d(dtype=Any), residual: wp.array(dtype=Any)):
 
 
 @wp.kernel
-def batch_count_positive(pressure: wp.array2d(dtype=Any), n: int, outer: int, inner: int, per: int,
+def batch_count_positive(pressure: wp.array2d(dtype=Any), cells: Cells,
                          guess_sums: wp.array2d(dtype=Any)):
     """Cells with p > 0 of each case into G_POSITIVE, and each case's largest overlap max(b, 0)
     into G_BMAX (zeroed before): whether a case starts from rest, and the guess's scale."""
@@ -228,23 +226,23 @@ def batch_count_positive(pressure: wp.array2d(dtype=Any), n: int, outer: int, in
     thread = block * wp.block_dim() + lane
     zero = pressure[0, 0] - pressure[0, 0]
     count = zero
-    for k in range(per):
-        i = cell_index(thread, outer, inner, k)
-        if i < n and pressure[case, i] > zero:
+    for k in range(cells.per):
+        i = cell_index(thread, cells, k)
+        if i < cells.n and pressure[case, i] > zero:
             count += type(zero)(1.0)
     block_add(guess_sums[case], G_POSITIVE, count)
 
 
 @wp.kernel
-def batch_max_interference(interference: wp.array2d(dtype=Any), n: int, outer: int, inner: int, per: int,
+def batch_max_interference(interference: wp.array2d(dtype=Any), cells: Cells,
                            guess_sums: wp.array2d(dtype=Any)):
     """Each case's largest overlap max(b, 0) into G_BMAX (``guess_max_interference``)."""
     case, block, lane = wp.tid()
     thread = block * wp.block_dim() + lane
     largest = interference[0, 0] - interference[0, 0]
-    for k in range(per):
-        i = cell_index(thread, outer, inner, k)
-        if i < n:
+    for k in range(cells.per):
+        i = cell_index(thread, cells, k)
+        if i < cells.n:
             largest = wp.max(largest, overlap(interference[case, i]))
     block_max(guess_sums[case], G_BMAX, largest, lane)
 
@@ -267,7 +265,7 @@ def batch_guess_shape(interference: wp.array2d(dtype=Any), guess_sums: wp.array2
 
 @wp.kernel
 def batch_guess_fit_sums(interference: wp.array2d(dtype=Any), shape: wp.array2d(dtype=Any),
-                         response: wp.array3d(dtype=Any), width: int, n: int, outer: int, inner: int, per: int,
+                         response: wp.array3d(dtype=Any), width: int, cells: Cells,
                          guess_sums: wp.array2d(dtype=Any)):
     """Sums of (K s) b and (K s)^2 over each case's support s > 0 (``guess_fit_sums``)."""
     case, block, lane = wp.tid()
@@ -275,9 +273,9 @@ def batch_guess_fit_sums(interference: wp.array2d(dtype=Any), shape: wp.array2d(
     zero = shape[0, 0] - shape[0, 0]
     s_ub = zero
     s_uu = zero
-    for k in range(per):
-        i = cell_index(thread, outer, inner, k)
-        if i < n and shape[case, i] > zero:
+    for k in range(cells.per):
+        i = cell_index(thread, cells, k)
+        if i < cells.n and shape[case, i] > zero:
             u = corner(response, case, i, width)
             s_ub += u * interference[case, i]
             s_uu += u * u

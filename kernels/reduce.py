@@ -1,7 +1,8 @@
 """Block reductions for the solver kernels.
 
 The solver kernels that reduce are launched with ``wp.launch_tiled`` over ``num_blocks`` blocks.
-Thread ``g`` of the launch visits the cells ``g * outer + k * inner`` for k < ``per``: contiguous
+Their ``cells`` argument (:class:`Cells`) says which entries each thread visits: thread ``g`` of
+the launch visits the cells ``g * outer + k * inner`` for k < ``per``: contiguous
 chunks on the CPU (outer = per, inner = 1; one thread per block there), a grid-stride loop on
 CUDA (outer = 1, inner = total threads) so that loads coalesce. Each block sums its threads'
 partial sums with ``tile_sum`` and adds them to the output with one atomic per block.
@@ -41,10 +42,21 @@ P_EXACT = wp.constant(4)  # normal solver: 1 to recompute K p at every iteration
 N_PARAMETERS = 5
 
 
+@wp.struct
+class Cells:
+    """The entries a reducing launch visits: ``n`` of them; thread g visits ``g * outer + k *
+    inner`` for k < ``per`` (``numerics.launch.ReductionLaunch``, one instance per shape)."""
+
+    n: int
+    outer: int
+    inner: int
+    per: int
+
+
 @wp.func
-def cell_index(thread: int, outer: int, inner: int, k: int) -> int:
-    """Index of the k-th cell visited by thread ``thread`` (= block * block_dim + lane)."""
-    return thread * outer + k * inner
+def cell_index(thread: int, cells: Cells, k: int) -> int:
+    """Index of the k-th entry visited by thread ``thread`` (= block * block_dim + lane)."""
+    return thread * cells.outer + k * cells.inner
 
 
 @wp.func
@@ -198,7 +210,7 @@ def cg_advance(sums: wp.array(dtype=Any), parameters: wp.array(dtype=Any), resta
 @wp.kernel
 def sums_of_products(a0: wp.array(dtype=Any), b0: wp.array(dtype=Any), a1: wp.array(dtype=Any),
                      b1: wp.array(dtype=Any), a2: wp.array(dtype=Any), b2: wp.array(dtype=Any), slot0: int,
-                     slot1: int, slot2: int, count: int, n: int, outer: int, inner: int, per: int,
+                     slot1: int, slot2: int, count: int, cells: Cells,
                      sums: wp.array(dtype=Any)):
     """sums[slot_k] += a_k . b_k for the first ``count`` (1 to 3) pairs, in one pass: the dot
     products of the solvers' vector algebra (the L-BFGS recursion and its new pairs, Anderson
@@ -210,9 +222,9 @@ def sums_of_products(a0: wp.array(dtype=Any), b0: wp.array(dtype=Any), a1: wp.ar
     s0 = zero
     s1 = zero
     s2 = zero
-    for k in range(per):
-        i = cell_index(thread, outer, inner, k)
-        if i < n:
+    for k in range(cells.per):
+        i = cell_index(thread, cells, k)
+        if i < cells.n:
             s0 += a0[i] * b0[i]
             if count > 1:
                 s1 += a1[i] * b1[i]

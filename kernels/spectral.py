@@ -18,7 +18,7 @@ from typing import Any
 
 import warp as wp
 
-from .reduce import block_add, cell_index
+from .reduce import Cells, block_add, cell_index
 
 # no adjoints: nothing differentiates these kernels, and compiling them doubles the build
 wp.set_module_options({"enable_backward": False})
@@ -46,16 +46,16 @@ def spectral_normal(influence: wp.array3d(dtype=Any), spectrum: wp.array2d(dtype
 
 
 @wp.func
-def first_entry(thread: int, outer: int, inner: int, width: int):
+def first_entry(thread: int, cells: Cells, width: int):
     """The (row, column) of a reducing thread's first entry of a row-major 2-D array ``width``
-    wide (entry e = ``cell_index(thread, outer, inner, 0)``), and the (rows, columns) its entries
-    advance by (``inner``): a thread carries (i, j) from one entry to the next
+    wide (entry e = ``cell_index(thread, cells, 0)``), and the (rows, columns) its entries
+    advance by (``cells.inner``): a thread carries (i, j) from one entry to the next
     (:func:`next_entry`), one integer division per thread, not per entry (the CPU's sweep: n =
     512, 2.4 -> 1.0 ms)."""
-    first = cell_index(thread, outer, inner, 0)
+    first = cell_index(thread, cells, 0)
     i = first // width
-    di = inner // width
-    return i, first - i * width, di, inner - di * width
+    di = cells.inner // width
+    return i, first - i * width, di, cells.inner - di * width
 
 
 @wp.func
@@ -90,10 +90,7 @@ def spectral_normal_energy(
     slot: int,
     first_row: int,
     mirror: int,
-    n: int,
-    outer: int,
-    inner: int,
-    per: int,
+    cells: Cells,
     sums: wp.array(dtype=Any),
 ):
     """u_z = K_zz p in Fourier space, in place on ``spectrum``, and sums[slot] += (K p) . p, the
@@ -116,10 +113,10 @@ def spectral_normal_energy(
     width = spectrum.shape[1]
     zero = energy_scale - energy_scale
     energy = zero
-    i, j, di, dj = first_entry(thread, outer, inner, width)
-    for k in range(per):
-        e = cell_index(thread, outer, inner, k)
-        if e < n:
+    i, j, di, dj = first_entry(thread, cells, width)
+    for k in range(cells.per):
+        e = cell_index(thread, cells, k)
+        if e < cells.n:
             s = spectrum[i, j]
             ki = i
             kj = j
@@ -221,8 +218,8 @@ for _r, _v in ((wp.float32, wp.vec2f), (wp.float64, wp.vec2d)):
     wp.overload(
         spectral_normal_energy,
         {"influence": wp.array3d(dtype=_r), "spectrum": wp.array2d(dtype=_v), "half_axis": int, "half_length": int,
-         "energy_scale": _r, "inverse": int, "slot": int, "first_row": int, "mirror": int, "n": int, "outer": int,
-         "inner": int, "per": int, "sums": wp.array(dtype=_r)},
+         "energy_scale": _r, "inverse": int, "slot": int, "first_row": int, "mirror": int, "cells": Cells,
+         "sums": wp.array(dtype=_r)},
     )
     wp.overload(
         spectral_tangential,
@@ -294,10 +291,7 @@ def spectral_tangential_inverse_energy(
     eigen_floor: Any,
     slot: int,
     first_row: int,
-    n: int,
-    outer: int,
-    inner: int,
-    per: int,
+    cells: Cells,
     sums: wp.array(dtype=Any),
 ):
     """(z_x, z_y) = M (g_x, g_y) in Fourier space, in place, with M the circulant inverse of K_tt
@@ -310,10 +304,10 @@ def spectral_tangential_inverse_energy(
     width = spectrum_x.shape[1]
     zero = energy_scale - energy_scale
     energy = zero
-    i, j, di, dj = first_entry(thread, outer, inner, width)
-    for k in range(per):
-        e = cell_index(thread, outer, inner, k)
-        if e < n:
+    i, j, di, dj = first_entry(thread, cells, width)
+    for k in range(cells.per):
+        e = cell_index(thread, cells, k)
+        if e < cells.n:
             gx = spectrum_x[i, j]
             gy = spectrum_y[i, j]
             m = tangential_inverse_block(influence[XX, i, j], influence[YY, i, j], influence[XY, i, j], eigen_floor)
@@ -332,5 +326,5 @@ for _r, _v in ((wp.float32, wp.vec2f), (wp.float64, wp.vec2d)):
         spectral_tangential_inverse_energy,
         {"influence": wp.array3d(dtype=_r), "spectrum_x": wp.array2d(dtype=_v), "spectrum_y": wp.array2d(dtype=_v),
          "half_axis": int, "half_length": int, "energy_scale": _r, "eigen_floor": _r, "slot": int, "first_row": int,
-         "n": int, "outer": int, "inner": int, "per": int, "sums": wp.array(dtype=_r)},
+         "cells": Cells, "sums": wp.array(dtype=_r)},
     )

@@ -19,7 +19,7 @@ from typing import Any
 
 import warp as wp
 
-from .reduce import block_add, block_add_vector, block_max, cell_index
+from .reduce import Cells, block_add, block_add_vector, block_max, cell_index
 from .tangential import STICK
 
 # no adjoints: nothing differentiates these kernels, and compiling them doubles the build
@@ -66,10 +66,7 @@ def summary_sums(
     length_scale: wp.float64,
     adhesive_range: wp.float64,
     adhesive: int,
-    n: int,
-    outer: int,
-    inner: int,
-    per: int,
+    cells: Cells,
     sums: wp.array(dtype=Any),
 ):
     """Adds one state's summary to ``sums`` (slots S_*). Fields flattened row-major from
@@ -95,9 +92,9 @@ def summary_sums(
     gap_sum = zero
     largest = type(zero)(-wp.inf)
     largest_tension = type(zero)(-wp.inf)
-    for k in range(per):
-        i = cell_index(thread, outer, inner, k)
-        if i < n:
+    for k in range(cells.per):
+        i = cell_index(thread, cells, k)
+        if i < cells.n:
             p = type(zero)(pressure[i])
             qx = type(zero)(shear_x[i])
             qy = type(zero)(shear_y[i])

@@ -41,7 +41,7 @@ import warp as wp
 
 from .overloads import register_float_overloads
 from .reduce import (  # noqa: F401  (shared slots)
-    C_DELTA, C_G_OLD, N_SCALARS, N_PARAMETERS, N_SHARED_SUMS, P_EXACT, P_TOL, S_G, S_GT, S_RHS, S_RT, S_VIOL, advance, block_add,
+    Cells, C_DELTA, C_G_OLD, N_SCALARS, N_PARAMETERS, N_SHARED_SUMS, P_EXACT, P_TOL, S_G, S_GT, S_RHS, S_RT, S_VIOL, advance, block_add,
     block_add_vector, cell_index, cg_converged, cg_step_length, conjugacy, residual_of, stop_loop,
 )
 from .reduce import S_RESTART as S_RELEASED  # slip cells released into stick by the last step
@@ -147,10 +147,7 @@ def tangential_residual(
     status: wp.array(dtype=wp.int32),
     stiffness: Any,
     jacobi_stick: int,
-    n: int,
-    outer: int,
-    inner: int,
-    per: int,
+    cells: Cells,
     grad_x: wp.array(dtype=Any),
     grad_y: wp.array(dtype=Any),
     sums: wp.array(dtype=Any),
@@ -167,9 +164,9 @@ def tangential_residual(
     s_viol = zero
     s_rhs = zero
     s_stick = zero
-    for k in range(per):
-        i = cell_index(thread, outer, inner, k)
-        if i < n:
+    for k in range(cells.per):
+        i = cell_index(thread, cells, k)
+        if i < cells.n:
             rx = target_x[i] - known_x[i]
             ry = target_y[i] - known_y[i]
             gx = disp_x[i] - rx
@@ -253,10 +250,7 @@ def tangential_step_sums(
     shear_y: wp.array(dtype=Any),
     shear_limit: wp.array(dtype=Any),
     status: wp.array(dtype=wp.int32),
-    n: int,
-    outer: int,
-    inner: int,
-    per: int,
+    cells: Cells,
     sums: wp.array(dtype=Any),
 ):
     """g.t and t.(K t) + sum over slip cells of (lambda / q_max) |t|^2, lambda = max(-g.q/|q|, 0)."""
@@ -265,9 +259,9 @@ def tangential_step_sums(
     zero = grad_x[0] - grad_x[0]
     s_gt = zero
     s_rt = zero
-    for k in range(per):
-        i = cell_index(thread, outer, inner, k)
-        if i < n:
+    for k in range(cells.per):
+        i = cell_index(thread, cells, k)
+        if i < cells.n:
             st = status[i]
             if st != OUT:
                 tx = dir_x[i]
@@ -318,10 +312,7 @@ def tangential_update(
     shear_limit: wp.array(dtype=Any),
     slip_step: Any,
     parameters: wp.array(dtype=Any),
-    n: int,
-    outer: int,
-    inner: int,
-    per: int,
+    cells: Cells,
     shear_x: wp.array(dtype=Any),
     shear_y: wp.array(dtype=Any),
     status: wp.array(dtype=wp.int32),
@@ -342,9 +333,9 @@ def tangential_update(
     tau_release = wp.where(tau > zero, tau, slip_step)
     done = cg_converged(sums, parameters[P_TOL])
     released = zero
-    for k in range(per):
-        i = cell_index(thread, outer, inner, k)
-        if i < n and not done:
+    for k in range(cells.per):
+        i = cell_index(thread, cells, k)
+        if i < cells.n and not done:
             st = status[i]
             if st != OUT:
                 q, new, change = disk_step(st, shear_x[i], shear_y[i], grad_x[i], grad_y[i], dir_x[i], dir_y[i],
@@ -454,10 +445,7 @@ def tangential_carried_update(
     slip_step: Any,
     stiffness: Any,
     parameters: wp.array(dtype=Any),
-    n: int,
-    outer: int,
-    inner: int,
-    per: int,
+    cells: Cells,
     shear_x: wp.array(dtype=Any),
     shear_y: wp.array(dtype=Any),
     status: wp.array(dtype=wp.int32),
@@ -482,9 +470,9 @@ def tangential_carried_update(
     corrected = zero
     s_g = zero
     s_viol = zero
-    for k in range(per):
-        i = cell_index(thread, outer, inner, k)
-        if i < n:
+    for k in range(cells.per):
+        i = cell_index(thread, cells, k)
+        if i < cells.n:
             st = status[i]
             if st != OUT:
                 # every load before any store (see kernels/normal.py, normal_update)

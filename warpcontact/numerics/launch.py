@@ -22,6 +22,7 @@ once. On this project's 2-core machine a Hertz solve at n = 512 took 1.06-1.09 s
 
 from __future__ import annotations
 
+import functools
 import math
 import os
 from collections import OrderedDict
@@ -64,7 +65,19 @@ class ReductionLaunch:
         return ReductionLaunch(blocks, block_dim, 1, total, math.ceil(n / total))
 
     def args(self, n: int) -> list:
-        return [n, self.outer, self.inner, self.per]
+        """The reducing kernels' ``cells`` argument for ``n`` entries in this shape (one list)."""
+        return [cells_of(n, self.outer, self.inner, self.per)]
+
+
+@functools.lru_cache(maxsize=256)
+def cells_of(n: int, outer: int, inner: int, per: int):
+    """``kernels/reduce.py``'s ``Cells`` of these values: one instance per shape, so that a
+    launch that repeats has the same argument (``LaunchCache``'s key) and is replayed."""
+    from warpcontact.kernels.reduce import Cells
+
+    cells = Cells()
+    cells.n, cells.outer, cells.inner, cells.per = int(n), int(outer), int(inner), int(per)
+    return cells
 
 
 def products(*pairs) -> list:
@@ -323,7 +336,7 @@ class LaunchCache:
 
     def launch_reduce(self, kernel, shape: ReductionLaunch, n: int, inputs, outputs=(), rows=None):
         """A reducing kernel (kernels/reduce.py) over ``n`` entries in the launch ``shape``:
-        ``inputs``, then the shape's arguments (n, outer, inner, per), then ``outputs``. With
+        ``inputs``, then the shape's ``Cells`` (:meth:`ReductionLaunch.args`), then ``outputs``. With
         ``rows`` = (rows, columns) of the n entries, the CPU splits it over its threads by rows
         (:meth:`split`; its sums in :class:`Sums` arguments)."""
         if self.device.is_cpu and rows is not None:

@@ -81,7 +81,7 @@ class ContactModel:
 
     def launch_reduce(self, kernel, inputs, outputs):
         """A reducing kernel (kernels/reduce.py) over all cells: ``inputs``, then the launch shape's
-        arguments (n, outer, inner, per), then ``outputs``. On the CPU, with its fields marked
+        argument (its ``Cells``: which cells each thread visits), then ``outputs``. On the CPU, with its fields marked
         `warpcontact.numerics.launch.Rows` and its sums `warpcontact.numerics.launch.Sums`, split by
         rows over the CPU's threads (``LaunchCache.split``)."""
         self.launches.launch_reduce(kernel, self.reduction, self.n_cells, inputs, outputs, rows=self.grid.shape)
