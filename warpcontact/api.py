@@ -81,8 +81,9 @@ def solve_batch(cases, device=None, dtype=None, fft=None, fields: str = "none", 
     tables raises ``InputError`` before anything is solved. ``cases``: a list of cases as
     [`solve`][warpcontact.solve] takes them; ``device``, ``dtype``, ``fft``: overrides for all;
     ``fields``: as [`solve`][warpcontact.solve]'s (default "none": the summaries alone);
-    ``on_case(index, result)`` as each case ends (in the order they end). CUDA needs CuPy (the
-    ``cuda`` extra) for the batched transforms."""
+    ``on_case(index, result)`` as each case ends (in the order they end). A batched case's
+    ``elapsed_s`` is its batch's time from its start to the case's end. CUDA needs CuPy (the
+    ``gpu`` extra) for the batched transforms."""
     from .studies.batch_solve import solve_batch as run_batch
     from .studies.runner import FIELDS_CHOICES
 

@@ -69,11 +69,11 @@ class BatchConvolution:
             self._stream = None
             self._workers = {"workers": -1}
         else:
-            from . import cupy_backend
+            from . import OPTIONAL, cupy_backend
 
             if not cupy_backend.available():
-                raise InputError("solver.fft", "batched solves on CUDA transform through CuPy's cuFFT, which is not "
-                                 "installed: pip install 'warpcontact[cuda]'")
+                raise InputError("solver.fft", "batched solves on CUDA transform through CuPy's cuFFT: "
+                                 + OPTIONAL["cupy"])
             import cupy
             import cupy.fft
 
