@@ -139,10 +139,12 @@ def test_friction_cases_go_one_at_a_time_and_a_failing_case_leaves_the_others(mo
     assert_same_path(results[2], quiet(wc.solve, normal, fields="none"), rel=1e-8)
 
 
-def test_a_batched_solve_that_fails_leaves_its_cases_to_solve(monkeypatch):
-    """Where the batched solve itself fails (a device's refusal, a library's error; here made to
-    raise at its second state), one RuntimeWarning says so and the cases it had not ended are
-    solved one at a time: every result is solve's, the one that had ended kept."""
+@pytest.mark.parametrize("error", [RuntimeError("cuFFT refused the plan"),
+                                   InputError("solver.fft", "CuPy is not installed")])
+def test_a_batched_solve_that_fails_leaves_its_cases_to_solve(monkeypatch, error):
+    """Where the batched solve itself fails (a device's refusal, a library's error or absence;
+    here made to raise at its second state), one RuntimeWarning says so and the cases it had not
+    ended are solved one at a time: every result is solve's, the one that had ended kept."""
     from warpcontact.solvers.normal_batch import BatchNormalSolver
 
     solve = BatchNormalSolver.solve
@@ -151,12 +153,12 @@ def test_a_batched_solve_that_fails_leaves_its_cases_to_solve(monkeypatch):
     def failing(self, *args, **kwargs):
         calls.append(1)
         if len(calls) == 2:
-            raise RuntimeError("cuFFT refused the plan")
+            raise error
         return solve(self, *args, **kwargs)
 
     monkeypatch.setattr(BatchNormalSolver, "solve", failing)
     cases = [case(), case(load={"delta_z": 0.6e-9, "steps": 3})]
-    with pytest.warns(RuntimeWarning, match="cuFFT refused the plan"):  # (beside the coarse grid's warnings)
+    with pytest.warns(RuntimeWarning, match=str(error).split(":")[-1].strip()):  # (beside the coarse grid's)
         results = wc.solve_batch(cases)
     for c, result in zip(cases, results):
         assert_same_path(result, quiet(wc.solve, c, fields="none"), rel=1e-8)

@@ -75,8 +75,8 @@ def solve_batch(cases, device=None, dtype=None, fft=None, fields: str = "none", 
     own load path and convergence. Their summaries, fields, warnings and yield checks are made as
     [`solve`][warpcontact.solve] makes them; the forces agree with it within the solves' tolerance.
     Cases with friction or adhesion are solved one at a time, and so are a batch's cases where the
-    batched solve itself fails (a device's refusal, a library's error: one RuntimeWarning says
-    why). A case that fails (a contact past its domain's edge) has the exception in its place and
+    batched solve itself fails (a device's refusal, a library's error, no CuPy on CUDA: one
+    RuntimeWarning says why). A case that fails (a contact past its domain's edge) has the exception in its place and
     the others go on; a mistake in a case's
     tables raises ``InputError`` before anything is solved. ``cases``: a list of cases as
     [`solve`][warpcontact.solve] takes them; ``device``, ``dtype``, ``fft``: overrides for all;

@@ -22,6 +22,7 @@ from dataclasses import replace
 import numpy as np
 import warp as wp
 
+from ..errors import InputError
 from ..numerics.device import resolve_device, resolve_dtype
 from ..numerics.state import ContactState, check_contact_fits
 from ..solvers.base import default_tolerance
@@ -94,8 +95,9 @@ def solve_batch(cases: list, fields: str = "none", batch: int | None = None, on_
                 chunk = indices[start:start + size]
                 for index, result in _solve_chunk(solver, [cases[i] for i in chunk], chunk, fields):
                     done(index, result)
-        except (RuntimeError, MemoryError, OSError) as e:  # the batched solve itself failed (a device's
-            # refusal, a library's error): the cases it had not ended are solved one at a time
+        except (RuntimeError, MemoryError, OSError, InputError) as e:  # the batched solve itself failed (a
+            # device's refusal, a library's error or absence: no CuPy on CUDA): the cases it had not
+            # ended are solved one at a time, each as solve solves it (its own error in its place)
             left = [i for i in indices if i not in ended]
             warnings.warn(f"the batched solve of {len(left)} case(s) at n = {n} on {device} failed "
                           f"({type(e).__name__}: {e}); they are solved one at a time", RuntimeWarning, stacklevel=3)
