@@ -1,14 +1,13 @@
 """The normal DC-FFT convolution of B cases of one grid size at once: batched transforms.
 
-Each case's field sits in the top-left (n, n) corner of its (2 n, 2 n) zero-padded buffer (a
-(B, 2 n, 2 n) Warp array the batched kernels write: ``kernels/normal_batch.py``); one real
-forward transform over the last two axes of all B buffers, one spectral product, one inverse
-into a second (B, 2 n, 2 n) buffer whose corners the kernels read. The library does the
-batching: ``scipy.fft`` (its ``workers`` threads) on the CPU, cuFFT through CuPy on CUDA, on
-Warp's stream (``cupy.cuda.ExternalStream``), the buffers shared without a copy (DLPack). A
-library's batched plan is what makes one launch serve every case; the single-case backends of
-this package (``warpcontact.fft``) prune the zero padding by hand, which a batched 2-D plan does
-not need to pay off.
+Each case's field is an (n, n) slice of a (B, n, n) Warp array the batched kernels write
+(``kernels/normal_batch.py``), zero-padded to (2 n, 2 n) by the transforms themselves: the rows'
+real transforms of length 2 n of the n data rows, then the columns' of length 2 n, one spectral
+product, and back, keeping the n rows and n columns of the result, into a second (B, n, n) array
+the kernels read. The zero padding is never transformed (as the single-case backends prune it:
+``warpcontact.fft``), and the library does the batching: ``scipy.fft`` (its ``workers``
+threads) on the CPU, cuFFT through CuPy on CUDA, on Warp's stream (``cupy.cuda.ExternalStream``),
+the buffers shared without a copy (DLPack).
 
 In the model's scaled units (tractions / E*, lengths / the cell size) the normal influence
 coefficients of a square grid depend on n alone (K_zz = (1 - nu_1^2) / E_1 + (1 - nu_2^2) / E_2
@@ -26,20 +25,21 @@ from ..errors import InputError
 
 
 @functools.lru_cache(maxsize=8)
-def normal_spectrum(n: int) -> np.ndarray:
-    """The real spectrum (2 n, n + 1) of the scaled normal influence coefficients of an n x n
-    grid of square cells on its (2 n, 2 n) padded grid, ``numpy.fft.rfft2``'s layout, float64
-    (K_zz is even: its spectrum is real)."""
+def normal_influence(n: int) -> tuple[np.ndarray, float]:
+    """The scaled normal influence coefficients of an n x n grid of square cells: their real
+    spectrum (2 n, n + 1) on the (2 n, 2 n) padded grid, ``numpy.fft.rfft2``'s layout, float64
+    (K_zz is even: its spectrum is real), and the 2-norm of one column of K (the bound
+    ||K c||_2 <= norm ||c||_1 of ``ElasticOperator.column_norm``)."""
     from ..physics.influence import influence_coefficients
     from ..physics.materials import Material, MaterialPair
 
     unit = Material(E=2.0, nu=0.0)  # two of them: E* = 1, so with dx = 1 the coefficients are scaled ones
     coefficients = influence_coefficients(MaterialPair(unit, unit), n, n, 1.0, 1.0)["zz"]
-    return np.fft.rfft2(coefficients).real
+    return np.fft.rfft2(coefficients).real, float(np.linalg.norm(coefficients))
 
 
 class BatchConvolution:
-    """K_zz (or its circulant inverse, the preconditioner) on B padded buffers at once.
+    """K_zz (or its circulant inverse, the preconditioner) on the fields of B cases at once.
 
     Args:
         n: cells per side of each case's grid.
@@ -52,20 +52,22 @@ class BatchConvolution:
         self.n, self.batch = int(n), int(batch)
         self.device = wp.get_device(device)
         self.dtype = dtype
-        shape = (self.batch, 2 * self.n, 2 * self.n)
-        #: each case's field in its (n, n) corner; the padding stays zero (nothing writes there)
-        self.padded_input = wp.zeros(shape, dtype=dtype, device=self.device)
-        #: the normalised result, each case's in its (n, n) corner
-        self.padded_output = wp.zeros(shape, dtype=dtype, device=self.device)
+        shape = (self.batch, self.n, self.n)
+        #: each case's field (its zero padding is the transforms')
+        self.source = wp.zeros(shape, dtype=dtype, device=self.device)
+        #: each case's normalised result
+        self.result = wp.zeros(shape, dtype=dtype, device=self.device)
         np_real = np.float64 if dtype == wp.float64 else np.float32
-        spectrum = normal_spectrum(self.n)
+        spectrum, norm = normal_influence(self.n)
+        #: the 2-norm of one column of K (scaled units)
+        self.column_norm = norm
         inverse = np.where(spectrum > 0.0, 1.0 / np.where(spectrum > 0.0, spectrum, 1.0), 0.0)
         if self.device.is_cpu:
             import scipy.fft
 
             self._fft = scipy.fft
             self._xp = np
-            self._input, self._output = self.padded_input.numpy(), self.padded_output.numpy()
+            self._input, self._output = self.source.numpy(), self.result.numpy()
             self._stream = None
             self._workers = {"workers": -1}
         else:
@@ -81,15 +83,15 @@ class BatchConvolution:
             self._xp = cupy
             self._stream = cupy.cuda.ExternalStream(wp.get_stream(self.device).cuda_stream, self.device.ordinal)
             with cupy.cuda.Device(self.device.ordinal):
-                self._input = cupy.from_dlpack(wp.to_dlpack(self.padded_input))
-                self._output = cupy.from_dlpack(wp.to_dlpack(self.padded_output))
+                self._input = cupy.from_dlpack(wp.to_dlpack(self.source))
+                self._output = cupy.from_dlpack(wp.to_dlpack(self.result))
             self._workers = {}
         xp = self._xp
         self._multipliers = {False: xp.asarray(spectrum.astype(np_real)), True: xp.asarray(inverse.astype(np_real))}
 
     def apply(self, inverse: bool = False):
-        """``padded_output`` <- K_zz (``inverse``: its circulant inverse M, 0 where K_zz(k) <= 0)
-        applied to every case's ``padded_input``."""
+        """``result`` <- K_zz (``inverse``: its circulant inverse M, 0 where K_zz(k) <= 0) applied
+        to every case's ``source``, each zero-padded to (2 n, 2 n) and the result cropped to (n, n)."""
         if self._stream is None:
             self._apply(inverse)
         else:
@@ -97,8 +99,9 @@ class BatchConvolution:
                 self._apply(inverse)
 
     def _apply(self, inverse: bool):
-        fft = self._fft
-        size = (2 * self.n, 2 * self.n)
-        spectrum = fft.rfft2(self._input, axes=(-2, -1), **self._workers)
+        fft, n, w = self._fft, self.n, self._workers
+        rows = fft.rfft(self._input, n=2 * n, axis=-1, **w)  # the n data rows, padded to 2 n
+        spectrum = fft.fft(rows, n=2 * n, axis=-2, **w)  # the columns, padded to 2 n
         spectrum *= self._multipliers[inverse]
-        self._output[...] = fft.irfft2(spectrum, s=size, axes=(-2, -1), **self._workers)
+        rows = fft.ifft(spectrum, axis=-2, **w)[:, :n]  # the n rows kept
+        self._output[...] = fft.irfft(rows, n=2 * n, axis=-1, **w)[:, :, :n]

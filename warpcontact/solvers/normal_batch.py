@@ -6,12 +6,15 @@ kernel (``kernels/normal_batch.py``) and every transform (``fft/batch.py``) is l
 all B cases, each case with its own approach, tolerance, iterate, conjugacy and convergence. A
 converged case stops changing while the others go on; the solve ends when every case has ended.
 
-What the single solver does to spare a GPU's launches and a CPU's passes (the gap carried
-between exact recomputations, sums in Fourier space, device loops in CUDA graphs) is not done
-here: one batched launch serves many cases, so an iteration recomputes the exact gap (three
-batched transform pairs: K p, M g, K t) and the host looks at the cases every
-``CHECK_EVERY`` iterations. The iterates differ from the single solver's in rounding and in
-the path to the solution; the converged pressures agree within the tolerance.
+As the single solver, an iteration carries the gap (g <- g - tau K t: two batched transform
+pairs, M g and K t) and recomputes it exactly (a third, K p) only where the carried one may be
+wrong: for every case at once, when what any active case's projections changed may matter (the
+single solver's ``deferral`` bound), every ``EXACT_EVERY`` iterations, or when a case's carried
+residual comes near its tolerance (a case stops on its exact residual). What the single solver does besides to spare
+launches (sums in Fourier space, device loops in CUDA graphs) is not done here: one batched
+launch serves many cases, and the host reads two counts an iteration (``flags``). The iterates
+differ from the single solver's in rounding and in the path to the solution; the converged
+pressures agree within the tolerance.
 """
 
 from __future__ import annotations
@@ -29,8 +32,10 @@ from ..numerics.device import numpy_dtype
 from ..numerics.launch import ReductionLaunch
 from ..numerics.state import SolveInfo
 
-#: iterations between two looks of the host at the cases' flags (one small transfer each)
-CHECK_EVERY = 8
+#: iterations between exact recomputations of the carried gap (rounding), and the share of the
+#: violation the carried gap may miss, as the single solver's defaults (``SolverSettings``)
+EXACT_EVERY = 50
+DEFERRAL = 0.1
 
 
 class BatchNormalSolver:
@@ -70,6 +75,10 @@ class BatchNormalSolver:
         self.pressure_cap = wp.zeros(self.batch, dtype=dtype, device=self.device)
         self.residual = wp.zeros(self.batch, dtype=dtype, device=self.device)
         self.active = wp.zeros(self.batch, dtype=wp.int32, device=self.device)
+        #: ``batch_advance``'s counts: active cases, cases whose next iteration needs an exact gap
+        self.flags = wp.zeros(2, dtype=wp.int32, device=self.device)
+        #: each case's L1 change by projections since its last exact gap (scaled)
+        self.deferred = wp.zeros(self.batch, dtype=dtype, device=self.device)
         self.reduction = ReductionLaunch.for_cells(self.n_cells, self.device)
 
     # -- launches ---------------------------------------------------------------------------
@@ -117,13 +126,16 @@ class BatchNormalSolver:
         self._cells(bk.batch_interference, [self.initial_gap, self.parameters], [self.interference])
         self._guess()
         limit = int(max_iter[active].max()) if active.any() else 0
-        for it in range(limit + 1):
-            self._exact_gap()
-            if it % CHECK_EVERY == 0 and not self.active.numpy().any():
-                break
+        self._exact_gap()
+        for _ in range(limit):
+            self.flags.zero_()
             self._iteration()
-        else:
-            self._exact_gap()
+            going, exact = (int(v) for v in self.flags.numpy())
+            if not going:
+                break
+            if exact:
+                self._exact_gap()
+        self._exact_gap()  # every row's exact gap, displacement and residual
         self._cases(bk.batch_residual, [self.sums], [self.residual])
         residual = self.residual.numpy().astype(np.float64)
         iterations = self.scalars.numpy()[:, rk.C_ITER].astype(np.int64)
@@ -137,32 +149,34 @@ class BatchNormalSolver:
         self.guess_sums.zero_()
         self._reduce(bk.batch_count_positive, [self.pressure], [self.guess_sums])
         self._reduce(bk.batch_max_interference, [self.interference], [self.guess_sums])
-        self._cells(bk.batch_guess_shape, [self.interference, self.guess_sums, self.n], [self.shape, c.padded_input])
+        self._cells(bk.batch_guess_shape, [self.interference, self.guess_sums, self.n], [self.shape, c.source])
         c.apply()
-        self._reduce(bk.batch_guess_fit_sums, [self.interference, self.shape, c.padded_output, self.n],
+        self._reduce(bk.batch_guess_fit_sums, [self.interference, self.shape, c.result, self.n],
                      [self.guess_sums])
         self._cells(bk.batch_guess_scale, [self.guess_sums, self.shape, self.pressure_cap], [self.pressure])
 
     def _exact_gap(self):
         """The exact gap, displacement and residual sums of every case's pressure."""
         c = self.convolution
-        self._cells(bk.batch_pad, [self.pressure, self.n], [c.padded_input])
+        self._cases(bk.batch_clear_residual, [], [self.sums, self.deferred])
+        self._cells(bk.batch_pad, [self.pressure, self.n], [c.source])
         c.apply()
-        self._reduce(bk.batch_gap, [c.padded_output, self.interference, self.pressure, self.pressure_cap, self.n],
+        self._reduce(bk.batch_gap, [c.result, self.interference, self.pressure, self.pressure_cap, self.n],
                      [self.gap, self.displacement, self.sums])
 
     def _iteration(self):
-        """One preconditioned conjugate-gradient iteration of every active case, from the exact
-        gap and sums ``_exact_gap`` left."""
+        """One preconditioned conjugate-gradient iteration of every active case, from the gap and
+        residual sums of its iterate (exact, or carried by the last iteration)."""
         c = self.convolution
         cap = self.pressure_cap
-        self._cells(bk.batch_free_gap, [self.gap, self.pressure, cap, self.n], [c.padded_input])
+        self._cells(bk.batch_free_gap, [self.gap, self.pressure, cap, self.n], [c.source])
         c.apply(inverse=True)
-        self._reduce(bk.batch_free_gap_sum, [self.gap, self.pressure, cap, c.padded_output, self.n], [self.sums])
-        self._cells(bk.batch_direction, [self.gap, self.pressure, cap, c.padded_output, self.sums, self.scalars, self.n],
-                    [self.direction, c.padded_input])
+        self._reduce(bk.batch_free_gap_sum, [self.gap, self.pressure, cap, c.result, self.n], [self.sums])
+        self._cells(bk.batch_direction, [self.gap, self.pressure, cap, c.result, self.sums, self.scalars, self.n],
+                    [self.direction, c.source])
         c.apply()
-        self._reduce(bk.batch_step_sums, [self.gap, self.direction, c.padded_output, self.n], [self.sums])
-        self._reduce(bk.batch_update, [self.direction, c.padded_output, self.n, cap, self.parameters, self.active],
-                     [self.pressure, self.gap, self.sums])
-        self._cases(bk.batch_advance, [self.sums, self.parameters], [self.scalars, self.active])
+        self._reduce(bk.batch_step_sums, [self.gap, self.direction, c.result, self.n], [self.sums])
+        self._reduce(bk.batch_update, [self.direction, c.result, self.n, self.interference, cap, self.parameters,
+                                       self.active], [self.pressure, self.gap, self.sums])
+        self._cases(bk.batch_advance, [self.sums, self.parameters, EXACT_EVERY, self.dtype(c.column_norm),
+                                       self.dtype(DEFERRAL)], [self.scalars, self.active, self.deferred, self.flags])
