@@ -32,8 +32,9 @@ from .runner import PathRecorder, build_model, run_path
 #: cases a batch holds at most by default: on the CPU a batch saves the per-case overhead of the
 #: launches but not their work; on CUDA it is bounded by the device's free memory
 DEFAULT_BATCH = {"cpu": 8, "cuda": 256}
-#: device bytes a case of a batch takes per cell, about (seven fields, two padded buffers and the
-#: transforms' temporaries of four cells each, in the float type's bytes)
+#: values a case of a batch takes per cell, at most: seven fields, two transform buffers and the
+#: transforms' temporaries (the padded spectrum, four values a cell, and the row passes' about six),
+#: with room for the library's work areas; times the float type's bytes
 BYTES_PER_CELL = 27
 
 
