@@ -16,8 +16,7 @@ new array at the same address with the same shape and type is the same argument 
 On the CPU, where Warp runs a launch on one thread, a launch whose fields are marked
 :class:`Rows` (and sums :class:`Sums`) is split by rows over the CPU's threads
 (:meth:`LaunchCache.split`): Warp lets go of the GIL while a CPU kernel runs, so the parts run at
-once. On this project's 2-core machine a Hertz solve at n = 512 took 1.06-1.09 s on one thread and
-0.82-0.87 s split (the FFTs already ran on both cores).
+once. What each part saves along whole paths: docs/performance.md, "The launch layer".
 """
 
 from __future__ import annotations
