@@ -16,6 +16,7 @@ is 1 / E*), so one spectrum serves cases of any materials and cell sizes.
 
 from __future__ import annotations
 
+import contextlib
 import functools
 
 import numpy as np
@@ -81,22 +82,32 @@ class BatchConvolution:
 
             self._fft = cupy.fft
             self._xp = cupy
+            self._cuda_device = cupy.cuda.Device(self.device.ordinal)
             self._stream = cupy.cuda.ExternalStream(wp.get_stream(self.device).cuda_stream, self.device.ordinal)
-            with cupy.cuda.Device(self.device.ordinal):
+            with self._cuda_device:
                 self._input = cupy.from_dlpack(wp.to_dlpack(self.source))
                 self._output = cupy.from_dlpack(wp.to_dlpack(self.result))
             self._workers = {}
-        xp = self._xp
-        self._multipliers = {False: xp.asarray(spectrum.astype(np_real)), True: xp.asarray(inverse.astype(np_real))}
+        with self._on_device():  # the multipliers on the cases' device
+            xp = self._xp
+            self._multipliers = {False: xp.asarray(spectrum.astype(np_real)),
+                                 True: xp.asarray(inverse.astype(np_real))}
+
+    def _on_device(self):
+        """On CUDA: CuPy's current device and stream made the cases' device and Warp's stream there
+        (a GPU other than the first, the work ordered with Warp's kernels); on the CPU nothing."""
+        if self._stream is None:
+            return contextlib.nullcontext()
+        stack = contextlib.ExitStack()
+        stack.enter_context(self._cuda_device)
+        stack.enter_context(self._stream)
+        return stack
 
     def apply(self, inverse: bool = False):
         """``result`` <- K_zz (``inverse``: its circulant inverse M, 0 where K_zz(k) <= 0) applied
         to every case's ``source``, each zero-padded to (2 n, 2 n) and the result cropped to (n, n)."""
-        if self._stream is None:
+        with self._on_device():
             self._apply(inverse)
-        else:
-            with self._stream:
-                self._apply(inverse)
 
     def _apply(self, inverse: bool):
         fft, n, w = self._fft, self.n, self._workers
