@@ -23,10 +23,10 @@ from typing import Any
 
 import warp as wp
 
-from .normal import G_BMAX, G_POSITIVE, G_UB, G_UU, N_GUESS_SUMS, is_stepped, overlap, projected_step, residual_terms
+from .normal import G_BMAX, G_POSITIVE, G_UB, G_UU, is_stepped, overlap, projected_step, residual_terms
 from .overloads import register_float_overloads
 from .reduce import (
-    Cells, C_DELTA, C_G_OLD, C_ITER, C_STOP, N_SHARED_SUMS, P_APPROACH, P_MAX_ITER, P_TOL, S_G, S_GT, S_RESTART,
+    Cells, C_DELTA, C_G_OLD, C_ITER, N_SHARED_SUMS, P_APPROACH, P_MAX_ITER, P_TOL, S_G, S_GT, S_RESTART,
     S_RHS, S_VIOL,
     block_add, block_add_vector, block_max, cell_index, cg_converged, cg_step_length, conjugacy, residual_of,
 )
@@ -44,8 +44,6 @@ N_BATCH_SUMS = wp.constant(N_SHARED_SUMS + 3)
 #: an exact gap
 F_ACTIVE = wp.constant(0)
 F_EXACT = wp.constant(1)
-#: guess slots (``kernels/normal.py``), one row per case
-N_BATCH_GUESS_SUMS = N_GUESS_SUMS
 
 
 @wp.func
@@ -216,7 +214,7 @@ def batch_advance(sums: wp.array2d(dtype=Any), parameters: wp.array2d(dtype=Any)
                   deferred: wp.array(dtype=Any), flags: wp.array(dtype=wp.int32)):
     """One thread a case, end of an iteration: a case whose iterate (the one the iteration
     started from) meets its tolerance, reached its iteration limit or is not finite stops
-    (``active`` = 0; ``scalars[C_STOP]`` = 1); an active one counts the iteration and carries
+    (``active`` = 0); an active one counts the iteration and carries
     G_old and delta (0 after a cell re-entered: the conjugacy restarts). The stepped iterate's
     residual sums with its carried gap become the next iteration's; an active case counts in
     ``flags[F_EXACT]`` (zeroed before) when its next iteration must start from an exact gap, as
@@ -237,7 +235,6 @@ def batch_advance(sums: wp.array2d(dtype=Any), parameters: wp.array2d(dtype=Any)
         it = int(scalars[case, C_ITER])
         if (not finite) or res < parameters[case, P_TOL] or it >= int(parameters[case, P_MAX_ITER]):
             active[case] = 0
-            scalars[case, C_STOP] = type(zero)(1.0)
         else:
             scalars[case, C_G_OLD] = sums[case, S_G]
             scalars[case, C_DELTA] = wp.where(sums[case, S_RESTART] > zero, zero, type(zero)(1.0))
@@ -277,8 +274,8 @@ def batch_residual(sums: wp.array2d(dtype=Any), residual: wp.array(dtype=Any)):
 @wp.kernel
 def batch_count_positive(pressure: wp.array2d(dtype=Any), cells: Cells,
                          guess_sums: wp.array2d(dtype=Any)):
-    """Cells with p > 0 of each case into G_POSITIVE, and each case's largest overlap max(b, 0)
-    into G_BMAX (zeroed before): whether a case starts from rest, and the guess's scale."""
+    """Cells with p > 0 of each case into G_POSITIVE (zeroed before): whether a case starts from
+    rest (``batch_guess_shape``)."""
     case, block, lane = wp.tid()
     thread = block * wp.block_dim() + lane
     zero = pressure[0, 0] - pressure[0, 0]

@@ -85,7 +85,7 @@ def products(*pairs) -> list:
     the first pair's arrays stand in for them)."""
     if not 1 <= len(pairs) <= 3:
         raise ValueError(f"products: one to three pairs, got {len(pairs)}")
-    full = list(pairs) + [(pairs[0][0], pairs[0][1], pairs[0][2])] * (3 - len(pairs))
+    full = list(pairs) + [pairs[0]] * (3 - len(pairs))
     return [*(a for a, b, _ in full for a in (a, b)), *(int(slot) for _, _, slot in full), len(pairs)]
 
 

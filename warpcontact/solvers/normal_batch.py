@@ -24,6 +24,7 @@ import math
 import numpy as np
 import warp as wp
 
+from warpcontact.kernels import normal as nk
 from warpcontact.kernels import normal_batch as bk
 from warpcontact.kernels import reduce as rk
 
@@ -71,7 +72,7 @@ class BatchNormalSolver:
         self.sums = wp.zeros((self.batch, bk.N_BATCH_SUMS), dtype=dtype, device=self.device)
         self.scalars = wp.zeros((self.batch, rk.N_SCALARS), dtype=dtype, device=self.device)
         self.parameters = wp.zeros((self.batch, rk.N_PARAMETERS), dtype=dtype, device=self.device)
-        self.guess_sums = wp.zeros((self.batch, bk.N_BATCH_GUESS_SUMS), dtype=dtype, device=self.device)
+        self.guess_sums = wp.zeros((self.batch, nk.N_GUESS_SUMS), dtype=dtype, device=self.device)
         self.pressure_cap = wp.zeros(self.batch, dtype=dtype, device=self.device)
         self.residual = wp.zeros(self.batch, dtype=dtype, device=self.device)
         self.active = wp.zeros(self.batch, dtype=wp.int32, device=self.device)

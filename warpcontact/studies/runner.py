@@ -151,16 +151,18 @@ class PathRecorder:
     checks' warnings (one each per path), ``on_state``; at the end the last state's yield check.
     Its ``result`` is the path's [`PathResult`][warpcontact.studies.runner.PathResult].
 
-    ``on_state(index, total, summary, result)`` and ``fields`` as ``run_path``'s."""
+    ``on_state(index, total, summary, result)`` and ``fields`` as ``run_path``'s; ``started``: the
+    ``time.perf_counter()`` the path's ``elapsed_s`` counts from (default: now)."""
 
-    def __init__(self, case, model, fields: str = "all", on_state=None, adhesion=None, friction=None):
+    def __init__(self, case, model, fields: str = "all", on_state=None, adhesion=None, friction=None,
+                 started: float | None = None):
         self.result = PathResult(case=case, model=model)
         self.fields, self.on_state = fields, on_state
         self.adhesion, self.friction = adhesion, friction
         self.total = len(case.load.path())
         self.edge_warned = False  # the adhesive tail cut by the domain: one warning per path
         self.checks = RunChecks(case)  # resolution and yield: one warning each per path
-        self.started = time.perf_counter()
+        self.started = time.perf_counter() if started is None else started
 
     def record(self, k: int, state):
         """State ``k`` of the path, solved in ``state``: summarised, its fields kept as asked,
@@ -218,8 +220,7 @@ def run_path(case, on_state=None, keep_fields: bool = True, fields: str = "all",
         fields = "none"
     t0 = time.perf_counter()
     model, solver, state = build(case, model)
-    recorder = PathRecorder(case, model, fields, on_state, solver.adhesion, solver.friction)
-    recorder.started = t0
+    recorder = PathRecorder(case, model, fields, on_state, solver.adhesion, solver.friction, started=t0)
     result = recorder.result
     try:
         if on_start is not None:
