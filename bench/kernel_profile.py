@@ -9,6 +9,13 @@ cost per iteration can be read against the transforms' floor. Needs PyTorch (the
 it; it is not a dependency of warpcontact).
 
     python bench/kernel_profile.py --sizes 4096 8192 [--dtype float64] [--frictionless] [--top 25]
+
+``--path NAME``: a whole load path of bench/paths.py (``figure2c``, ``rough``, ...; in ``--dtype``) at each n
+instead, profiled in its first solve at that n after a solve of the same path at n = 128 has
+loaded the kernels (each n's graphs are captured inside the profiled solve, as a user's run
+captures them).
+
+    python bench/kernel_profile.py --path figure2c --sizes 1024 4096
 """
 
 from __future__ import annotations
@@ -43,6 +50,7 @@ def main():
     ap.add_argument("--sizes", type=int, nargs="+", default=[4096])
     ap.add_argument("--frictionless", action="store_true")
     ap.add_argument("--top", type=int, default=25)
+    ap.add_argument("--path", help="a path of bench/paths.py, profiled whole")
     a = ap.parse_args()
 
     import torch
@@ -58,9 +66,22 @@ def main():
 
     device = wp.get_device(a.device)
     torch.cuda.init()
+    def path_case(n):
+        d = paths.case_dict(a.path)
+        d["grid"]["n"] = n
+        d.setdefault("solver", {}).update(device=a.device, fft=a.fft, dtype=a.dtype)
+        return case_from_dict(d)
+
+    if a.path:
+        import paths
+
+        wc.solve(path_case(128), fields="none")
     for n in a.sizes:
-        case = case_from_dict(scaling.case_dict(n, not a.frictionless, a.device, a.dtype, a.fft))
-        wc.solve(case, fields="none")
+        if a.path:
+            case = path_case(n)
+        else:
+            case = case_from_dict(scaling.case_dict(n, not a.frictionless, a.device, a.dtype, a.fft))
+            wc.solve(case, fields="none")
         wp.synchronize_device(device)
         with profile(activities=[ProfilerActivity.CUDA]) as prof:
             t0 = time.perf_counter()
@@ -75,7 +96,8 @@ def main():
                 calls[f] += 1
         total = sum(spent.values())
         iters = [(s.get("iterations"), s.get("outer_iterations")) for s in result.states]
-        print(f"\n### n = {n}, {a.dtype}, {'frictionless' if a.frictionless else 'coupled'}: wall {wall:.3f} s, "
+        what = f"path {a.path}" if a.path else ("frictionless" if a.frictionless else "coupled")
+        print(f"\n### n = {n}, {a.dtype}, {what}: wall {wall:.3f} s, "
               f"device busy {total / 1e3:.3f} s; per state (iterations, turns): {iters}")
         print("| kernel family | calls | device ms | share |")
         print("|---|---|---|---|")

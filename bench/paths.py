@@ -22,6 +22,10 @@ Paths (``--paths``, names or "all"; default: the examples and the extras):
   or exponential (w 1.36e-5 J/m^2, rho 5 pm) adhesion;
 - ``unload``: figure2c's normal leg up in 8 steps, 4 tangential steps, and back down to a quarter of
   the approach in 4 steps (the contact recedes under a shear history);
+- ``rough``: figure2d's sphere, pair, friction and SMC adhesion on a rough flat (a self-affine map
+  of 256^2 pixels over the domain: H 0.8, rms height 50 pm against the 150 pm approach, wavelengths
+  down to 2.1 nm; the same map resampled onto every n), 5 normal and 5 tangential steps: a contact
+  of many patches;
 - ``table2:K:DZ`` (``:adh`` at the end: with adhesion): a Table 2 cell's path to the paper's delta_x_max (k_tau K, delta_z DZ um; the
   cell's domain as ``table2`` builds it, n replaced), ``--table2`` adds all 24 (both columns).
 
@@ -48,7 +52,10 @@ ROOT = Path(__file__).resolve().parents[1]
 EXAMPLES = ROOT / "examples"
 EXAMPLE_PATHS = ["figure1a", "figure1b", "figure1c", "figure1d", "figure2a", "figure2b", "figure2c", "figure2d",
                  "table2_k080_dz5e-5"]
-EXTRA_PATHS = ["steel", "hardness", "float32", "dugdale", "exponential", "unload"]
+EXTRA_PATHS = ["steel", "hardness", "float32", "dugdale", "exponential", "unload", "rough"]
+#: the ``rough`` path's flat: a self-affine map of ROUGH_PIXELS^2 pixels over figure2d's domain
+#: (H 0.8, rms height 50 pm, wavelengths down to 4 pixels, seed 1), resampled onto every grid
+ROUGH_PIXELS = 256
 #: the solver's choices a run forces: (nested, window)
 CHOICES = {
     "auto": ("auto", "auto"),
@@ -98,6 +105,11 @@ def case_dict(name: str) -> dict:
         base["adhesion"] = {"law": "dugdale", "sigma_0": 2.0e6, "h_0": 5.0e-12}
     elif name == "exponential":
         base["adhesion"] = {"law": "exponential", "w": 1.36e-5, "rho": 5.0e-12}
+    elif name == "rough":
+        base = load_toml(EXAMPLES / "figure2d.toml")
+        base["flat"].update(height_map=str(rough_map(base["grid"]["size"])), pixel_size=base["grid"]["size"] / ROUGH_PIXELS)
+        base["grid"]["size"] = "map"
+        base["load"]["steps"] = 5
     elif name == "unload":
         load = base.pop("load")
         dz, dx = load["delta_z"], load["delta_x"]
@@ -108,6 +120,20 @@ def case_dict(name: str) -> dict:
     else:
         raise SystemExit(f"paths.py: no path named {name!r}")
     return base
+
+
+def rough_map(size: float) -> Path:
+    """The ``rough`` path's height map [m] as a .npy file (written once, under bench_results/)."""
+    import numpy as np
+
+    from warpcontact.physics.roughness import rough_surface
+
+    path = ROOT / "bench_results" / "paths" / f"rough_{ROUGH_PIXELS}.npy"
+    if not path.exists():
+        path.parent.mkdir(parents=True, exist_ok=True)
+        np.save(path, rough_surface(ROUGH_PIXELS, size, 0.8, rms_height=5e-11, short_cutoff=4 * size / ROUGH_PIXELS,
+                                    seed=1))
+    return path
 
 
 def table2_case(name: str) -> dict:
