@@ -116,6 +116,92 @@ def times_i(a: Any):
     return type(a)(-a[1], a[0])
 
 
+@wp.func
+def combine_spectra(
+    basis_spectra: wp.array2d(dtype=Any),
+    basis_row0: int,
+    traction_spectra: wp.array2d(dtype=Any),
+    traction_row0: int,
+    terms: wp.array(dtype=wp.vec3i),
+    weights: wp.array(dtype=Any),
+    first_term: int,
+    count: int,
+    parity: wp.array(dtype=int),
+    half_axis: int,
+    rows: int,
+    i: int,
+    j: int,
+    stress: wp.array2d(dtype=Any),
+    stress_row0: int,
+):
+    """Entry (i, j) of the six stress spectra of one body at one depth (``stress_spectra``): the
+    basis spectra from row ``basis_row0``, the tractions' from ``traction_row0``, the terms
+    ``first_term`` .. ``first_term + count - 1``, the results from row ``stress_row0`` of their
+    stacks."""
+    mi = i
+    mj = j
+    if half_axis == 1:
+        mi = (rows - i) % rows
+    else:
+        cols = basis_spectra.shape[1]
+        mj = (cols - j) % cols
+    t0 = traction_spectra[traction_row0 + i, j]
+    half = type(t0[0])(0.5)
+    s0 = t0 - t0
+    s1 = s0
+    s2 = s0
+    s3 = s0
+    s4 = s0
+    s5 = s0
+    kt = s0
+    kappa = half * (t0[0] - t0[0])
+    kind = int(0)
+    last_b = int(-1)
+    last_l = int(-1)
+    for t in range(first_term, first_term + count):
+        term = terms[t]
+        c = term[0]
+        l = term[1]
+        b = term[2]
+        if b != last_b:
+            f = basis_spectra[basis_row0 + b * rows + i, j]
+            fm = basis_spectra[basis_row0 + b * rows + mi, mj]
+            kind = parity[b]
+            kappa = half * (f[0] + fm[0])
+            if kind == 1:
+                kappa = half * (f[1] + fm[1])
+            elif kind == 2:
+                kappa = half * (f[1] - fm[1])
+            elif kind == 3:
+                kappa = half * (f[0] - fm[0])
+            last_b = b
+            last_l = -1
+        if l != last_l:
+            kt = kappa * traction_spectra[traction_row0 + l * rows + i, j]
+            if kind == 1 or kind == 2:
+                kt = times_i(kt)
+            last_l = l
+        w = weights[t]
+        if c == 0:
+            s0 += w * kt
+        elif c == 1:
+            s1 += w * kt
+        elif c == 2:
+            s2 += w * kt
+        elif c == 3:
+            s3 += w * kt
+        elif c == 4:
+            s4 += w * kt
+        else:
+            s5 += w * kt
+    stress[stress_row0 + i, j] = s0
+    stress[stress_row0 + rows + i, j] = s1
+    stress[stress_row0 + 2 * rows + i, j] = s2
+    stress[stress_row0 + 3 * rows + i, j] = s3
+    stress[stress_row0 + 4 * rows + i, j] = s4
+    stress[stress_row0 + 5 * rows + i, j] = s5
+
+
 @wp.kernel
 def stress_spectra(
     basis_spectra: wp.array2d(dtype=Any),
@@ -146,69 +232,8 @@ def stress_spectra(
     (k + 1) rows - 1: Warp keeps strides as 32-bit ints, and a (k, rows, cols) array's first
     stride, one whole spectrum, passes 2^31 bytes at n = 8192 in complex128."""
     r, j = wp.tid()
-    i = r + row0
-    mi = i
-    mj = j
-    if half_axis == 1:
-        mi = (rows - i) % rows
-    else:
-        cols = basis_spectra.shape[1]
-        mj = (cols - j) % cols
-    t0 = traction_spectra[i, j]
-    half = type(t0[0])(0.5)
-    s0 = t0 - t0
-    s1 = s0
-    s2 = s0
-    s3 = s0
-    s4 = s0
-    s5 = s0
-    kt = s0
-    kappa = half * (t0[0] - t0[0])
-    kind = int(0)
-    last_b = int(-1)
-    last_l = int(-1)
-    for t in range(count):
-        term = terms[t]
-        c = term[0]
-        l = term[1]
-        b = term[2]
-        if b != last_b:
-            f = basis_spectra[b * rows + i, j]
-            fm = basis_spectra[b * rows + mi, mj]
-            kind = parity[b]
-            kappa = half * (f[0] + fm[0])
-            if kind == 1:
-                kappa = half * (f[1] + fm[1])
-            elif kind == 2:
-                kappa = half * (f[1] - fm[1])
-            elif kind == 3:
-                kappa = half * (f[0] - fm[0])
-            last_b = b
-            last_l = -1
-        if l != last_l:
-            kt = kappa * traction_spectra[l * rows + i, j]
-            if kind == 1 or kind == 2:
-                kt = times_i(kt)
-            last_l = l
-        w = weights[t]
-        if c == 0:
-            s0 += w * kt
-        elif c == 1:
-            s1 += w * kt
-        elif c == 2:
-            s2 += w * kt
-        elif c == 3:
-            s3 += w * kt
-        elif c == 4:
-            s4 += w * kt
-        else:
-            s5 += w * kt
-    stress[i, j] = s0
-    stress[rows + i, j] = s1
-    stress[2 * rows + i, j] = s2
-    stress[3 * rows + i, j] = s3
-    stress[4 * rows + i, j] = s4
-    stress[5 * rows + i, j] = s5
+    combine_spectra(basis_spectra, 0, traction_spectra, 0, terms, weights, 0, count, parity, half_axis, rows,
+                    r + row0, j, stress, 0)
 
 
 @wp.func
@@ -291,6 +316,79 @@ def take_line(fields: wp.array3d(dtype=Any), index: int, along_x: int, out: wp.a
         out[f, k] = fields[f, k, index]
 
 
+# ---------------------------------------------------------------------------------------------
+# Many planes at once (``warpcontact.numerics.stress_batch``): a plane is one depth below one
+# case's surface; the stacks hold each plane's spectra one above the other, as above.
+
+
+@wp.kernel
+def plane_basis_quadrants(depths: wp.array(dtype=wp.float64), out: wp.array3d(dtype=Any)):
+    """out[p N_BASIS + b, i, j] <- the weighted integral of basis b over the cell at offset (x, y)
+    = (j, i) at the depth ``depths[p]`` (cells): ``basis_corners`` and ``basis_quadrant``
+    (weighted) in one pass, the four corner terms of a cell evaluated by its thread."""
+    k, i, j = wp.tid()
+    p = k // N_BASIS
+    b = k - p * N_BASIS
+    z = depths[p]
+    h = wp.float64(0.5)
+    x0 = wp.float64(j) - h
+    y0 = wp.float64(i) - h
+    x1 = x0 + wp.float64(1.0)
+    y1 = y0 + wp.float64(1.0)
+    v = corner_term(b, x1, y1, z) - corner_term(b, x1, y0, z) - corner_term(b, x0, y1, z) + corner_term(b, x0, y0, z)
+    if i > 0:
+        v = v * wp.float64(2.0)
+    if j > 0:
+        v = v * wp.float64(2.0)
+    out[k, i, j] = out.dtype(v)
+
+
+@wp.kernel
+def plane_stress_spectra(
+    basis_spectra: wp.array2d(dtype=Any),
+    traction_spectra: wp.array2d(dtype=Any),
+    plane_case: wp.array(dtype=int),
+    bodies: int,
+    terms: wp.array(dtype=wp.vec3i),
+    weights: wp.array(dtype=Any),
+    counts: wp.array(dtype=int),
+    parity: wp.array(dtype=int),
+    half_axis: int,
+    rows: int,
+    stress: wp.array2d(dtype=Any),
+):
+    """``stress_spectra`` of every body at every plane: entry q = p ``bodies`` + body (plane p,
+    its case ``plane_case[p]``) combines the plane's N_BASIS basis spectra with the case's three
+    traction spectra through its ``counts[q]`` terms from q N_COMPONENTS N_LOADS N_BASIS on, into
+    the six stress spectra from row 6 q ``rows``."""
+    q, i, j = wp.tid()
+    p = q // bodies
+    width = N_COMPONENTS * N_LOADS * N_BASIS
+    combine_spectra(basis_spectra, p * N_BASIS * rows, traction_spectra, plane_case[p] * N_LOADS * rows, terms,
+                    weights, q * width, counts[q], parity, half_axis, rows, i, j, stress, q * N_COMPONENTS * rows)
+
+
+@wp.kernel
+def plane_von_mises_rows(stress: wp.array3d(dtype=Any), values: wp.array2d(dtype=Any),
+                         columns: wp.array2d(dtype=int)):
+    """values[q, i], columns[q, i] <- the largest von Mises stress along row i of entry q (its six
+    components stress[6 q .. 6 q + 5]) and its column (the first where several tie): one thread
+    per row; the host takes the largest of each entry's rows."""
+    q, i = wp.tid()
+    c = N_COMPONENTS * q
+    best = von_mises(stress[c, i, 0], stress[c + 1, i, 0], stress[c + 2, i, 0], stress[c + 3, i, 0],
+                     stress[c + 4, i, 0], stress[c + 5, i, 0])
+    col = int(0)
+    for j in range(1, stress.shape[2]):
+        v = von_mises(stress[c, i, j], stress[c + 1, i, j], stress[c + 2, i, j], stress[c + 3, i, j],
+                      stress[c + 4, i, j], stress[c + 5, i, j])
+        if v > best:
+            best = v
+            col = j
+    values[q, i] = best
+    columns[q, i] = col
+
+
 for _r, _v in ((wp.float32, wp.vec2f), (wp.float64, wp.vec2d)):
     wp.overload(basis_quadrant, {"corners": wp.array2d(dtype=wp.float64), "weighted": int, "row0": int,
                                  "out": wp.array2d(dtype=_r)})
@@ -304,3 +402,11 @@ for _r, _v in ((wp.float32, wp.vec2f), (wp.float64, wp.vec2d)):
                              "columns": wp.array(dtype=int)})
     wp.overload(take_line, {"fields": wp.array3d(dtype=_r), "index": int, "along_x": int,
                             "out": wp.array2d(dtype=_r)})
+    wp.overload(plane_basis_quadrants, {"depths": wp.array(dtype=wp.float64), "out": wp.array3d(dtype=_r)})
+    wp.overload(plane_stress_spectra, {"basis_spectra": wp.array2d(dtype=_v), "traction_spectra": wp.array2d(dtype=_v),
+                                       "plane_case": wp.array(dtype=int), "bodies": int,
+                                       "terms": wp.array(dtype=wp.vec3i), "weights": wp.array(dtype=_r),
+                                       "counts": wp.array(dtype=int), "parity": wp.array(dtype=int),
+                                       "half_axis": int, "rows": int, "stress": wp.array2d(dtype=_v)})
+    wp.overload(plane_von_mises_rows, {"stress": wp.array3d(dtype=_r), "values": wp.array2d(dtype=_r),
+                                       "columns": wp.array2d(dtype=int)})

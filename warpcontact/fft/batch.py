@@ -39,6 +39,49 @@ def normal_influence(n: int) -> tuple[np.ndarray, float]:
     return np.fft.rfft2(coefficients).real, float(np.linalg.norm(coefficients))
 
 
+class BatchLibrary:
+    """The FFT library of batched transforms on one Warp device: ``scipy.fft`` with all its
+    ``workers`` threads on the CPU, CuPy's cuFFT on CUDA (run on Warp's stream there); ``xp`` the
+    array module (numpy or CuPy), ``view`` a Warp array as an ``xp`` array without a copy."""
+
+    def __init__(self, device):
+        self.device = wp.get_device(device)
+        if self.device.is_cpu:
+            import scipy.fft
+
+            self.fft, self.xp, self.workers = scipy.fft, np, {"workers": -1}
+            self._stream = None
+            return
+        from . import OPTIONAL, cupy_backend
+
+        if not cupy_backend.available():
+            raise InputError("solver.fft", "batched solves on CUDA transform through CuPy's cuFFT: "
+                             + OPTIONAL["cupy"])
+        import cupy
+        import cupy.fft
+
+        self.fft, self.xp, self.workers = cupy.fft, cupy, {}
+        self._cuda_device = cupy.cuda.Device(self.device.ordinal)
+        self._stream = cupy.cuda.ExternalStream(wp.get_stream(self.device).cuda_stream, self.device.ordinal)
+
+    def view(self, a: wp.array):
+        """``a`` (on this device) as a numpy or CuPy array sharing its memory."""
+        if self._stream is None:
+            return a.numpy()
+        with self._cuda_device:
+            return self.xp.from_dlpack(wp.to_dlpack(a))
+
+    def on_device(self):
+        """On CUDA: CuPy's current device and stream made this device and Warp's stream there (a
+        GPU other than the first, the work ordered with Warp's kernels); on the CPU nothing."""
+        if self._stream is None:
+            return contextlib.nullcontext()
+        stack = contextlib.ExitStack()
+        stack.enter_context(self._cuda_device)
+        stack.enter_context(self._stream)
+        return stack
+
+
 class BatchConvolution:
     """K_zz (or its circulant inverse, the preconditioner) on the fields of B cases at once.
 
@@ -63,54 +106,21 @@ class BatchConvolution:
         #: the 2-norm of one column of K (scaled units)
         self.column_norm = norm
         inverse = np.where(spectrum > 0.0, 1.0 / np.where(spectrum > 0.0, spectrum, 1.0), 0.0)
-        if self.device.is_cpu:
-            import scipy.fft
-
-            self._fft = scipy.fft
-            self._xp = np
-            self._input, self._output = self.source.numpy(), self.result.numpy()
-            self._stream = None
-            self._workers = {"workers": -1}
-        else:
-            from . import OPTIONAL, cupy_backend
-
-            if not cupy_backend.available():
-                raise InputError("solver.fft", "batched solves on CUDA transform through CuPy's cuFFT: "
-                                 + OPTIONAL["cupy"])
-            import cupy
-            import cupy.fft
-
-            self._fft = cupy.fft
-            self._xp = cupy
-            self._cuda_device = cupy.cuda.Device(self.device.ordinal)
-            self._stream = cupy.cuda.ExternalStream(wp.get_stream(self.device).cuda_stream, self.device.ordinal)
-            with self._cuda_device:
-                self._input = cupy.from_dlpack(wp.to_dlpack(self.source))
-                self._output = cupy.from_dlpack(wp.to_dlpack(self.result))
-            self._workers = {}
-        with self._on_device():  # the multipliers on the cases' device
-            xp = self._xp
+        self.library = BatchLibrary(self.device)
+        self._input, self._output = self.library.view(self.source), self.library.view(self.result)
+        with self.library.on_device():  # the multipliers on the cases' device
+            xp = self.library.xp
             self._multipliers = {False: xp.asarray(spectrum.astype(np_real)),
                                  True: xp.asarray(inverse.astype(np_real))}
-
-    def _on_device(self):
-        """On CUDA: CuPy's current device and stream made the cases' device and Warp's stream there
-        (a GPU other than the first, the work ordered with Warp's kernels); on the CPU nothing."""
-        if self._stream is None:
-            return contextlib.nullcontext()
-        stack = contextlib.ExitStack()
-        stack.enter_context(self._cuda_device)
-        stack.enter_context(self._stream)
-        return stack
 
     def apply(self, inverse: bool = False):
         """``result`` <- K_zz (``inverse``: its circulant inverse M, 0 where K_zz(k) <= 0) applied
         to every case's ``source``, each zero-padded to (2 n, 2 n) and the result cropped to (n, n)."""
-        with self._on_device():
+        with self.library.on_device():
             self._apply(inverse)
 
     def _apply(self, inverse: bool):
-        fft, n, w = self._fft, self.n, self._workers
+        fft, n, w = self.library.fft, self.n, self.library.workers
         rows = fft.rfft(self._input, n=2 * n, axis=-1, **w)  # the n data rows, padded to 2 n
         spectrum = fft.fft(rows, n=2 * n, axis=-2, **w)  # the columns, padded to 2 n
         spectrum *= self._multipliers[inverse]
