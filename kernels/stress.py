@@ -322,20 +322,22 @@ def take_line(fields: wp.array3d(dtype=Any), index: int, along_x: int, out: wp.a
 
 
 @wp.kernel
-def plane_basis_quadrants(depths: wp.array(dtype=wp.float64), out: wp.array3d(dtype=Any)):
-    """out[p N_BASIS + b, i, j] <- the weighted integral of basis b over the cell at offset (x, y)
-    = (j, i) at the depth ``depths[p]`` (cells): ``basis_corners`` and ``basis_quadrant``
-    (weighted) in one pass, the four corner terms of a cell evaluated by its thread."""
+def plane_basis_corners(depths: wp.array(dtype=wp.float64), bases: wp.array(dtype=int),
+                        corners: wp.array3d(dtype=wp.float64)):
+    """corners[p B + s, i, j] <- ``basis_corners`` of basis ``bases[s]`` at depth ``depths[p]``
+    (cells), B = len(bases): the bases a chunk of planes uses, for every plane."""
     k, i, j = wp.tid()
-    p = k // N_BASIS
-    b = k - p * N_BASIS
-    z = depths[p]
+    used = bases.shape[0]
+    p = k // used
     h = wp.float64(0.5)
-    x0 = wp.float64(j) - h
-    y0 = wp.float64(i) - h
-    x1 = x0 + wp.float64(1.0)
-    y1 = y0 + wp.float64(1.0)
-    v = corner_term(b, x1, y1, z) - corner_term(b, x1, y0, z) - corner_term(b, x0, y1, z) + corner_term(b, x0, y0, z)
+    corners[k, i, j] = corner_term(bases[k - p * used], wp.float64(j) - h, wp.float64(i) - h, depths[p])
+
+
+@wp.kernel
+def plane_basis_quadrants(corners: wp.array3d(dtype=wp.float64), out: wp.array3d(dtype=Any)):
+    """out[k] <- ``basis_quadrant`` (weighted) of corners[k]."""
+    k, i, j = wp.tid()
+    v = corners[k, i + 1, j + 1] - corners[k, i, j + 1] - corners[k, i + 1, j] + corners[k, i, j]
     if i > 0:
         v = v * wp.float64(2.0)
     if j > 0:
@@ -349,6 +351,7 @@ def plane_stress_spectra(
     traction_spectra: wp.array2d(dtype=Any),
     plane_case: wp.array(dtype=int),
     bodies: int,
+    used: int,
     terms: wp.array(dtype=wp.vec3i),
     weights: wp.array(dtype=Any),
     counts: wp.array(dtype=int),
@@ -358,13 +361,14 @@ def plane_stress_spectra(
     stress: wp.array2d(dtype=Any),
 ):
     """``stress_spectra`` of every body at every plane: entry q = p ``bodies`` + body (plane p,
-    its case ``plane_case[p]``) combines the plane's N_BASIS basis spectra with the case's three
+    its case ``plane_case[p]``) combines the plane's ``used`` basis spectra with the case's three
     traction spectra through its ``counts[q]`` terms from q N_COMPONENTS N_LOADS N_BASIS on, into
-    the six stress spectra from row 6 q ``rows``."""
+    the six stress spectra from row 6 q ``rows``. The terms' basis is the slot among the used
+    ones, ``parity`` the parity of each slot's basis."""
     q, i, j = wp.tid()
     p = q // bodies
     width = N_COMPONENTS * N_LOADS * N_BASIS
-    combine_spectra(basis_spectra, p * N_BASIS * rows, traction_spectra, plane_case[p] * N_LOADS * rows, terms,
+    combine_spectra(basis_spectra, p * used * rows, traction_spectra, plane_case[p] * N_LOADS * rows, terms,
                     weights, q * width, counts[q], parity, half_axis, rows, i, j, stress, q * N_COMPONENTS * rows)
 
 
@@ -402,9 +406,9 @@ for _r, _v in ((wp.float32, wp.vec2f), (wp.float64, wp.vec2d)):
                              "columns": wp.array(dtype=int)})
     wp.overload(take_line, {"fields": wp.array3d(dtype=_r), "index": int, "along_x": int,
                             "out": wp.array2d(dtype=_r)})
-    wp.overload(plane_basis_quadrants, {"depths": wp.array(dtype=wp.float64), "out": wp.array3d(dtype=_r)})
+    wp.overload(plane_basis_quadrants, {"corners": wp.array3d(dtype=wp.float64), "out": wp.array3d(dtype=_r)})
     wp.overload(plane_stress_spectra, {"basis_spectra": wp.array2d(dtype=_v), "traction_spectra": wp.array2d(dtype=_v),
-                                       "plane_case": wp.array(dtype=int), "bodies": int,
+                                       "plane_case": wp.array(dtype=int), "bodies": int, "used": int,
                                        "terms": wp.array(dtype=wp.vec3i), "weights": wp.array(dtype=_r),
                                        "counts": wp.array(dtype=int), "parity": wp.array(dtype=int),
                                        "half_axis": int, "rows": int, "stress": wp.array2d(dtype=_v)})

@@ -139,6 +139,34 @@ def cell_kernels(nu: float, z_cells: float, size: int, device="cpu") -> np.ndarr
 # Memory.
 
 
+def body_tables(pair, bodies, z_cells: float, loads=(True, True, True)) -> dict:
+    """Each of ``bodies``' stress table at depth ``z_cells`` ((6, 3, 14): component, load, basis;
+    ``stress_table`` of its Poisson ratio), the sphere's shear columns negated (it carries -q),
+    the columns of the loads not given (``loads``: p, q_x, q_y) zeroed."""
+    tables = {}
+    for name in bodies:
+        table = stress_table(pair.elastic[name].nu, z_cells)
+        if name == "sphere":
+            table[:, 1:, :] *= -1.0
+        table[:, [not on for on in loads], :] = 0.0
+        tables[name] = table
+    return tables
+
+
+def table_terms(table: np.ndarray) -> tuple[np.ndarray, np.ndarray, int]:
+    """The non-zero terms of a stress table as ``stress_spectra`` sums them: (terms, weights,
+    count), terms (6 * 3 * 14, 3) int32 rows (component, load, basis) sorted by basis, then load,
+    weights their coefficients, both zero after the first ``count``."""
+    c, l, b = np.nonzero(table)
+    order = np.lexsort((c, l, b))
+    count = len(order)
+    terms = np.zeros((table.size, 3), dtype=np.int32)
+    terms[:count] = np.stack([c, l, b], axis=1)[order]
+    weights = np.zeros(table.size)
+    weights[:count] = table[c, l, b][order]
+    return terms, weights, count
+
+
 def memory_bytes(n: int, dtype, fft: str, depths: int, volume: bool = False) -> dict:
     """Bytes of one subsurface-stress evaluation on an n x n grid: ``device`` (the arrays of
     ``SubsurfaceStress``: 23 spectra (14 basis, 3 traction, 6 stress), 13 (n, n) fields (one work
@@ -432,16 +460,8 @@ class SubsurfaceStress:
         self.launches.split(kernel, shape, lambda r0, r1: ((r1 - r0, columns), args), args, outputs)
 
     def _tables(self, z_cells: float) -> dict:
-        """Each body's stress table at depth ``z_cells`` ((6, 3, 14): component, load, basis), the
-        sphere's shear columns negated (it carries -q), the loads that were not loaded zeroed."""
-        tables = {}
-        for name in self.bodies:
-            table = stress_table(self.pair.elastic[name].nu, z_cells)
-            if name == "sphere":
-                table[:, 1:, :] *= -1.0
-            table[:, [not on for on in self._loads], :] = 0.0
-            tables[name] = table
-        return tables
+        """Each body's stress table at depth ``z_cells`` (``body_tables``)."""
+        return body_tables(self.pair, self.bodies, z_cells, self._loads)
 
     def _basis_spectra(self, z_cells: float, tables: dict):
         """The spectra of the weighted basis quadrants at depth ``z_cells`` that ``tables`` use
@@ -497,13 +517,7 @@ class SubsurfaceStress:
         summed, sorted by basis and load (``kernels/stress.py``, ``stress_spectra``)."""
         from warpcontact.kernels import stress as ks
 
-        c, l, b = np.nonzero(table)
-        order = np.lexsort((c, l, b))
-        count = len(order)
-        terms = np.zeros((self._terms.shape[0], 3), dtype=np.int32)
-        terms[:count] = np.stack([c, l, b], axis=1)[order]
-        weights = np.zeros(self._weights.shape[0])
-        weights[:count] = table[c, l, b][order]
+        terms, weights, count = table_terms(table)
         self._terms.assign(terms)
         self._weights.assign(weights.astype(self.np_dtype))
         self._rows(ks.stress_spectra, self.fft.spectral_shape,

@@ -103,6 +103,42 @@ def _evaluator(pair, grid, depths, device, dtype, fft) -> SubsurfaceStress:
     return stress
 
 
+def _has_half_grid(grid, radius: float) -> bool:
+    """Whether the deep depths of a check are evaluated on the half grid (``_YieldEvaluator``)."""
+    return grid.n % 2 == 0 and radius >= COARSE_STRESS_MIN_RADIUS_CELLS * grid.dx
+
+
+def _half_grid(grid):
+    from ..physics.geometry import Grid
+
+    return Grid(grid.n // 2, grid.size)
+
+
+def _deep(depths: np.ndarray, grid, half_grid: bool) -> np.ndarray:
+    """Which ``depths`` [m] the half grid evaluates (all False without one)."""
+    if not half_grid:
+        return np.zeros(len(depths), dtype=bool)
+    return depths >= COARSE_STRESS_DEPTH_CELLS * grid.dx
+
+
+def _restricted(totals: tuple) -> tuple:
+    """The half grid's tractions of device ``totals`` (the means of 2 x 2 cells), on their device."""
+    import warp as wp
+
+    from warpcontact.kernels import grids as gk
+
+    out = []
+    for t in totals:
+        if t is None:
+            out.append(None)
+            continue
+        h = t.shape[0] // 2
+        c = wp.empty((h, h), dtype=t.dtype, device=t.device)
+        wp.launch(gk.restrict_mean, dim=(h, h), inputs=[t, t.dtype(1.0)], outputs=[c], device=t.device)
+        out.append(c)
+    return tuple(out)
+
+
 class _YieldEvaluator:
     """The von Mises maxima of one state's tractions at any depths, each on the fine grid or, from
     ``COARSE_STRESS_DEPTH_CELLS`` down and where the contact ``radius`` [m] spans
@@ -117,28 +153,16 @@ class _YieldEvaluator:
         self.tractions = totals
         self.fine = _evaluator(pair, grid, depths, device, dtype, fft)
         self.coarse = self.coarse_tractions = None
-        n = grid.n
-        if n % 2 == 0 and radius >= COARSE_STRESS_MIN_RADIUS_CELLS * grid.dx:
-            from ..physics.geometry import Grid
-
-            h = n // 2
-            self.coarse = _evaluator(pair, Grid(h, grid.size), depths, device, dtype, fft)
+        if _has_half_grid(grid, radius):
+            self.coarse = _evaluator(pair, _half_grid(grid), depths, device, dtype, fft)
             if isinstance(totals[0], wp.array):  # on the device: the half grid's there too
-                from warpcontact.kernels import grids as gk
-
-                self.coarse_tractions = tuple(None if t is None else wp.empty((h, h), dtype=t.dtype, device=t.device)
-                                              for t in totals)
-                for t, c in zip(totals, self.coarse_tractions):
-                    if t is not None:
-                        wp.launch(gk.restrict_mean, dim=(h, h), inputs=[t, t.dtype(1.0)], outputs=[c],
-                                  device=t.device)
+                self.coarse_tractions = _restricted(totals)
             else:
                 self.coarse_tractions = tuple(None if t is None else _restrict_mean(np.asarray(t)) for t in totals)
 
     def maxima(self, depths) -> dict:
         depths = np.asarray(depths, dtype=np.float64)
-        deep = depths >= COARSE_STRESS_DEPTH_CELLS * self.grid.dx if self.coarse is not None else \
-            np.zeros(len(depths), dtype=bool)
+        deep = _deep(depths, self.grid, self.coarse is not None)
         out = {name: np.zeros((len(depths), 3)) for name in self.fine.bodies}
         for mask, evaluator, tr in ((~deep, self.fine, self.tractions),
                                     (deep, self.coarse, self.coarse_tractions)):
@@ -186,6 +210,14 @@ def state_yield_check(state, friction: bool = True, adhesion: bool = True) -> di
 
 
 def _state_yield_check(state, friction: bool, adhesion: bool) -> dict:
+    m = state.model
+    totals, radius = _state_totals(state, friction, adhesion)
+    return _yield_check(m.pair, m.grid, totals, radius, m.device, m.dtype_name, m.fft_name)
+
+
+def _state_totals(state, friction: bool, adhesion: bool) -> tuple:
+    """((p, q_x, q_y) totals of a state on its device, scaled by E*, None for one left out; the
+    contact radius [m])."""
     import warp as wp
 
     from warpcontact.kernels import adhesion as ak
@@ -204,52 +236,151 @@ def _state_yield_check(state, friction: bool, adhesion: bool) -> dict:
         if adhesion:
             m.launch(ak.add_to, dim=m.n_cells, inputs=[adhesive.flatten()], outputs=[total.flatten()])
         totals.append(total)
-    radius = contact_radius({"pressure": state.pressure.numpy()}, m.grid.cell_area)
-    return _yield_check(m.pair, m.grid, tuple(totals), radius, m.device, m.dtype_name, m.fft_name)
+    return tuple(totals), contact_radius({"pressure": state.pressure.numpy()}, m.grid.cell_area)
 
 
 def _yield_check(pair, grid, totals, radius: float, device, dtype, fft) -> dict:
     """:func:`yield_check` from the total tractions (host [Pa] or device, scaled: see
     ``_YieldEvaluator``) and the contact radius [m]."""
-    a = radius if radius > 0 else 16.0 * grid.dx / 2.0
-    depths = np.concatenate([[SURFACE_DEPTH_IN_CELLS * grid.dx], np.array(YIELD_CHECK_DEPTHS_IN_A) * a])
-    materials = pair.elastic
-    rigid = {name: {"rigid": True, "von_mises_max": None, "z": None, "yield_strength": None, "yielded": None,
-                    "margin": None, "reason": RIGID_REASON} for name in BODIES if name not in materials}
-    if not any(math.isfinite(m.yield_strength) for m in materials.values()):
-        return {"yielded": None, "reason": "no yield_strength given", **rigid}
+    unchecked = _unchecked(pair)
+    if unchecked is not None:
+        return unchecked
+    depths = _first_depths(grid, radius)
     try:
         stress = _YieldEvaluator(pair, grid, totals, depths, device, dtype, fft, radius)
         maxima = stress.maxima(depths)
-        extra = set()
-        for m in maxima.values():  # the midpoints around each body's largest
-            k = int(np.argmax(m[:, 0]))
-            extra.update(0.5 * (depths[j] + depths[j + 1]) for j in (k - 1, k) if 0 <= j < len(depths) - 1)
-        if extra:
-            more = np.array(sorted(extra))
-            more_maxima = stress.maxima(more)
-            order = np.argsort(np.concatenate([depths, more]), kind="stable")
-            depths = np.concatenate([depths, more])[order]
-            maxima = {b: np.concatenate([maxima[b], more_maxima[b]])[order] for b in maxima}
+        more = _midpoints(depths, maxima)
+        if len(more):
+            depths, maxima = _merged(depths, maxima, more, stress.maxima(more))
     except InputError as e:  # the evaluation does not fit beside the solve: say so, do not fail the run
         return {"yielded": None, "reason": str(e)}
     except (MemoryError, RuntimeError) as e:  # an allocation the device refused; any other error is raised
         if not allocation_refused(e):
             raise
         return {"yielded": None, "reason": f"the yield check could not run: {e}"}
+    return _verdict(pair, depths, maxima)
+
+
+def _rigid(pair) -> dict:
+    return {name: {"rigid": True, "von_mises_max": None, "z": None, "yield_strength": None, "yielded": None,
+                   "margin": None, "reason": RIGID_REASON} for name in BODIES if name not in pair.elastic}
+
+
+def _unchecked(pair) -> dict | None:
+    """The check's answer where no body has a finite yield strength; else None (it runs)."""
+    if not any(math.isfinite(m.yield_strength) for m in pair.elastic.values()):
+        return {"yielded": None, "reason": "no yield_strength given", **_rigid(pair)}
+    return None
+
+
+def _first_depths(grid, radius: float) -> np.ndarray:
+    """The check's first depths [m]: the surface and ``YIELD_CHECK_DEPTHS_IN_A`` contact radii
+    (16 cells without contact)."""
+    a = radius if radius > 0 else 16.0 * grid.dx / 2.0
+    return np.concatenate([[SURFACE_DEPTH_IN_CELLS * grid.dx], np.array(YIELD_CHECK_DEPTHS_IN_A) * a])
+
+
+def _midpoints(depths: np.ndarray, maxima: dict) -> np.ndarray:
+    """The midpoints on either side of each body's largest von Mises stress among ``depths``."""
+    extra = set()
+    for m in maxima.values():
+        k = int(np.argmax(m[:, 0]))
+        extra.update(0.5 * (depths[j] + depths[j + 1]) for j in (k - 1, k) if 0 <= j < len(depths) - 1)
+    return np.array(sorted(extra))
+
+
+def _merged(depths, maxima, more, more_maxima) -> tuple:
+    """Both sets of depths and maxima, in depth order."""
+    order = np.argsort(np.concatenate([depths, more]), kind="stable")
+    return np.concatenate([depths, more])[order], {b: np.concatenate([maxima[b], more_maxima[b]])[order]
+                                                    for b in maxima}
+
+
+def _verdict(pair, depths, maxima) -> dict:
+    """Each body's maximum refined between depths (:func:`depth_maximum`) against its yield strength."""
+    rigid = _rigid(pair)
     out = {}
     for name in BODIES:
         if name in rigid:
             out[name] = rigid[name]
             continue
         vm = depth_maximum(maxima[name], depths)
-        sy = materials[name].yield_strength
+        sy = pair.elastic[name].yield_strength
         finite = math.isfinite(sy)
         out[name] = {"von_mises_max": vm["value"], "z": vm["z"], "yield_strength": sy if finite else None,
                      "yielded": bool(vm["value"] >= sy) if finite else None,
                      "margin": sy / vm["value"] if finite and vm["value"] > 0 else None}
     out["yielded"] = any(out[b]["yielded"] for b in BODIES)
     return out
+
+
+def batch_yield_checks(states: list, friction: bool = True, adhesion: bool = True) -> list[dict]:
+    """:func:`state_yield_check` of many solved states of one grid size, device and float type,
+    made together: each pass's depths of every state in one evaluation
+    (``stress_batch.PlaneStress``; the half grid's in a second), so a batch of small cases
+    launches a few kernels and transforms where one case at a time launches hundreds. The same
+    depths, half grid and refinement as each state's own check, so the same answers to
+    round-off. Should the batched evaluation fail (a device's refusal, a library's error), each
+    state is checked on its own as ``state_yield_check`` checks it."""
+    try:
+        return _batch_yield_checks(states, friction, adhesion)
+    except Exception:  # noqa: BLE001 - each state's own check then, with its own failure in its place
+        return [state_yield_check(s, friction, adhesion) for s in states]
+
+
+def _batch_yield_checks(states, friction, adhesion) -> list[dict]:
+    from .stress_batch import PlaneStress
+
+    checks: list = [None] * len(states)
+    cases = []  # (index, pair, grid, totals, radius, depths)
+    for i, state in enumerate(states):
+        pair = state.model.pair
+        checks[i] = _unchecked(pair)
+        if checks[i] is None:
+            totals, radius = _state_totals(state, friction, adhesion)
+            cases.append((i, pair, state.model.grid, totals, radius))
+    if not cases:
+        return checks
+    model = states[cases[0][0]].model
+    levels = {}  # grid level (fine, half) -> (PlaneStress, tractions of each case)
+
+    def level(half: bool):
+        if half not in levels:
+            n = model.grid.n // 2 if half else model.grid.n
+            totals = [c[3] if not half else _restricted(c[3]) if _has_half_grid(c[2], c[4]) else (None,) * 3
+                      for c in cases]
+            levels[half] = (PlaneStress(n, model.device, model.dtype), totals)
+        return levels[half]
+
+    def maxima(depth_sets: list) -> list:
+        """Each case's {body: (len(depths), 3) value [Pa], x, y [m]} at its depths."""
+        out = [{name: np.zeros((len(d), 3)) for name in BODIES} for d in depth_sets]
+        for half in (False, True):
+            planes, where = [], []
+            for c, ((_, pair, grid, _, radius), depths) in enumerate(zip(cases, depth_sets)):
+                deep = _deep(depths, grid, _has_half_grid(grid, radius))
+                g = _half_grid(grid) if half else grid
+                for k in np.flatnonzero(deep if half else ~deep):
+                    planes.append((c, depths[k] / g.dx))
+                    where.append((c, k, g))
+            if not planes:
+                continue
+            stress, totals = level(half)
+            values = stress.maxima([c[1] for c in cases], totals, planes)
+            for (c, k, g), v in zip(where, values):
+                for b, name in enumerate(BODIES):
+                    out[c][name][k] = (v[b, 0], g.x[int(v[b, 2])], g.y[int(v[b, 1])])
+        return [{name: m[name] for name in c[1].elastic} for m, c in zip(out, cases)]
+
+    depths = [_first_depths(c[2], c[4]) for c in cases]
+    first = maxima(depths)
+    more = [_midpoints(d, m) for d, m in zip(depths, first)]
+    second = maxima(more)
+    for c, d, m, extra, m2 in zip(cases, depths, first, more, second):
+        if len(extra):
+            d, m = _merged(d, m, extra, m2)
+        checks[c[0]] = _verdict(c[1], d, m)
+    return checks
 
 
 def yield_keys(check: dict | None) -> dict:

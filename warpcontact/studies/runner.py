@@ -187,14 +187,17 @@ class PathRecorder:
             if self.on_state is not None:
                 self.on_state(k, self.total, summary, result)
 
-    def finish(self, state):
+    def finish(self, state, check: dict | None = None):
         """The last state against the bodies' yield strengths (below the surface), from the
-        state's tractions where they are (on the device: nothing copied to the host)."""
+        state's tractions where they are (on the device: nothing copied to the host); ``check``:
+        that check already made (``yielding.batch_yield_checks``)."""
         from ..numerics.yielding import state_yield_check
 
         result = self.result
         if result.states:
-            result.yield_check = state_yield_check(state, self.friction is not None, self.adhesion is not None)
+            if check is None:
+                check = state_yield_check(state, self.friction is not None, self.adhesion is not None)
+            result.yield_check = check
             self.checks.yielded(result.yield_check, result.states[-1])
 
 

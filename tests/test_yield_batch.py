@@ -1,0 +1,105 @@
+"""The yield check of many solved states at once (yielding.batch_yield_checks, numerics/stress_batch.py)
+gives each state's own check (yielding.state_yield_check): the same depths, half grid and
+refinement, the planes of every state evaluated together by the plane kernels of kernels/stress.py."""
+
+import warnings
+
+import numpy as np
+import pytest
+
+import warpcontact as wc
+from warpcontact.numerics import stress_batch, yielding
+from warpcontact.studies import runner
+
+PAIR = {"sphere": {"radius": 10e-6, "E": 106e9, "nu": 0.33, "yield_strength": 200e6},
+        "flat": {"E": 205e9, "nu": 0.31, "yield_strength": 345e6}}
+
+
+def final_states(cases, device):
+    """Each case solved on ``device``, its last ``ContactState`` (the one a path's yield check reads)."""
+    states = []
+    finish = runner.PathRecorder.finish
+
+    def keep(self, state, check=None):
+        states.append(state)
+        return finish(self, state, check)
+
+    runner.PathRecorder.finish = keep
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            for d in cases:
+                wc.solve({**d, "solver": {"device": device}}, fields="none")
+    finally:
+        runner.PathRecorder.finish = finish
+    return states
+
+
+def case(n, size, delta_z, delta_x=0.0, friction=True, flat=None):
+    d = {"sphere": dict(PAIR["sphere"]), "flat": dict(flat or PAIR["flat"]), "grid": {"n": n, "size": size},
+         "load": {"delta_z": delta_z, "delta_x": delta_x, "steps": 2}}
+    if friction:
+        d["friction"] = {"law": "tabor", "k_tau": 0.8}
+    return d
+
+
+def assert_same(batch, alone):
+    """Each body's maximum within 1e-12 of its own check's (the same sums, transformed by another
+    FFT library: round-off), its depth likewise, and the same verdicts."""
+    assert batch.keys() == alone.keys()
+    assert batch["yielded"] == alone["yielded"]
+    for name in ("sphere", "flat"):
+        b, a = batch[name], alone[name]
+        if a.get("rigid"):
+            assert b == a
+            continue
+        assert b["von_mises_max"] == pytest.approx(a["von_mises_max"], rel=1e-12)
+        assert b["z"] == pytest.approx(a["z"], rel=1e-9, abs=1e-9 * a["z"] + 1e-18)
+        assert (b["yielded"], b["yield_strength"]) == (a["yielded"], a["yield_strength"])
+
+
+def test_batched_checks_equal_each_states_own(device):
+    """Four states of one grid size: with friction and without, one whose deep depths go to the
+    half grid (a contact radius of about 40 cells, more than COARSE_STRESS_MIN_RADIUS_CELLS) and
+    one on a rigid flat; one check each, as each state's own check."""
+    cases = [case(128, 3.2e-7, 1.5e-10, 3e-11), case(128, 3.2e-7, 1.0e-10, friction=False),
+             case(128, 1.2e-7, 1.5e-10, 2e-11),
+             case(128, 3.2e-7, 1.2e-10, friction=False, flat={"rigid": True})]
+    states = final_states(cases, device)
+    half = [yielding._has_half_grid(s.model.grid, yielding._state_totals(s, True, False)[1]) for s in states]
+    assert half == [False, False, True, False]
+    batch = yielding.batch_yield_checks(states, friction=True, adhesion=False)
+    for s, b in zip(states, batch):
+        assert_same(b, yielding.state_yield_check(s, True, False))
+    assert batch[3]["flat"]["rigid"] is True
+
+
+def test_batched_checks_in_chunks_of_planes(monkeypatch):
+    """Chunks of 3 planes (a pass's planes split over several chunks) give the same checks."""
+    states = final_states([case(48, 1.6e-7, 1.5e-10, 3e-11), case(48, 1.6e-7, 0.8e-10, 1e-11)], "cpu")
+    whole = yielding.batch_yield_checks(states)
+    monkeypatch.setattr(stress_batch, "CHUNK_BYTES", 1)
+    monkeypatch.setattr(stress_batch.PlaneStress, "__init__", _small_chunks(stress_batch.PlaneStress.__init__, 3))
+    for b, w in zip(yielding.batch_yield_checks(states), whole):
+        assert_same(b, w)
+
+
+def _small_chunks(init, planes):
+    def wrapped(self, *args, **kw):
+        init(self, *args, **kw)
+        self.chunk = planes
+
+    return wrapped
+
+
+def test_a_failing_batched_check_falls_back_to_each_states_own(monkeypatch):
+    """An error of the batched evaluation (a device's refusal, say): each state is checked alone."""
+    states = final_states([case(32, 1.6e-7, 1.5e-10, 3e-11)], "cpu")
+
+    def refuse(self, *args, **kw):
+        raise RuntimeError("out of memory")
+
+    monkeypatch.setattr(stress_batch.PlaneStress, "maxima", refuse)
+    (check,) = yielding.batch_yield_checks(states)
+    assert_same(check, yielding.state_yield_check(states[0]))
+    assert np.isfinite(check["sphere"]["von_mises_max"])

@@ -1,0 +1,156 @@
+"""The von Mises maxima of many cases at many depths at once: the yield check of a batch of solved
+states (``yielding.batch_yield_checks``).
+
+``SubsurfaceStress.von_mises_maxima`` evaluates one case depth after depth: at each depth the
+basis spectra one by one, then each body's stress spectra, six inverse transforms, its von Mises
+field and its maximum, read on the host; on a GPU a small grid spends that time launching. Here a
+*plane* is one depth below one case's surface, and every step runs once for all the planes of a
+chunk: ``kernels/stress.py``'s plane kernels (the 14 weighted basis quadrants of every plane; the
+stress spectra of every body at every plane, each case's materials and tractions; the largest
+von Mises stress along every row), the transforms batched by the FFT library (``fft.batch``:
+scipy.fft on the CPU, CuPy's cuFFT on CUDA), and one read of the row maxima a chunk. The method
+and its numbers are ``SubsurfaceStress``': the same basis integrals, tables and combination
+(``combine_spectra``), so a plane's maxima equal its evaluation alone to round-off.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .stress import BASIS, BASIS_PARITY, BODIES, body_tables, table_terms
+
+#: bytes a chunk of planes may take on a device (its stacks and the library's work arrays)
+CHUNK_BYTES = 1 << 30
+
+
+class PlaneStress:
+    """The von Mises maxima of each body at planes (case, depth) of cases on one n x n grid.
+
+    Args:
+        n: cells per side.
+        device: a Warp device.
+        dtype: ``wp.float32`` or ``wp.float64``.
+    """
+
+    def __init__(self, n: int, device, dtype):
+        import warp as wp
+
+        from ..fft.batch import BatchLibrary
+        from .device import numpy_dtype
+
+        self.n, self.dtype = int(n), dtype
+        self.device = wp.get_device(device)
+        self.library = BatchLibrary(self.device)
+        self.np_dtype = numpy_dtype(dtype)
+        self.complex_dtype = np.complex128 if dtype == wp.float64 else np.complex64
+        self.vector = wp.vec2d if dtype == wp.float64 else wp.vec2f
+        self.rows, self.cols = 2 * self.n, self.n + 1
+        real = np.dtype(self.np_dtype).itemsize
+        spectrum = self.rows * self.cols * 2 * real
+        field = self.n * self.n * real
+        # per plane: at most 14 basis corners, quadrants and spectra, 6 stress spectra and fields a
+        # body, and the library's intermediate arrays (about as much again)
+        per_plane = 2 * (len(BASIS) * (8 * (n + 1) ** 2 + field + spectrum) + len(BODIES) * 6 * (field + spectrum))
+        #: planes evaluated together
+        self.chunk = max(1, CHUNK_BYTES // per_plane)
+
+    def _complex(self, a):
+        """A Warp stack of spectra (rows, cols) of 2-vectors as a complex (spectra, rows, cols) view."""
+        v = self.library.view(a)
+        return v.view(self.complex_dtype).reshape(-1, self.rows, self.cols)
+
+    def _forward(self, fields, spectra):
+        """spectra <- the transforms of (k, n, n) ``fields`` zero-padded to (2 n, 2 n) (numpy's
+        rfft2 layout, the half axis last)."""
+        fft, w, n = self.library.fft, self.library.workers, self.n
+        rows = fft.rfft(self.library.view(fields), n=2 * n, axis=-1, **w)
+        self._complex(spectra)[...] = fft.fft(rows, n=2 * n, axis=-2, **w)
+
+    def maxima(self, pairs: list, tractions: list, planes: list) -> np.ndarray:
+        """The largest von Mises stress of each body at each plane: (len(planes), 2, 3) array of
+        value [Pa], row and column of the cell (body order ``BODIES``; 0 for a rigid body).
+
+        ``pairs[c]``: case c's materials; ``tractions[c]``: its total (p, q_x, q_y) as (n, n) Warp
+        arrays on this device scaled by its E* (a ``ContactState``'s units), None for a zero one;
+        ``planes``: (case, depth in cells) each."""
+        import warp as wp
+
+        from warpcontact.kernels import stress as ks
+
+        n, nb = self.n, len(BASIS)
+        cases = len(tractions)
+        out = np.zeros((len(planes), len(BODIES), 3))
+        if not planes:
+            return out
+        with self.library.on_device(), wp.ScopedDevice(self.device):
+            stack = wp.zeros((cases * 3, n, n), dtype=self.dtype)
+            flat = stack.flatten()
+            for c, loads in enumerate(tractions):
+                for k, t in enumerate(loads):
+                    if t is not None:
+                        wp.copy(flat, t.flatten(), dest_offset=(3 * c + k) * n * n, count=n * n)
+            traction_spectra = wp.empty((cases * 3 * self.rows, self.cols), dtype=self.vector)
+            self._forward(stack, traction_spectra)
+            del stack, flat
+            loaded = [tuple(t is not None for t in loads) for loads in tractions]
+            for first in range(0, len(planes), self.chunk):
+                part = planes[first:first + self.chunk]
+                out[first:first + len(part)] = self._chunk(pairs, loaded, traction_spectra, part, ks, nb)
+        return out
+
+    def _chunk(self, pairs, loaded, traction_spectra, planes, ks, nb) -> np.ndarray:
+        import warp as wp
+
+        n, rows, cols, bodies = self.n, self.rows, self.cols, len(BODIES)
+        p_count, q_count = len(planes), len(planes) * bodies
+        width = 6 * 3 * nb
+        terms = np.zeros((q_count * width, 3), dtype=np.int32)
+        weights = np.zeros(q_count * width)
+        counts = np.zeros(q_count, dtype=np.int32)
+        tables = [body_tables(pairs[c], tuple(pairs[c].elastic), z, loaded[c]) for c, z in planes]
+        # the bases any table uses (8 of the 14 for pressures alone), each in a slot of its own
+        used = np.flatnonzero(np.any([(t != 0).any(axis=(0, 1)) for ts in tables for t in ts.values()], axis=0))
+        slot = np.zeros(nb, dtype=np.int32)
+        slot[used] = np.arange(len(used))
+        for p, ts in enumerate(tables):
+            for b, name in enumerate(BODIES):
+                if name in ts:  # a rigid body: no terms, a zero stress
+                    q = p * bodies + b
+                    t, w, count = table_terms(ts[name])
+                    t[:count, 2] = slot[t[:count, 2]]
+                    terms[q * width:(q + 1) * width], weights[q * width:(q + 1) * width] = t, w
+                    counts[q] = count
+        depths = wp.array(np.array([z for _, z in planes], dtype=np.float64), dtype=wp.float64)
+        plane_case = wp.array(np.array([c for c, _ in planes], dtype=np.int32), dtype=int)
+        k = p_count * len(used)
+        corners = wp.empty((k, n + 1, n + 1), dtype=wp.float64)
+        wp.launch(ks.plane_basis_corners, dim=corners.shape,
+                  inputs=[depths, wp.array(used.astype(np.int32), dtype=int)], outputs=[corners])
+        quadrants = wp.empty((k, n, n), dtype=self.dtype)
+        wp.launch(ks.plane_basis_quadrants, dim=quadrants.shape, inputs=[corners], outputs=[quadrants])
+        del corners
+        basis_spectra = wp.empty((k * rows, cols), dtype=self.vector)
+        self._forward(quadrants, basis_spectra)
+        del quadrants
+        parity = wp.array(np.array(BASIS_PARITY, dtype=np.int32)[used], dtype=int)
+        stress_spectra = wp.empty((q_count * 6 * rows, cols), dtype=self.vector)
+        wp.launch(ks.plane_stress_spectra, dim=(q_count, rows, cols),
+                  inputs=[basis_spectra, traction_spectra, plane_case, bodies, len(used),
+                          wp.array(terms, dtype=wp.vec3i), wp.array(weights.astype(self.np_dtype), dtype=self.dtype),
+                          wp.array(counts, dtype=int), parity, 1, rows],
+                  outputs=[stress_spectra])
+        del basis_spectra
+        stress = wp.empty((q_count * 6, n, n), dtype=self.dtype)
+        fft, w = self.library.fft, self.library.workers
+        columns = fft.ifft(self._complex(stress_spectra), axis=-2, **w)[:, :n]  # the n rows kept
+        self.library.view(stress)[...] = fft.irfft(columns, n=2 * n, axis=-1, **w)[:, :, :n]
+        del stress_spectra, columns
+        values = wp.empty((q_count, n), dtype=self.dtype)
+        cols_at = wp.empty((q_count, n), dtype=int)
+        wp.launch(ks.plane_von_mises_rows, dim=(q_count, n), inputs=[stress], outputs=[values, cols_at])
+        values, cols_at = values.numpy(), cols_at.numpy()
+        row = np.argmax(values, axis=1)
+        best = values[np.arange(q_count), row].astype(np.float64)
+        col = cols_at[np.arange(q_count), row]
+        e_star = np.repeat([pairs[c].E_star for c, _ in planes], bodies)
+        return np.stack([best * e_star, row, col], axis=1).reshape(p_count, bodies, 3)
