@@ -17,7 +17,9 @@ size runs, side by side in one process:
 
 ``--problem normal``: the same pair and sphere without ``[friction]``, one normal step to delta_z
 spread over 0.5 ... 1.5 x 1e-10 m; besides ``api``, ``batch B`` rows: ``warpcontact.solve_batch(cases,
-batch=B)`` (each batch's kernels launched once for its B cases; one warm-up batch first).
+batch=B)`` (each batch's kernels launched once for its B cases; one warm-up batch first; on CUDA
+the yield checks of the cases a state ends made together); ``--own-checks`` adds the largest batch
+with each case's check made on its own.
 
 Reported: the wall time from the first case to the last result [s], the cluster's start [s]
 (apart), cases per second over the wall time, and the ratio to ``api``. Every case must converge.
@@ -96,16 +98,25 @@ def normal_cases(n: int, cases: int, device: str, dtype: str) -> list:
             for i in range(cases)]
 
 
-def batched(cases: list, batch: int) -> dict:
-    """``batch B``: ``solve_batch`` with batches of B cases."""
+def batched(cases: list, batch: int, own_checks: bool = False) -> dict:
+    """``batch B``: ``solve_batch`` with batches of B cases; ``own_checks``: each case's yield
+    check made on its own (as on the CPU), not the batch's together."""
     import warpcontact as wc
+    from warpcontact.studies import batch_solve
 
-    wc.solve_batch(cases[:batch], batch=batch)  # warm-up: kernels, plans of this batch size
-    t0 = time.perf_counter()
-    results = wc.solve_batch(cases, batch=batch)
-    wall = time.perf_counter() - t0
+    made_together = batch_solve._yield_checks
+    if own_checks:
+        batch_solve._yield_checks = lambda solver, ended: {}
+    try:
+        wc.solve_batch(cases[:batch], batch=batch)  # warm-up: kernels, plans of this batch size
+        t0 = time.perf_counter()
+        results = wc.solve_batch(cases, batch=batch)
+        wall = time.perf_counter() - t0
+    finally:
+        batch_solve._yield_checks = made_together
     assert all(not isinstance(r, Exception) and r.converged for r in results), "a case did not converge"
-    return {"placement": f"batch {batch}", "workers": 1, "cases": len(cases), "start_s": 0.0, "wall_s": wall}
+    return {"placement": f"batch {batch}" + (", own checks" if own_checks else ""), "workers": 1,
+            "cases": len(cases), "start_s": 0.0, "wall_s": wall}
 
 
 def with_workers(path: Path, workers: int) -> dict:
@@ -139,6 +150,8 @@ def main(argv=None):
                     help="coupled: Tabor friction, a normal and a tangential step; normal: no friction, one step")
     ap.add_argument("--batches", type=int, nargs="*", default=[16, 64],
                     help="batch sizes of the batched rows (--problem normal)")
+    ap.add_argument("--own-checks", action="store_true",
+                    help="add a row of the largest batch with each case's yield check made on its own")
     ap.add_argument("--out", default="bench_results/throughput")
     args = ap.parse_args(argv)
     if any(w < 2 for w in args.workers):
@@ -155,6 +168,8 @@ def main(argv=None):
             cases = normal_cases(n, args.cases, args.device, args.dtype)
             base = one_at_a_time(cases)
             runs = [base] + [batched(cases, b) for b in args.batches]
+            if args.own_checks and args.batches:
+                runs.append(batched(cases, max(args.batches), own_checks=True))
         else:
             folder = Path(tempfile.mkdtemp(prefix="throughput_case_"))
             try:
