@@ -18,8 +18,9 @@ size runs, side by side in one process:
 ``--problem normal``: the same pair and sphere without ``[friction]``, one normal step to delta_z
 spread over 0.5 ... 1.5 x 1e-10 m; besides ``api``, ``batch B`` rows: ``warpcontact.solve_batch(cases,
 batch=B)`` (each batch's kernels launched once for its B cases; one warm-up batch first; on CUDA
-the yield checks of the cases a state ends made together); ``--own-checks`` adds the largest batch
-with each case's check made on its own.
+the yield checks of the cases a state ends made together); ``--own-checks`` adds ``api`` and the
+largest batch with each case's yield check made depth by depth (on CUDA a case's depths are
+otherwise evaluated together, ``yielding.state_yield_check``).
 
 Reported: the wall time from the first case to the last result [s], the cluster's start [s]
 (apart), cases per second over the wall time, and the ratio to ``api``. Every case must converge.
@@ -67,18 +68,27 @@ def sweep_file(folder: Path, n: int, cases: int, device: str, dtype: str) -> Pat
     return path
 
 
-def one_at_a_time(cases: list) -> dict:
-    """``api``: the cases one after another in this process, one model."""
+def one_at_a_time(cases: list, own_checks: bool = False) -> dict:
+    """``api``: the cases one after another in this process, one model; ``own_checks``: each
+    case's yield check depth by depth (as on the CPU), not its depths together."""
     import warpcontact as wc
+    from warpcontact.numerics import yielding
     from warpcontact.studies.runner import build_model
 
-    model = build_model(cases[0])
-    wc.solve(cases[0], fields="none", model=model)  # warm-up: kernels, plans
-    t0 = time.perf_counter()
-    results = [wc.solve(case, fields="none", model=model) for case in cases]
-    wall = time.perf_counter() - t0
+    by_planes = yielding.state_yield_check
+    if own_checks:
+        yielding.state_yield_check = yielding._own_yield_check
+    try:
+        model = build_model(cases[0])
+        wc.solve(cases[0], fields="none", model=model)  # warm-up: kernels, plans
+        t0 = time.perf_counter()
+        results = [wc.solve(case, fields="none", model=model) for case in cases]
+        wall = time.perf_counter() - t0
+    finally:
+        yielding.state_yield_check = by_planes
     assert all(r.converged for r in results), "a case did not converge"
-    return {"placement": "api", "workers": 1, "cases": len(cases), "start_s": 0.0, "wall_s": wall}
+    return {"placement": "api" + (", own checks" if own_checks else ""), "workers": 1, "cases": len(cases),
+            "start_s": 0.0, "wall_s": wall}
 
 
 def normal_cases(n: int, cases: int, device: str, dtype: str) -> list:
@@ -151,7 +161,8 @@ def main(argv=None):
     ap.add_argument("--batches", type=int, nargs="*", default=[16, 64],
                     help="batch sizes of the batched rows (--problem normal)")
     ap.add_argument("--own-checks", action="store_true",
-                    help="add a row of the largest batch with each case's yield check made on its own")
+                    help="add rows with each case's yield check made depth by depth (one at a time; the "
+                         "largest batch)")
     ap.add_argument("--out", default="bench_results/throughput")
     args = ap.parse_args(argv)
     if any(w < 2 for w in args.workers):
@@ -168,16 +179,21 @@ def main(argv=None):
             cases = normal_cases(n, args.cases, args.device, args.dtype)
             base = one_at_a_time(cases)
             runs = [base] + [batched(cases, b) for b in args.batches]
-            if args.own_checks and args.batches:
-                runs.append(batched(cases, max(args.batches), own_checks=True))
+            if args.own_checks:
+                runs.append(one_at_a_time(cases, own_checks=True))
+                if args.batches:
+                    runs.append(batched(cases, max(args.batches), own_checks=True))
         else:
             folder = Path(tempfile.mkdtemp(prefix="throughput_case_"))
             try:
                 from warpcontact.studies.sweep_spec import load_sweep
 
                 path = sweep_file(folder, n, args.cases, args.device, args.dtype)
-                base = one_at_a_time([sc.case for sc in load_sweep(path).cases])
+                cases = [sc.case for sc in load_sweep(path).cases]
+                base = one_at_a_time(cases)
                 runs = [base] + [with_workers(path, w) for w in args.workers]
+                if args.own_checks:
+                    runs.append(one_at_a_time(cases, own_checks=True))
             finally:
                 shutil.rmtree(folder, ignore_errors=True)
         for r in runs:

@@ -1,6 +1,7 @@
 """The yield check of many solved states at once (yielding.batch_yield_checks, numerics/stress_batch.py)
-gives each state's own check (yielding.state_yield_check): the same depths, half grid and
-refinement, the planes of every state evaluated together by the plane kernels of kernels/stress.py."""
+gives each state's own check depth by depth (yielding._own_yield_check, what state_yield_check
+makes on the CPU): the same depths, half grid and refinement, the planes of every state evaluated
+together by the plane kernels of kernels/stress.py."""
 
 import warnings
 
@@ -70,7 +71,7 @@ def test_batched_checks_equal_each_states_own(device):
     assert half == [False, False, True, False]
     batch = yielding.batch_yield_checks(states, friction=True, adhesion=False)
     for s, b in zip(states, batch):
-        assert_same(b, yielding.state_yield_check(s, True, False))
+        assert_same(b, yielding._own_yield_check(s, True, False))
     assert batch[3]["flat"]["rigid"] is True
 
 
@@ -101,5 +102,29 @@ def test_a_failing_batched_check_falls_back_to_each_states_own(monkeypatch):
 
     monkeypatch.setattr(stress_batch.PlaneStress, "maxima", refuse)
     (check,) = yielding.batch_yield_checks(states)
-    assert_same(check, yielding.state_yield_check(states[0]))
+    assert_same(check, yielding._own_yield_check(states[0], True, True))
     assert np.isfinite(check["sphere"]["von_mises_max"])
+
+
+def test_one_states_check_on_cuda_is_made_by_planes(monkeypatch):
+    """state_yield_check takes the planes on CUDA where a plane fits a chunk, and depth by depth on
+    the CPU or past that size."""
+    calls = []
+    monkeypatch.setattr(yielding, "batch_yield_checks", lambda states, f, a: calls.append(len(states)) or [{}])
+    (state,) = final_states([case(32, 1.6e-7, 1.5e-10, 3e-11)], "cpu")
+    yielding.state_yield_check(state)
+    assert calls == []
+
+    class Cuda:
+        is_cuda = True
+
+    class Model:
+        device, dtype, grid = Cuda(), state.model.dtype, state.model.grid
+
+    class Fake:
+        model = Model()
+
+    assert yielding.state_yield_check(Fake()) == {} and calls == [1]
+    monkeypatch.setattr(stress_batch, "CHUNK_BYTES", stress_batch.PlaneStress.plane_bytes(32, Model.dtype) - 1)
+    monkeypatch.setattr(yielding, "_own_yield_check", lambda s, f, a: {"own": True})
+    assert yielding.state_yield_check(Fake()) == {"own": True} and calls == [1]

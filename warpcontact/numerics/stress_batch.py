@@ -45,14 +45,25 @@ class PlaneStress:
         self.complex_dtype = np.complex128 if dtype == wp.float64 else np.complex64
         self.vector = wp.vec2d if dtype == wp.float64 else wp.vec2f
         self.rows, self.cols = 2 * self.n, self.n + 1
-        real = np.dtype(self.np_dtype).itemsize
-        spectrum = self.rows * self.cols * 2 * real
-        field = self.n * self.n * real
-        # per plane: at most 14 basis corners, quadrants and spectra, 6 stress spectra and fields a
-        # body, and the library's intermediate arrays (about as much again)
-        per_plane = 2 * (len(BASIS) * (8 * (n + 1) ** 2 + field + spectrum) + len(BODIES) * 6 * (field + spectrum))
         #: planes evaluated together
-        self.chunk = max(1, CHUNK_BYTES // per_plane)
+        self.chunk = max(1, self.chunk_bytes() // self.plane_bytes(n, dtype))
+
+    @staticmethod
+    def plane_bytes(n: int, dtype) -> int:
+        """Bytes one plane takes on the device at n cells per side: at most 14 basis corners,
+        quadrants and spectra, 6 stress spectra and fields a body, and the library's intermediate
+        arrays (about as much again)."""
+        from .device import numpy_dtype
+
+        real = np.dtype(numpy_dtype(dtype)).itemsize
+        spectrum = 2 * n * (n + 1) * 2 * real
+        field = n * n * real
+        return 2 * (len(BASIS) * (8 * (n + 1) ** 2 + field + spectrum) + len(BODIES) * 6 * (field + spectrum))
+
+    @staticmethod
+    def chunk_bytes() -> int:
+        """Bytes a chunk of planes may take (``CHUNK_BYTES``)."""
+        return CHUNK_BYTES
 
     def _complex(self, a):
         """A Warp stack of spectra (rows, cols) of 2-vectors as a complex (spectra, rows, cols) view."""

@@ -201,7 +201,21 @@ def state_yield_check(state, friction: bool = True, adhesion: bool = True) -> di
     It runs after the solve, whose results are the run's: an error of the check itself (a device
     error, say) does not end the run but is returned, ``{"yielded": None, "failed": True,
     "reason": ...}``, for the commands to report in one line and in their exit status
-    (``records.guards.check_failure``)."""
+    (``records.guards.check_failure``).
+
+    On CUDA, where a plane of the check fits in ``stress_batch.CHUNK_BYTES``, the check's depths
+    are evaluated together (:func:`batch_yield_checks` of this state alone: a few launches a
+    pass, where the evaluation depth by depth launches hundreds); elsewhere depth by depth."""
+    from .stress_batch import PlaneStress
+
+    m = state.model
+    if m.device.is_cuda and PlaneStress.plane_bytes(m.grid.n, m.dtype) <= PlaneStress.chunk_bytes():
+        return batch_yield_checks([state], friction, adhesion)[0]
+    return _own_yield_check(state, friction, adhesion)
+
+
+def _own_yield_check(state, friction: bool, adhesion: bool) -> dict:
+    """The check of one state, depth by depth (``_YieldEvaluator``); a failure returned."""
     try:
         return _state_yield_check(state, friction, adhesion)
     except Exception as e:  # noqa: BLE001 - reported in the result, the line and the exit status
@@ -321,11 +335,11 @@ def batch_yield_checks(states: list, friction: bool = True, adhesion: bool = Tru
     launches a few kernels and transforms where one case at a time launches hundreds. The same
     depths, half grid and refinement as each state's own check, so the same answers to
     round-off. Should the batched evaluation fail (a device's refusal, a library's error), each
-    state is checked on its own as ``state_yield_check`` checks it."""
+    state is checked on its own, depth by depth."""
     try:
         return _batch_yield_checks(states, friction, adhesion)
     except Exception:  # noqa: BLE001 - each state's own check then, with its own failure in its place
-        return [state_yield_check(s, friction, adhesion) for s in states]
+        return [_own_yield_check(s, friction, adhesion) for s in states]
 
 
 def _batch_yield_checks(states, friction, adhesion) -> list[dict]:
