@@ -75,7 +75,7 @@ def solve_batch(cases, device=None, dtype=None, fft=None, fields: str = "none", 
     own load path and convergence. Their summaries, fields, warnings and yield checks are made as
     [`solve`][warpcontact.solve] makes them (on CUDA the yield checks of the cases that end at a
     state together, every case's depths evaluated at once: on an H100 at n = 64-256, 110-300
-    cases/s against 19 one at a time, docs/performance.md); the forces agree with it within the
+    cases/s, 35-56 one at a time, docs/performance.md); the forces agree with it within the
     solves' tolerance.
     Cases with friction or adhesion are solved one at a time, and so are a batch's cases where the
     batched solve itself fails (a device's refusal, a library's error, no CuPy on CUDA: one
