@@ -44,9 +44,11 @@ def case(n, size, delta_z, delta_x=0.0, friction=True, flat=None):
     return d
 
 
-def assert_same(batch, alone):
-    """Each body's maximum within 1e-12 of its own check's (the same sums, transformed by another
-    FFT library: round-off), its depth likewise, and the same verdicts."""
+def assert_same(batch, alone, rel=1e-12, z_rel=1e-9):
+    """Each body's maximum within ``rel`` of its own check's (the same sums, transformed by another
+    FFT library: round-off, 1e-12 in float64), its depth within ``z_rel`` (the vertex of a parabola
+    through three maxima that differ by about 1 %: it moves by the values' round-off over their
+    relative differences, 1e-9 in float64), and the same verdicts."""
     assert batch.keys() == alone.keys()
     assert batch["yielded"] == alone["yielded"]
     for name in ("sphere", "flat"):
@@ -54,8 +56,8 @@ def assert_same(batch, alone):
         if a.get("rigid"):
             assert b == a
             continue
-        assert b["von_mises_max"] == pytest.approx(a["von_mises_max"], rel=1e-12)
-        assert b["z"] == pytest.approx(a["z"], rel=1e-9, abs=1e-9 * a["z"] + 1e-18)
+        assert b["von_mises_max"] == pytest.approx(a["von_mises_max"], rel=rel)
+        assert b["z"] == pytest.approx(a["z"], rel=z_rel)
         assert (b["yielded"], b["yield_strength"]) == (a["yielded"], a["yield_strength"])
 
 
@@ -73,6 +75,32 @@ def test_batched_checks_equal_each_states_own(device):
     for s, b in zip(states, batch):
         assert_same(b, yielding._own_yield_check(s, True, False))
     assert batch[3]["flat"]["rigid"] is True
+
+
+def test_batched_checks_in_float32():
+    """Float32 states: the maxima within 1e-6 of their own check's (float32 round-off, 6e-8 per
+    operation, over transforms of 128 x 128 padded entries: 6.2e-8 measured), the depths within
+    1e-5 (7.8e-7 measured), the verdicts equal."""
+    cases = [case(64, 1.6e-7, 1.5e-10, 3e-11), case(64, 1.6e-7, 1.0e-10, friction=False)]
+    for d in cases:
+        d["solver"] = {"dtype": "float32"}
+    states = []
+    finish = runner.PathRecorder.finish
+
+    def keep(self, state, check=None):
+        states.append(state)
+        return finish(self, state, check)
+
+    runner.PathRecorder.finish = keep
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            for d in cases:
+                wc.solve(d, fields="none")
+    finally:
+        runner.PathRecorder.finish = finish
+    for s, b in zip(states, yielding.batch_yield_checks(states)):
+        assert_same(b, yielding._own_yield_check(s, True, True), rel=1e-6, z_rel=1e-5)
 
 
 def test_batched_checks_in_chunks_of_planes(monkeypatch):
