@@ -116,7 +116,7 @@ def batched(cases: list, batch: int, own_checks: bool = False) -> dict:
 
     made_together = batch_solve._yield_checks
     if own_checks:
-        batch_solve._yield_checks = lambda solver, ended: {}
+        batch_solve._yield_checks = lambda ended: {}
     try:
         wc.solve_batch(cases[:batch], batch=batch)  # warm-up: kernels, plans of this batch size
         t0 = time.perf_counter()

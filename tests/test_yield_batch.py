@@ -156,3 +156,27 @@ def test_one_states_check_on_cuda_is_made_by_planes(monkeypatch):
     monkeypatch.setattr(stress_batch, "CHUNK_BYTES", stress_batch.PlaneStress.plane_bytes(32, Model.dtype) - 1)
     monkeypatch.setattr(yielding, "_own_yield_check", lambda s, f, a: {"own": True})
     assert yielding.state_yield_check(Fake()) == {"own": True} and calls == [1]
+
+
+def test_solve_batch_makes_its_cases_checks_together(monkeypatch):
+    """solve_batch with its checks by planes (as on CUDA; forced here on the CPU): each case's
+    yield check as solve makes it depth by depth, and the planes made once for the cases that end
+    at a state (a path of 1 state and two of 2: two evaluations, of 1 and 2 cases). The batched
+    solve's fields agree with solve's within its tolerance, not to round-off (tests/test_solve_batch:
+    1e-8), so the maxima within 1e-8 (3e-11 measured) and the depths within 1e-6 (the parabola's
+    vertex amplifies the values' differences about a hundredfold)."""
+    cases = [case(64, 1.6e-7, dz, friction=False) for dz in (1.5e-10, 1.0e-10, 0.6e-10)]
+    cases[0]["load"]["steps"] = 1
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        alone = [wc.solve(d, fields="none") for d in cases]
+        batches = []
+        together = yielding.batch_yield_checks
+        monkeypatch.setattr(yielding, "checks_by_planes", lambda model: True)
+        monkeypatch.setattr(yielding, "batch_yield_checks",
+                            lambda states, friction=True, adhesion=True: batches.append(len(states))
+                            or together(states, friction, adhesion))
+        batched = wc.solve_batch(cases, batch=3)
+    assert batches == [1, 2]
+    for b, a in zip(batched, alone):
+        assert_same(b.yield_check, a.yield_check, rel=1e-8, z_rel=1e-6)

@@ -206,12 +206,20 @@ def state_yield_check(state, friction: bool = True, adhesion: bool = True) -> di
     On CUDA, where a plane of the check fits in ``stress_batch.CHUNK_BYTES``, the check's depths
     are evaluated together (:func:`batch_yield_checks` of this state alone: a few launches a
     pass, where the evaluation depth by depth launches hundreds); elsewhere depth by depth."""
-    from .stress_batch import PlaneStress
-
-    m = state.model
-    if m.device.is_cuda and PlaneStress.plane_bytes(m.grid.n, m.dtype) <= PlaneStress.chunk_bytes():
+    if checks_by_planes(state.model):
         return batch_yield_checks([state], friction, adhesion)[0]
     return _own_yield_check(state, friction, adhesion)
+
+
+def checks_by_planes(model) -> bool:
+    """Whether the yield checks of states on ``model`` evaluate their depths together
+    (``stress_batch.PlaneStress``): on CUDA, where one plane fits in a chunk (n <= 682 in
+    float64); depth by depth on the CPU, where the evaluation's launches split over the threads
+    and the plane kernels' do not, and on larger grids, where the depth-by-depth evaluation checks
+    its memory first."""
+    from .stress_batch import PlaneStress
+
+    return model.device.is_cuda and PlaneStress.plane_bytes(model.grid.n, model.dtype) <= PlaneStress.chunk_bytes()
 
 
 def _own_yield_check(state, friction: bool, adhesion: bool) -> dict:

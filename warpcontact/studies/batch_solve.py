@@ -138,22 +138,22 @@ def _solve_chunk(solver: BatchNormalSolver, cases: list, indices: list, fields: 
         for m in running:
             m.record(solver, k, infos[m.row])
         ended = [m for m in running if m.error is None and k == len(m.path) - 1]
-        checks = _yield_checks(solver, ended)
+        checks = _yield_checks(ended)
         for m in running:
             if m.error is not None or k == len(m.path) - 1:
                 yield m.index, m.finish(time.perf_counter() - t0, checks.get(m.row))
 
 
-def _yield_checks(solver: BatchNormalSolver, ended: list) -> dict:
-    """{row: yield check} of the cases whose paths ended at this state, made together on CUDA
-    (``yielding.batch_yield_checks``: a few launches for them all, where each case's own check
-    launches hundreds); on the CPU none: each case checks its own state at ``finish``, its
-    launches split over the CPU's threads, which the batched evaluation's are not (3 cases at
-    n = 256, 2 cores: 2.4 s one at a time, 4.6 s batched)."""
-    if not ended or not solver.device.is_cuda:
-        return {}
-    from ..numerics.yielding import batch_yield_checks
+def _yield_checks(ended: list) -> dict:
+    """{row: yield check} of the cases whose paths ended at this state, made together where
+    ``yielding.checks_by_planes`` says (CUDA, a plane that fits a chunk: a few launches for them
+    all, where each case's own check launches hundreds); elsewhere none: each case checks its own
+    state at ``finish`` (on 2 CPU cores 3 cases at n = 256 took 2.4 s one at a time, 4.6 s
+    batched)."""
+    from ..numerics.yielding import batch_yield_checks, checks_by_planes
 
+    if not ended or not checks_by_planes(ended[0].model):
+        return {}
     checks = batch_yield_checks([m.state for m in ended], friction=False, adhesion=False)
     return {m.row: check for m, check in zip(ended, checks)}
 
