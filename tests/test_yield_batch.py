@@ -16,8 +16,9 @@ PAIR = {"sphere": {"radius": 10e-6, "E": 106e9, "nu": 0.33, "yield_strength": 20
         "flat": {"E": 205e9, "nu": 0.31, "yield_strength": 345e6}}
 
 
-def final_states(cases, device):
-    """Each case solved on ``device``, its last ``ContactState`` (the one a path's yield check reads)."""
+def final_states(cases, device, dtype="float64"):
+    """Each case solved on ``device`` in ``dtype``, its last ``ContactState`` (the one a path's
+    yield check reads)."""
     states = []
     finish = runner.PathRecorder.finish
 
@@ -30,7 +31,7 @@ def final_states(cases, device):
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
             for d in cases:
-                wc.solve({**d, "solver": {"device": device}}, fields="none")
+                wc.solve({**d, "solver": {"device": device, "dtype": dtype}}, fields="none")
     finally:
         runner.PathRecorder.finish = finish
     return states
@@ -81,24 +82,8 @@ def test_batched_checks_in_float32():
     """Float32 states: the maxima within 1e-6 of their own check's (float32 round-off, 6e-8 per
     operation, over transforms of 128 x 128 padded entries: 6.2e-8 measured), the depths within
     1e-5 (7.8e-7 measured), the verdicts equal."""
-    cases = [case(64, 1.6e-7, 1.5e-10, 3e-11), case(64, 1.6e-7, 1.0e-10, friction=False)]
-    for d in cases:
-        d["solver"] = {"dtype": "float32"}
-    states = []
-    finish = runner.PathRecorder.finish
-
-    def keep(self, state, check=None):
-        states.append(state)
-        return finish(self, state, check)
-
-    runner.PathRecorder.finish = keep
-    try:
-        with warnings.catch_warnings():
-            warnings.simplefilter("ignore")
-            for d in cases:
-                wc.solve(d, fields="none")
-    finally:
-        runner.PathRecorder.finish = finish
+    states = final_states([case(64, 1.6e-7, 1.5e-10, 3e-11), case(64, 1.6e-7, 1.0e-10, friction=False)], "cpu",
+                          "float32")
     for s, b in zip(states, yielding.batch_yield_checks(states)):
         assert_same(b, yielding._own_yield_check(s, True, True), rel=1e-6, z_rel=1e-5)
 
@@ -107,18 +92,9 @@ def test_batched_checks_in_chunks_of_planes(monkeypatch):
     """Chunks of 3 planes (a pass's planes split over several chunks) give the same checks."""
     states = final_states([case(48, 1.6e-7, 1.5e-10, 3e-11), case(48, 1.6e-7, 0.8e-10, 1e-11)], "cpu")
     whole = yielding.batch_yield_checks(states)
-    monkeypatch.setattr(stress_batch, "CHUNK_BYTES", 1)
-    monkeypatch.setattr(stress_batch.PlaneStress, "__init__", _small_chunks(stress_batch.PlaneStress.__init__, 3))
+    monkeypatch.setattr(stress_batch, "CHUNK_BYTES", 3 * stress_batch.PlaneStress.plane_bytes(48, states[0].model.dtype))
     for b, w in zip(yielding.batch_yield_checks(states), whole):
         assert_same(b, w)
-
-
-def _small_chunks(init, planes):
-    def wrapped(self, *args, **kw):
-        init(self, *args, **kw)
-        self.chunk = planes
-
-    return wrapped
 
 
 def test_a_failing_batched_check_falls_back_to_each_states_own(monkeypatch):

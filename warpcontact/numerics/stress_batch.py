@@ -86,9 +86,7 @@ class PlaneStress:
         ``planes``: (case, depth in cells) each."""
         import warp as wp
 
-        from warpcontact.kernels import stress as ks
-
-        n, nb = self.n, len(BASIS)
+        n = self.n
         cases = len(tractions)
         out = np.zeros((len(planes), len(BODIES), 3))
         if not planes:
@@ -106,12 +104,16 @@ class PlaneStress:
             loaded = [tuple(t is not None for t in loads) for loads in tractions]
             for first in range(0, len(planes), self.chunk):
                 part = planes[first:first + self.chunk]
-                out[first:first + len(part)] = self._chunk(pairs, loaded, traction_spectra, part, ks, nb)
+                out[first:first + len(part)] = self._chunk(pairs, loaded, traction_spectra, part)
         return out
 
-    def _chunk(self, pairs, loaded, traction_spectra, planes, ks, nb) -> np.ndarray:
+    def _chunk(self, pairs, loaded, traction_spectra, planes) -> np.ndarray:
+        """``maxima`` of one chunk of planes, from the cases' traction spectra."""
         import warp as wp
 
+        from warpcontact.kernels import stress as ks
+
+        nb = len(BASIS)
         n, rows, cols, bodies = self.n, self.rows, self.cols, len(BODIES)
         p_count, q_count = len(planes), len(planes) * bodies
         width = 6 * 3 * nb
