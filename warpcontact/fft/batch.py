@@ -71,6 +71,14 @@ class BatchLibrary:
         with self._cuda_device:
             return self.xp.from_dlpack(wp.to_dlpack(a))
 
+    def release(self):
+        """On CUDA: hand the blocks CuPy's memory pool keeps after a batched pass (the transforms'
+        work arrays, up to a chunk's worth: ``stress_batch.CHUNK_BYTES``) back to the device, so
+        that Warp's next allocations (a larger grid's fields) can use them; on the CPU nothing."""
+        if self._stream is not None:
+            with self._cuda_device:
+                self.xp.get_default_memory_pool().free_all_blocks()
+
     def on_device(self):
         """On CUDA: CuPy's current device and stream made this device and Warp's stream there (a
         GPU other than the first, the work ordered with Warp's kernels); on the CPU nothing."""

@@ -86,26 +86,34 @@ class PlaneStress:
         ``planes``: (case, depth in cells) each."""
         import warp as wp
 
-        n = self.n
-        cases = len(tractions)
         out = np.zeros((len(planes), len(BODIES), 3))
         if not planes:
             return out
-        with self.library.on_device(), wp.ScopedDevice(self.device):
-            stack = wp.zeros((cases * 3, n, n), dtype=self.dtype)
-            flat = stack.flatten()
-            for c, loads in enumerate(tractions):
-                for k, t in enumerate(loads):
-                    if t is not None:
-                        wp.copy(flat, t.flatten(), dest_offset=(3 * c + k) * n * n, count=n * n)
-            traction_spectra = wp.empty((cases * 3 * self.rows, self.cols), dtype=self.vector)
-            self._forward(stack, traction_spectra)
-            del stack, flat
-            loaded = [tuple(t is not None for t in loads) for loads in tractions]
-            for first in range(0, len(planes), self.chunk):
-                part = planes[first:first + self.chunk]
-                out[first:first + len(part)] = self._chunk(pairs, loaded, traction_spectra, part)
+        try:
+            with self.library.on_device(), wp.ScopedDevice(self.device):
+                self._maxima(tractions, pairs, planes, out)
+        finally:
+            self.library.release()
         return out
+
+    def _maxima(self, tractions, pairs, planes, out):
+        """``maxima`` into ``out``, on the device and CuPy's stream there."""
+        import warp as wp
+
+        n, cases = self.n, len(tractions)
+        stack = wp.zeros((cases * 3, n, n), dtype=self.dtype)
+        flat = stack.flatten()
+        for c, loads in enumerate(tractions):
+            for k, t in enumerate(loads):
+                if t is not None:
+                    wp.copy(flat, t.flatten(), dest_offset=(3 * c + k) * n * n, count=n * n)
+        traction_spectra = wp.empty((cases * 3 * self.rows, self.cols), dtype=self.vector)
+        self._forward(stack, traction_spectra)
+        del stack, flat
+        loaded = [tuple(t is not None for t in loads) for loads in tractions]
+        for first in range(0, len(planes), self.chunk):
+            part = planes[first:first + self.chunk]
+            out[first:first + len(part)] = self._chunk(pairs, loaded, traction_spectra, part)
 
     def _chunk(self, pairs, loaded, traction_spectra, planes) -> np.ndarray:
         """``maxima`` of one chunk of planes, from the cases' traction spectra."""

@@ -96,6 +96,7 @@ def solve_batch(cases: list, fields: str = "none", batch: int | None = None, on_
                 chunk = indices[start:start + size]
                 for index, result in _solve_chunk(solver, [cases[i] for i in chunk], chunk, fields):
                     done(index, result)
+            solver.convolution.library.release()  # the transforms' work arrays, for what comes next
         except (RuntimeError, MemoryError, OSError, InputError) as e:  # the batched solve itself failed (a
             # device's refusal, a library's error or absence: no CuPy on CUDA): the cases it had not
             # ended are solved one at a time, each as solve solves it (its own error in its place)
