@@ -220,3 +220,58 @@ def test_progress_bar_over_cases_on_a_terminal(tmp_path):
     # yields near the surface at delta_x_max, margin 0.95: the yield check's one line)
     assert all(ln.startswith("warpcontact: warning: ") for ln in term.getvalue().splitlines())
     assert "sweep [" not in term.getvalue()
+
+
+BATCH_SWEEP = f"""base = "{HERTZ_CASE.as_posix()}"
+[sweep]
+"grid.n" = [32]
+"sphere.E" = [106e9, 150e9]
+# the last path reaches the domain's edge: an InputError at run time, recorded
+"load.path" = [[[0.0, 0.0, 4e-11], [0.0, 0.0, 1.0e-10]], [[0.0, 0.0, 7e-11]], [[0.0, 0.0, 3.9e-10]]]
+[run]
+task = "solve"
+"""
+
+
+def test_batched_solve_sweep_records_what_one_case_at_a_time_records(tmp_path, monkeypatch):
+    """``--batch 4``: the cases of normal contact solved together (on the CPU only when asked),
+    each record as one case at a time writes it: statuses, errors, states, contact areas and
+    warnings the same, the forces and yield margins within 1e-8 (both solves stop at a relative
+    residual of 1e-10; the batched and the single solve's iterates differ in rounding)."""
+    from warpcontact.studies.batch import Placement
+    from warpcontact.studies.sweep import batched_cases
+
+    path = write_sweep(tmp_path, BATCH_SWEEP)
+    sw = load_sweep(path)
+    assert batched_cases("solve", sw.cases, Placement(workers=1)) == []  # the CPU: one at a time by default
+    assert len(batched_cases("solve", sw.cases, Placement(workers=1), batch=4)) == 6
+    assert batched_cases("gross-slip", sw.cases, Placement(workers=1), batch=4) == []
+    assert batched_cases("solve", sw.cases, Placement(workers=1), batch=0) == []
+    one, together = tmp_path / "one", tmp_path / "together"
+    assert batched_cases("solve", sw.cases, Placement(workers=2)) == []  # workers of a cluster: theirs
+    assert len(batched_cases("solve", sw.cases, Placement(workers=2), batch=4)) == 6  # asked for: here
+    from warpcontact.studies import batch_solve
+
+    batches, solve_batch = [], batch_solve.solve_batch
+    monkeypatch.setattr(batch_solve, "solve_batch", lambda cases, **kw: batches.append(len(cases)) or solve_batch(cases, **kw))
+    assert cmd_sweep(parse("sweep", path, "--out", one, "--quiet", "--batch", "0", "--workers", "1")) == 3
+    assert batches == []
+    assert cmd_sweep(parse("sweep", path, "--out", together, "--quiet", "--batch", "4", "--workers", "1")) == 3
+    assert batches == [6]
+    a, b = read_csv(one / "sweep.csv"), read_csv(together / "sweep.csv")
+    assert [r["id"] for r in a] == [r["id"] for r in b]
+    assert [r["status"] for r in b] == ["ok", "ok", "error"] * 2
+    for ra in a:
+        x = json.loads((one / "cases" / f"{ra['id']}.json").read_text())
+        y = json.loads((together / "cases" / f"{ra['id']}.json").read_text())
+        assert (x["status"], x["converged"], x.get("error"), x["params"]) == (y["status"], y["converged"],
+                                                                               y.get("error"), y["params"])
+        assert sorted(x["warnings"]) == sorted(y["warnings"])
+        if "summary" in x:
+            s, t = x["summary"], y["summary"]
+            assert (s["n_states"], s["contact_area"], s["yielded"]) == (t["n_states"], t["contact_area"], t["yielded"])
+            assert t["force"]["z"] == pytest.approx(s["force"]["z"], rel=1e-8)
+            assert t["yield_margin"] == pytest.approx(s["yield_margin"], rel=1e-8)
+    assert cmd_sweep(parse("sweep", path, "--out", together, "--quiet", "--batch", "4")) == 3  # a rerun: all skipped
+    with pytest.raises(InputError, match="--batch"):
+        cmd_sweep(parse("sweep", path, "--out", together, "--batch", "-1"))

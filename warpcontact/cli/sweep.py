@@ -57,7 +57,7 @@ cases are skipped. See docs/sweeps.md."""
 
 def add_parser(sub):
     """Register the ``sweep`` sub-command on an argparse subparsers object; returns its parser."""
-    return add_many_case_command(
+    p = add_many_case_command(
         sub, "sweep", "sweep file (TOML; see docs/sweeps.md)", cmd_sweep,
         help="run the cartesian product of listed case parameters (k_tau, delta_z, grid, adhesion, ...)",
         description="Run every combination of the values listed in SWEEP (a TOML file: a base case, a [sweep] "
@@ -65,6 +65,11 @@ def add_parser(sub):
         "finished cases.",
         epilog=EXAMPLE_SWEEP,
     )
+    p.add_argument("--batch", type=int, metavar="B",
+                   help="with the task \"solve\": cases of normal contact alone (no friction, no adhesion) solved B "
+                   "at a time by one batched solve, in this process (default: on CUDA, as many as half the free "
+                   "memory holds, up to 256; on the CPU one case at a time); 0: one case at a time everywhere")
+    return p
 
 
 def add_many_case_command(sub, name: str, file_help: str, func, **texts):
@@ -151,8 +156,12 @@ def cmd_sweep(args) -> int:
 
     sweep = load_sweep(args.sweep, device=args.device, dtype=args.dtype, fft=args.fft)
     placement = placement_from(args, sweep.scheduler)
-    report = run_sweep(sweep, args.out, quiet=args.quiet, placement=placement,  # writes after a stop: deferred
-                       finish=lambda records: plot_sweep(sweep, records, args.out))
+    if args.batch is not None and args.batch < 0:
+        from ..errors import InputError
+
+        raise InputError("--batch", f"must be a whole number of cases, 0 or more, got {args.batch}")
+    report = run_sweep(sweep, args.out, quiet=args.quiet, placement=placement, batch=args.batch,
+                       finish=lambda records: plot_sweep(sweep, records, args.out))  # writes after a stop: deferred
     out = args.out
     if report.write_error is not None:
         if Path(report.write_error.path).name in ("sweep.png", "map.png"):  # the last outputs: every case is written

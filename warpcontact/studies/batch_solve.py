@@ -63,7 +63,23 @@ def solve_batch(cases: list, fields: str = "none", batch: int | None = None, on_
     or the exception the case raised (an ``InputError`` for a contact past the domain's edge),
     so that one case's failure leaves the others' results. ``fields``: as ``run_path``'s.
     ``batch``: cases per batched solve (default: ``batch_size``). ``on_case(index, result)`` is
-    called as each case ends."""
+    called as each case ends; an error it raises ends the solve and is raised as it was."""
+    try:
+        return _solve_all(cases, fields, batch, on_case)
+    except _CallerError as e:  # on_case's own error, not the batch's: raised as it was
+        raise e.error from None
+
+
+class _CallerError(Exception):
+    """An error raised by ``solve_batch``'s ``on_case`` (a caller's write that failed, say), carried
+    past the batched solve's fallback to one case at a time."""
+
+    def __init__(self, error: Exception):
+        super().__init__(str(error))
+        self.error = error
+
+
+def _solve_all(cases: list, fields: str, batch: int | None, on_case) -> list:
     results: list = [None] * len(cases)
     ended = set()
 
@@ -71,7 +87,10 @@ def solve_batch(cases: list, fields: str = "none", batch: int | None = None, on_
         results[index] = result
         ended.add(index)
         if on_case is not None:
-            on_case(index, result)
+            try:
+                on_case(index, result)
+            except Exception as e:  # noqa: BLE001 - the caller's, raised by solve_batch as it was
+                raise _CallerError(e) from e
 
     def alone(index):  # one case as solve solves it
         try:
@@ -97,6 +116,8 @@ def solve_batch(cases: list, fields: str = "none", batch: int | None = None, on_
                 for index, result in _solve_chunk(solver, [cases[i] for i in chunk], chunk, fields):
                     done(index, result)
             solver.convolution.library.release()  # the transforms' work arrays, for what comes next
+        except _CallerError:
+            raise
         except (RuntimeError, MemoryError, OSError, InputError) as e:  # the batched solve itself failed (a
             # device's refusal, a library's error or absence: no CuPy on CUDA): the cases it had not
             # ended are solved one at a time, each as solve solves it (its own error in its place)
@@ -179,6 +200,13 @@ class _Member:
         self.state = ContactState(model)
         self.recorder = PathRecorder(case, model, fields)
         self.error: Exception | None = None
+        self.warnings: list[str] = []  # the messages of the warnings its checks gave
+
+    def _issued(self, caught):
+        """Keep the messages of the warnings ``caught`` and issue them again (for the caller)."""
+        for w in caught:
+            self.warnings.append(str(w.message))
+            warnings.warn_explicit(w.message, w.category, w.filename, w.lineno)
 
     def record(self, solver: BatchNormalSolver, k: int, info):
         """State ``k`` from the solver's row: the fields into this case's state, then recorded."""
@@ -187,17 +215,25 @@ class _Member:
             wp.copy(getattr(state, name).flatten(), source, src_offset=self.row * cells, count=cells)
         state.approach = tuple(float(a) for a in self.path[k])
         state.info = replace(info, outer_iterations=1)  # a step of normal contact is one turn, as a path counts it
-        try:
-            check_contact_fits(state)
-            self.recorder.record(k, state)
-        except Exception as e:  # noqa: BLE001 (the case's failure is its result)
-            self.error = e
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always")
+            try:
+                check_contact_fits(state)
+                self.recorder.record(k, state)
+            except Exception as e:  # noqa: BLE001 (the case's failure is its result)
+                self.error = e
+        self._issued(caught)
 
     def finish(self, elapsed: float, check: dict | None = None):
         """This case's result (or its error) once its path has ended; ``check``: its yield check,
         made with other cases' (``_yield_checks``), else made here."""
         if self.error is not None:
             return self.error
-        self.recorder.finish(self.state, check)
-        self.recorder.result.elapsed_s = elapsed
-        return self.recorder.result
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always")
+            self.recorder.finish(self.state, check)
+        self._issued(caught)
+        result = self.recorder.result
+        result.elapsed_s = elapsed
+        result.warnings = list(dict.fromkeys(self.warnings))
+        return result

@@ -94,6 +94,9 @@ class PathResult:
     stop_signal: str | None = None
     #: the elastic assumption checked at the last state (``yielding.yield_check``); None until then
     yield_check: dict | None = None
+    #: the messages of the warnings its checks gave, where a batch solved it (``solve_batch``: the
+    #: warnings of many cases come together; they are issued as well); empty otherwise
+    warnings: list = field(default_factory=list)
 
     @property
     def converged(self) -> bool:

@@ -279,8 +279,51 @@ def _placement_device(sweep: Sweep) -> str:
     return next((d for d in devices if str(d).startswith("cuda")), devices[0] if devices else "cpu")
 
 
+def batched_cases(task: str, cases: list, placement, batch: int | None = None) -> list:
+    """Those of ``cases`` (``SweepCase``) that ``run_sweep`` solves by batched solves
+    (``warpcontact.solve_batch``, in this process): with the task "solve", cases of normal contact
+    alone (no friction, no adhesion); by default those on a CUDA device where the cases run in
+    this process (``placement``), and where ``batch`` (cases per batched solve) is given, those on
+    any device wherever the others run; none where ``batch`` is 0, or where fewer than two cases
+    qualify. On 2 CPU cores a batch saves the launches' overhead but not their work, and
+    each case there checks its own yield (docs/performance.md): one case at a time by default."""
+    import warp as wp
+
+    from ..numerics.device import resolve_device
+    from .batch_solve import batchable
+
+    if batch == 0 or task != "solve" or (batch is None and not placement.in_process(len(cases))):
+        return []
+    chosen = [sc for sc in cases if batchable(sc.case)
+              and (batch is not None or wp.get_device(resolve_device(sc.case.solver.device)).is_cuda)]
+    return chosen if len(chosen) > 1 else []
+
+
+def _batched_outcome(result) -> dict:
+    """A batched case's result (a ``PathResult`` or the exception it raised) as ``run_case``'s
+    outcome: the row ``run_task`` makes of a solve, or the error a sweep records (an InputError
+    about the machine is raised: it stops the sweep)."""
+    from ..numerics.yielding import yield_keys
+
+    outcome = {"elapsed_s": 0.0, "warnings": []}
+    if isinstance(result, BaseException):
+        if isinstance(result, InputError) and result.key not in _SETUP_KEYS:
+            outcome["error"] = str(result)
+        elif isinstance(result, (NonFiniteError, ConvergenceError)):
+            outcome["error"] = f"{type(result).__name__}: {result}"
+        else:
+            raise result
+        return outcome
+    summary = dict(result.states[-1])
+    summary["converged"] = result.converged
+    summary["n_states"] = len(result.states)
+    summary.update(yield_keys(result.yield_check))
+    outcome.update(elapsed_s=result.elapsed_s, warnings=list(result.warnings), summary=summary)
+    return outcome
+
+
 def run_sweep(sweep: Sweep, out: str | PathLike, quiet: bool = False, log=None, placement=None,
-              finish=None) -> SweepReport:
+              finish=None, batch: int | None = None) -> SweepReport:
     """Run every case of ``sweep`` not finished before in ``out``; write each at once.
 
     The cases run where ``placement`` ([`Placement`][warpcontact.studies.batch.Placement]) says: in this process
@@ -298,6 +341,9 @@ def run_sweep(sweep: Sweep, out: str | PathLike, quiet: bool = False, log=None, 
     ``out/sweep.json`` says whether the sweep is complete (`_write_status`). Unless quiet, a
     result line per case goes to ``log`` (stderr), under a progress bar on a terminal (cases done,
     running, failed; `warpcontact.records.progress`); warnings and errors are printed either way.
+    ``batch``: cases per batched solve (:func:`batched_cases`: with the task "solve", the cases of
+    normal contact alone are solved together, by default on CUDA; 0: none); a batched case's
+    ``elapsed_s`` is its batch's time from its start to the case's end.
     ``finish(records)``, when given, is called with every finished record in sweep order once the
     run's cases are done and sweep.csv is written, before sweep.json is marked complete (the command
     line draws ``out/sweep.png`` there); an OutputError or a stop it raises is handled as one met
@@ -380,11 +426,29 @@ def run_sweep(sweep: Sweep, out: str | PathLike, quiet: bool = False, log=None, 
         s = case.solver
         return model_key(case.pair, case.sphere, case.grid, s.device, s.dtype, s.fft)
 
-    tasks = [Task(sc.id, sc.label, run_case, (sweep.task, sweep.rel_tol, sc.case), group(sc.case))
-             for sc in sweep.cases if sc.id not in records]
+    def task_of(sc):
+        return Task(sc.id, sc.label, run_case, (sweep.task, sweep.rel_tol, sc.case), group(sc.case))
+
+    pending = [sc for sc in sweep.cases if sc.id not in records]
     placement = placement or Placement(workers=1)
     if placement.device == "cpu" and placement.scheduler is None:
         placement = Placement(placement.scheduler, placement.workers, _placement_device(sweep))
+    together = batched_cases(sweep.task, pending, placement, batch)
+    batched_ids = {sc.id for sc in together}
+    tasks = [task_of(sc) for sc in pending if sc.id not in batched_ids]
+
+    def run_together():
+        """The batched cases, each written as it ends (a stop ends the batch: what ended is written)."""
+        from .batch_solve import solve_batch
+        from .tasks import prepare
+
+        def on_case(i, result):
+            on_result(task_of(together[i]), _batched_outcome(result))
+            progress.status(len(records), extra=f"{len(records) - len(report.skipped)} case(s) solved, batched")
+
+        with warnings.catch_warnings():  # each case's warnings are in its record (and printed with it)
+            warnings.simplefilter("ignore")
+            solve_batch([prepare(sc.case) for sc in together], fields="none", batch=batch or None, on_case=on_case)
     try:
         try:
             out.mkdir(parents=True, exist_ok=True)
@@ -393,6 +457,8 @@ def run_sweep(sweep: Sweep, out: str | PathLike, quiet: bool = False, log=None, 
         with interrupts.deferred():
             _write_csv(out, sweep, ordered())
             _write_status(out, sweep, report, ordered(), complete=False)
+        if together:
+            run_together()
         report.batch = run_tasks(tasks, on_result, placement, progress=progress, before=len(records),
                                  failed=lambda o: "error" in o or not o["summary"]["converged"],
                                  on_error=on_error, on_state=on_state)
