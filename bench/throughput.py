@@ -20,7 +20,10 @@ spread over 0.5 ... 1.5 x 1e-10 m; besides ``api``, ``batch B`` rows: ``warpcont
 batch=B)`` (each batch's kernels launched once for its B cases; one warm-up batch first; on CUDA
 the yield checks of the cases a state ends made together); ``--own-checks`` adds ``api`` and the
 largest batch with each case's yield check made depth by depth (on CUDA a case's depths are
-otherwise evaluated together, ``yielding.state_yield_check``).
+otherwise evaluated together, ``yielding.state_yield_check``); ``--sweeps`` adds the command's own
+path, ``run_sweep`` of the same cases (task "solve") in this process, each case written to its
+folder as it ends: ``sweep, one at a time`` (``batch=0``) and ``sweep, batch B`` (the largest of
+``--batches``).
 
 Reported: the wall time from the first case to the last result [s], the cluster's start [s]
 (apart), cases per second over the wall time, and the ratio to ``api``. Every case must converge.
@@ -37,6 +40,7 @@ import shutil
 import sys
 import tempfile
 import time
+from dataclasses import replace
 from pathlib import Path
 
 R, DZ = 10e-6, 1.0e-10
@@ -108,6 +112,40 @@ def normal_cases(n: int, cases: int, device: str, dtype: str) -> list:
             for i in range(cases)]
 
 
+def normal_sweep_file(folder: Path, n: int, cases: int, device: str, dtype: str) -> Path:
+    """``normal_cases``' cases as a sweep file: the base without friction, their delta_z swept."""
+    base = base_case(n, device, dtype).replace('[friction]\nlaw = "tabor"\nk_tau = 0.8\n\n', "")
+    base = base.replace("delta_x = 2e-11\n", "").replace(f"size = {4 * A!r}", f"size = {4 * math.sqrt(R * 1.5 * DZ)!r}")
+    (folder / "base.toml").write_text(base)
+    values = ", ".join(repr(DZ * (0.5 + i / max(1, cases - 1))) for i in range(cases))
+    path = folder / "sweep.toml"
+    path.write_text(f'base = "base.toml"\n[sweep]\n"load.delta_z" = [{values}]\n[run]\ntask = "solve"\n')
+    return path
+
+
+def swept(path: Path, batch: int) -> dict:
+    """``sweep, ...``: ``run_sweep`` of the file in this process, ``batch`` cases per batched solve
+    (0: one at a time), after a warm-up sweep of its first cases."""
+    from warpcontact.studies.batch import Placement
+    from warpcontact.studies.sweep import run_sweep
+    from warpcontact.studies.sweep_spec import load_sweep
+
+    sweep = load_sweep(path)
+    out = Path(tempfile.mkdtemp(prefix="throughput_"))
+    try:
+        warm = replace(sweep, cases=sweep.cases[:max(2, min(batch, len(sweep.cases)))])
+        run_sweep(warm, out / "warm", quiet=True, placement=Placement(workers=1), batch=batch)
+        t0 = time.perf_counter()
+        report = run_sweep(sweep, out / "run", quiet=True, placement=Placement(workers=1), batch=batch)
+        wall = time.perf_counter() - t0
+    finally:
+        shutil.rmtree(out, ignore_errors=True)
+    assert len(report.records) == len(sweep.cases) and all(r["converged"] for r in report.records), \
+        "a case did not converge"
+    return {"placement": "sweep, " + (f"batch {batch}" if batch else "one at a time"), "workers": 1,
+            "cases": len(report.records), "start_s": 0.0, "wall_s": wall}
+
+
 def batched(cases: list, batch: int, own_checks: bool = False) -> dict:
     """``batch B``: ``solve_batch`` with batches of B cases; ``own_checks``: each case's yield
     check made on its own (as on the CPU), not the batch's together."""
@@ -163,6 +201,8 @@ def main(argv=None):
     ap.add_argument("--own-checks", action="store_true",
                     help="add rows with each case's yield check made depth by depth (one at a time; the "
                          "largest batch)")
+    ap.add_argument("--sweeps", action="store_true",
+                    help="add run_sweep of the cases, one at a time and batched (--problem normal)")
     ap.add_argument("--out", default="bench_results/throughput")
     args = ap.parse_args(argv)
     if any(w < 2 for w in args.workers):
@@ -183,6 +223,13 @@ def main(argv=None):
                 runs.append(one_at_a_time(cases, own_checks=True))
                 if args.batches:
                     runs.append(batched(cases, max(args.batches), own_checks=True))
+            if args.sweeps:
+                folder = Path(tempfile.mkdtemp(prefix="throughput_case_"))
+                try:
+                    path = normal_sweep_file(folder, n, args.cases, args.device, args.dtype)
+                    runs += [swept(path, 0), swept(path, max(args.batches or [16]))]
+                finally:
+                    shutil.rmtree(folder, ignore_errors=True)
         else:
             folder = Path(tempfile.mkdtemp(prefix="throughput_case_"))
             try:

@@ -188,26 +188,38 @@ def flatten(prefix: str, v, out: dict) -> None:
         out[prefix] = v
 
 
-def csv_text(sweep: Sweep, records: list) -> str:
+def _csv_row(keys, r: dict) -> tuple[dict, list]:
+    """One record's sweep.csv row and the names of its summary's columns, in order."""
+    row = {k: _csv_cell(r["params"].get(k)) for k in keys}
+    row.update(id=r["id"], label=r["label"], status=r["status"], converged=r["converged"])
+    flat = {}
+    flatten("", {k: v for k, v in (r.get("summary") or {}).items() if k not in ("converged", "note")}, flat)
+    for k, v in flat.items():
+        row[k] = _csv_cell(v)
+    row["elapsed_s"] = r.get("elapsed_s")
+    row["error"] = r.get("error", "")
+    if r.get("ignored"):
+        row["ignored"] = " ".join(r["ignored"])
+    return row, list(flat)
+
+
+def csv_text(sweep: Sweep, records: list, rows_made: dict | None = None) -> str:
     """sweep.csv: one row per record, the swept keys first (named as in the sweep file), then id,
     label, status, converged, the summary (nested values joined with '_': force_x), elapsed_s,
     error, and, where a combination switches a table off (law ``"none"``), ``ignored``: its swept
-    keys without effect, separated by spaces."""
+    keys without effect, separated by spaces. ``rows_made``: the rows of earlier calls by record
+    id (kept there, and used again for the same record object), so that a sweep rewriting its
+    table after each case does not flatten every summary again."""
     rows = []
     columns = dict.fromkeys([*sweep.keys, *_CSV_FIXED])
+    rows_made = {} if rows_made is None else rows_made
     for r in records:
-        row = {k: _csv_cell(r["params"].get(k)) for k in sweep.keys}
-        row.update(id=r["id"], label=r["label"], status=r["status"], converged=r["converged"])
-        flat = {}
-        flatten("", {k: v for k, v in (r.get("summary") or {}).items() if k not in ("converged", "note")}, flat)
-        for k, v in flat.items():
-            row[k] = _csv_cell(v)
+        made = rows_made.get(r["id"])
+        if made is None or made[0] is not r:
+            made = rows_made[r["id"]] = (r, *_csv_row(sweep.keys, r))
+        rows.append(made[1])
+        for k in made[2]:
             columns.setdefault(k, None)
-        row["elapsed_s"] = r.get("elapsed_s")
-        row["error"] = r.get("error", "")
-        if r.get("ignored"):
-            row["ignored"] = " ".join(r["ignored"])
-        rows.append(row)
     fieldnames = [*columns, "elapsed_s", "error"]
     if any(r.get("ignored") for r in records):
         fieldnames.append("ignored")
@@ -218,10 +230,10 @@ def csv_text(sweep: Sweep, records: list) -> str:
     return buf.getvalue()
 
 
-def _write_csv(out: Path, sweep: Sweep, records: list) -> None:
+def _write_csv(out: Path, sweep: Sweep, records: list, rows_made: dict | None = None) -> None:
     from ..records.results import atomic_write_bytes
 
-    data = csv_text(sweep, records).encode()
+    data = csv_text(sweep, records, rows_made).encode()
     path = out / "sweep.csv"
     try:
         if path.read_bytes() == data:
@@ -362,6 +374,8 @@ def run_sweep(sweep: Sweep, out: str | PathLike, quiet: bool = False, log=None, 
     records: dict[str, dict] = {}
     by_id = {sc.id: sc for sc in sweep.cases}
 
+    rows_made: dict = {}  # sweep.csv's rows by record id (csv_text)
+
     def ordered():
         return [records[sc.id] for sc in sweep.cases if sc.id in records]
 
@@ -406,7 +420,7 @@ def run_sweep(sweep: Sweep, out: str | PathLike, quiet: bool = False, log=None, 
             atomic_write_json(_record_path(out, sc), rec)
             records[sc.id] = rec
             report.computed.append(sc.id)
-            _write_csv(out, sweep, ordered())
+            _write_csv(out, sweep, ordered(), rows_made)
             _write_status(out, sweep, report, ordered(), complete=False)
         what = f"error: {error}" if error else _result_text(sweep.task, summary)
         progress.write(f"sweep [{sc.index + 1:>{width}}/{n}] {sc.label}: {what} ({rec['elapsed_s']:.1f} s)")
@@ -455,7 +469,7 @@ def run_sweep(sweep: Sweep, out: str | PathLike, quiet: bool = False, log=None, 
         except OSError as e:
             raise output_error(out, e, "create the folder") from None
         with interrupts.deferred():
-            _write_csv(out, sweep, ordered())
+            _write_csv(out, sweep, ordered(), rows_made)
             _write_status(out, sweep, report, ordered(), complete=False)
         if together:
             run_together()
@@ -471,7 +485,7 @@ def run_sweep(sweep: Sweep, out: str | PathLike, quiet: bool = False, log=None, 
         report.stop_signal = interrupts.signal_name(interrupts.stop_signal(e))
         with interrupts.deferred(raise_after=False):  # every record is whole (atomic writes)
             try:  # bring the CSV and the status up to date
-                _write_csv(out, sweep, ordered())
+                _write_csv(out, sweep, ordered(), rows_made)
                 _write_status(out, sweep, report, ordered(), complete=False)
             except OutputError as w:
                 report.write_error = w

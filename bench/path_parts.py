@@ -1,0 +1,193 @@
+"""Where a whole load path's time goes, by the solvers' parts, and its inner iterations by turn.
+
+A path of bench/paths.py (``figure2c``, ``figure2d``, ``rough``, ...) at each n, timed in one
+process after the same path at n = 128 has loaded the kernels (each n's CUDA graphs are captured
+inside the timed solve, as a user's first solve captures them). The solvers'
+parts are wrapped in timers that synchronise the device before and after (so each part's time is
+its own, the asynchronous launches included; the wrapping adds a synchronisation a part, a small
+cost against parts of milliseconds): the normal, tangential and adhesive solves, a tangential
+solve on a window (``window@m``: m cells per side, its crop and put-back included; the window's
+own solver is listed as ``tangential@m`` too) and the search for the window, the turns'
+displacement updates, the nested start's coarse steps (``step@n/2`` ...), the yield check. Times
+of nested parts are also in their parents' (a window's solve in its tangential solve's, the coarse
+steps in the fine step's).
+
+Prints per n: the solve's wall time, a table of parts (seconds, calls, inner iterations, ms per
+iteration), and with ``--turns S ...`` each listed state's turns on the finest grid: the normal and
+tangential solves' inner iterations and the tolerance each was solved to.
+
+    python bench/path_parts.py --path figure2c --sizes 1024 4096 --device cuda
+    python bench/path_parts.py --path figure2c --sizes 512 --device cpu --turns 1 9 16 --set nested=false
+"""
+
+from __future__ import annotations
+
+import argparse
+import collections
+import importlib.util
+import json
+import sys
+import time
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+def load_paths():
+    spec = importlib.util.spec_from_file_location("bench_paths", ROOT / "bench" / "paths.py")
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+class Timers:
+    """Seconds, calls and inner iterations by part, from wrapped methods."""
+
+    def __init__(self):
+        import warp as wp
+
+        self.wp = wp
+        self.seconds = collections.defaultdict(float)
+        self.calls = collections.Counter()
+        self.iterations = collections.Counter()
+        self.on = False
+        self.fine = None  # n of the path's grid
+        self.step = 0  # the fine grid's step being solved
+        self.turns = []  # (step, "normal" / "tangential", iterations, tolerance) on the fine grid
+        self._undo = []
+
+    def wrap(self, owner, name, label, grid=lambda self: self.model.grid.n):
+        original = getattr(owner, name)
+        timers = self
+
+        def timed(obj, *args, **kw):
+            if not timers.on:
+                return original(obj, *args, **kw)
+            timers.wp.synchronize()
+            t0 = time.perf_counter()
+            result = original(obj, *args, **kw)
+            timers.wp.synchronize()
+            n = grid(obj)
+            key = f"{label}@{n}"
+            timers.seconds[key] += time.perf_counter() - t0
+            timers.calls[key] += 1
+            iterations = getattr(result, "iterations", None)
+            if iterations is not None:
+                timers.iterations[key] += int(iterations)
+                if n == timers.fine and label in ("normal", "tangential", "adhesive"):
+                    timers.turns.append((timers.step, label, int(iterations), kw.get("tol")))
+            return result
+
+        setattr(owner, name, timed)
+        self._undo.append((owner, name, original))
+
+    def count_steps(self, owner):
+        original = owner.step
+        timers = self
+
+        def step(obj, *args, **kw):
+            if timers.on and obj.model.grid.n == timers.fine:
+                timers.step += 1
+            return original(obj, *args, **kw)
+
+        owner.step = step
+        self._undo.append((owner, "step", original))
+
+    def restore(self):
+        for owner, name, original in reversed(self._undo):
+            setattr(owner, name, original)
+
+
+def instrument(timers: Timers):
+    from warpcontact.numerics import yielding
+    from warpcontact.solvers import adhesive, contact, normal, tangential
+
+    timers.count_steps(contact.ContactSolver)
+    timers.wrap(contact.ContactSolver, "step", "step")
+    timers.wrap(normal.NormalSolver, "solve", "normal")
+    timers.wrap(tangential.TangentialSolver, "solve", "tangential")
+    timers.wrap(tangential._Window, "solve", "window", grid=lambda w: w.cells)
+    timers.wrap(tangential.TangentialSolver, "_window_for", "find window")
+    timers.wrap(adhesive.AdhesiveNormalSolver, "solve", "adhesive")
+    for name in ("update_adhesion", "update_slip", "known_displacements", "relative_change"):
+        timers.wrap(contact.ContactSolver, name, name)
+    original = yielding.state_yield_check
+
+    def check(state, *args, **kw):
+        if not timers.on:
+            return original(state, *args, **kw)
+        timers.wp.synchronize()
+        t0 = time.perf_counter()
+        result = original(state, *args, **kw)
+        timers.wp.synchronize()
+        key = f"yield check@{state.model.grid.n}"
+        timers.seconds[key] += time.perf_counter() - t0
+        timers.calls[key] += 1
+        return result
+
+    yielding.state_yield_check = check
+    timers._undo.append((yielding, "state_yield_check", original))
+
+
+def parse_settings(pairs) -> dict:
+    out = {}
+    for pair in pairs or []:
+        key, _, value = pair.partition("=")
+        try:
+            out[key] = json.loads(value)
+        except json.JSONDecodeError:
+            out[key] = value
+    return out
+
+
+def main(argv=None):
+    p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    p.add_argument("--path", default="figure2c", help="a path of bench/paths.py")
+    p.add_argument("--sizes", type=int, nargs="+", default=[256])
+    p.add_argument("--device", default="cpu")
+    p.add_argument("--set", nargs="*", metavar="KEY=VALUE", help="[solver] settings, e.g. nested=false window=true")
+    p.add_argument("--turns", type=int, nargs="*", default=[], help="states (from 1) whose turns to list")
+    args = p.parse_args(argv)
+    paths = load_paths()
+    import warnings
+
+    import warpcontact as wc
+
+    timers = Timers()
+    instrument(timers)
+    for n in args.sizes:
+        case = paths.case_dict(args.path)
+        case["grid"]["n"] = n
+        case.setdefault("solver", {}).update({"device": args.device, **parse_settings(args.set)})
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            warm = paths.case_dict(args.path)
+            warm["grid"]["n"] = min(n, 128)
+            warm.setdefault("solver", {}).update(case["solver"])
+            wc.solve(warm, fields="none")  # the kernels loaded
+            timers.seconds.clear(), timers.calls.clear(), timers.iterations.clear()
+            timers.turns.clear()
+            timers.fine, timers.step, timers.on = n, 0, True
+            t0 = time.perf_counter()
+            result = wc.solve(case, fields="none")
+            wall = time.perf_counter() - t0
+            timers.on = False
+        states = result.states
+        print(f"\n{args.path}, n = {n}, {args.device}, {args.set or 'as shipped'}: {wall:.2f} s, "
+              f"{len(states)} states, all converged: {all(bool(s['converged']) for s in states)}, "
+              f"inner iterations {sum(int(s['iterations']) for s in states)} "
+              f"(largest state {max(int(s['iterations']) for s in states)})")
+        print("| part | s | calls | inner it. | ms / it. |\n|---|---|---|---|---|")
+        for key in sorted(timers.seconds, key=lambda k: -timers.seconds[k]):
+            it = timers.iterations[key]
+            per = f"{1e3 * timers.seconds[key] / it:.2f}" if it else "-"
+            print(f"| {key} | {timers.seconds[key]:.3f} | {timers.calls[key]} | {it or '-'} | {per} |")
+        for k in args.turns:
+            turns = [(label[0], it, tol) for step, label, it, tol in timers.turns if step == k]
+            shown = ", ".join(f"{kind} {it}" + (f" @{tol:.0e}" if tol else "") for kind, it, tol in turns)
+            print(f"state {k}: {shown}")
+    timers.restore()
+
+
+if __name__ == "__main__":
+    sys.exit(main())
