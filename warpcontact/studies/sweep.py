@@ -54,6 +54,9 @@ from .sweep_spec import (
 
 #: Keys of a case's JSON summary in the CSV, first (the rest follow in the order met).
 _CSV_FIXED = ("id", "label", "status", "converged")
+#: seconds between rewrites of sweep.csv and sweep.json while the cases of a batched solve end
+#: together (each case's own JSON is written as it ends; the table once more when the batch ends)
+TABLE_EVERY_S = 0.5
 #: InputError keys that concern the machine, not a case: they stop the sweep instead of being recorded.
 _SETUP_KEYS = ("solver.device", "solver.fft", "solver.dtype")
 
@@ -355,7 +358,9 @@ def run_sweep(sweep: Sweep, out: str | PathLike, quiet: bool = False, log=None, 
     running, failed; `warpcontact.records.progress`); warnings and errors are printed either way.
     ``batch``: cases per batched solve (:func:`batched_cases`: with the task "solve", the cases of
     normal contact alone are solved together, by default on CUDA; 0: none); a batched case's
-    ``elapsed_s`` is its batch's time from its start to the case's end.
+    ``elapsed_s`` is its batch's time from its start to the case's end, and while a batch's cases
+    end together sweep.csv and sweep.json are rewritten at most every ``TABLE_EVERY_S`` (each
+    case's JSON at once, the table again when the batch ends or stops).
     ``finish(records)``, when given, is called with every finished record in sweep order once the
     run's cases are done and sweep.csv is written, before sweep.json is marked complete (the command
     line draws ``out/sweep.png`` there); an OutputError or a stop it raises is handled as one met
@@ -394,7 +399,11 @@ def run_sweep(sweep: Sweep, out: str | PathLike, quiet: bool = False, log=None, 
         where = f"state {k + 1}/{total}" if total else f"state {k + 1} ({s.get('kind', '')})"
         progress.status(len(records), s["iterations"], s["residual"], f"{task.label}: {where}")
 
-    def on_result(task, outcome):
+    def write_table():
+        _write_csv(out, sweep, ordered(), rows_made)
+        _write_status(out, sweep, report, ordered(), complete=False)
+
+    def on_result(task, outcome, table: bool = True):
         sc = by_id[task.key]
         error = outcome.get("error")
         summary = outcome.get("summary")
@@ -420,8 +429,8 @@ def run_sweep(sweep: Sweep, out: str | PathLike, quiet: bool = False, log=None, 
             atomic_write_json(_record_path(out, sc), rec)
             records[sc.id] = rec
             report.computed.append(sc.id)
-            _write_csv(out, sweep, ordered(), rows_made)
-            _write_status(out, sweep, report, ordered(), complete=False)
+            if table:
+                write_table()
         what = f"error: {error}" if error else _result_text(sweep.task, summary)
         progress.write(f"sweep [{sc.index + 1:>{width}}/{n}] {sc.label}: {what} ({rec['elapsed_s']:.1f} s)")
         if quiet and error:
@@ -456,13 +465,20 @@ def run_sweep(sweep: Sweep, out: str | PathLike, quiet: bool = False, log=None, 
         from .batch_solve import solve_batch
         from .tasks import prepare
 
+        last = [time.perf_counter()]
+
         def on_case(i, result):
-            on_result(task_of(together[i]), _batched_outcome(result))
+            table = time.perf_counter() - last[0] >= TABLE_EVERY_S
+            on_result(task_of(together[i]), _batched_outcome(result), table)
+            if table:
+                last[0] = time.perf_counter()
             progress.status(len(records), extra=f"{len(records) - len(report.skipped)} case(s) solved, batched")
 
         with warnings.catch_warnings():  # each case's warnings are in its record (and printed with it)
             warnings.simplefilter("ignore")
             solve_batch([prepare(sc.case) for sc in together], fields="none", batch=batch or None, on_case=on_case)
+        with interrupts.deferred():
+            write_table()
     try:
         try:
             out.mkdir(parents=True, exist_ok=True)
