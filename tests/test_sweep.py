@@ -9,6 +9,7 @@ import time
 from pathlib import Path
 
 import pytest
+import warp as wp
 
 from warpcontact.studies import runner
 from warpcontact.cli.sweep import add_parser, cmd_sweep
@@ -275,3 +276,26 @@ def test_batched_solve_sweep_records_what_one_case_at_a_time_records(tmp_path, m
     assert cmd_sweep(parse("sweep", path, "--out", together, "--quiet", "--batch", "4")) == 3  # a rerun: all skipped
     with pytest.raises(InputError, match="--batch"):
         cmd_sweep(parse("sweep", path, "--out", together, "--batch", "-1"))
+
+
+@pytest.mark.gpu
+@pytest.mark.skipif(wp.get_cuda_device_count() == 0, reason="no CUDA device here")
+def test_a_solve_sweep_on_cuda_is_batched_by_default(tmp_path, monkeypatch):
+    """On CUDA, in this process, the cases of normal contact are batched without being asked;
+    their records as one case at a time writes them (forces within 1e-8: both solves stop at a
+    relative residual of 1e-10)."""
+    from warpcontact.studies import batch_solve
+
+    batches, solve_batch = [], batch_solve.solve_batch
+    monkeypatch.setattr(batch_solve, "solve_batch", lambda cases, **kw: batches.append(len(cases)) or solve_batch(cases, **kw))
+    path = write_sweep(tmp_path, BATCH_SWEEP)
+    one, together = tmp_path / "one", tmp_path / "together"
+    for out, more in ((one, ["--batch", "0"]), (together, [])):
+        assert cmd_sweep(parse("sweep", path, "--out", out, "--quiet", "--device", "cuda", "--workers", "1", *more)) == 3
+    assert batches == [6]
+    a, b = read_csv(one / "sweep.csv"), read_csv(together / "sweep.csv")
+    assert [(r["id"], r["status"]) for r in a] == [(r["id"], r["status"]) for r in b]
+    for ra, rb in zip(a, b):
+        if ra["status"] == "ok":
+            assert float(rb["force_z"]) == pytest.approx(float(ra["force_z"]), rel=1e-8)
+            assert rb["contact_area"] == ra["contact_area"]
