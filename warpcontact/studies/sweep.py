@@ -356,7 +356,7 @@ def run_sweep(sweep: Sweep, out: str | PathLike, quiet: bool = False, log=None, 
     ``out/sweep.json`` says whether the sweep is complete (`_write_status`). Unless quiet, a
     result line per case goes to ``log`` (stderr), under a progress bar on a terminal (cases done,
     running, failed; `warpcontact.records.progress`); warnings and errors are printed either way.
-    ``batch``: cases per batched solve (:func:`batched_cases`: with the task "solve", the cases of
+    ``batch``: cases per batched solve (``batched_cases``: with the task "solve", the cases of
     normal contact alone are solved together, by default on CUDA; 0: none); a batched case's
     ``elapsed_s`` is its batch's time from its start to the case's end, and while a batch's cases
     end together sweep.csv and sweep.json are rewritten at most every ``TABLE_EVERY_S`` (each
