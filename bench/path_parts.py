@@ -57,6 +57,8 @@ class Timers:
         self._undo = []
 
     def wrap(self, owner, name, label, grid=lambda self: self.model.grid.n):
+        """``owner.name`` (a method, or a module's function of a state) timed under ``label@n``,
+        n = ``grid(its first argument)``."""
         original = getattr(owner, name)
         timers = self
 
@@ -111,22 +113,7 @@ def instrument(timers: Timers):
     timers.wrap(adhesive.AdhesiveNormalSolver, "solve", "adhesive")
     for name in ("update_adhesion", "update_slip", "known_displacements", "relative_change"):
         timers.wrap(contact.ContactSolver, name, name)
-    original = yielding.state_yield_check
-
-    def check(state, *args, **kw):
-        if not timers.on:
-            return original(state, *args, **kw)
-        timers.wp.synchronize()
-        t0 = time.perf_counter()
-        result = original(state, *args, **kw)
-        timers.wp.synchronize()
-        key = f"yield check@{state.model.grid.n}"
-        timers.seconds[key] += time.perf_counter() - t0
-        timers.calls[key] += 1
-        return result
-
-    yielding.state_yield_check = check
-    timers._undo.append((yielding, "state_yield_check", original))
+    timers.wrap(yielding, "state_yield_check", "yield check", grid=lambda state: state.model.grid.n)
 
 
 def parse_settings(pairs) -> dict:

@@ -223,6 +223,16 @@ def test_progress_bar_over_cases_on_a_terminal(tmp_path):
     assert "sweep [" not in term.getvalue()
 
 
+def count_batches(monkeypatch) -> list:
+    """The number of cases of each batched solve made from now on (``solve_batch``'s calls)."""
+    from warpcontact.studies import batch_solve
+
+    batches, solve_batch = [], batch_solve.solve_batch
+    monkeypatch.setattr(batch_solve, "solve_batch",
+                        lambda cases, **kw: batches.append(len(cases)) or solve_batch(cases, **kw))
+    return batches
+
+
 BATCH_SWEEP = f"""base = "{HERTZ_CASE.as_posix()}"
 [sweep]
 "grid.n" = [32]
@@ -251,10 +261,7 @@ def test_batched_solve_sweep_records_what_one_case_at_a_time_records(tmp_path, m
     one, together = tmp_path / "one", tmp_path / "together"
     assert batched_cases("solve", sw.cases, Placement(workers=2)) == []  # workers of a cluster: theirs
     assert len(batched_cases("solve", sw.cases, Placement(workers=2), batch=4)) == 6  # asked for: here
-    from warpcontact.studies import batch_solve
-
-    batches, solve_batch = [], batch_solve.solve_batch
-    monkeypatch.setattr(batch_solve, "solve_batch", lambda cases, **kw: batches.append(len(cases)) or solve_batch(cases, **kw))
+    batches = count_batches(monkeypatch)
     assert cmd_sweep(parse("sweep", path, "--out", one, "--quiet", "--batch", "0", "--workers", "1")) == 3
     assert batches == []
     assert cmd_sweep(parse("sweep", path, "--out", together, "--quiet", "--batch", "4", "--workers", "1")) == 3
@@ -284,10 +291,7 @@ def test_a_solve_sweep_on_cuda_is_batched_by_default(tmp_path, monkeypatch):
     """On CUDA, in this process, the cases of normal contact are batched without being asked;
     their records as one case at a time writes them (forces within 1e-8: both solves stop at a
     relative residual of 1e-10)."""
-    from warpcontact.studies import batch_solve
-
-    batches, solve_batch = [], batch_solve.solve_batch
-    monkeypatch.setattr(batch_solve, "solve_batch", lambda cases, **kw: batches.append(len(cases)) or solve_batch(cases, **kw))
+    batches = count_batches(monkeypatch)
     path = write_sweep(tmp_path, BATCH_SWEEP)
     one, together = tmp_path / "one", tmp_path / "together"
     for out, more in ((one, ["--batch", "0"]), (together, [])):

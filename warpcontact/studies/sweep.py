@@ -158,18 +158,25 @@ def run_case(task: str, rel_tol: float, case: Case, keep_models: int = 1, on_sta
             model = cached_model(model_key(case.pair, case.sphere, case.grid, s.device, s.dtype, s.fft),
                                  lambda: build_model(case), keep=keep_models)
             summary = run_task(task, rel_tol, case, on_state or (lambda *a: None), model)
-        except InputError as e:
-            if e.key in _SETUP_KEYS:
-                raise
-            error = str(e)
-        except (NonFiniteError, ConvergenceError) as e:
-            error = f"{type(e).__name__}: {e}"
+        except (InputError, NonFiniteError, ConvergenceError) as e:
+            error = recorded_error(e)
     outcome = {"elapsed_s": time.perf_counter() - t0, "warnings": list(dict.fromkeys(str(w.message) for w in caught))}
     if error:
         outcome["error"] = error
     else:
         outcome["summary"] = summary
     return outcome
+
+
+def recorded_error(e: Exception) -> str:
+    """The text a sweep records for a case that raised ``e`` (an InputError's message, or a
+    NonFiniteError's or ConvergenceError's with its kind); ``e`` itself is raised where the sweep
+    cannot go on (an InputError about the machine, ``_SETUP_KEYS``, or any other error)."""
+    if isinstance(e, InputError) and e.key not in _SETUP_KEYS:
+        return str(e)
+    if isinstance(e, (NonFiniteError, ConvergenceError)):
+        return f"{type(e).__name__}: {e}"
+    raise e
 
 
 def _csv_cell(v):
@@ -318,23 +325,11 @@ def _batched_outcome(result) -> dict:
     """A batched case's result (a ``PathResult`` or the exception it raised) as ``run_case``'s
     outcome: the row ``run_task`` makes of a solve, or the error a sweep records (an InputError
     about the machine is raised: it stops the sweep)."""
-    from ..numerics.yielding import yield_keys
+    from .tasks import solve_row
 
-    outcome = {"elapsed_s": 0.0, "warnings": []}
     if isinstance(result, BaseException):
-        if isinstance(result, InputError) and result.key not in _SETUP_KEYS:
-            outcome["error"] = str(result)
-        elif isinstance(result, (NonFiniteError, ConvergenceError)):
-            outcome["error"] = f"{type(result).__name__}: {result}"
-        else:
-            raise result
-        return outcome
-    summary = dict(result.states[-1])
-    summary["converged"] = result.converged
-    summary["n_states"] = len(result.states)
-    summary.update(yield_keys(result.yield_check))
-    outcome.update(elapsed_s=result.elapsed_s, warnings=list(result.warnings), summary=summary)
-    return outcome
+        return {"elapsed_s": 0.0, "warnings": [], "error": recorded_error(result)}
+    return {"elapsed_s": result.elapsed_s, "warnings": list(result.warnings), "summary": solve_row(result)}
 
 
 def run_sweep(sweep: Sweep, out: str | PathLike, quiet: bool = False, log=None, placement=None,

@@ -190,15 +190,22 @@ def run_task(task: str, rel_tol: float, case: Case, on_state, model=None) -> dic
 
         return fretting_row(fretting_summary(case, on_state=on_state, model=model))
     from .runner import run_path
-    from ..numerics.yielding import yield_keys
 
     # the row needs the summaries (reduced on the device) and the last state's yield check alone:
     # no field is kept on the host
     result = run_path(case, on_state=lambda k, total, s, res: on_state(k, total, s), model=model, fields="none")
     if result.interrupted:  # run_path keeps what finished; a sweep records whole cases only
         raise KeyboardInterrupt
+    return solve_row(result)
+
+
+def solve_row(result) -> dict:
+    """A solved path (``PathResult``) as a sweep row: its last state with ``converged``,
+    ``n_states`` and the yield check of its last state (None when not made)."""
+    from ..numerics.yielding import yield_keys
+
     summary = dict(result.states[-1])
     summary["converged"] = result.converged
     summary["n_states"] = len(result.states)
-    summary.update(yield_keys(result.yield_check))  # the last state's check (run_path); None when not made
+    summary.update(yield_keys(result.yield_check))
     return summary
