@@ -16,7 +16,8 @@ lambda / q_max (lambda = |slip increment|): an active-set Newton-CG on the produ
 After each step slip cells are retracted onto their circle; stick cells that cross it are
 projected onto it and become slip; slip cells whose slip would reverse (g.q > 0) are released
 into stick with the step P(q - tau g) (the disk analogue of Polonsky-Keer's re-entry rule), and
-the conjugacy restarts.
+the conjugacy restarts; releases wait for the proportioning test (``may_release``: the reversal
+a large share of the violation, or the iterate near the tolerance).
 
 Cell status: 0 out of contact (q_max = 0), 1 stick, 2 slip.
 
@@ -52,7 +53,17 @@ wp.set_module_options({"enable_backward": False})
 # the tangential solver's own slots of ``sums``, after the shared ones of kernels/reduce.py (S_G
 # holds g . z, z = M^-1 P g)
 S_STICK = wp.constant(N_SHARED_SUMS + 0)  # count of stick cells
-N_SUMS = N_SHARED_SUMS + 1
+S_REVERSAL = wp.constant(N_SHARED_SUMS + 1)  # the iterate's reversing slip: sum over slip cells of max(g.e, 0)^2
+N_SUMS = N_SHARED_SUMS + 2
+
+#: the proportioning test (after Dostal's MPRGP): slip cells whose slip would reverse are released
+#: into stick only where the squared reversal (slot S_REVERSAL) exceeds RELEASE_RATIO^2 times the
+#: rest of the squared violation, or where the relative residual is within RELEASE_NEAR times the
+#: tolerance (there the rest sits near the iteration's rounding floor and may not fall under the
+#: reversal); until then they stay on their circle and the conjugate directions go on over the
+#: unchanged sets (a release restarts the conjugacy)
+RELEASE_RATIO = wp.constant(1.0)
+RELEASE_NEAR = wp.constant(100.0)
 
 OUT = wp.constant(0)
 STICK = wp.constant(1)
@@ -117,10 +128,12 @@ def residual_terms(gx: Any, gy: Any, qx: Any, qy: Any, q_max: Any, status: int, 
     """One cell's shares of the sums S_G and S_VIOL: on slip cells g_t . g_t / (``stiffness`` +
     lambda / q_max) (the Jacobi part of g . M g) and the violation |g_t|^2 + max(g.e, 0)^2; on
     stick cells the violation |g|^2 and no share of S_G (the plain iteration adds their Jacobi
-    share, ``tangential_residual``; the preconditioned one takes it from the spectral product)."""
+    share, ``tangential_residual``; the preconditioned one takes it from the spectral product);
+    and the slip cell's reversal max(g.e, 0)^2 (its share of S_REVERSAL, also in S_VIOL)."""
     zero = type(gx)(0.0)
     s_g = zero
     s_viol = zero
+    s_reversal = zero
     if status == STICK:
         s_viol = gx * gx + gy * gy
     elif status == SLIP:
@@ -129,8 +142,9 @@ def residual_terms(gx: Any, gy: Any, qx: Any, qy: Any, q_max: Any, status: int, 
         tx = gx - normal * e[0]
         ty = gy - normal * e[1]
         s_g = (tx * tx + ty * ty) / (stiffness + wp.max(-normal, zero) / q_max)
-        s_viol = tx * tx + ty * ty + wp.max(normal, zero) * wp.max(normal, zero)
-    return s_g, s_viol
+        s_reversal = wp.max(normal, zero) * wp.max(normal, zero)
+        s_viol = tx * tx + ty * ty + s_reversal
+    return s_g, s_viol, s_reversal
 
 
 @wp.kernel
@@ -153,7 +167,7 @@ def tangential_residual(
     sums: wp.array(dtype=Any),
 ):
     """The exact g = K q + u_known - target (= minus the slip increment) from ``disp`` = K q, and
-    the iterate's residual sums: slots S_VIOL, S_RHS, S_STICK (the stick cells) and S_G, the slip
+    the iterate's residual sums: slots S_VIOL, S_RHS, S_STICK (the stick cells), S_REVERSAL and S_G, the slip
     cells' part (:func:`residual_terms`) plus, with ``jacobi_stick`` = 1 (the plain iteration),
     the stick cells' Jacobi part |g|^2 / ``stiffness``; with 0 (the preconditioned iteration) the
     spectral product adds theirs."""
@@ -164,6 +178,7 @@ def tangential_residual(
     s_viol = zero
     s_rhs = zero
     s_stick = zero
+    s_reversal = zero
     for k in range(cells.per):
         i = cell_index(thread, cells, k)
         if i < cells.n:
@@ -176,7 +191,8 @@ def tangential_residual(
             st = status[i]
             if st != OUT:
                 s_rhs += rx * rx + ry * ry
-                dg, dv = residual_terms(gx, gy, shear_x[i], shear_y[i], shear_limit[i], st, stiffness)
+                dg, dv, dr = residual_terms(gx, gy, shear_x[i], shear_y[i], shear_limit[i], st, stiffness)
+                s_reversal += dr
                 if st == STICK:
                     s_stick += type(zero)(1.0)
                     if jacobi_stick != 0:
@@ -184,7 +200,7 @@ def tangential_residual(
                 s_g += dg
                 s_viol += dv
     block_add_vector(sums, S_G, wp.vector(s_g, s_viol, s_rhs), lane)  # slots S_G, S_VIOL, S_RHS
-    block_add(sums, S_STICK, s_stick)
+    block_add_vector(sums, S_STICK, wp.vector(s_stick, s_reversal), lane)  # slots S_STICK, S_REVERSAL
 
 
 @wp.func
@@ -278,18 +294,19 @@ def tangential_step_sums(
 
 @wp.func
 def disk_step(status: int, qx: Any, qy: Any, gx: Any, gy: Any, tx: Any, ty: Any, q_max: Any, tau: Any,
-              tau_release: Any):
+              tau_release: Any, release: bool):
     """One contact cell's step q <- q - tau t under the disk bound |q| <= q_max: a stick cell
     that leaves the disk is projected onto it and slips; a slip cell is retracted onto its circle,
-    or, where its slip would reverse (g.q > 0), leaves the circle inwards with P(q - tau_release g)
-    and sticks where that lands inside. Returns the new q, the new status and |q - (q_old - tau
+    or, where ``release`` (the proportioning test, :func:`may_release`) and its slip would reverse
+    (g.q > 0), leaves the circle inwards with P(q - tau_release g) and sticks where that lands
+    inside. Returns the new q, the new status and |q - (q_old - tau
     t)|, what the projection changed (which K t misses)."""
     zero = type(qx)(0.0)
     fx = qx - tau * tx  # what K t accounts for
     fy = qy - tau * ty
     new = status
     q = wp.vector(fx, fy)
-    if status == SLIP and gx * qx + gy * qy > zero:
+    if release and status == SLIP and gx * qx + gy * qy > zero:
         # the slip would reverse: leave the circle inwards
         q = project_disk(qx - tau_release * gx, qy - tau_release * gy, q_max)
         if q[0] * q[0] + q[1] * q[1] < q_max * q_max:
@@ -301,6 +318,18 @@ def disk_step(status: int, qx: Any, qy: Any, gx: Any, gy: Any, tx: Any, ty: Any,
         q = project_disk(fx, fy, q_max)
         new = SLIP
     return q, new, wp.sqrt((q[0] - fx) * (q[0] - fx) + (q[1] - fy) * (q[1] - fy))
+
+
+@wp.func
+def may_release(sums: wp.array(dtype=Any), tol: Any):
+    """The proportioning test: whether this step releases the slip cells whose slip would reverse
+    (their squared reversal, slot S_REVERSAL, over RELEASE_RATIO^2 times the rest of the squared
+    violation, slot S_VIOL; or the relative residual under RELEASE_NEAR times ``tol``)."""
+    reversal = sums[S_REVERSAL]
+    viol = sums[S_VIOL]
+    ratio = type(reversal)(RELEASE_RATIO)
+    near = type(reversal)(RELEASE_NEAR) * tol
+    return reversal > ratio * ratio * (viol - reversal) or viol < near * near * sums[S_RHS]
 
 
 @wp.kernel
@@ -319,7 +348,8 @@ def tangential_update(
     sums: wp.array(dtype=Any),
 ):
     """q <- q - tau t, then: stick cells beyond the disk are projected (-> slip); slip cells are
-    retracted onto their circle, or released into stick with P(q - tau g) when g.q > 0.
+    retracted onto their circle, or released into stick with P(q - tau g) when g.q > 0 and the
+    proportioning test (:func:`may_release`) allows it.
 
     tau is the conjugate-gradient step; ``slip_step`` (about 1 / the self-influence coefficient)
     stands in for it when the free subspace is empty. An iterate whose relative residual is
@@ -332,6 +362,7 @@ def tangential_update(
     tau = cg_step_length(sums)
     tau_release = wp.where(tau > zero, tau, slip_step)
     done = cg_converged(sums, parameters[P_TOL])
+    release = may_release(sums, parameters[P_TOL])
     released = zero
     for k in range(cells.per):
         i = cell_index(thread, cells, k)
@@ -339,7 +370,7 @@ def tangential_update(
             st = status[i]
             if st != OUT:
                 q, new, change = disk_step(st, shear_x[i], shear_y[i], grad_x[i], grad_y[i], dir_x[i], dir_y[i],
-                                           shear_limit[i], tau, tau_release)
+                                           shear_limit[i], tau, tau_release, release)
                 if new != st:
                     status[i] = new
                     if new == STICK:
@@ -356,7 +387,8 @@ def tangential_update(
 S_CORRECTION = wp.constant(N_SUMS + 0)
 S_NEXT_G = wp.constant(N_SUMS + 1)
 S_NEXT_VIOL = wp.constant(N_SUMS + 2)
-N_SUMS_PRECONDITIONED = N_SUMS + 3
+S_NEXT_REVERSAL = wp.constant(N_SUMS + 3)
+N_SUMS_PRECONDITIONED = N_SUMS + 4
 
 
 @wp.kernel
@@ -466,10 +498,12 @@ def tangential_carried_update(
     tau = cg_step_length(sums)
     tau_release = wp.where(tau > zero, tau, slip_step)
     done = cg_converged(sums, parameters[P_TOL])
+    release = may_release(sums, parameters[P_TOL])
     released = zero
     corrected = zero
     s_g = zero
     s_viol = zero
+    s_reversal = zero
     for k in range(cells.per):
         i = cell_index(thread, cells, k)
         if i < cells.n:
@@ -486,7 +520,7 @@ def tangential_carried_update(
                 rx = resp_x[i]
                 ry = resp_y[i]
                 if not done:
-                    q, new, change = disk_step(st, qx, qy, gx, gy, tx, ty, q_max, tau, tau_release)
+                    q, new, change = disk_step(st, qx, qy, gx, gy, tx, ty, q_max, tau, tau_release, release)
                     qx = q[0]
                     qy = q[1]
                     corrected += change
@@ -501,12 +535,13 @@ def tangential_carried_update(
                         if new == STICK:
                             released += type(zero)(1.0)
                         st = new
-                dg, dv = residual_terms(gx, gy, qx, qy, q_max, st, stiffness)
+                dg, dv, dr = residual_terms(gx, gy, qx, qy, q_max, st, stiffness)
                 s_g += dg
                 s_viol += dv
+                s_reversal += dr
     block_add(sums, S_RELEASED, released)
-    # slots S_CORRECTION, S_NEXT_G, S_NEXT_VIOL (consecutive)
-    block_add_vector(sums, S_CORRECTION, wp.vector(corrected, s_g, s_viol), lane)
+    # slots S_CORRECTION, S_NEXT_G, S_NEXT_VIOL, S_NEXT_REVERSAL (consecutive)
+    block_add_vector(sums, S_CORRECTION, wp.vector(corrected, s_g, s_viol, s_reversal), lane)
 
 
 @wp.kernel
@@ -539,6 +574,7 @@ def tangential_advance(sums: wp.array(dtype=Any), parameters: wp.array(dtype=Any
     missed = deferred[0] + sums[S_CORRECTION]
     next_g = sums[S_NEXT_G]
     next_viol = sums[S_NEXT_VIOL]
+    next_reversal = sums[S_NEXT_REVERSAL]
     done, stopped = advance(sums, parameters, restart_every, scalars, residual_history, loop, refresh)
     zero = type(tol)(0.0)
     bound = column_norm * missed
@@ -546,10 +582,11 @@ def tangential_advance(sums: wp.array(dtype=Any), parameters: wp.array(dtype=Any
              or done % exact_every == 0)
     recompute[0] = wp.where(again, 1, 0)
     deferred[0] = wp.where(again, zero, missed)
-    sums[S_G] = next_g
-    sums[S_VIOL] = next_viol
     for slot in range(S_GT, N_SUMS_PRECONDITIONED):
         sums[slot] = zero
+    sums[S_G] = next_g
+    sums[S_VIOL] = next_viol
+    sums[S_REVERSAL] = wp.where(again, zero, next_reversal)  # a recompute's residual adds it anew
     # converged with the carried g: settle (the launch then makes g exact and the host judges it)
     res, finite = residual_of(next_viol, rhs)
     if not finite or res < tol:

@@ -84,6 +84,56 @@ def test_slip_cells_keep_their_circle_when_the_limit_grows(device):
         assert (qx[1], qy[1], qx[3], qy[3]) == (0.1, 0.0, 0.0, 0.0)
 
 
+@pytest.mark.parametrize("preconditioned", [False, True])
+def test_a_reversing_slip_cell_waits_for_the_proportioning_test(device, preconditioned):
+    """One step of the update kernels on four cells: a slip cell whose slip would reverse
+    (g . q > 0), a stick cell with a large gradient, and two cells out of contact. The reversing
+    cell is released into stick only where its squared reversal is over RELEASE_RATIO^2 times the
+    rest of the violation (slots S_REVERSAL and S_VIOL as the residual left them), or where the
+    relative residual is under RELEASE_NEAR times the tolerance; otherwise it stays slip on its
+    circle. Either kernel (plain and carried) follows the rule, and counts the released cell."""
+    from warpcontact.kernels import reduce as rk
+    from warpcontact.numerics.launch import ReductionLaunch
+
+    kernel = tk.tangential_carried_update if preconditioned else tk.tangential_update
+    limit = np.array([1.0, 1.0, 0.0, 0.0])
+    q = np.array([[1.0, 0.0], [0.2, 0.0], [0.0, 0.0], [0.0, 0.0]])
+    reversal = 0.5  # g . e of the slip cell: its slip would reverse
+    tol = 1e-10
+
+    def run(stick_gradient, rhs):
+        g = np.array([[reversal, 0.0], [stick_gradient, 0.0], [0.0, 0.0], [0.0, 0.0]])
+        sums = np.zeros(tk.N_SUMS_PRECONDITIONED)
+        sums[tk.S_REVERSAL] = reversal ** 2
+        sums[rk.S_VIOL] = reversal ** 2 + stick_gradient ** 2
+        sums[rk.S_RHS] = rhs
+        sums[rk.S_GT], sums[rk.S_RT] = 1.0, 1e6  # a tiny step: the stick cell stays stick
+        parameters = np.zeros(rk.N_PARAMETERS)
+        parameters[rk.P_TOL] = tol
+        f = lambda a: wp.array(np.ascontiguousarray(a), dtype=wp.float64, device=device)  # noqa: E731
+        qx, qy, gx, gy = f(q[:, 0]), f(q[:, 1]), f(g[:, 0]), f(g[:, 1])
+        zeros = f(np.zeros(4))
+        status = wp.array(np.array([tk.SLIP, tk.STICK, tk.OUT, tk.OUT], dtype=np.int32), device=device)
+        s = f(sums)
+        launch = ReductionLaunch.for_cells(4, wp.get_device(device))
+        one = wp.float64(1.0)
+        inputs = [gx, gy, zeros, zeros, f(limit), one, f(parameters)]
+        outputs = [qx, qy, status, s]
+        if preconditioned:
+            inputs = [zeros, zeros, zeros, zeros, f(limit), one, one, f(parameters)]
+            outputs = [qx, qy, status, gx, gy, s]
+        wp.launch_tiled(kernel, dim=launch.num_blocks, inputs=[*inputs, *launch.args(4)], outputs=outputs,
+                        block_dim=launch.block_dim, device=device)
+        return int(status.numpy()[0]), s.numpy()[rk.S_RESTART]
+
+    ratio = float(tk.RELEASE_RATIO)
+    far = 1.0  # the relative residual is about 1: far from the tolerance
+    assert run(2.0 * reversal / ratio, far) == (tk.SLIP, 0.0)  # the rest dominates: it waits
+    assert run(0.5 * reversal / ratio, far) == (tk.STICK, 1.0)  # the reversal dominates: released
+    near = (reversal ** 2 + (2.0 * reversal / ratio) ** 2) / (0.5 * float(tk.RELEASE_NEAR) * tol) ** 2
+    assert run(2.0 * reversal / ratio, near) == (tk.STICK, 1.0)  # near the tolerance: released
+
+
 def mindlin_step(n, device, dtype, preconditioned, tol=None):
     """Identical copper bodies, Coulomb mu = 0.3: delta_z, then delta_x at Q / (mu P) = 0.5: one
     tangential solve from zero shear. Returns (state, tangential SolveInfo, model)."""
