@@ -1,7 +1,7 @@
 """Transfers between grids: a grid and the grid of half its cells per side over the same domain
 (cell (I, J) of the coarse grid covers cells (2I..2I+1, 2J..2J+1) of the fine one), for the nested
 start of a step (``SolverSettings.nested``); a square window of a grid cut out and put back, for
-the tangential solve on the cells that can carry shear (``SolverSettings.window``)."""
+the normal and tangential solves on the contact's cells (``SolverSettings.window``)."""
 
 from typing import Any
 
@@ -64,6 +64,17 @@ def embed(window: wp.array2d(dtype=Any), row0: int, col0: int, full: wp.array2d(
 SUPPORT_ROWS = wp.constant(64)
 
 
+@wp.func
+def add_to_box(first: int, last: int, column: int, box: wp.array(dtype=wp.int32)):
+    """Widen ``box`` (first row, last row, first column, last column) to rows ``first`` ..
+    ``last`` of ``column``; nothing where ``last`` < 0 (no cell)."""
+    if last >= 0:
+        wp.atomic_min(box, 0, first)
+        wp.atomic_max(box, 1, last)
+        wp.atomic_min(box, 2, column)
+        wp.atomic_max(box, 3, column)
+
+
 @wp.kernel
 def support_box(field: wp.array2d(dtype=Any), box: wp.array(dtype=wp.int32)):
     """The bounding box of the cells where ``field`` > 0: box <- (first row, last row, first
@@ -80,14 +91,31 @@ def support_box(field: wp.array2d(dtype=Any), box: wp.array(dtype=wp.int32)):
         if field[i, j] > zero:
             first = wp.min(first, i)
             last = i
-    if last >= 0:
-        wp.atomic_min(box, 0, first)
-        wp.atomic_max(box, 1, last)
-        wp.atomic_min(box, 2, j)
-        wp.atomic_max(box, 3, j)
+    add_to_box(first, last, j, box)
 
 
-for _k in (crop, embed, support_box):
+@wp.kernel
+def closing_box(pressure: wp.array2d(dtype=Any), initial_gap: wp.array2d(dtype=Any), disp_z: wp.array2d(dtype=Any),
+                known: wp.array2d(dtype=Any), approach: Any, box: wp.array(dtype=wp.int32)):
+    """As ``support_box``, the box of the cells in contact (``pressure`` > 0) or closed at the
+    rigid ``approach`` with the displacements held (h0 - approach + u_z + u_known < 0, scaled):
+    where a normal solve at that approach starts from (the window of ``NormalSolver``; the
+    contact of a growing load stays inside it, as the displacements only grow)."""
+    block, j = wp.tid()
+    n = pressure.shape[0]
+    zero = approach - approach
+    first = n
+    last = int(-1)
+    start = block * SUPPORT_ROWS
+    end = wp.min(start + SUPPORT_ROWS, n)
+    for i in range(start, end):
+        if pressure[i, j] > zero or initial_gap[i, j] - approach + disp_z[i, j] + known[i, j] < zero:
+            first = wp.min(first, i)
+            last = i
+    add_to_box(first, last, j, box)
+
+
+for _k in (crop, embed, support_box, closing_box):
     register_float_overloads(_k)
 for _k in (crop, embed):
     wp.overload(_k, [wp.array2d(dtype=wp.int32), int, int, wp.array2d(dtype=wp.int32)])

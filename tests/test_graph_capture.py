@@ -25,7 +25,7 @@ R, DZ = 10e-6, 1e-10
 def ran_eagerly(tangential) -> set:
     """The parts that ran eagerly in the tangential solver and in its windows' solvers (where its
     solves run: ``SolverSettings.window``)."""
-    solvers = [tangential, *(w.solver for w in tangential._windows.values())]
+    solvers = [tangential, *(w.solver for w in tangential._windows.kept())]
     return {getattr(c, "co_name", c) for s in solvers for c in s._ran_eagerly}
 
 

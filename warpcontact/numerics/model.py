@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from collections import OrderedDict
+
 import numpy as np
 import warp as wp
 
@@ -13,6 +15,11 @@ from .launch import LaunchCache, ReductionLaunch
 from ..physics.materials import MaterialPair
 from .operator import ElasticOperator
 from .resources import check_index_limit
+
+
+#: window models kept per grid (``ContactModel.window_model``): the normal and the tangential
+#: solves' current windows, and one more
+WINDOW_MODELS = 3
 
 
 class ContactModel:
@@ -55,12 +62,37 @@ class ContactModel:
             else:  # the other profiles and height maps: numpy on the host, then copied
                 self.initial_gap = self.field(sphere.initial_gap(grid) / self.length_scale)
             self.operator = ElasticOperator(pair, grid, self.device, self.dtype, fft, influence)
+        self._windows: OrderedDict = OrderedDict()  # cells -> the model of a window of that side
 
     def on_grid(self, grid: Grid) -> "ContactModel":
         """A model of the same materials, sphere, device, float type and FFT backend on ``grid``
         (the nested start's coarse grid, a tangential solve's window): the gap made again on it (a
         height map resampled to its cells)."""
         return ContactModel(self.pair, self.sphere, grid, device=self.device, dtype=self.dtype_name, fft=self.fft_name)
+
+    def window_model(self, cells: int) -> "ContactModel | None":
+        """The model of a square window of ``cells`` per side of this grid (the same cells: the
+        same influence coefficients, padded to 2 cells), which the normal and tangential solves
+        on a window share (``SolverSettings.window``); kept per size (``WINDOW_MODELS``, the
+        least recently used let go). None on CUDA where a friction problem of that size would not
+        fit in the free memory (the solves then run on the whole grid). Its ``initial_gap`` is
+        the sphere's centred on the window: a solve that reads it writes the crop of this grid's
+        first."""
+        cells = int(cells)
+        model = self._windows.get(cells)
+        if model is None:
+            if self.device.is_cuda:
+                from . import resources
+
+                need = resources.breakdown(cells, self.dtype_name, "cuda", True, self.fft_name, states=0)["total"]
+                if need > resources.memory_limit(self.device)[0]:
+                    return None
+            model = self._windows[cells] = self.on_grid(Grid(cells, cells * self.grid.dx))
+            model.operator.fft.transient()  # its size follows the contact: plans not worth measuring
+            while len(self._windows) > WINDOW_MODELS:
+                self._windows.popitem(last=False)
+        self._windows.move_to_end(cells)
+        return model
 
     @property
     def dtype_name(self) -> str:

@@ -3,16 +3,24 @@
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 
 import numpy as np
 import warp as wp
 
+from warpcontact.kernels import grids as gk
 from warpcontact.kernels import normal as nk
 
 from ..numerics.launch import ReductionLaunch, Rows, Sums
 from ..numerics.state import SolveInfo
 from .base import ProjectedCG, default_tolerance, raise_non_finite  # noqa: F401  (re-export)
 from .settings import SolverSettings
+from .tangential import Windows, window_enabled
+
+#: the normal solve's window holds the box of its starting contact and the cells its approach
+#: closes, widened by this share of its extent on every side (where the contact grows past the
+#: window, the solve on the whole grid that judges the window's answer goes on from it)
+WINDOW_MARGIN = 0.03125
 
 
 class NormalSolver(ProjectedCG):
@@ -90,6 +98,10 @@ class NormalSolver(ProjectedCG):
         # the direction's pass (one sum) takes more blocks than the model's reductions: it is
         # faster so on CUDA (docs/performance.md)
         self._direction_launch = ReductionLaunch.for_cells(model.n_cells, model.device, blocks_per_sm=8)
+        self._windows = Windows(model)
+        self._box = wp.zeros(4, dtype=wp.int32, device=model.device)
+        #: the side of the last solve's window in cells, None where it ran on the whole grid
+        self.last_window: int | None = None
 
     def solve(self, state, approach_z: float, known_displacement: wp.array | None = None, tol=None,
               displacement_current: bool = False) -> SolveInfo:
@@ -102,7 +114,49 @@ class NormalSolver(ProjectedCG):
         the solver's tolerance for this solve. ``displacement_current``: ``state.disp_z`` is K p
         of ``state.pressure`` already (the pressure has not changed since a solve left it), so the
         start makes no convolution of its own (the later turns of a coupled or adhesive step).
+
+        With ``settings.window`` (by default from ``WINDOW_AUTO_N`` cells per side on) the solve
+        runs on a window of the grid around its contact (``_NormalWindow``), and is then judged,
+        and finished where it must be, on the whole grid.
         """
+        window = self._window_for(state, approach_z, known_displacement) if self.uses_window else None
+        self.last_window = None
+        if window is not None:
+            return window.solve(self, state, approach_z, known_displacement, tol, displacement_current)
+        return self._solve_whole(state, approach_z, known_displacement, tol, displacement_current)
+
+    @property
+    def uses_window(self) -> bool:
+        """Whether solves may run on a window (``settings.window``, as the tangential solver's)."""
+        return window_enabled(self.settings.window, self.model)
+
+    def _window_for(self, state, approach_z: float, known):
+        """The window of a solve from ``state.pressure`` at ``approach_z`` [m]: the bounding box of
+        the cells where it is positive or that the approach closes with the displacements held
+        (``state.disp_z`` and ``known``; ``kernels/grids.py``, ``closing_box``), widened by
+        ``WINDOW_MARGIN`` of its extent (at least 4 cells) on every side,
+        in the smallest window that holds it (``window_cells``); None where no cell is in contact
+        or closed, or the window would be over ``WINDOW_MAX_SHARE`` of the grid or not fit. One
+        read of the device."""
+        m = self.model
+        n = m.grid.n
+        box = self._box
+        box.assign(np.array([n, -1, n, -1], dtype=np.int32))
+        known = self.no_displacement if known is None else known
+        approach = m.scalar(m.np_dtype(approach_z / m.length_scale))  # as the kernels see it
+        wp.launch(gk.closing_box, dim=(-(-n // int(gk.SUPPORT_ROWS)), n),
+                  inputs=[state.pressure, m.initial_gap, state.disp_z, known, approach], outputs=[box], device=m.device)
+        first_row, last_row, first_col, last_col = (int(v) for v in box.numpy())
+        if last_row < 0:
+            return None
+        extent = max(last_row - first_row, last_col - first_col) + 1
+        margin = max(4, int(math.ceil(WINDOW_MARGIN * extent)))
+        return self._windows.place(first_row - margin, last_row + margin, first_col - margin, last_col + margin,
+                                   extent + 2 * margin, lambda model: _NormalWindow(self, model))
+
+    def _solve_whole(self, state, approach_z: float, known_displacement: wp.array | None = None, tol=None,
+                     displacement_current: bool = False) -> SolveInfo:
+        """``solve`` on the whole grid."""
         m = self.model
         fft = m.operator.fft
         known = self.no_displacement if known_displacement is None else known_displacement
@@ -207,3 +261,50 @@ class NormalSolver(ProjectedCG):
                  [p, state.disp_z.flatten()])
         if math.isfinite(self.pressure_cap):
             m.operator.normal(state.pressure, state.disp_z)
+
+
+class _NormalWindow:
+    """A square window of a normal solver's grid (``SolverSettings.window``): a solver on the
+    window's model (``ContactModel.window_model``) and the fields of a solve, cut out of the whole
+    grid's at ``(row0, col0)``.
+
+    A solve there is the whole grid's problem restricted to the window, the pressure outside it
+    held at zero: exact where the contact stays inside the window. Its pressure is put back
+    (zero outside) and the whole grid's solve goes on from it: K p on the whole grid (one
+    convolution of it), the gap and the residual over every cell, and iterations only where they
+    miss the tolerance (a contact grown past the window, or rounding at the tolerance's edge).
+    A step's solves then make one transform pair of the whole grid each instead of their every
+    iteration's two and their exact gaps'."""
+
+    def __init__(self, parent: NormalSolver, model):
+        self.cells = model.grid.n
+        self.row0 = self.col0 = 0
+        self.model = model
+        self.solver = NormalSolver(model, replace(parent.settings, tol=parent.tol, window=False),
+                                   pressure_cap=parent.pressure_cap)
+        f = model.field
+        # the state the window's solve works on (the attributes of ContactState it reads and writes)
+        self.pressure, self.disp_z, self.gap, self.known = f(), f(), f(), f()
+
+    def _transfer(self, kernel, pairs):
+        m = self.model
+        for src, dst in pairs:
+            wp.launch(kernel, dim=m.grid.shape, inputs=[src, self.row0, self.col0], outputs=[dst], device=m.device)
+
+    def solve(self, parent: NormalSolver, state, approach_z, known, tol, displacement_current) -> SolveInfo:
+        """``parent.solve`` on the window, then on the whole grid from its pressure."""
+        pairs = [(state.pressure, self.pressure), (parent.model.initial_gap, self.model.initial_gap)]
+        if known is not None:
+            pairs.append((known, self.known))
+        if displacement_current:  # K p cut out is the window's K p: the pressure is inside it
+            pairs.append((state.disp_z, self.disp_z))
+        self._transfer(gk.crop, pairs)
+        inner = self.solver.solve(self, approach_z, None if known is None else self.known, tol, displacement_current)
+        state.pressure.zero_()
+        self._transfer(gk.embed, [(self.pressure, state.pressure)])
+        whole = parent._solve_whole(state, approach_z, known, tol)
+        parent.last_window = self.cells
+        # the residual the solve started from first (``turns.starting_residual``), the whole grid's last
+        history = (inner.history if inner.iterations else []) + (whole.history if whole.iterations else [])
+        return SolveInfo(converged=whole.converged, iterations=inner.iterations + whole.iterations,
+                         residual=whole.residual, history=history)

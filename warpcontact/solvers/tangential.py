@@ -45,11 +45,57 @@ def window_cells(extent: int, n: int) -> int | None:
     return cells if cells <= WINDOW_MAX_SHARE * n else None
 
 
+def window_enabled(choice, model) -> bool:
+    """Whether a solver of ``model`` with ``SolverSettings.window`` = ``choice`` solves on windows:
+    "auto", from ``WINDOW_AUTO_N`` cells per side of the device's kind on."""
+    if choice == "auto":
+        return model.grid.n >= WINDOW_AUTO_N["cuda" if model.device.is_cuda else "cpu"]
+    return bool(choice)
+
+
 def window_origin(first: int, last: int, cells: int, n: int) -> int:
     """First row (or column) of a window of ``cells`` that holds rows ``first`` .. ``last`` of a
     grid of n: the support centred in it, the window moved inside the grid where it would leave it."""
     start = first - (cells - (last - first + 1)) // 2
     return min(max(start, 0), n - cells)
+
+
+class Windows:
+    """A solver's windows of its model's grid (``SolverSettings.window``), kept per size
+    (``WINDOW_CACHE``, the least recently used let go), on models of their own that a grid's
+    solvers share (``ContactModel.window_model``)."""
+
+    def __init__(self, model):
+        self.model = model
+        self._kept: OrderedDict = OrderedDict()  # cells -> window
+        self._refused: set = set()  # window sizes that did not fit in the device's memory
+
+    def kept(self):
+        """The windows kept."""
+        return self._kept.values()
+
+    def place(self, first_row: int, last_row: int, first_col: int, last_col: int, extent: int, make):
+        """The window that holds rows ``first_row`` .. ``last_row`` and columns ``first_col`` ..
+        ``last_col`` with room for ``extent`` cells (``window_cells``), placed over them (its
+        ``row0``, ``col0``); ``make(model)`` makes one of a size first needed. None where that
+        size is over ``WINDOW_MAX_SHARE`` of the grid or does not fit in the device's memory."""
+        n = self.model.grid.n
+        cells = window_cells(extent, n)
+        if cells is None or cells in self._refused:
+            return None
+        window = self._kept.get(cells)
+        if window is None:
+            model = self.model.window_model(cells)
+            if model is None:
+                self._refused.add(cells)
+                return None
+            window = self._kept[cells] = make(model)
+            while len(self._kept) > WINDOW_CACHE:
+                self._kept.popitem(last=False)
+        self._kept.move_to_end(cells)
+        window.row0 = window_origin(first_row, last_row, cells, n)
+        window.col0 = window_origin(first_col, last_col, cells, n)
+        return window
 
 
 class TangentialSolver(ProjectedCG):
@@ -145,8 +191,7 @@ class TangentialSolver(ProjectedCG):
         self.disagreements = 0
         #: the side of the last solve's window in cells, None where it ran on the whole grid
         self.last_window: int | None = None
-        self._windows: OrderedDict = OrderedDict()  # cells -> _Window
-        self._refused: set = set()  # window sizes that did not fit in the device's memory
+        self._windows = Windows(model)
         self._box = wp.zeros(4, dtype=wp.int32, device=model.device)
         #: (state, pressure, known_x, known_y) of the last solve on a window whose whole-grid
         #: displacements are still to make (``whole_displacement``)
@@ -233,16 +278,13 @@ class TangentialSolver(ProjectedCG):
 
     @property
     def uses_window(self) -> bool:
-        """Whether solves may run on a window (``settings.window``; "auto": n of at least
-        WINDOW_AUTO_N of the device's kind)."""
-        if self.settings.window == "auto":
-            return self.model.grid.n >= WINDOW_AUTO_N["cuda" if self.model.device.is_cuda else "cpu"]
-        return self.settings.window
+        """Whether solves may run on a window (``settings.window``)."""
+        return window_enabled(self.settings.window, self.model)
 
     @property
     def graph_count(self) -> int:
         """CUDA graphs captured and kept, its windows' included."""
-        return len(self._graphs) + sum(w.solver.graph_count for w in self._windows.values())
+        return len(self._graphs) + sum(w.solver.graph_count for w in self._windows.kept())
 
     def _window_for(self, shear_limit, pressure=None):
         """The window of the contact (cells where ``shear_limit`` > 0, or ``pressure`` > 0),
@@ -259,21 +301,9 @@ class TangentialSolver(ProjectedCG):
         first_row, last_row, first_col, last_col = (int(v) for v in self._box.numpy())
         if last_row < 0:
             return None
-        cells = window_cells(max(last_row - first_row, last_col - first_col) + 1, n)
-        if cells is None or cells in self._refused:
-            return None
-        window = self._windows.get(cells)
-        if window is None:
-            if m.device.is_cuda and not _Window.fits(m, cells):
-                self._refused.add(cells)
-                return None
-            window = self._windows[cells] = _Window(self, cells)
-            while len(self._windows) > WINDOW_CACHE:
-                self._windows.popitem(last=False)
-        self._windows.move_to_end(cells)
-        window.row0 = window_origin(first_row, last_row, cells, n)
-        window.col0 = window_origin(first_col, last_col, cells, n)
-        return window
+        return self._windows.place(first_row, last_row, first_col, last_col,
+                                   max(last_row - first_row, last_col - first_col) + 1,
+                                   lambda model: _Window(self, model))
 
     def _fields(self, state, target_x, target_y, shear_limit, known_x, known_y):
         """The fields flattened, marked as the CPU splits the reducing passes over its threads."""
@@ -403,14 +433,9 @@ class _Window:
     #: the fields a solve reads, by the names of ``TangentialSolver.solve``'s arguments
     INPUTS = ("target_x", "target_y", "shear_limit", "known_x", "known_y")
 
-    def __init__(self, parent: TangentialSolver, cells: int):
-        from ..physics.geometry import Grid
-
-        m = parent.model
-        self.cells = int(cells)
+    def __init__(self, parent: TangentialSolver, model):
+        self.cells = model.grid.n
         self.row0 = self.col0 = 0
-        model = m.on_grid(Grid(self.cells, self.cells * m.grid.dx))
-        model.operator.fft.transient()  # its size follows the contact: plans not worth measuring
         self.solver = TangentialSolver(model, replace(parent.settings, tol=parent.tol, window=False))
         f = model.field
         # the state the window's solve works on (the attributes of ContactState it reads and writes)
@@ -426,16 +451,6 @@ class _Window:
         if self._pressure is None:
             self._pressure = self.solver.model.field()
         return self._pressure
-
-    @staticmethod
-    def fits(model, cells: int) -> bool:
-        """Whether a window of ``cells`` fits in the free memory of the model's (CUDA) device
-        (``resources.breakdown`` of a friction problem of that size, which counts more fields than
-        a window holds)."""
-        from ..numerics import resources
-
-        need = resources.breakdown(cells, model.dtype_name, "cuda", True, model.fft_name, states=0)["total"]
-        return need <= resources.memory_limit(model.device)[0]
 
     def _transfer(self, kernel, pairs):
         m = self.solver.model
