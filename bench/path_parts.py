@@ -18,6 +18,7 @@ tangential solves' inner iterations and the tolerance each was solved to.
 
     python bench/path_parts.py --path figure2c --sizes 1024 4096 --device cuda
     python bench/path_parts.py --path figure2c --sizes 512 --device cpu --turns 1 9 16 --set nested=false
+    python bench/path_parts.py --path figure2d --sizes 4096 --device cuda --normal-window off
 """
 
 from __future__ import annotations
@@ -134,7 +135,15 @@ def main(argv=None):
     p.add_argument("--device", default="cpu")
     p.add_argument("--set", nargs="*", metavar="KEY=VALUE", help="[solver] settings, e.g. nested=false window=true")
     p.add_argument("--turns", type=int, nargs="*", default=[], help="states (from 1) whose turns to list")
+    p.add_argument("--normal-window", choices=("auto", "on", "off"), default="auto",
+                   help='with window = "auto": the normal solves on windows as chosen (NORMAL_WINDOW_AUTO_N), '
+                        'at every n, or at none (the shear\'s window as chosen either way)')
     args = p.parse_args(argv)
+    if args.normal_window != "auto":
+        from warpcontact.solvers import normal
+
+        first = 0 if args.normal_window == "on" else sys.maxsize
+        normal.NORMAL_WINDOW_AUTO_N = {kind: first for kind in normal.NORMAL_WINDOW_AUTO_N}
     paths = load_paths()
     import warnings
 
@@ -160,7 +169,8 @@ def main(argv=None):
             wall = time.perf_counter() - t0
             timers.on = False
         states = result.states
-        print(f"\n{args.path}, n = {n}, {args.device}, {args.set or 'as shipped'}: {wall:.2f} s, "
+        chosen = (args.set or []) + ([f"normal window {args.normal_window}"] if args.normal_window != "auto" else [])
+        print(f"\n{args.path}, n = {n}, {args.device}, {chosen or 'as shipped'}: {wall:.2f} s, "
               f"{len(states)} states, all converged: {all(bool(s['converged']) for s in states)}, "
               f"inner iterations {sum(int(s['iterations']) for s in states)} "
               f"(largest state {max(int(s['iterations']) for s in states)})")

@@ -90,3 +90,21 @@ def test_no_window_where_it_would_cover_most_of_the_grid(device):
     state = ContactState(model)
     assert solver.solve(state, DZ).converged
     assert solver.last_window is None
+
+
+def test_auto_takes_the_normal_windows_own_threshold(monkeypatch):
+    """``window = "auto"``: the normal solves on windows from ``NORMAL_WINDOW_AUTO_N`` cells per
+    side on (by device kind), the tangential solves from ``WINDOW_AUTO_N``, each measured to pay
+    from there; true and false force both."""
+    from warpcontact.solvers import tangential as tangential_module
+    from warpcontact.solvers.tangential import TangentialSolver
+
+    model = ContactModel(PAPER_PAIR, Sphere(R), Grid(64, SIZE))
+    for normal_from, tangential_from in ((64, 128), (128, 64)):
+        monkeypatch.setattr(normal_module, "NORMAL_WINDOW_AUTO_N", {"cpu": normal_from, "cuda": normal_from})
+        monkeypatch.setattr(tangential_module, "WINDOW_AUTO_N", {"cpu": tangential_from, "cuda": tangential_from})
+        assert NormalSolver(model).uses_window == (normal_from <= 64)
+        assert TangentialSolver(model).uses_window == (tangential_from <= 64)
+    for forced in (True, False):
+        assert NormalSolver(model, window=forced).uses_window is forced
+        assert TangentialSolver(model, window=forced).uses_window is forced

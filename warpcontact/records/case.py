@@ -126,10 +126,11 @@ class SolverSpec:
         nested: start each step with friction (no adhesion) from its solution on the grid of half
             the cells per side (``SolverSettings.nested``): fewer iterations on large grids. true,
             false or "auto" (the default: from 512 cells per side on the CPU, 2048 on CUDA).
-        window: solve each step's shear on the smallest window of the grid that holds the contact
-            (``SolverSettings.window``): the same answer, smaller transforms where the contact
-            is a fraction of the domain. true, false or "auto" (the default: from 128 cells per
-            side on the CPU, 1024 on CUDA).
+        window: solve each step's shear, and its pressure, on the smallest window of the grid that
+            holds the contact (``SolverSettings.window``): the same answer, smaller transforms
+            where the contact is a fraction of the domain. true, false or "auto" (the default:
+            the shear from 128 cells per side on the CPU and 1024 on CUDA, the pressure from 1024
+            and 4096).
         tol_default: True when ``tol`` came from the dtype's default; such a tol follows a dtype
             override (see :meth:`with_overrides`). Not compared, not written by ``to_dict``.
     """

@@ -17,6 +17,9 @@ from .base import ProjectedCG, default_tolerance, raise_non_finite  # noqa: F401
 from .settings import SolverSettings
 from .tangential import Windows, window_enabled
 
+#: ``window = "auto"``: the normal solves on windows from these grids on (cells per side), by device
+#: kind, where they were measured to cost less than they save (docs/performance.md)
+NORMAL_WINDOW_AUTO_N = {"cpu": 1024, "cuda": 4096}
 #: the normal solve's window holds the box of its starting contact and the cells its approach
 #: closes, widened by this share of its extent on every side (where the contact grows past the
 #: window, the solve on the whole grid that judges the window's answer goes on from it)
@@ -115,7 +118,7 @@ class NormalSolver(ProjectedCG):
         of ``state.pressure`` already (the pressure has not changed since a solve left it), so the
         start makes no convolution of its own (the later turns of a coupled or adhesive step).
 
-        With ``settings.window`` (by default from ``WINDOW_AUTO_N`` cells per side on) the solve
+        With ``settings.window`` (by default from ``NORMAL_WINDOW_AUTO_N`` cells per side on) the solve
         runs on a window of the grid around its contact (``_NormalWindow``), and is then judged,
         and finished where it must be, on the whole grid.
         """
@@ -127,8 +130,9 @@ class NormalSolver(ProjectedCG):
 
     @property
     def uses_window(self) -> bool:
-        """Whether solves may run on a window (``settings.window``, as the tangential solver's)."""
-        return window_enabled(self.settings.window, self.model)
+        """Whether solves may run on a window (``settings.window``; "auto": from
+        ``NORMAL_WINDOW_AUTO_N`` cells per side on)."""
+        return window_enabled(self.settings.window, self.model, NORMAL_WINDOW_AUTO_N)
 
     def _window_for(self, state, approach_z: float, known):
         """The window of a solve from ``state.pressure`` at ``approach_z`` [m]: the bounding box of

@@ -45,11 +45,12 @@ def window_cells(extent: int, n: int) -> int | None:
     return cells if cells <= WINDOW_MAX_SHARE * n else None
 
 
-def window_enabled(choice, model) -> bool:
+def window_enabled(choice, model, auto_n: dict | None = None) -> bool:
     """Whether a solver of ``model`` with ``SolverSettings.window`` = ``choice`` solves on windows:
-    "auto", from ``WINDOW_AUTO_N`` cells per side of the device's kind on."""
+    "auto", from ``auto_n`` cells per side (by the device's kind; default ``WINDOW_AUTO_N``) on."""
     if choice == "auto":
-        return model.grid.n >= WINDOW_AUTO_N["cuda" if model.device.is_cuda else "cpu"]
+        auto_n = WINDOW_AUTO_N if auto_n is None else auto_n
+        return model.grid.n >= auto_n["cuda" if model.device.is_cuda else "cpu"]
     return bool(choice)
 
 
