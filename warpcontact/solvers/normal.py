@@ -283,29 +283,23 @@ class _NormalWindow:
     def __init__(self, parent: NormalSolver, model):
         self.cells = model.grid.n
         self.row0 = self.col0 = 0
-        self.model = model
         self.solver = NormalSolver(model, replace(parent.settings, tol=parent.tol, window=False),
                                    pressure_cap=parent.pressure_cap)
         f = model.field
         # the state the window's solve works on (the attributes of ContactState it reads and writes)
         self.pressure, self.disp_z, self.gap, self.known = f(), f(), f(), f()
 
-    def _transfer(self, kernel, pairs):
-        m = self.model
-        for src, dst in pairs:
-            wp.launch(kernel, dim=m.grid.shape, inputs=[src, self.row0, self.col0], outputs=[dst], device=m.device)
-
     def solve(self, parent: NormalSolver, state, approach_z, known, tol, displacement_current) -> SolveInfo:
         """``parent.solve`` on the window, then on the whole grid from its pressure."""
-        pairs = [(state.pressure, self.pressure), (parent.model.initial_gap, self.model.initial_gap)]
+        pairs = [(state.pressure, self.pressure), (parent.model.initial_gap, self.solver.model.initial_gap)]
         if known is not None:
             pairs.append((known, self.known))
         if displacement_current:  # K p cut out is the window's K p: the pressure is inside it
             pairs.append((state.disp_z, self.disp_z))
-        self._transfer(gk.crop, pairs)
+        Windows.transfer(self, gk.crop, pairs)
         inner = self.solver.solve(self, approach_z, None if known is None else self.known, tol, displacement_current)
         state.pressure.zero_()
-        self._transfer(gk.embed, [(self.pressure, state.pressure)])
+        Windows.transfer(self, gk.embed, [(self.pressure, state.pressure)])
         whole = parent._solve_whole(state, approach_z, known, tol)
         parent.last_window = self.cells
         # the residual the solve started from first (``turns.starting_residual``), the whole grid's last

@@ -57,10 +57,10 @@ class SolverSettings:
         relax: mixing factor of the adhesive fixed point (``AndersonMixing``'s beta), in (0, 1].
         nested: start each step with friction and no adhesion from its solution on the grid of
             half the cells per side; "auto": from ``NESTED_AUTO_N`` cells per side (by device).
-        window: solve the shear, and the pressure of a solve that starts from a contact or an
-            interference, on the smallest window of the grid that holds the contact (the
-            pressure's answer judged on the whole grid); "auto": from ``WINDOW_AUTO_N`` cells
-            per side (by device).
+        window: solve the shear and the pressure on the smallest window of the grid that holds
+            the contact (the pressure's answer judged on the whole grid); "auto": the shear from
+            ``WINDOW_AUTO_N`` cells per side, the pressure from ``NORMAL_WINDOW_AUTO_N`` (by
+            device).
         use_graphs: replay solves as captured CUDA graphs; None: where the device supports the
             conditional graph nodes they need (CUDA 12.4+).
     """

@@ -75,6 +75,15 @@ class Windows:
         """The windows kept."""
         return self._kept.values()
 
+    @staticmethod
+    def transfer(window, kernel, pairs):
+        """``kernel`` (``grids.crop``: whole grid to window, or ``grids.embed``: back) on each
+        (source, destination) pair of fields, at the ``window``'s ``row0``, ``col0`` (on its
+        solver's model)."""
+        m = window.solver.model
+        for src, dst in pairs:
+            wp.launch(kernel, dim=m.grid.shape, inputs=[src, window.row0, window.col0], outputs=[dst], device=m.device)
+
     def place(self, first_row: int, last_row: int, first_col: int, last_col: int, extent: int, make):
         """The window that holds rows ``first_row`` .. ``last_row`` and columns ``first_col`` ..
         ``last_col`` with room for ``extent`` cells (``window_cells``), placed over them (its
@@ -453,11 +462,6 @@ class _Window:
             self._pressure = self.solver.model.field()
         return self._pressure
 
-    def _transfer(self, kernel, pairs):
-        m = self.solver.model
-        for src, dst in pairs:
-            wp.launch(kernel, dim=m.grid.shape, inputs=[src, self.row0, self.col0], outputs=[dst], device=m.device)
-
     def solve(self, parent: TangentialSolver, state, target_x, target_y, shear_limit, known_x, known_y, tol,
               pressure) -> SolveInfo:
         """``parent.solve`` on the window: its fields cut out (with ``pressure``, K_tp p made on
@@ -467,13 +471,13 @@ class _Window:
         solver = self.solver
         whole = (state.shear_x, state.shear_y, state.status, target_x, target_y, shear_limit, known_x, known_y)
         own = (self.shear_x, self.shear_y, self.status, *(getattr(self, name) for name in self.INPUTS))
-        self._transfer(gk.crop, zip(whole, own))
+        Windows.transfer(self, gk.crop, zip(whole, own))
         if pressure is not None:
-            self._transfer(gk.crop, [(pressure, self.pressure)])
+            Windows.transfer(self, gk.crop, [(pressure, self.pressure)])
             solver._add_coupling(self, self.pressure, self.known_x, self.known_y)
         info = solver.solve(self, *own[3:], tol=tol)
         parent.disagreements = solver.disagreements
         for a in whole[:3]:
             a.zero_()
-        self._transfer(gk.embed, zip(own[:3], whole[:3]))
+        Windows.transfer(self, gk.embed, zip(own[:3], whole[:3]))
         return info
