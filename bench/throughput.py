@@ -15,9 +15,12 @@ size runs, side by side in one process:
   device (on CUDA every worker on GPU 0: several to a GPU), each worker building its model once;
   the first case of each worker pays for its kernels' load from the on-disk cache.
 
+``batch B`` rows (``--batches``): ``warpcontact.solve_batch(cases, batch=B)`` (each batch's
+kernels and transforms launched once for its B cases; one warm-up batch first); a case whose
+batched step did not converge is solved on its own inside it (counted: ``solved_alone``).
+
 ``--problem normal``: the same pair and sphere without ``[friction]``, one normal step to delta_z
-spread over 0.5 ... 1.5 x 1e-10 m; besides ``api``, ``batch B`` rows: ``warpcontact.solve_batch(cases,
-batch=B)`` (each batch's kernels launched once for its B cases; one warm-up batch first; on CUDA
+spread over 0.5 ... 1.5 x 1e-10 m; besides ``api``, ``batch B`` rows (on CUDA
 the yield checks of the cases a state ends made together); ``--own-checks`` adds ``api`` and the
 largest batch with each case's yield check made depth by depth (on CUDA a case's depths are
 otherwise evaluated together, ``yielding.state_yield_check``); ``--sweeps`` adds the command's own
@@ -152,19 +155,27 @@ def batched(cases: list, batch: int, own_checks: bool = False) -> dict:
     import warpcontact as wc
     from warpcontact.studies import batch_solve
 
-    made_together = batch_solve._yield_checks
+    made_together, own_solve = batch_solve._yield_checks, batch_solve.run_path
+    alone = []
     if own_checks:
         batch_solve._yield_checks = lambda ended: {}
+
+    def counted(case, **kw):  # a case the batch handed back to be solved on its own
+        alone.append(case)
+        return own_solve(case, **kw)
+
+    batch_solve.run_path = counted
     try:
         wc.solve_batch(cases[:batch], batch=batch)  # warm-up: kernels, plans of this batch size
+        alone.clear()
         t0 = time.perf_counter()
         results = wc.solve_batch(cases, batch=batch)
         wall = time.perf_counter() - t0
     finally:
-        batch_solve._yield_checks = made_together
+        batch_solve._yield_checks, batch_solve.run_path = made_together, own_solve
     assert all(not isinstance(r, Exception) and r.converged for r in results), "a case did not converge"
     return {"placement": f"batch {batch}" + (", own checks" if own_checks else ""), "workers": 1,
-            "cases": len(cases), "start_s": 0.0, "wall_s": wall}
+            "cases": len(cases), "start_s": 0.0, "wall_s": wall, "solved_alone": len(alone)}
 
 
 def with_workers(path: Path, workers: int) -> dict:
@@ -197,7 +208,7 @@ def main(argv=None):
     ap.add_argument("--problem", default="coupled", choices=["coupled", "normal"],
                     help="coupled: Tabor friction, a normal and a tangential step; normal: no friction, one step")
     ap.add_argument("--batches", type=int, nargs="*", default=[16, 64],
-                    help="batch sizes of the batched rows (--problem normal)")
+                    help="batch sizes of the batched rows (none: no batched row)")
     ap.add_argument("--own-checks", action="store_true",
                     help="add rows with each case's yield check made depth by depth (one at a time; the "
                          "largest batch)")
@@ -238,7 +249,7 @@ def main(argv=None):
                 path = sweep_file(folder, n, args.cases, args.device, args.dtype)
                 cases = [sc.case for sc in load_sweep(path).cases]
                 base = one_at_a_time(cases)
-                runs = [base] + [with_workers(path, w) for w in args.workers]
+                runs = [base] + [with_workers(path, w) for w in args.workers] + [batched(cases, b) for b in args.batches]
                 if args.own_checks:
                     runs.append(one_at_a_time(cases, own_checks=True))
             finally:

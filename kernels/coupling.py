@@ -5,7 +5,7 @@ from typing import Any
 import warp as wp
 
 from .overloads import register_float_overloads
-from .reduce import Cells, block_add, cell_index
+from .reduce import Cells, block_add, block_add_vector, cell_index
 
 # no adjoints: nothing differentiates these kernels, and compiling them doubles the build
 wp.set_module_options({"enable_backward": False})
@@ -84,5 +84,52 @@ def change_sums(
     block_add(sums, slot + 1, s_norm)
 
 
-for _k in (stick_target, accumulate_slip, change_sums):
+@wp.kernel
+def batch_stick_target(slip_x: wp.array2d(dtype=Any), slip_y: wp.array2d(dtype=Any),
+                       shifts: wp.array2d(dtype=Any), target_x: wp.array2d(dtype=Any),
+                       target_y: wp.array2d(dtype=Any)):
+    """``stick_target`` of B cases, each at its shifts (``shifts[case]``: delta_x, delta_y, scaled)."""
+    case, i = wp.tid()
+    target_x[case, i] = shifts[case, 0] - slip_x[case, i]
+    target_y[case, i] = shifts[case, 1] - slip_y[case, i]
+
+
+@wp.kernel
+def batch_accumulate_slip(disp_x: wp.array2d(dtype=Any), disp_y: wp.array2d(dtype=Any),
+                          shifts: wp.array2d(dtype=Any), slip_x: wp.array2d(dtype=Any),
+                          slip_y: wp.array2d(dtype=Any)):
+    """s = delta - u_t of B cases, ``disp`` holding each case's whole u_t (K_tt q + K_tp p)."""
+    case, i = wp.tid()
+    slip_x[case, i] = shifts[case, 0] - disp_x[case, i]
+    slip_y[case, i] = shifts[case, 1] - disp_y[case, i]
+
+
+@wp.kernel
+def batch_change_sums(pressure: wp.array2d(dtype=Any), shear_x: wp.array2d(dtype=Any),
+                      shear_y: wp.array2d(dtype=Any), cells: Cells, previous_p: wp.array2d(dtype=Any),
+                      previous_x: wp.array2d(dtype=Any), previous_y: wp.array2d(dtype=Any),
+                      sums: wp.array2d(dtype=Any)):
+    """``change_sums`` of the pressure (slots CHANGE_PRESSURE, + 1) and the shear (both
+    components at CHANGE_SHEAR_X, + 1) of B cases; the previous copies take the current fields."""
+    case, block, lane = wp.tid()
+    thread = block * wp.block_dim() + lane
+    zero = sums[case, 0] - sums[case, 0]
+    change = wp.vector(zero, zero, zero, zero)
+    for k in range(cells.per):
+        i = cell_index(thread, cells, k)
+        if i < cells.n:
+            p = pressure[case, i]
+            qx = shear_x[case, i]
+            qy = shear_y[case, i]
+            dp = p - previous_p[case, i]
+            dx = qx - previous_x[case, i]
+            dy = qy - previous_y[case, i]
+            change += wp.vector(dp * dp, p * p, dx * dx + dy * dy, qx * qx + qy * qy)
+            previous_p[case, i] = p
+            previous_x[case, i] = qx
+            previous_y[case, i] = qy
+    block_add_vector(sums[case], 0, change, lane)  # slots CHANGE_PRESSURE, + 1, CHANGE_SHEAR_X, + 1
+
+
+for _k in (stick_target, accumulate_slip, change_sums, batch_stick_target, batch_accumulate_slip, batch_change_sums):
     register_float_overloads(_k)

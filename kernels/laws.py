@@ -47,5 +47,24 @@ def tabor_limit(
     shear_limit[i] = tabor_shear_limit(pressure[i], mu_b, k_vm, yield_strength)
 
 
-for _k in (coulomb_limit, tabor_limit):
+#: the laws of ``batch_shear_limit``, by their code in a case's row of law parameters
+LAW_COULOMB = wp.constant(0)
+LAW_TABOR = wp.constant(1)
+#: a row of law parameters: the law's code, then mu (Coulomb) or mu_b, k_VM, S_Y / E* (Tabor)
+N_LAW_PARAMETERS = 4
+
+
+@wp.kernel
+def batch_shear_limit(pressure: wp.array2d(dtype=Any), laws: wp.array2d(dtype=Any),
+                      shear_limit: wp.array2d(dtype=Any)):
+    """q_max of B cases at once, each by its own law and parameters (a row of ``laws``)."""
+    case, i = wp.tid()
+    p = pressure[case, i]
+    if int(laws[case, 0]) == LAW_COULOMB:
+        shear_limit[case, i] = coulomb_shear_limit(p, laws[case, 1])
+    else:
+        shear_limit[case, i] = tabor_shear_limit(p, laws[case, 1], laws[case, 2], laws[case, 3])
+
+
+for _k in (coulomb_limit, tabor_limit, batch_shear_limit):
     register_float_overloads(_k)

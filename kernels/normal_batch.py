@@ -55,11 +55,12 @@ def corner(buffer: wp.array3d(dtype=Any), case: int, cell: int, width: int):
 
 
 @wp.kernel
-def batch_interference(initial_gap: wp.array2d(dtype=Any), parameters: wp.array2d(dtype=Any),
-                       interference: wp.array2d(dtype=Any)):
-    """b = delta_z - h0 of each case (no known displacement: frictionless, adhesionless)."""
+def batch_interference(initial_gap: wp.array2d(dtype=Any), known: wp.array2d(dtype=Any),
+                       parameters: wp.array2d(dtype=Any), interference: wp.array2d(dtype=Any)):
+    """b = delta_z - h0 - u_known of each case (u_known: the normal displacement of tractions held
+    fixed, the shear's with friction; zero without)."""
     case, i = wp.tid()
-    interference[case, i] = parameters[case, P_APPROACH] - initial_gap[case, i]
+    interference[case, i] = parameters[case, P_APPROACH] - initial_gap[case, i] - known[case, i]
 
 
 @wp.kernel

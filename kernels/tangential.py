@@ -86,6 +86,28 @@ def slip_frame(qx: Any, qy: Any):
     return wp.vector(qx * inv, qy * inv)
 
 
+@wp.func
+def classify_cell(q_max: Any, qx: Any, qy: Any, status: int, keep_slip: int):
+    """One cell's start of a solve (``tangential_classify``): its shear and status."""
+    zero = q_max - q_max
+    new = STICK
+    if q_max <= zero:
+        qx = zero
+        qy = zero
+        new = OUT
+    elif qx * qx + qy * qy >= q_max * q_max:
+        q = project_disk(qx, qy, q_max)
+        qx = q[0]
+        qy = q[1]
+        new = SLIP
+    elif keep_slip != 0 and status == SLIP and qx * qx + qy * qy > zero:
+        e = slip_frame(qx, qy)
+        qx = q_max * e[0]
+        qy = q_max * e[1]
+        new = SLIP
+    return qx, qy, new
+
+
 @wp.kernel
 def tangential_classify(
     shear_limit: wp.array(dtype=Any),
@@ -101,26 +123,10 @@ def tangential_classify(
     stick cell with the whole slip increment as its residual; the release rule returns it to
     stick when its slip reverses)."""
     i = wp.tid()
-    q_max = shear_limit[i]
-    zero = q_max - q_max
-    if q_max <= zero:
-        shear_x[i] = zero
-        shear_y[i] = zero
-        status[i] = OUT
-        return
-    qx = shear_x[i]
-    qy = shear_y[i]
-    if qx * qx + qy * qy >= q_max * q_max:
-        q = project_disk(qx, qy, q_max)
-        shear_x[i] = q[0]
-        shear_y[i] = q[1]
-        status[i] = SLIP
-    elif keep_slip != 0 and status[i] == SLIP and qx * qx + qy * qy > zero:
-        e = slip_frame(qx, qy)
-        shear_x[i] = q_max * e[0]
-        shear_y[i] = q_max * e[1]
-    else:
-        status[i] = STICK
+    qx, qy, st = classify_cell(shear_limit[i], shear_x[i], shear_y[i], status[i], keep_slip)
+    shear_x[i] = qx
+    shear_y[i] = qy
+    status[i] = st
 
 
 @wp.func
@@ -145,6 +151,31 @@ def residual_terms(gx: Any, gy: Any, qx: Any, qy: Any, q_max: Any, status: int, 
         s_reversal = wp.max(normal, zero) * wp.max(normal, zero)
         s_viol = tx * tx + ty * ty + s_reversal
     return s_g, s_viol, s_reversal
+
+
+@wp.func
+def gradient_cell(disp_x: Any, disp_y: Any, known_x: Any, known_y: Any, target_x: Any, target_y: Any,
+                  qx: Any, qy: Any, q_max: Any, status: int, stiffness: Any, jacobi_stick: int):
+    """One cell of ``tangential_residual``: g = K q + u_known - target, and its shares of the
+    slots S_G, S_VIOL, S_RHS, S_STICK and S_REVERSAL (0 out of contact)."""
+    zero = stiffness - stiffness
+    rx = target_x - known_x
+    ry = target_y - known_y
+    gx = disp_x - rx
+    gy = disp_y - ry
+    s_g = zero
+    s_viol = zero
+    s_rhs = zero
+    s_stick = zero
+    s_reversal = zero
+    if status != OUT:
+        s_rhs = rx * rx + ry * ry
+        s_g, s_viol, s_reversal = residual_terms(gx, gy, qx, qy, q_max, status, stiffness)
+        if status == STICK:
+            s_stick = type(zero)(1.0)
+            if jacobi_stick != 0:
+                s_g = (gx * gx + gy * gy) / stiffness
+    return gx, gy, wp.vector(s_g, s_viol, s_rhs), wp.vector(s_stick, s_reversal)
 
 
 @wp.kernel
@@ -174,33 +205,19 @@ def tangential_residual(
     block, lane = wp.tid()
     thread = block * wp.block_dim() + lane
     zero = stiffness - stiffness
-    s_g = zero
-    s_viol = zero
-    s_rhs = zero
-    s_stick = zero
-    s_reversal = zero
+    first = wp.vector(zero, zero, zero)
+    second = wp.vector(zero, zero)
     for k in range(cells.per):
         i = cell_index(thread, cells, k)
         if i < cells.n:
-            rx = target_x[i] - known_x[i]
-            ry = target_y[i] - known_y[i]
-            gx = disp_x[i] - rx
-            gy = disp_y[i] - ry
+            gx, gy, a, b = gradient_cell(disp_x[i], disp_y[i], known_x[i], known_y[i], target_x[i], target_y[i],
+                                         shear_x[i], shear_y[i], shear_limit[i], status[i], stiffness, jacobi_stick)
             grad_x[i] = gx
             grad_y[i] = gy
-            st = status[i]
-            if st != OUT:
-                s_rhs += rx * rx + ry * ry
-                dg, dv, dr = residual_terms(gx, gy, shear_x[i], shear_y[i], shear_limit[i], st, stiffness)
-                s_reversal += dr
-                if st == STICK:
-                    s_stick += type(zero)(1.0)
-                    if jacobi_stick != 0:
-                        dg = (gx * gx + gy * gy) / stiffness
-                s_g += dg
-                s_viol += dv
-    block_add_vector(sums, S_G, wp.vector(s_g, s_viol, s_rhs), lane)  # slots S_G, S_VIOL, S_RHS
-    block_add_vector(sums, S_STICK, wp.vector(s_stick, s_reversal), lane)  # slots S_STICK, S_REVERSAL
+            first += a
+            second += b
+    block_add_vector(sums, S_G, first, lane)  # slots S_G, S_VIOL, S_RHS
+    block_add_vector(sums, S_STICK, second, lane)  # slots S_STICK, S_REVERSAL
 
 
 @wp.func
@@ -217,6 +234,19 @@ def slip_direction(gx: Any, gy: Any, qx: Any, qy: Any, q_max: Any, last_x: Any, 
     tgy = (gy - gn * e[1]) * inv_m
     pn = last_x * e[0] + last_y * e[1]
     return wp.vector(tgx + beta * (last_x - pn * e[0]), tgy + beta * (last_y - pn * e[1]))
+
+
+@wp.func
+def plain_direction(gx: Any, gy: Any, qx: Any, qy: Any, q_max: Any, status: int, last_x: Any, last_y: Any,
+                    stiffness: Any, beta: Any):
+    """One cell of ``tangential_direction``: the Jacobi-scaled g plus beta times the last
+    direction on stick cells, :func:`slip_direction` on slip cells, 0 out of contact."""
+    t = wp.vector(gx / stiffness + beta * last_x, gy / stiffness + beta * last_y)
+    if status == SLIP:
+        t = slip_direction(gx, gy, qx, qy, q_max, last_x, last_y, stiffness, beta)
+    elif status != STICK:
+        t = wp.vector(stiffness - stiffness, stiffness - stiffness)
+    return t
 
 
 @wp.kernel
@@ -237,21 +267,26 @@ def tangential_direction(
     projector on slip cells, 0 out of contact; M the Jacobi preconditioner, the self-influence
     ``stiffness`` plus, on slip cells, the curvature lambda / q_max."""
     i = wp.tid()
-    zero = sums[S_G] - sums[S_G]
-    beta = conjugacy(sums, scalars)
-    st = status[i]
-    tx = grad_x[i] / stiffness + beta * dir_x[i]
-    ty = grad_y[i] / stiffness + beta * dir_y[i]
-    if st == SLIP:
-        t = slip_direction(grad_x[i], grad_y[i], shear_x[i], shear_y[i], shear_limit[i], dir_x[i], dir_y[i], stiffness,
-                           beta)
-        tx = t[0]
-        ty = t[1]
-    elif st != STICK:
-        tx = zero
-        ty = zero
-    dir_x[i] = tx
-    dir_y[i] = ty
+    t = plain_direction(grad_x[i], grad_y[i], shear_x[i], shear_y[i], shear_limit[i], status[i], dir_x[i], dir_y[i],
+                        stiffness, conjugacy(sums, scalars))
+    dir_x[i] = t[0]
+    dir_y[i] = t[1]
+
+
+@wp.func
+def step_terms(gx: Any, gy: Any, tx: Any, ty: Any, rx: Any, ry: Any, qx: Any, qy: Any, q_max: Any, status: int):
+    """One cell's shares of g.t and t.(K t) + (lambda / q_max) |t|^2 (slip cells), 0 out of contact."""
+    zero = gx - gx
+    s_gt = zero
+    s_rt = zero
+    if status != OUT:
+        s_gt = gx * tx + gy * ty
+        s_rt = rx * tx + ry * ty
+        if status == SLIP:
+            e = slip_frame(qx, qy)
+            lam = wp.max(-(gx * e[0] + gy * e[1]), zero)
+            s_rt += lam / q_max * (tx * tx + ty * ty)
+    return s_gt, s_rt
 
 
 @wp.kernel
@@ -278,16 +313,10 @@ def tangential_step_sums(
     for k in range(cells.per):
         i = cell_index(thread, cells, k)
         if i < cells.n:
-            st = status[i]
-            if st != OUT:
-                tx = dir_x[i]
-                ty = dir_y[i]
-                s_gt += grad_x[i] * tx + grad_y[i] * ty
-                s_rt += resp_x[i] * tx + resp_y[i] * ty
-                if st == SLIP:
-                    e = slip_frame(shear_x[i], shear_y[i])
-                    lam = wp.max(-(grad_x[i] * e[0] + grad_y[i] * e[1]), zero)
-                    s_rt += lam / shear_limit[i] * (tx * tx + ty * ty)
+            gt, rt = step_terms(grad_x[i], grad_y[i], dir_x[i], dir_y[i], resp_x[i], resp_y[i], shear_x[i],
+                                shear_y[i], shear_limit[i], status[i])
+            s_gt += gt
+            s_rt += rt
     block_add(sums, S_GT, s_gt)
     block_add(sums, S_RT, s_rt)
 

@@ -64,6 +64,20 @@ class BatchLibrary:
         self._cuda_device = cupy.cuda.Device(self.device.ordinal)
         self._stream = cupy.cuda.ExternalStream(wp.get_stream(self.device).cuda_stream, self.device.ordinal)
 
+    def forward(self, fields):
+        """The spectra (B, 2 n, n + 1) of (B, n, n) ``fields``, each zero-padded to (2 n, 2 n): the
+        rows' real transforms of the n data rows, then the columns' (the padding never transformed)."""
+        fft, n, w = self.fft, fields.shape[-1], self.workers
+        rows = fft.rfft(fields, n=2 * n, axis=-1, **w)
+        return fft.fft(rows, n=2 * n, axis=-2, **w)
+
+    def inverse(self, spectrum, out):
+        """``out`` (B, n, n) <- the first n rows and columns of the inverse of ``spectrum``
+        (B, 2 n, n + 1)."""
+        fft, n, w = self.fft, out.shape[-1], self.workers
+        rows = fft.ifft(spectrum, axis=-2, **w)[:, :n]  # the n rows kept
+        out[...] = fft.irfft(rows, n=2 * n, axis=-1, **w)[:, :, :n]
+
     def view(self, a: wp.array):
         """``a`` (on this device) as a numpy or CuPy array sharing its memory."""
         if self._stream is None:
@@ -128,9 +142,112 @@ class BatchConvolution:
             self._apply(inverse)
 
     def _apply(self, inverse: bool):
-        fft, n, w = self.library.fft, self.n, self.library.workers
-        rows = fft.rfft(self._input, n=2 * n, axis=-1, **w)  # the n data rows, padded to 2 n
-        spectrum = fft.fft(rows, n=2 * n, axis=-2, **w)  # the columns, padded to 2 n
+        spectrum = self.library.forward(self._input)
         spectrum *= self._multipliers[inverse]
-        rows = fft.ifft(spectrum, axis=-2, **w)[:, :n]  # the n rows kept
-        self._output[...] = fft.irfft(rows, n=2 * n, axis=-1, **w)[:, :, :n]
+        self.library.inverse(spectrum, self._output)
+
+
+@functools.lru_cache(maxsize=8)
+def tangential_influence(pair, n: int) -> tuple[dict, float, float]:
+    """The scaled tangential and coupling influence spectra of a material pair on an n x n grid
+    of square cells, ``numpy.fft.rfft2``'s layout (2 n, n + 1) on the (2 n, 2 n) padded grid:
+    "xx", "yy", "xy" real (even kernels), "xz", "yz" complex (i times the imaginary part: kernels
+    odd in one axis); with the self-influence 1/2 (K_xx + K_yy)(0) and the 2-norm bound of one
+    cell's two columns of K_tt (``ElasticOperator.tangential_column_norm``). In scaled units
+    (tractions / E*, lengths / dx) they depend on the pair's A E*, B E* and D E* alone, not on
+    the cell size: they are computed with dx = 1."""
+    from ..physics.influence import influence_coefficients
+
+    coefficients = influence_coefficients(pair, n, n, 1.0, 1.0)
+    spectra = {}
+    for k in ("xx", "yy", "xy", "xz", "yz"):
+        a = coefficients[k] * pair.E_star
+        spectrum = np.fft.rfft2(a)
+        spectra[k] = spectrum.real.copy() if k in ("xx", "yy", "xy") else 1j * spectrum.imag
+    stiffness = 0.5 * (coefficients["xx"][0, 0] + coefficients["yy"][0, 0]) * pair.E_star
+    norms = {k: float(np.linalg.norm(coefficients[k])) * pair.E_star for k in ("xx", "yy", "xy")}
+    column_norm = float(np.sqrt(norms["xx"] ** 2 + 2.0 * norms["xy"] ** 2 + norms["yy"] ** 2))
+    return spectra, float(stiffness), column_norm
+
+
+class BatchElasticOperator:
+    """The tangential block K_tt and the coupling blocks K_tz, K_zt of B cases at once, each case
+    with its own material pair, on (B, n^2) Warp fields (one row a case, row-major cells) viewed
+    as (B, n, n) arrays of the batched transforms (``BatchLibrary``).
+
+    Args:
+        n: cells per side.
+        batch: cases B.
+        device: a Warp device.
+        dtype: ``wp.float32`` or ``wp.float64``.
+
+    ``set_pairs`` gives each row its pair; rows of one pair share one spectrum (a batch of one
+    pair holds one, broadcast over the rows).
+    """
+
+    def __init__(self, n: int, batch: int, device, dtype):
+        self.n, self.batch = int(n), int(batch)
+        self.device = wp.get_device(device)
+        self.dtype = dtype
+        self.library = BatchLibrary(self.device)
+        self._real = np.float64 if dtype == wp.float64 else np.float32
+        self._complex = np.complex128 if dtype == wp.float64 else np.complex64
+        self._views: dict = {}
+        self._spectra: dict = {}
+        self._pairs: tuple = ()
+
+    def set_pairs(self, pairs: list) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Give rows 0 .. len(pairs) - 1 the pairs ``pairs`` (the rows after them the last one).
+        Returns per row the self-influence of K_tt, the column-norm bound and whether the pair
+        couples (D != 0)."""
+        pairs = list(pairs) + [pairs[-1]] * (self.batch - len(pairs))
+        if tuple(pairs) != self._pairs:
+            self._pairs = tuple(pairs)
+            distinct = list(dict.fromkeys(pairs))
+            rows = pairs[:1] if len(distinct) == 1 else pairs
+            spectra = [tangential_influence(p, self.n)[0] for p in rows]
+            with self.library.on_device():
+                xp = self.library.xp
+                self._spectra = {k: xp.asarray(np.stack([s[k] for s in spectra]).astype(
+                    self._real if k in ("xx", "yy", "xy") else self._complex)) for k in spectra[0]}
+        info = [tangential_influence(p, self.n) for p in pairs]
+        return (np.array([i[1] for i in info]), np.array([i[2] for i in info]),
+                np.array([p.D != 0.0 for p in pairs]))
+
+    def _view(self, a: wp.array):
+        """A (B, n^2) Warp field as a (B, n, n) numpy or CuPy array sharing its memory (kept)."""
+        key = (a.ptr, a.shape)
+        view = self._views.get(key)
+        if view is None:
+            view = self._views[key] = self.library.view(a).reshape(self.batch, self.n, self.n)
+        return view
+
+    def tangential(self, shear_x, shear_y, disp_x, disp_y, pressure=None):
+        """(disp_x, disp_y) <- K_tt (shear_x, shear_y), plus K_tz ``pressure`` where given."""
+        s, lib = self._spectra, self.library
+        with lib.on_device():
+            qx, qy = lib.forward(self._view(shear_x)), lib.forward(self._view(shear_y))
+            ux = s["xx"] * qx + s["xy"] * qy
+            uy = s["xy"] * qx + s["yy"] * qy
+            if pressure is not None:
+                p = lib.forward(self._view(pressure))
+                ux += s["xz"] * p
+                uy += s["yz"] * p
+            lib.inverse(ux, self._view(disp_x))
+            lib.inverse(uy, self._view(disp_y))
+
+    def cross_tangential(self, pressure, disp_x, disp_y):
+        """(disp_x, disp_y) <- K_tz p: the pressure's tangential displacement."""
+        s, lib = self._spectra, self.library
+        with lib.on_device():
+            p = lib.forward(self._view(pressure))
+            lib.inverse(s["xz"] * p, self._view(disp_x))
+            lib.inverse(s["yz"] * p, self._view(disp_y))
+
+    def cross_normal(self, shear_x, shear_y, disp_z):
+        """disp_z <- K_zt q: the shear's normal displacement (K_zt = -K_tz in Fourier space: the
+        kernels are odd)."""
+        s, lib = self._spectra, self.library
+        with lib.on_device():
+            qx, qy = lib.forward(self._view(shear_x)), lib.forward(self._view(shear_y))
+            lib.inverse(-(s["xz"] * qx + s["yz"] * qy), self._view(disp_z))

@@ -67,6 +67,9 @@ class BatchNormalSolver:
             return wp.zeros(cells, dtype=dtype, device=self.device)
 
         self.initial_gap, self.pressure, self.gap, self.displacement = field(), field(), field(), field()
+        #: each case's normal displacement of tractions held fixed (h = h0 - delta_z + u_z + known;
+        #: the shear's, K_zt q, in a coupled step; zero unless the caller fills it)
+        self.known = field()
         self.interference, self.direction, self.shape = field(), field(), field()
         self.convolution = BatchConvolution(self.n, self.batch, self.device, dtype)
         self.sums = wp.zeros((self.batch, bk.N_BATCH_SUMS), dtype=dtype, device=self.device)
@@ -124,7 +127,7 @@ class BatchNormalSolver:
         self.scalars.zero_()
         self.sums.zero_()
         self.direction.zero_()
-        self._cells(bk.batch_interference, [self.initial_gap, self.parameters], [self.interference])
+        self._cells(bk.batch_interference, [self.initial_gap, self.known, self.parameters], [self.interference])
         self._guess()
         limit = int(max_iter[active].max()) if active.any() else 0
         self._exact_gap()

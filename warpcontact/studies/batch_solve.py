@@ -1,15 +1,19 @@
-"""Many cases solved together: the batched normal solve behind ``warpcontact.solve_batch``.
+"""Many cases solved together: the batched solves behind ``warpcontact.solve_batch``.
 
-Cases of normal contact (no ``[friction]``, no ``[adhesion]``) of one grid size, device and
-float type are solved in batches of B
-([`BatchNormalSolver`][warpcontact.solvers.normal_batch.BatchNormalSolver]): their load paths
-walk in step, state k of every case solved by one batched solve (warm-started from each case's
+Cases without adhesion of one grid size, device and float type are solved in batches of B:
+normal contact by [`BatchNormalSolver`][warpcontact.solvers.normal_batch.BatchNormalSolver], contact
+with friction (Coulomb or Tabor-von Mises, with or without the hardness cap) by
+[`BatchContactSolver`][warpcontact.solvers.contact_batch.BatchContactSolver]. Their load paths
+walk in step, state k of every case solved by one batched step (warm-started from each case's
 state k - 1, as a path is), each case stopping when its own path ends. Each solved state then
 goes through what a single path does with it ([`PathRecorder`][warpcontact.studies.runner.PathRecorder]:
 the summary, the fields asked for, the checks and their warnings, the last state's yield check),
 on a state of the case's own model, so a case's result is what ``warpcontact.solve`` returns for
-it, up to the solves' tolerance. Cases with friction or adhesion are solved one at a time
-(``run_path``): their turns are not batched.
+it, up to the solves' tolerance. A case with friction whose batched step does not converge (its
+turns did not settle within ``BATCH_MAX_TURNS``, or an inner solve within its limit) is solved
+again on its own (``run_path``), with what the single solver adds for hard steps (mixed turns,
+the nested start): its result is then its own solve's. Cases with adhesion are solved one at a
+time (``run_path``): their turns are not batched.
 """
 
 from __future__ import annotations
@@ -26,8 +30,9 @@ from ..errors import InputError
 from ..numerics.device import resolve_device, resolve_dtype
 from ..numerics.state import ContactState, check_contact_fits
 from ..solvers.base import default_tolerance
+from ..solvers.contact_batch import BatchContactSolver, law_parameters
 from ..solvers.normal_batch import BatchNormalSolver
-from .runner import PathRecorder, build_model, run_path
+from .runner import PathRecorder, build_model, friction_law, run_path
 
 #: cases a batch holds at most by default: on the CPU a batch saves the per-case overhead of the
 #: launches but not their work; on CUDA it is bounded by the device's free memory
@@ -36,22 +41,37 @@ DEFAULT_BATCH = {"cpu": 8, "cuda": 256}
 #: transforms' temporaries (the padded spectrum, four values a cell, and the row passes' about six),
 #: with room for the library's work areas; times the float type's bytes
 BYTES_PER_CELL = 27
+#: the same with friction: the normal solve's, 22 fields of the tangential solve and the turns,
+#: five influence spectra of the case's pair (10 values a cell) and the transforms' temporaries of
+#: two fields and their products (about 24)
+FRICTION_BYTES_PER_CELL = 85
+#: turns of a batched step with friction; a case whose turns have not settled by then is solved on
+#: its own, where stalled turns are mixed (the Table 2 cells at n = 128 took 2-12 turns a step)
+BATCH_MAX_TURNS = 60
+#: cases with friction on the CPU are batched only where ``batch`` asks for it: there the batched
+#: step's plain tangential iteration makes about twice the transforms of the single solver's
+#: preconditioned one, and transforms are the CPU's time (bench/throughput.py on 2 cores, n = 64:
+#: 0.6 cases/s batched against 2.8 one at a time)
+FRICTION_ON_CPU = False
 
 
 def batchable(case) -> bool:
-    """Whether a case's states are solved by the batched normal solve: normal contact alone."""
-    return case.friction is None and case.adhesion is None
+    """Whether a case's states are solved by a batched solve: normal contact, or contact with
+    friction, without adhesion."""
+    return case.adhesion is None
 
 
-def batch_size(n: int, device, dtype, cases: int, batch: int | None = None) -> int:
+def batch_size(n: int, device, dtype, cases: int, batch: int | None = None, friction: bool = False) -> int:
     """B for ``cases`` cases of an n x n grid: ``batch`` if given, else the device's default
-    (``DEFAULT_BATCH``), on CUDA at most what half its free memory holds."""
+    (``DEFAULT_BATCH``), on CUDA at most what half its free memory holds (``friction``: cases
+    with friction, which hold more a cell)."""
     if batch is not None:
         return max(1, min(int(batch), cases))
     device = wp.get_device(device)
     size = DEFAULT_BATCH["cpu" if device.is_cpu else "cuda"]
     if device.is_cuda:
-        per_case = BYTES_PER_CELL * n * n * (8 if dtype == wp.float64 else 4)
+        per_cell = FRICTION_BYTES_PER_CELL if friction else BYTES_PER_CELL
+        per_case = per_cell * n * n * (8 if dtype == wp.float64 else 4)
         size = min(size, max(1, int(0.5 * device.free_memory // per_case)))
     return max(1, min(size, cases))
 
@@ -101,21 +121,23 @@ def _solve_all(cases: list, fields: str, batch: int | None, on_case) -> list:
 
     groups: OrderedDict = OrderedDict()
     for index, case in enumerate(cases):
-        if not batchable(case):
-            alone(index)
-            continue
         s = case.solver
-        key = (case.grid.n, str(resolve_device(s.device)), s.dtype)
+        if not batchable(case) or (case.friction is not None and batch is None
+                                   and wp.get_device(resolve_device(s.device)).is_cpu):
+            alone(index)  # (with friction on the CPU a batch is slower: FRICTION_ON_CPU)
+            continue
+        key = (case.grid.n, str(resolve_device(s.device)), s.dtype, case.friction is not None)
         groups.setdefault(key, []).append(index)
-    for (n, device, dtype), indices in groups.items():
+    for (n, device, dtype, friction), indices in groups.items():
         try:
-            size = batch_size(n, device, resolve_dtype(dtype), len(indices), batch)
-            solver = BatchNormalSolver(n, size, device, resolve_dtype(dtype))
+            size = batch_size(n, device, resolve_dtype(dtype), len(indices), batch, friction)
+            kind = BatchContactSolver if friction else BatchNormalSolver
+            solver = kind(n, size, device, resolve_dtype(dtype))
             for start in range(0, len(indices), size):
                 chunk = indices[start:start + size]
                 for index, result in _solve_chunk(solver, [cases[i] for i in chunk], chunk, fields):
                     done(index, result)
-            solver.convolution.library.release()  # the transforms' work arrays, for what comes next
+            _normal(solver).convolution.library.release()  # the transforms' work arrays, for what comes next
         except _CallerError:
             raise
         except (RuntimeError, MemoryError, OSError, InputError) as e:  # the batched solve itself failed (a
@@ -129,7 +151,23 @@ def _solve_all(cases: list, fields: str, batch: int | None, on_case) -> list:
     return results
 
 
-def _solve_chunk(solver: BatchNormalSolver, cases: list, indices: list, fields: str):
+def _normal(solver):
+    """The batched normal solver of a batch's solver (itself without friction)."""
+    return solver.normal if isinstance(solver, BatchContactSolver) else solver
+
+
+def _rows_fields(solver) -> dict:
+    """The state's fields by name, and the batch's arrays that hold them (one row a case)."""
+    normal = _normal(solver)
+    out = {"pressure": normal.pressure, "gap": normal.gap, "disp_z": normal.displacement}
+    if isinstance(solver, BatchContactSolver):
+        t = solver.tangential
+        out.update(shear_x=t.shear_x, shear_y=t.shear_y, status=t.status, disp_x=t.disp_x, disp_y=t.disp_y,
+                   slip_x=solver.slip_x, slip_y=solver.slip_y)
+    return out
+
+
+def _solve_chunk(solver, cases: list, indices: list, fields: str):
     """Walk the paths of ``cases`` (at most the solver's B) in step; yields (index, result) as
     each case ends."""
     t0 = time.perf_counter()
@@ -141,29 +179,54 @@ def _solve_chunk(solver: BatchNormalSolver, cases: list, indices: list, fields: 
             models[key] = build_model(case)
         model = models[key]
         members.append(_Member(row, indices[row], case, model, fields))
-    solver.pressure.zero_()
+    normal = _normal(solver)
+    friction = normal is not solver
+    normal.pressure.zero_()
     for member in members:
-        wp.copy(solver.initial_gap, member.model.initial_gap.flatten(), dest_offset=member.row * solver.n_cells)
+        wp.copy(normal.initial_gap, member.model.initial_gap.flatten(), dest_offset=member.row * normal.n_cells)
     rows = len(members)
-    tol = np.array([m.case.solver.tol or default_tolerance(solver.dtype) for m in members])
+    tol = np.array([m.case.solver.tol or default_tolerance(normal.dtype) for m in members])
     max_iter = np.array([m.case.solver.max_iter for m in members])
+    if friction:
+        solver.clear()
+        solver.set_cases([m.case.pair for m in members],
+                         [law_parameters(friction_law(m.case), m.model.traction_scale) for m in members],
+                         [m.case.pair.softer.hardness / m.model.traction_scale if m.case.friction.hardness_cap
+                          else np.inf for m in members])
+        max_turns = min(BATCH_MAX_TURNS, *(m.case.solver.max_turns for m in members))
+    arrays = _rows_fields(solver)
     for k in range(max(len(m.path) for m in members)):
-        running = [m for m in members if m.error is None and k < len(m.path)]
+        running = [m for m in members if m.error is None and not m.alone and k < len(m.path)]
         if not running:
             break
-        approach = np.zeros(rows)
+        approach = np.zeros((rows, 3))
         active = np.zeros(rows, dtype=bool)
         for m in running:
-            approach[m.row] = m.path[k][2] / m.model.length_scale
+            approach[m.row] = np.asarray(m.path[k], dtype=np.float64) / m.model.length_scale
             active[m.row] = True
-        infos = solver.solve(approach, tol, max_iter, active=active)
+        if friction:
+            infos = solver.step(approach, tol, 100 * tol, max_iter, max_turns, active)
+        else:
+            infos = solver.solve(approach[:, 2], tol, max_iter, active=active)
         for m in running:
-            m.record(solver, k, infos[m.row])
-        ended = [m for m in running if m.error is None and k == len(m.path) - 1]
+            if friction and not infos[m.row].converged:  # solved again on its own (module docstring)
+                m.alone = True
+                continue
+            m.record(arrays, k, infos[m.row])
+        ended = [m for m in running if m.error is None and not m.alone and k == len(m.path) - 1]
         checks = _yield_checks(ended)
         for m in running:
+            if m.alone:
+                continue
             if m.error is not None or k == len(m.path) - 1:
                 yield m.index, m.finish(time.perf_counter() - t0, checks.get(m.row))
+    for m in members:
+        if m.alone:
+            try:
+                result = run_path(m.case, fields=fields)
+            except Exception as e:  # noqa: BLE001 (the case's failure is its result)
+                result = e
+            yield m.index, result
 
 
 def _yield_checks(ended: list) -> dict:
@@ -200,6 +263,8 @@ class _Member:
         self.state = ContactState(model)
         self.recorder = PathRecorder(case, model, fields)
         self.error: Exception | None = None
+        #: its batched step did not converge: the case is solved again on its own
+        self.alone = False
         self.warnings: list[str] = []  # the messages of the warnings its checks gave
 
     def _issued(self, caught):
@@ -208,13 +273,16 @@ class _Member:
             self.warnings.append(str(w.message))
             warnings.warn_explicit(w.message, w.category, w.filename, w.lineno)
 
-    def record(self, solver: BatchNormalSolver, k: int, info):
-        """State ``k`` from the solver's row: the fields into this case's state, then recorded."""
-        state, cells = self.state, solver.n_cells
-        for name, source in (("pressure", solver.pressure), ("gap", solver.gap), ("disp_z", solver.displacement)):
+    def record(self, arrays: dict, k: int, info):
+        """State ``k`` from the batch's row: the fields (``arrays``: name -> the batch's array,
+        ``_rows_fields``) into this case's state, then recorded."""
+        state = self.state
+        for name, source in arrays.items():
+            cells = source.shape[1]
             wp.copy(getattr(state, name).flatten(), source, src_offset=self.row * cells, count=cells)
         state.approach = tuple(float(a) for a in self.path[k])
-        state.info = replace(info, outer_iterations=1)  # a step of normal contact is one turn, as a path counts it
+        # a step of normal contact is one turn, as a path counts it
+        state.info = info if info.outer_iterations else replace(info, outer_iterations=1)
         with warnings.catch_warnings(record=True) as caught:
             warnings.simplefilter("always")
             try:

@@ -1,0 +1,164 @@
+"""Cases with friction solved together (``warpcontact.solve_batch``): each case's result is what
+``warpcontact.solve`` gives it, whatever the batch around it."""
+
+import warnings
+
+import numpy as np
+import pytest
+
+import warp as wp
+
+import warpcontact as wc
+
+DEVICES = ["cpu", pytest.param("cuda", marks=pytest.mark.skipif(wp.get_cuda_device_count() == 0,
+                                                                reason="no CUDA device here"))]
+
+# a small case: 32 cells over about 4 contact radii, steel on aluminium
+BASE = {
+    "sphere": {"radius": 1e-6, "E": 200e9, "nu": 0.3, "yield_strength": 3e9},
+    "flat": {"E": 70e9, "nu": 0.2, "yield_strength": 1.5e9},
+    "grid": {"n": 32, "size": 1.6e-7},
+    "friction": {"law": "tabor", "k_tau": 0.8},
+    "load": {"path": [[0, 0, 1e-9], [2e-10, 0, 1e-9], [4e-10, 0, 1e-9]]},
+}
+
+
+def case(**tables):
+    out = {k: dict(v) for k, v in BASE.items()}
+    for name, values in tables.items():
+        if name == "friction":
+            out[name] = dict(values)
+        else:
+            out.setdefault(name, {}).update(values)
+    return out
+
+
+def quiet(function, *args, **kwargs):
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")  # the coarse-grid warning of these small grids
+        return function(*args, **kwargs)
+
+
+#: the cases of one mixed batch: the Tabor law on a dissimilar pair (coupled turns), Coulomb on
+#: another pair, identical materials (decoupled: one turn), the hardness cap (reached: the largest
+#: pressure is the cap), a path that slides
+#: along y and back, and one that unloads
+MIXED = [
+    case(),
+    case(friction={"law": "coulomb", "mu": 0.3}, flat={"E": 120e9, "nu": 0.35}),
+    case(flat={"E": 200e9, "nu": 0.3, "yield_strength": 3e9}),
+    case(flat={"hardness": 1.2e9}, friction={"law": "tabor", "k_tau": 0.9, "hardness_cap": True},
+         load={"path": [[0, 0, 1.5e-9], [3e-10, 0, 1.5e-9]]}),
+    case(load={"path": [[0, 0, 1e-9], [0, 2e-10, 1e-9], [0, 0, 1e-9]]}),
+    case(load={"path": [[0, 0, 1e-9], [2e-10, 0, 1e-9], [2e-10, 0, 0.6e-9]]}),
+]
+
+
+def assert_same_path(batched, single, rel):
+    """Every state's forces within ``rel`` of the single solve's (of |F_z|: the components that
+    are zero by symmetry are rounding in both), its contact and stick areas (cell counts)
+    identical, both converged."""
+    assert len(batched.states) == len(single.states)
+    for a, b in zip(batched.states, single.states):
+        assert a["converged"] and b["converged"]
+        assert a["delta"] == b["delta"]
+        scale = abs(b["force"]["z"])
+        for axis in ("x", "y", "z"):
+            assert abs(a["force"][axis] - b["force"][axis]) <= rel * scale, axis
+        assert a["contact_area"] == b["contact_area"]
+        assert a["stick_area"] == b["stick_area"]
+
+
+@pytest.mark.parametrize("device", DEVICES)
+def test_a_batch_of_friction_cases_gives_each_what_solve_gives(device):
+    """Six cases with friction in one batch (``MIXED``), float64: every state's forces within
+    1e-9 of |F_z| of solve's, the contact and stick areas identical. Both solve each inner
+    problem to a relative residual of 1e-10 and end their turns where the tractions change by
+    less than 1e-8 a turn (the turns contract: what is left after the last is under that); the
+    batch's tangential iteration is the plain one, the single solver's the preconditioned one,
+    so their iterates differ: measured 1.5e-10 at most."""
+    from warpcontact.studies import batch_solve
+
+    own = batch_solve.run_path
+    batch_solve.run_path = None  # a case handed back to be solved on its own would fail here
+    try:
+        batched = quiet(wc.solve_batch, MIXED, device=device, batch=len(MIXED))
+    finally:
+        batch_solve.run_path = own
+    for c, result in zip(MIXED, batched):
+        assert not isinstance(result, Exception), result
+        assert str(result.model.device).startswith(device)
+        assert_same_path(result, quiet(wc.solve, c, device=device, fields="none"), rel=1e-9)
+
+
+def test_a_case_whose_batched_step_does_not_converge_is_solved_on_its_own(monkeypatch):
+    """A case whose inner solves cannot converge within its iteration limit (max_iter 3) is
+    handed back and solved on its own: its result is solve's (the same unconverged states),
+    and the case beside it is still solved in the batch."""
+    from warpcontact.studies import batch_solve
+
+    alone = []
+    own = batch_solve.run_path
+
+    def counted(c, **kwargs):
+        alone.append(c)
+        return own(c, **kwargs)
+
+    monkeypatch.setattr(batch_solve, "run_path", counted)
+    hard = case(solver={"max_iter": 3})
+    results = quiet(wc.solve_batch, [MIXED[0], hard], batch=2)
+    assert len(alone) == 1 and alone[0].solver.max_iter == 3
+    single = quiet(wc.solve, hard, fields="none")
+    assert [s["converged"] for s in results[1].states] == [s["converged"] for s in single.states]
+    assert not results[1].converged
+    assert results[1].states[0]["force"]["z"] == single.states[0]["force"]["z"]
+    assert_same_path(results[0], quiet(wc.solve, MIXED[0], fields="none"), rel=1e-9)
+
+
+def test_on_the_cpu_friction_cases_are_batched_only_when_asked(monkeypatch):
+    """On the CPU the batched step with friction is slower than one case at a time
+    (``FRICTION_ON_CPU``): without ``batch`` its cases go to the single solver."""
+    from warpcontact.studies import batch_solve
+
+    made = []
+    monkeypatch.setattr(batch_solve.BatchContactSolver, "__init__",
+                        lambda self, *a: made.append(a) or (_ for _ in ()).throw(AssertionError("batched")))
+    results = quiet(wc.solve_batch, MIXED[:2], device="cpu")
+    assert made == [] and all(r.converged for r in results)
+
+
+def test_the_batched_operator_is_the_single_operator():
+    """The batched tangential and coupling blocks of two pairs, one a row, applied to random
+    fields, equal the single ``ElasticOperator``'s of each pair to rounding (1e-12 of the
+    largest displacement: both are FFT products of the same coefficients in float64)."""
+    from warpcontact.fft.batch import BatchElasticOperator
+    from warpcontact.numerics.model import ContactModel
+    from warpcontact.records.case import case_from_dict
+
+    n = 16
+    cases = [case_from_dict(case(grid={"n": n})),
+             case_from_dict(case(grid={"n": n}, flat={"E": 120e9, "nu": 0.35}))]
+    op = BatchElasticOperator(n, 2, "cpu", wp.float64)
+    op.set_pairs([c.pair for c in cases])
+    rng = np.random.default_rng(3)
+    p, qx, qy = (rng.random((2, n * n)) for _ in range(3))
+
+    def batch_field(a=None):
+        return wp.array(np.zeros((2, n * n)) if a is None else a, dtype=wp.float64, device="cpu")
+
+    ux, uy, uz = batch_field(), batch_field(), batch_field()
+    op.tangential(batch_field(qx), batch_field(qy), ux, uy, pressure=batch_field(p))
+    op.cross_normal(batch_field(qx), batch_field(qy), uz)
+    for row, c in enumerate(cases):
+        m = ContactModel(c.pair, c.sphere, c.grid, device="cpu", dtype="float64")
+
+        def field(a):
+            return wp.array(a[row].reshape(n, n), dtype=wp.float64, device="cpu")
+
+        sx, sy, sz = m.field(), m.field(), m.field()
+        m.operator.coupled_apply(field(p), field(qx), field(qy), sz, sx, sy)
+        zz = m.field()
+        m.operator.cross_normal(field(qx), field(qy), zz)  # K_zt q alone
+        for batched, single in ((ux, sx), (uy, sy), (uz, zz)):
+            expected = single.numpy().ravel()
+            assert np.abs(batched.numpy()[row] - expected).max() < 1e-12 * np.abs(expected).max()

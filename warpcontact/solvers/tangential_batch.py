@@ -1,0 +1,144 @@
+"""Partial slip of B cases of one grid size, solved together.
+
+The plain bounded conjugate gradients of [`TangentialSolver`][warpcontact.solvers.tangential.TangentialSolver]
+(Chen & Wang 2008, Jacobi-scaled: ``SolverSettings.tangential_preconditioner = False``) with a
+case axis: every kernel (``kernels/tangential_batch.py``) and every transform
+([`BatchElasticOperator`][warpcontact.fft.batch.BatchElasticOperator]) is launched once for all B
+cases, each case with its own material pair, shear limit, target, tolerance, iterate, conjugacy and
+convergence. A converged case stops changing while the others go on; the solve ends when every
+case has ended. An iteration makes K q (the exact g) and K t, two batched applications of K_tt,
+and reads one count back (the cases still active).
+
+Why the plain iteration and not the single solver's preconditioned one: the preconditioner's
+circulant inverse of K_tt is a 2x2 block per wavenumber and per material pair, and the carried
+gradient needs the deferral bookkeeping per case; the plain iteration takes about twice the
+iterations, each a few batched launches, and its answer is the same problem's to the tolerance.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import warp as wp
+
+from warpcontact.kernels import normal_batch as bk
+from warpcontact.kernels import reduce as rk
+from warpcontact.kernels import tangential as tk
+from warpcontact.kernels import tangential_batch as tbk
+
+from ..fft.batch import BatchElasticOperator
+from ..numerics.device import numpy_dtype
+from ..numerics.launch import ReductionLaunch
+from ..numerics.state import SolveInfo
+
+#: iterations between restarts of the conjugacy (the single solver's ``restart_every``)
+RESTART_EVERY = 100
+
+
+class BatchTangentialSolver:
+    """The shear of up to ``batch`` cases of an n x n grid under their disk bounds, in scaled units.
+
+    Args:
+        operator: the cases' [`BatchElasticOperator`][warpcontact.fft.batch.BatchElasticOperator]
+            (its rows' pairs set).
+        stiffness: each row's self-influence of K_tt (``BatchElasticOperator.set_pairs``).
+
+    The caller fills ``target_x/y`` (delta - s_prev), ``shear_limit`` (q_max) and ``known_x/y``
+    (the tangential displacement of tractions held fixed) and calls
+    [`solve`][warpcontact.solvers.tangential_batch.BatchTangentialSolver.solve]; ``shear_x/y``
+    (q / E*, the start and the answer), ``status`` (0 out of contact, 1 stick, 2 slip) and
+    ``disp_x/y`` (K_tt q) then hold each case's solution, one row a case.
+    """
+
+    def __init__(self, operator: BatchElasticOperator, stiffness):
+        self.operator = operator
+        self.n, self.batch = operator.n, operator.batch
+        self.device, self.dtype = operator.device, operator.dtype
+        self.np_dtype = numpy_dtype(self.dtype)
+        self.n_cells = self.n * self.n
+        cells = (self.batch, self.n_cells)
+
+        def field():
+            return wp.zeros(cells, dtype=self.dtype, device=self.device)
+
+        self.shear_x, self.shear_y, self.disp_x, self.disp_y = field(), field(), field(), field()
+        self.target_x, self.target_y, self.known_x, self.known_y, self.shear_limit = (field() for _ in range(5))
+        self.grad_x, self.grad_y, self.dir_x, self.dir_y, self.resp_x, self.resp_y = (field() for _ in range(6))
+        self.status = wp.zeros(cells, dtype=wp.int32, device=self.device)
+        self.stiffness = wp.array(np.asarray(stiffness, dtype=self.np_dtype), device=self.device)
+        self.sums = wp.zeros((self.batch, tk.N_SUMS), dtype=self.dtype, device=self.device)
+        self.scalars = wp.zeros((self.batch, rk.N_SCALARS), dtype=self.dtype, device=self.device)
+        self.parameters = wp.zeros((self.batch, rk.N_PARAMETERS), dtype=self.dtype, device=self.device)
+        self.residual = wp.zeros(self.batch, dtype=self.dtype, device=self.device)
+        self.active = wp.zeros(self.batch, dtype=wp.int32, device=self.device)
+        self.flags = wp.zeros(1, dtype=wp.int32, device=self.device)
+        self.reduction = ReductionLaunch.for_cells(self.n_cells, self.device)
+
+    def set_stiffness(self, stiffness):
+        """Each row's self-influence of K_tt (its pair's: ``BatchElasticOperator.set_pairs``)."""
+        self.stiffness.assign(np.asarray(stiffness, dtype=self.np_dtype))
+
+    # -- launches (as BatchNormalSolver's) ----------------------------------------------------
+    def _cells(self, kernel, inputs, outputs=()):
+        wp.launch(kernel, dim=(self.batch, self.n_cells), inputs=inputs, outputs=outputs, device=self.device)
+
+    def _reduce(self, kernel, inputs, outputs):
+        r = self.reduction
+        wp.launch_tiled(kernel, dim=(self.batch, r.num_blocks), inputs=[*inputs, *r.args(self.n_cells)],
+                        outputs=outputs, block_dim=r.block_dim, device=self.device)
+
+    # -- the solve ------------------------------------------------------------------------------
+    def solve(self, tol, max_iter, active) -> list:
+        """Solve the rows where ``active`` (booleans, one per row) to the relative residual ``tol``
+        (one per row) within ``max_iter`` iterations (one per row); the other rows are left as
+        they are. Returns one ``SolveInfo`` per row (a row not solved: not converged, no iteration)."""
+        active = np.asarray(active, dtype=bool)
+        tol = np.asarray(tol, dtype=np.float64)
+        max_iter = np.asarray(max_iter, dtype=np.int64)
+        parameters = np.zeros((self.batch, rk.N_PARAMETERS))
+        parameters[:, rk.P_TOL] = tol
+        parameters[:, rk.P_MAX_ITER] = max_iter
+        self.parameters.assign(parameters.astype(self.np_dtype))
+        self.active.assign(active.astype(np.int32))
+        self.scalars.zero_()
+        self.sums.zero_()
+        self.dir_x.zero_()
+        self.dir_y.zero_()
+        self._cells(tbk.batch_tangential_classify, [self.shear_limit, self.active],
+                    [self.shear_x, self.shear_y, self.status])
+        limit = int(max_iter[active].max()) if active.any() else 0
+        for _ in range(limit + 1):
+            self._gradient()
+            self._cells(tbk.batch_tangential_direction,
+                        [self.grad_x, self.grad_y, self.shear_x, self.shear_y, self.shear_limit, self.status,
+                         self.stiffness, self.sums, self.scalars], [self.dir_x, self.dir_y])
+            self.operator.tangential(self.dir_x, self.dir_y, self.resp_x, self.resp_y)
+            self._reduce(tbk.batch_tangential_step_sums,
+                         [self.grad_x, self.grad_y, self.dir_x, self.dir_y, self.resp_x, self.resp_y, self.shear_x,
+                          self.shear_y, self.shear_limit, self.status], [self.sums])
+            self._reduce(tbk.batch_tangential_update,
+                         [self.grad_x, self.grad_y, self.dir_x, self.dir_y, self.shear_limit, self.stiffness,
+                          self.parameters, self.active], [self.shear_x, self.shear_y, self.status, self.sums])
+            self.flags.zero_()
+            wp.launch(tbk.batch_tangential_advance, dim=self.batch,
+                      inputs=[self.sums, self.parameters, RESTART_EVERY], outputs=[self.scalars, self.active, self.flags],
+                      device=self.device)
+            if not int(self.flags.numpy()[tbk.F_ACTIVE]):
+                break
+        self._gradient()  # every row's exact g, K_tt q and residual
+        wp.launch(bk.batch_residual, dim=self.batch, inputs=[self.sums], outputs=[self.residual], device=self.device)
+        residual = self.residual.numpy().astype(np.float64)
+        iterations = self.scalars.numpy()[:, rk.C_ITER].astype(np.int64)
+        return [SolveInfo(converged=bool(on and math.isfinite(r) and r < t), iterations=int(k) if on else 0,
+                          residual=float(r) if on else math.nan)
+                for on, r, k, t in zip(active, residual, iterations, tol)]
+
+    def _gradient(self):
+        """K_tt q into ``disp``, the exact g and each row's residual sums (zeroed before)."""
+        self.sums.zero_()
+        self.operator.tangential(self.shear_x, self.shear_y, self.disp_x, self.disp_y)
+        self._reduce(tbk.batch_tangential_residual,
+                     [self.disp_x, self.disp_y, self.known_x, self.known_y, self.target_x, self.target_y,
+                      self.shear_x, self.shear_y, self.shear_limit, self.status, self.stiffness],
+                     [self.grad_x, self.grad_y, self.sums])
