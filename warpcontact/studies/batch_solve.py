@@ -239,7 +239,8 @@ def _yield_checks(ended: list) -> dict:
 
     if not ended or not checks_by_planes(ended[0].model):
         return {}
-    checks = batch_yield_checks([m.state for m in ended], friction=False, adhesion=False)
+    friction = ended[0].case.friction is not None  # (a batch's cases all have friction, or none has)
+    checks = batch_yield_checks([m.state for m in ended], friction=friction, adhesion=False)
     return {m.row: check for m, check in zip(ended, checks)}
 
 
@@ -261,7 +262,7 @@ class _Member:
         self.row, self.index, self.case, self.model = row, index, case, model
         self.path = case.load.path()
         self.state = ContactState(model)
-        self.recorder = PathRecorder(case, model, fields)
+        self.recorder = PathRecorder(case, model, fields, friction=friction_law(case))
         self.error: Exception | None = None
         #: its batched step did not converge: the case is solved again on its own
         self.alone = False
