@@ -151,12 +151,13 @@ def test_the_batched_operator_is_the_single_operator():
     rng = np.random.default_rng(3)
     p, qx, qy = (rng.random((2, n * n)) for _ in range(3))
 
-    def batch_field(a=None):
-        return wp.array(np.zeros((2, n * n)) if a is None else a, dtype=wp.float64, device="cpu")
+    def batch_field(a):
+        return wp.array(a, dtype=wp.float64, device="cpu")
 
-    ux, uy, uz = batch_field(), batch_field(), batch_field()
-    op.tangential(batch_field(qx), batch_field(qy), ux, uy, pressure=batch_field(p))
-    op.cross_normal(batch_field(qx), batch_field(qy), uz)
+    u, uz = batch_field(np.zeros((2, 2, n * n))), batch_field(np.zeros((2, n * n)))
+    op.tangential(batch_field(np.stack([qx, qy])), u, pressure=batch_field(p))
+    op.cross_normal(batch_field(np.stack([qx, qy])), uz)
+    ux, uy = u[0], u[1]
     for row, c in enumerate(cases):
         m = ContactModel(c.pair, c.sphere, c.grid, device="cpu", dtype="float64")
 

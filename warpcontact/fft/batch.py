@@ -215,39 +215,50 @@ class BatchElasticOperator:
                 np.array([p.D != 0.0 for p in pairs]))
 
     def _view(self, a: wp.array):
-        """A (B, n^2) Warp field as a (B, n, n) numpy or CuPy array sharing its memory (kept)."""
+        """A (B, n^2) Warp field, or a (2, B, n^2) pair of them (x and y), as a (B, n, n) or
+        (2 B, n, n) numpy or CuPy array sharing its memory (kept)."""
         key = (a.ptr, a.shape)
         view = self._views.get(key)
         if view is None:
-            view = self._views[key] = self.library.view(a).reshape(self.batch, self.n, self.n)
+            view = self._views[key] = self.library.view(a).reshape(-1, self.n, self.n)
         return view
 
-    def tangential(self, shear_x, shear_y, disp_x, disp_y, pressure=None):
-        """(disp_x, disp_y) <- K_tt (shear_x, shear_y), plus K_tz ``pressure`` where given."""
+    def _pair_spectra(self, vector):
+        """The spectra (2, B, 2 n, n + 1) of a (2, B, n^2) pair of fields: one batched transform."""
+        return self.library.forward(self._view(vector)).reshape(2, self.batch, 2 * self.n, self.n + 1)
+
+    def _to_pair(self, spectra, vector):
+        """``vector`` (2, B, n^2) <- the inverse of ``spectra`` (2, B, 2 n, n + 1): one batched transform."""
+        self.library.inverse(spectra.reshape(2 * self.batch, 2 * self.n, self.n + 1), self._view(vector))
+
+    def tangential(self, shear, disp, pressure=None):
+        """``disp`` <- K_tt ``shear`` (each a (2, B, n^2) pair: x, y), plus K_tz ``pressure`` where given."""
         s, lib = self._spectra, self.library
         with lib.on_device():
-            qx, qy = lib.forward(self._view(shear_x)), lib.forward(self._view(shear_y))
-            ux = s["xx"] * qx + s["xy"] * qy
-            uy = s["xy"] * qx + s["yy"] * qy
+            q = self._pair_spectra(shear)
+            u = lib.xp.empty_like(q)
+            u[0] = s["xx"] * q[0] + s["xy"] * q[1]
+            u[1] = s["xy"] * q[0] + s["yy"] * q[1]
             if pressure is not None:
                 p = lib.forward(self._view(pressure))
-                ux += s["xz"] * p
-                uy += s["yz"] * p
-            lib.inverse(ux, self._view(disp_x))
-            lib.inverse(uy, self._view(disp_y))
+                u[0] += s["xz"] * p
+                u[1] += s["yz"] * p
+            self._to_pair(u, disp)
 
-    def cross_tangential(self, pressure, disp_x, disp_y):
-        """(disp_x, disp_y) <- K_tz p: the pressure's tangential displacement."""
+    def cross_tangential(self, pressure, disp):
+        """``disp`` (a (2, B, n^2) pair) <- K_tz p: the pressure's tangential displacement."""
         s, lib = self._spectra, self.library
         with lib.on_device():
             p = lib.forward(self._view(pressure))
-            lib.inverse(s["xz"] * p, self._view(disp_x))
-            lib.inverse(s["yz"] * p, self._view(disp_y))
+            u = lib.xp.empty((2, *p.shape), dtype=p.dtype)
+            u[0] = s["xz"] * p
+            u[1] = s["yz"] * p
+            self._to_pair(u, disp)
 
-    def cross_normal(self, shear_x, shear_y, disp_z):
-        """disp_z <- K_zt q: the shear's normal displacement (K_zt = -K_tz in Fourier space: the
-        kernels are odd)."""
+    def cross_normal(self, shear, disp_z):
+        """disp_z <- K_zt q of ``shear`` (a (2, B, n^2) pair): the shear's normal displacement
+        (K_zt = -K_tz in Fourier space: the kernels are odd)."""
         s, lib = self._spectra, self.library
         with lib.on_device():
-            qx, qy = lib.forward(self._view(shear_x)), lib.forward(self._view(shear_y))
-            lib.inverse(-(s["xz"] * qx + s["yz"] * qy), self._view(disp_z))
+            q = self._pair_spectra(shear)
+            lib.inverse(-(s["xz"] * q[0] + s["yz"] * q[1]), self._view(disp_z))

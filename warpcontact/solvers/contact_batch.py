@@ -95,12 +95,11 @@ class BatchContactSolver:
 
     def clear(self):
         """Every row's tractions, statuses and slip history zeroed (a path's start)."""
-        for a in (self.normal.pressure, self.tangential.shear_x, self.tangential.shear_y, self.tangential.status,
-                  self.slip_x, self.slip_y):
+        for a in (self.normal.pressure, self.tangential.shear, self.tangential.status, self.slip_x, self.slip_y):
             a.zero_()
 
     def _cells(self, kernel, inputs, outputs):
-        wp.launch(kernel, dim=(self.batch, self.n_cells), inputs=inputs, outputs=outputs, device=self.device)
+        self.normal.launches.launch(kernel, (self.batch, self.n_cells), inputs, outputs)
 
     def _change_sums(self) -> np.ndarray:
         """Each row's change sums of the pressure and the shear since the last call (the previous
@@ -138,11 +137,11 @@ class BatchContactSolver:
         while turning.any():
             turns[turning] += 1
             turn_tol = np.where(self.coupled, np.maximum(tol, np.minimum(TURN_TOL_START, TURN_TOL_RATIO * change)), tol)
-            self.operator.cross_normal(tangential.shear_x, tangential.shear_y, normal.known)
+            self.operator.cross_normal(tangential.shear, normal.known)
             normal_infos = normal.solve(approach[:, 2], turn_tol, max_iter, pressure_cap=self.pressure_cap,
                                         active=turning)
             self._cells(lk.batch_shear_limit, [normal.pressure, self.laws], [tangential.shear_limit])
-            self.operator.cross_tangential(normal.pressure, tangential.known_x, tangential.known_y)
+            self.operator.cross_tangential(normal.pressure, tangential.known)
             tangential_infos = tangential.solve(turn_tol, max_iter, turning)
             sums = self._change_sums()
             for row in np.flatnonzero(turning):
@@ -156,10 +155,9 @@ class BatchContactSolver:
                 elif turns[row] >= max_turns:
                     turning[row] = False
         # each row's gap and u_z against its final shear, then its slip and whole u_t
-        self.operator.cross_normal(tangential.shear_x, tangential.shear_y, normal.known)
+        self.operator.cross_normal(tangential.shear, normal.known)
         final = normal.solve(approach[:, 2], tol, max_iter, pressure_cap=self.pressure_cap, active=active)
-        self.operator.tangential(tangential.shear_x, tangential.shear_y, tangential.disp_x, tangential.disp_y,
-                                 pressure=normal.pressure)
+        self.operator.tangential(tangential.shear, tangential.disp, pressure=normal.pressure)
         self._cells(ck.batch_accumulate_slip, [tangential.disp_x, tangential.disp_y, self.shifts],
                     [self.slip_x, self.slip_y])
         infos = []

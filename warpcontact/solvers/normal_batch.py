@@ -30,7 +30,7 @@ from warpcontact.kernels import reduce as rk
 
 from ..fft.batch import BatchConvolution
 from ..numerics.device import numpy_dtype
-from ..numerics.launch import ReductionLaunch
+from ..numerics.launch import LaunchCache, ReductionLaunch
 from ..numerics.state import SolveInfo
 
 #: iterations between exact recomputations of the carried gap (rounding), and the share of the
@@ -84,18 +84,21 @@ class BatchNormalSolver:
         #: each case's L1 change by projections since its last exact gap (scaled)
         self.deferred = wp.zeros(self.batch, dtype=dtype, device=self.device)
         self.reduction = ReductionLaunch.for_cells(self.n_cells, self.device)
+        #: the launches, recorded once and replayed (their arrays are the solver's own)
+        self.launches = LaunchCache(self.device)
 
     # -- launches ---------------------------------------------------------------------------
     def _cells(self, kernel, inputs, outputs=()):
-        wp.launch(kernel, dim=(self.batch, self.n_cells), inputs=inputs, outputs=outputs, device=self.device)
+        self.launches.launch(kernel, (self.batch, self.n_cells), inputs, outputs)
 
     def _reduce(self, kernel, inputs, outputs):
+        """A reducing kernel over (B, blocks) tiles of ``reduction.block_dim`` threads."""
         r = self.reduction
-        wp.launch_tiled(kernel, dim=(self.batch, r.num_blocks), inputs=[*inputs, *r.args(self.n_cells)],
-                        outputs=outputs, block_dim=r.block_dim, device=self.device)
+        self.launches.launch(kernel, (self.batch, r.num_blocks, r.block_dim), [*inputs, *r.args(self.n_cells)],
+                             outputs, block_dim=r.block_dim)
 
     def _cases(self, kernel, inputs, outputs=()):
-        wp.launch(kernel, dim=self.batch, inputs=inputs, outputs=outputs, device=self.device)
+        self.launches.launch(kernel, self.batch, inputs, outputs)
 
     # -- the solve --------------------------------------------------------------------------
     def solve(self, approach_z, tol, max_iter, pressure_cap=None, active=None) -> list:

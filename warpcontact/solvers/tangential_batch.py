@@ -29,7 +29,7 @@ from warpcontact.kernels import tangential_batch as tbk
 
 from ..fft.batch import BatchElasticOperator
 from ..numerics.device import numpy_dtype
-from ..numerics.launch import ReductionLaunch
+from ..numerics.launch import LaunchCache, ReductionLaunch
 from ..numerics.state import SolveInfo
 
 #: iterations between restarts of the conjugacy (the single solver's ``restart_every``)
@@ -44,11 +44,13 @@ class BatchTangentialSolver:
             (its rows' pairs set).
         stiffness: each row's self-influence of K_tt (``BatchElasticOperator.set_pairs``).
 
-    The caller fills ``target_x/y`` (delta - s_prev), ``shear_limit`` (q_max) and ``known_x/y``
+    The caller fills ``target_x/y`` (delta - s_prev), ``shear_limit`` (q_max) and ``known``
     (the tangential displacement of tractions held fixed) and calls
-    [`solve`][warpcontact.solvers.tangential_batch.BatchTangentialSolver.solve]; ``shear_x/y``
+    [`solve`][warpcontact.solvers.tangential_batch.BatchTangentialSolver.solve]; ``shear``
     (q / E*, the start and the answer), ``status`` (0 out of contact, 1 stick, 2 slip) and
-    ``disp_x/y`` (K_tt q) then hold each case's solution, one row a case.
+    ``disp`` (K_tt q) then hold each case's solution, one row a case. Vector fields are (2, B,
+    n^2) arrays (x, y: transformed in one batched call), their components ``shear_x``,
+    ``shear_y`` etc. views of them.
     """
 
     def __init__(self, operator: BatchElasticOperator, stiffness):
@@ -62,9 +64,16 @@ class BatchTangentialSolver:
         def field():
             return wp.zeros(cells, dtype=self.dtype, device=self.device)
 
-        self.shear_x, self.shear_y, self.disp_x, self.disp_y = field(), field(), field(), field()
-        self.target_x, self.target_y, self.known_x, self.known_y, self.shear_limit = (field() for _ in range(5))
-        self.grad_x, self.grad_y, self.dir_x, self.dir_y, self.resp_x, self.resp_y = (field() for _ in range(6))
+        def pair():  # x and y of a vector field in one array (2, B, n^2): transformed together
+            return wp.zeros((2, *cells), dtype=self.dtype, device=self.device)
+
+        self.shear, self.disp, self.known, self.direction, self.response = (pair() for _ in range(5))
+        self.shear_x, self.shear_y = self.shear[0], self.shear[1]
+        self.disp_x, self.disp_y = self.disp[0], self.disp[1]
+        self.known_x, self.known_y = self.known[0], self.known[1]
+        self.dir_x, self.dir_y = self.direction[0], self.direction[1]
+        self.resp_x, self.resp_y = self.response[0], self.response[1]
+        self.target_x, self.target_y, self.shear_limit, self.grad_x, self.grad_y = (field() for _ in range(5))
         self.status = wp.zeros(cells, dtype=wp.int32, device=self.device)
         self.stiffness = wp.array(np.asarray(stiffness, dtype=self.np_dtype), device=self.device)
         self.sums = wp.zeros((self.batch, tk.N_SUMS), dtype=self.dtype, device=self.device)
@@ -74,6 +83,8 @@ class BatchTangentialSolver:
         self.active = wp.zeros(self.batch, dtype=wp.int32, device=self.device)
         self.flags = wp.zeros(1, dtype=wp.int32, device=self.device)
         self.reduction = ReductionLaunch.for_cells(self.n_cells, self.device)
+        #: the launches, recorded once and replayed (their arrays are the solver's own)
+        self.launches = LaunchCache(self.device)
 
     def set_stiffness(self, stiffness):
         """Each row's self-influence of K_tt (its pair's: ``BatchElasticOperator.set_pairs``)."""
@@ -81,12 +92,12 @@ class BatchTangentialSolver:
 
     # -- launches (as BatchNormalSolver's) ----------------------------------------------------
     def _cells(self, kernel, inputs, outputs=()):
-        wp.launch(kernel, dim=(self.batch, self.n_cells), inputs=inputs, outputs=outputs, device=self.device)
+        self.launches.launch(kernel, (self.batch, self.n_cells), inputs, outputs)
 
     def _reduce(self, kernel, inputs, outputs):
         r = self.reduction
-        wp.launch_tiled(kernel, dim=(self.batch, r.num_blocks), inputs=[*inputs, *r.args(self.n_cells)],
-                        outputs=outputs, block_dim=r.block_dim, device=self.device)
+        self.launches.launch(kernel, (self.batch, r.num_blocks, r.block_dim), [*inputs, *r.args(self.n_cells)],
+                             outputs, block_dim=r.block_dim)
 
     # -- the solve ------------------------------------------------------------------------------
     def solve(self, tol, max_iter, active) -> list:
@@ -103,8 +114,7 @@ class BatchTangentialSolver:
         self.active.assign(active.astype(np.int32))
         self.scalars.zero_()
         self.sums.zero_()
-        self.dir_x.zero_()
-        self.dir_y.zero_()
+        self.direction.zero_()
         self._cells(tbk.batch_tangential_classify, [self.shear_limit, self.active],
                     [self.shear_x, self.shear_y, self.status])
         limit = int(max_iter[active].max()) if active.any() else 0
@@ -113,7 +123,7 @@ class BatchTangentialSolver:
             self._cells(tbk.batch_tangential_direction,
                         [self.grad_x, self.grad_y, self.shear_x, self.shear_y, self.shear_limit, self.status,
                          self.stiffness, self.sums, self.scalars], [self.dir_x, self.dir_y])
-            self.operator.tangential(self.dir_x, self.dir_y, self.resp_x, self.resp_y)
+            self.operator.tangential(self.direction, self.response)
             self._reduce(tbk.batch_tangential_step_sums,
                          [self.grad_x, self.grad_y, self.dir_x, self.dir_y, self.resp_x, self.resp_y, self.shear_x,
                           self.shear_y, self.shear_limit, self.status], [self.sums])
@@ -121,13 +131,12 @@ class BatchTangentialSolver:
                          [self.grad_x, self.grad_y, self.dir_x, self.dir_y, self.shear_limit, self.stiffness,
                           self.parameters, self.active], [self.shear_x, self.shear_y, self.status, self.sums])
             self.flags.zero_()
-            wp.launch(tbk.batch_tangential_advance, dim=self.batch,
-                      inputs=[self.sums, self.parameters, RESTART_EVERY], outputs=[self.scalars, self.active, self.flags],
-                      device=self.device)
+            self.launches.launch(tbk.batch_tangential_advance, self.batch, [self.sums, self.parameters, RESTART_EVERY],
+                                 [self.scalars, self.active, self.flags])
             if not int(self.flags.numpy()[tbk.F_ACTIVE]):
                 break
         self._gradient()  # every row's exact g, K_tt q and residual
-        wp.launch(bk.batch_residual, dim=self.batch, inputs=[self.sums], outputs=[self.residual], device=self.device)
+        self.launches.launch(bk.batch_residual, self.batch, [self.sums], [self.residual])
         residual = self.residual.numpy().astype(np.float64)
         iterations = self.scalars.numpy()[:, rk.C_ITER].astype(np.int64)
         return [SolveInfo(converged=bool(on and math.isfinite(r) and r < t), iterations=int(k) if on else 0,
@@ -137,7 +146,7 @@ class BatchTangentialSolver:
     def _gradient(self):
         """K_tt q into ``disp``, the exact g and each row's residual sums (zeroed before)."""
         self.sums.zero_()
-        self.operator.tangential(self.shear_x, self.shear_y, self.disp_x, self.disp_y)
+        self.operator.tangential(self.shear, self.disp)
         self._reduce(tbk.batch_tangential_residual,
                      [self.disp_x, self.disp_y, self.known_x, self.known_y, self.target_x, self.target_y,
                       self.shear_x, self.shear_y, self.shear_limit, self.status, self.stiffness],
