@@ -115,7 +115,55 @@ def closing_box(pressure: wp.array2d(dtype=Any), initial_gap: wp.array2d(dtype=A
     add_to_box(first, last, j, box)
 
 
-for _k in (crop, embed, support_box, closing_box):
+# --- the windows of B cases at once (rows (B, n^2), row-major cells; ``solvers/contact_batch.py``) ---
+
+
+@wp.kernel
+def batch_support_box(field: wp.array2d(dtype=Any), width: int, boxes: wp.array2d(dtype=wp.int32)):
+    """Each case's bounding box of its cells where ``field`` > 0: ``boxes[case]`` <- (first row,
+    last row, first column, last column), from (n, -1, n, -1). A thread scans one column of
+    one case (``support_box``'s scan, the whole column)."""
+    case, j = wp.tid()
+    zero = field[case, 0] - field[case, 0]
+    first = width
+    last = int(-1)
+    for i in range(width):
+        if field[case, i * width + j] > zero:
+            first = wp.min(first, i)
+            last = i
+    add_to_box(first, last, j, boxes[case])
+
+
+@wp.kernel
+def batch_crop(whole: wp.array2d(dtype=Any), width: int, origins: wp.array2d(dtype=wp.int32), cells: int,
+               window: wp.array2d(dtype=Any)):
+    """Each case's window of ``cells`` per side at its origin (``origins[case]``: first row,
+    first column) cut out of its whole grid (``width`` per side)."""
+    case, k = wp.tid()
+    i = k // cells
+    j = k - i * cells
+    window[case, k] = whole[case, (origins[case, 0] + i) * width + origins[case, 1] + j]
+
+
+@wp.kernel
+def batch_put_back(window: wp.array2d(dtype=Any), cells: int, origins: wp.array2d(dtype=wp.int32),
+                   active: wp.array(dtype=wp.int32), width: int, whole: wp.array2d(dtype=Any)):
+    """Each active case's whole grid <- its window at its origin, zero outside it (the other
+    cases are left as they are)."""
+    case, k = wp.tid()
+    if active[case] != 0:
+        i = k // width - origins[case, 0]
+        j = k - (k // width) * width - origins[case, 1]
+        value = window[case, 0] - window[case, 0]
+        if i >= 0 and i < cells and j >= 0 and j < cells:
+            value = window[case, i * cells + j]
+        whole[case, k] = value
+
+
+for _k in (crop, embed, support_box, closing_box, batch_support_box, batch_crop, batch_put_back):
     register_float_overloads(_k)
 for _k in (crop, embed):
     wp.overload(_k, [wp.array2d(dtype=wp.int32), int, int, wp.array2d(dtype=wp.int32)])
+wp.overload(batch_crop, [wp.array2d(dtype=wp.int32), int, wp.array2d(dtype=wp.int32), int, wp.array2d(dtype=wp.int32)])
+wp.overload(batch_put_back, [wp.array2d(dtype=wp.int32), int, wp.array2d(dtype=wp.int32), wp.array(dtype=wp.int32), int,
+                             wp.array2d(dtype=wp.int32)])

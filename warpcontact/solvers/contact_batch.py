@@ -14,6 +14,13 @@ one turn at full tolerance. A case that has ended stops changing while the other
 step ends with a normal solve against each case's final shear (its gap and u_z) and its slip
 s = delta - (K_tt q + K_tz p).
 
+The tangential solves run on a window of the grid that holds every turning case's contact (the
+cells where its shear limit is above zero), each case's window placed over its own contact: the
+shear is zero outside the contact, so the problem on the window is the same problem (the single
+solver's ``SolverSettings.window``), and its transforms are of (2 m)^2 entries instead of
+(2 n)^2 (a contact half the domain wide: a quarter). Batched solves are bound by the device's
+work, not by launches, so the window pays at every grid size here.
+
 What the single solver adds for hard cases (the Anderson mixing of turns that stall, the
 minimised turns of adhesion, the nested start and the window of large grids) is not here: a case
 whose turns do not converge within ``max_turns`` is reported as not converged, and the caller
@@ -23,16 +30,19 @@ solves it on its own (``studies/batch_solve.py``).
 from __future__ import annotations
 
 import math
+from collections import OrderedDict
 
 import numpy as np
 import warp as wp
 
 from warpcontact.kernels import coupling as ck
+from warpcontact.kernels import grids as gk
 from warpcontact.kernels import laws as lk
 
 from ..fft.batch import BatchElasticOperator
 from ..numerics.state import SolveInfo
 from .normal_batch import BatchNormalSolver
+from .tangential import WINDOW_CACHE, window_cells, window_origin
 from .tangential_batch import BatchTangentialSolver
 from .turns import TURN_TOL_RATIO, TURN_TOL_START, ratio
 
@@ -58,34 +68,51 @@ class BatchContactSolver:
 
     ``set_cases`` gives each row its material pair, shear-limit law and pressure cap; the rows'
     ``normal.initial_gap`` are the caller's to fill. Each row's fields carry its path: the
-    tractions of the last state start the next step, ``slip_x/y`` is its slip history.
+    tractions of the last state start the next step, ``slip`` is its slip history.
     """
 
     def __init__(self, n: int, batch: int, device, dtype):
         self.normal = BatchNormalSolver(n, batch, device, dtype)
+        #: the whole grid's tangential and coupling blocks (the turns' known displacements, u_t)
         self.operator = BatchElasticOperator(n, batch, device, dtype)
-        self.tangential = BatchTangentialSolver(self.operator, np.ones(batch))
         self.n, self.batch, self.device, self.dtype = self.normal.n, self.normal.batch, self.normal.device, dtype
         self.n_cells = self.normal.n_cells
         np_dtype = self.normal.np_dtype
+        cells = (self.batch, self.n_cells)
 
         def field():
-            return wp.zeros((self.batch, self.n_cells), dtype=dtype, device=self.device)
+            return wp.zeros(cells, dtype=dtype, device=self.device)
 
-        self.slip_x, self.slip_y = field(), field()
+        def pair():  # x and y of a vector field, (2, B, n^2)
+            return wp.zeros((2, *cells), dtype=dtype, device=self.device)
+
+        #: each case's shear q / E*, total tangential displacement u_t / dx, the pressure's K_tz p,
+        #: stick target delta - s_prev and slip s / dx (x, y), its shear limit and cell statuses
+        self.shear, self.disp, self.known, self.target, self.slip = (pair() for _ in range(5))
+        self.shear_limit = field()
+        self.status = wp.zeros(cells, dtype=wp.int32, device=self.device)
         self.previous = [field(), field(), field()]  # p, q_x, q_y of the last turn
         self.change = wp.zeros((self.batch, 4), dtype=dtype, device=self.device)
         self.laws = wp.zeros((self.batch, lk.N_LAW_PARAMETERS), dtype=dtype, device=self.device)
         self.shifts = wp.zeros((self.batch, 2), dtype=dtype, device=self.device)
+        self.boxes = wp.zeros((self.batch, 4), dtype=wp.int32, device=self.device)
+        self.origins = wp.zeros((self.batch, 2), dtype=wp.int32, device=self.device)
+        self.turning = wp.zeros(self.batch, dtype=wp.int32, device=self.device)
         self.coupled = np.zeros(self.batch, dtype=bool)
         self.pressure_cap = np.full(self.batch, np.finfo(np_dtype).max)
         self._np_dtype = np_dtype
+        self._pairs: list = []
+        self._windows: OrderedDict = OrderedDict()  # cells per side -> BatchTangentialSolver
+        #: the side of the last turn's window (cells)
+        self.last_window = None
 
     def set_cases(self, pairs: list, laws: list, pressure_caps: list):
         """Rows 0 .. len(pairs) - 1: each case's material pair, its shear-limit law's parameters
         (``law_parameters``) and its pressure cap / E* (inf for none)."""
-        stiffness, _, self.coupled = self.operator.set_pairs(pairs)
-        self.tangential.set_stiffness(stiffness)
+        self._pairs = list(pairs)
+        _, _, self.coupled = self.operator.set_pairs(pairs)
+        for window in self._windows.values():
+            window.set_stiffness(window.operator.set_pairs(pairs)[0])
         rows = np.zeros((self.batch, lk.N_LAW_PARAMETERS))
         rows[: len(laws)] = laws
         self.laws.assign(rows.astype(self._np_dtype))
@@ -95,8 +122,51 @@ class BatchContactSolver:
 
     def clear(self):
         """Every row's tractions, statuses and slip history zeroed (a path's start)."""
-        for a in (self.normal.pressure, self.tangential.shear, self.tangential.status, self.slip_x, self.slip_y):
+        for a in (self.normal.pressure, self.shear, self.status, self.slip):
             a.zero_()
+
+    def _window(self, turning: np.ndarray) -> BatchTangentialSolver:
+        """The tangential solver of the window that holds the contact (shear limit > 0) of every
+        turning row, each row's origin placed over its own (``origins``); the whole grid where the
+        largest contact passes ``WINDOW_MAX_SHARE`` of it. One read of the device: the boxes."""
+        n = self.n
+        self.boxes.assign(np.tile(np.array([n, -1, n, -1], dtype=np.int32), (self.batch, 1)))
+        self.normal.launches.launch(gk.batch_support_box, (self.batch, n), [self.shear_limit, n], [self.boxes])
+        boxes = self.boxes.numpy()
+        rows = [r for r in np.flatnonzero(turning) if boxes[r, 1] >= 0]
+        extent = max((max(boxes[r, 1] - boxes[r, 0], boxes[r, 3] - boxes[r, 2]) + 1 for r in rows), default=1)
+        cells = window_cells(extent, n) or n
+        origins = np.zeros((self.batch, 2), dtype=np.int32)
+        for r in rows:
+            origins[r] = (window_origin(boxes[r, 0], boxes[r, 1], cells, n), window_origin(boxes[r, 2], boxes[r, 3], cells, n))
+        self.origins.assign(origins)
+        window = self._windows.get(cells)
+        if window is None:
+            operator = BatchElasticOperator(cells, self.batch, self.device, self.dtype)
+            stiffness = operator.set_pairs(self._pairs)[0]
+            window = self._windows[cells] = BatchTangentialSolver(operator, stiffness)
+            while len(self._windows) > WINDOW_CACHE:
+                self._windows.popitem(last=False)
+        self._windows.move_to_end(cells)
+        self.last_window = cells
+        return window
+
+    def _transfer(self, window: BatchTangentialSolver, turning: np.ndarray, back: bool = False):
+        """The turn's fields cut out of the whole grid into the ``window``'s (shear, statuses,
+        target, shear limit, known displacement), or (``back``) the window's shear and statuses
+        put back into the turning rows' whole grid."""
+        n, m, launches = self.n, window.n, self.normal.launches
+        pairs = [(self.shear[0], window.shear_x), (self.shear[1], window.shear_y), (self.status, window.status)]
+        if back:
+            self.turning.assign(turning.astype(np.int32))
+            for whole, part in pairs:
+                launches.launch(gk.batch_put_back, (self.batch, self.n_cells), [part, m, self.origins, self.turning, n],
+                                [whole])
+            return
+        pairs += [(self.target[0], window.target_x), (self.target[1], window.target_y),
+                  (self.known[0], window.known_x), (self.known[1], window.known_y), (self.shear_limit, window.shear_limit)]
+        for whole, part in pairs:
+            launches.launch(gk.batch_crop, (self.batch, m * m), [whole, n, self.origins, m], [part])
 
     def _cells(self, kernel, inputs, outputs):
         self.normal.launches.launch(kernel, (self.batch, self.n_cells), inputs, outputs)
@@ -104,9 +174,8 @@ class BatchContactSolver:
     def _change_sums(self) -> np.ndarray:
         """Each row's change sums of the pressure and the shear since the last call (the previous
         copies updated)."""
-        t = self.tangential
         self.change.zero_()
-        self.normal._reduce(ck.batch_change_sums, [self.normal.pressure, t.shear_x, t.shear_y],
+        self.normal._reduce(ck.batch_change_sums, [self.normal.pressure, self.shear[0], self.shear[1]],
                             [*self.previous, self.change])
         return self.change.numpy().astype(np.float64)
 
@@ -116,7 +185,7 @@ class BatchContactSolver:
         within ``max_iter`` inner iterations a solve and ``max_turns`` turns. Returns one
         ``SolveInfo`` per row (a row not solved: not converged, no iteration): converged where
         its turns converged and its last solves did; its inner iterations over every turn; its turns."""
-        normal, tangential = self.normal, self.tangential
+        normal = self.normal
         active = np.asarray(active, dtype=bool)
         approach = np.asarray(approach, dtype=np.float64)
         tol = np.asarray(tol, dtype=np.float64)
@@ -124,8 +193,7 @@ class BatchContactSolver:
         shifts = np.zeros((self.batch, 2))
         shifts[: len(approach)] = approach[:, :2]
         self.shifts.assign(shifts.astype(self._np_dtype))
-        self._cells(ck.batch_stick_target, [self.slip_x, self.slip_y, self.shifts],
-                    [tangential.target_x, tangential.target_y])
+        self._cells(ck.batch_stick_target, [self.slip[0], self.slip[1], self.shifts], [self.target[0], self.target[1]])
         self._change_sums()  # the previous copies: the tractions the step starts from
         rows = self.batch
         turning = active.copy()
@@ -137,12 +205,15 @@ class BatchContactSolver:
         while turning.any():
             turns[turning] += 1
             turn_tol = np.where(self.coupled, np.maximum(tol, np.minimum(TURN_TOL_START, TURN_TOL_RATIO * change)), tol)
-            self.operator.cross_normal(tangential.shear, normal.known)
+            self.operator.cross_normal(self.shear, normal.known)
             normal_infos = normal.solve(approach[:, 2], turn_tol, max_iter, pressure_cap=self.pressure_cap,
                                         active=turning)
-            self._cells(lk.batch_shear_limit, [normal.pressure, self.laws], [tangential.shear_limit])
-            self.operator.cross_tangential(normal.pressure, tangential.known)
-            tangential_infos = tangential.solve(turn_tol, max_iter, turning)
+            self._cells(lk.batch_shear_limit, [normal.pressure, self.laws], [self.shear_limit])
+            self.operator.cross_tangential(normal.pressure, self.known)
+            window = self._window(turning)
+            self._transfer(window, turning)
+            tangential_infos = window.solve(turn_tol, max_iter, turning)
+            self._transfer(window, turning, back=True)
             sums = self._change_sums()
             for row in np.flatnonzero(turning):
                 ni, ti = normal_infos[row], tangential_infos[row]
@@ -154,12 +225,11 @@ class BatchContactSolver:
                     turning[row] = False
                 elif turns[row] >= max_turns:
                     turning[row] = False
-        # each row's gap and u_z against its final shear, then its slip and whole u_t
-        self.operator.cross_normal(tangential.shear, normal.known)
+        # each row's gap and u_z against its final shear, then its whole u_t and its slip
+        self.operator.cross_normal(self.shear, normal.known)
         final = normal.solve(approach[:, 2], tol, max_iter, pressure_cap=self.pressure_cap, active=active)
-        self.operator.tangential(tangential.shear, tangential.disp, pressure=normal.pressure)
-        self._cells(ck.batch_accumulate_slip, [tangential.disp_x, tangential.disp_y, self.shifts],
-                    [self.slip_x, self.slip_y])
+        self.operator.tangential(self.shear, self.disp, pressure=normal.pressure)
+        self._cells(ck.batch_accumulate_slip, [self.disp[0], self.disp[1], self.shifts], [self.slip[0], self.slip[1]])
         infos = []
         for row in range(rows):
             if not active[row]:

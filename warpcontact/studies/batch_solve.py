@@ -48,10 +48,10 @@ FRICTION_BYTES_PER_CELL = 85
 #: turns of a batched step with friction; a case whose turns have not settled by then is solved on
 #: its own, where stalled turns are mixed (the Table 2 cells at n = 128 took 2-12 turns a step)
 BATCH_MAX_TURNS = 60
-#: cases with friction on the CPU are batched only where ``batch`` asks for it: there the batched
-#: step's plain tangential iteration makes about twice the transforms of the single solver's
-#: preconditioned one, and transforms are the CPU's time (bench/throughput.py on 2 cores, n = 64:
-#: 0.6 cases/s batched against 2.8 one at a time)
+#: whether cases with friction on the CPU are batched where ``batch`` does not ask for it: there
+#: the batched step's plain tangential iteration makes about twice the transforms of the single
+#: solver's preconditioned one, and transforms are the CPU's time (bench/throughput.py on 2 cores,
+#: n = 64: 1.9 cases/s batched against 3.5 one at a time)
 FRICTION_ON_CPU = False
 
 
@@ -122,9 +122,9 @@ def _solve_all(cases: list, fields: str, batch: int | None, on_case) -> list:
     groups: OrderedDict = OrderedDict()
     for index, case in enumerate(cases):
         s = case.solver
-        if not batchable(case) or (case.friction is not None and batch is None
+        if not batchable(case) or (case.friction is not None and batch is None and not FRICTION_ON_CPU
                                    and wp.get_device(resolve_device(s.device)).is_cpu):
-            alone(index)  # (with friction on the CPU a batch is slower: FRICTION_ON_CPU)
+            alone(index)
             continue
         key = (case.grid.n, str(resolve_device(s.device)), s.dtype, case.friction is not None)
         groups.setdefault(key, []).append(index)
@@ -161,9 +161,9 @@ def _rows_fields(solver) -> dict:
     normal = _normal(solver)
     out = {"pressure": normal.pressure, "gap": normal.gap, "disp_z": normal.displacement}
     if isinstance(solver, BatchContactSolver):
-        t = solver.tangential
-        out.update(shear_x=t.shear_x, shear_y=t.shear_y, status=t.status, disp_x=t.disp_x, disp_y=t.disp_y,
-                   slip_x=solver.slip_x, slip_y=solver.slip_y)
+        s = solver
+        out.update(shear_x=s.shear[0], shear_y=s.shear[1], status=s.status, disp_x=s.disp[0], disp_y=s.disp[1],
+                   slip_x=s.slip[0], slip_y=s.slip[1])
     return out
 
 
