@@ -262,11 +262,11 @@ def main(argv=None):
                 f.write(json.dumps(r) + "\n")
             print(f"n={n} {r['placement']}: {r['cases_per_s']:.1f} cases/s ({r['ratio']:.2f}x)", file=sys.stderr,
                   flush=True)
-    print("\n| n | placement | cases | wall [s] | cluster start [s] | cases/s | against api |")
-    print("|---|---|---|---|---|---|---|")
+    print("\n| n | placement | cases | wall [s] | cluster start [s] | cases/s | against api | solved alone |")
+    print("|---|---|---|---|---|---|---|---|")
     for r in rows:
         print(f"| {r['n']} | {r['placement']} | {r['cases']} | {r['wall_s']:.2f} | {r['start_s']:.1f} | "
-              f"{r['cases_per_s']:.1f} | {r['ratio']:.2f}x |")
+              f"{r['cases_per_s']:.1f} | {r['ratio']:.2f}x | {r.get('solved_alone', '-')} |")
     print(f"\n({args.device}, {args.dtype}, {args.problem}; one JSON line a row: {log})")
 
 

@@ -10,7 +10,7 @@
     gs = wc.gross_slip(case)                                    # delta_x_max [m], mu
     po = wc.pull_off(case)                                      # needs [adhesion]: pull_off_force [N]
     fr = wc.fretting(case)                                      # a cyclic path: energy per cycle [J]
-    results = wc.solve_batch([case_a, case_b, ...])             # many cases: normal contact batched
+    results = wc.solve_batch([case_a, case_b, ...])             # many cases solved together
 
 The dicts returned are the result.json of the matching command less the run's record (device,
 software, case, complete): one builder per kind of result (:func:`run_gross_slip`,
@@ -64,20 +64,26 @@ def solve(case: CaseLike, device=None, dtype=None, fft=None, on_state=None, mode
 
 def solve_batch(cases, device=None, dtype=None, fft=None, fields: str = "none", batch: int | None = None,
                 on_case=None) -> list:
-    """Solve many cases, those of normal contact together: one entry per case, in order, what
+    """Solve many cases, those without adhesion together: one entry per case, in order, what
     [`solve`][warpcontact.solve] returns for it.
 
-    Cases with no ``[friction]`` and no ``[adhesion]`` of one grid size, device and float type are
-    solved ``batch`` at a time (default: 8 on the CPU, up to 256 on CUDA as half the free memory
-    allows): each state of their load paths by one batched solve whose kernels and transforms are
-    launched once for all of them
-    ([`BatchNormalSolver`][warpcontact.solvers.normal_batch.BatchNormalSolver]), each case with its
-    own load path and convergence. Their summaries, fields, warnings and yield checks are made as
-    [`solve`][warpcontact.solve] makes them (on CUDA the yield checks of the cases that end at a
-    state together, every case's depths evaluated at once: on an H100 at n = 64-256, 110-300
-    cases/s, 35-56 one at a time, docs/performance.md); the forces agree with it within the
-    solves' tolerance.
-    Cases with friction or adhesion are solved one at a time, and so are a batch's cases where the
+    Cases with no ``[adhesion]`` of one grid size, device and float type are solved ``batch`` at a
+    time (default: 8 on the CPU, up to 256 on CUDA as half the free memory allows): each state of
+    their load paths by one batched step whose kernels and transforms are launched once for all of
+    them, each case with its own materials, law, load path and convergence: normal contact by
+    [`BatchNormalSolver`][warpcontact.solvers.normal_batch.BatchNormalSolver], contact with
+    friction (Coulomb or Tabor-von Mises, the hardness cap too) by
+    [`BatchContactSolver`][warpcontact.solvers.contact_batch.BatchContactSolver]. Their summaries,
+    fields, warnings and yield checks are made as [`solve`][warpcontact.solve] makes them (on CUDA
+    the yield checks of the cases that end at a state together, every case's depths evaluated at
+    once); the forces agree with it within the solves' tolerance. Measured on one H200 (Tabor
+    friction, a normal and a tangential step): 138, 94 and 33 cases/s at n = 64, 128 and 256,
+    8.6x, 6.9x and 2.8x one at a time (docs/performance.md).
+
+    A case with friction whose batched step does not converge is solved again on its own (with
+    what the single solver adds for hard steps): its result is then [`solve`][warpcontact.solve]'s.
+    Cases with adhesion are solved one at a time; so are cases with friction on the CPU unless
+    ``batch`` is given (there a batch is slower); so are a batch's cases where the
     batched solve itself fails (a device's refusal, a library's error, no CuPy on CUDA: one
     RuntimeWarning says why). A case that fails (a contact past its domain's edge) has the exception in its place and
     the others go on; a mistake in a case's

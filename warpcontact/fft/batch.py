@@ -1,4 +1,4 @@
-"""The normal DC-FFT convolution of B cases of one grid size at once: batched transforms.
+"""The DC-FFT convolutions of B cases of one grid size at once: batched transforms.
 
 Each case's field is an (n, n) slice of a (B, n, n) Warp array the batched kernels write
 (``kernels/normal_batch.py``), zero-padded to (2 n, 2 n) by the transforms themselves: the rows'
@@ -11,7 +11,10 @@ the buffers shared without a copy (DLPack).
 
 In the model's scaled units (tractions / E*, lengths / the cell size) the normal influence
 coefficients of a square grid depend on n alone (K_zz = (1 - nu_1^2) / E_1 + (1 - nu_2^2) / E_2
-is 1 / E*), so one spectrum serves cases of any materials and cell sizes.
+is 1 / E*), so one spectrum serves cases of any materials and cell sizes
+(``BatchConvolution``); the tangential and coupling blocks depend on the pair (its A E*, B E*,
+D E*), so each case has its pair's (``BatchElasticOperator``, one spectrum for the rows that
+share a pair).
 """
 
 from __future__ import annotations

@@ -303,8 +303,8 @@ def _placement_device(sweep: Sweep) -> str:
 
 def batched_cases(task: str, cases: list, placement, batch: int | None = None) -> list:
     """Those of ``cases`` (``SweepCase``) that ``run_sweep`` solves by batched solves
-    (``warpcontact.solve_batch``, in this process): with the task "solve", cases of normal contact
-    alone (no friction, no adhesion); by default those on a CUDA device where the cases run in
+    (``warpcontact.solve_batch``, in this process): with the task "solve", cases without
+    adhesion; by default those on a CUDA device where the cases run in
     this process (``placement``), and where ``batch`` (cases per batched solve) is given, those on
     any device wherever the others run; none where ``batch`` is 0, or where fewer than two cases
     qualify. On 2 CPU cores a batch saves the launches' overhead but not their work, and
