@@ -77,8 +77,8 @@ def solve_batch(cases, device=None, dtype=None, fft=None, fields: str = "none", 
     fields, warnings and yield checks are made as [`solve`][warpcontact.solve] makes them (on CUDA
     the yield checks of the cases that end at a state together, every case's depths evaluated at
     once); the forces agree with it within the solves' tolerance. Measured on one H200 (Tabor
-    friction, a normal and a tangential step): 138, 94 and 33 cases/s at n = 64, 128 and 256,
-    8.6x, 6.9x and 2.8x one at a time (docs/performance.md).
+    friction, a normal and a tangential step): 123, 104 and 33 cases/s at n = 64, 128 and 256,
+    7.9x, 8.4x and 3.1x one at a time (docs/performance.md).
 
     A case with friction whose batched step does not converge is solved again on its own (with
     what the single solver adds for hard steps): its result is then [`solve`][warpcontact.solve]'s.
