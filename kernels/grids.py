@@ -160,10 +160,19 @@ def batch_put_back(window: wp.array2d(dtype=Any), cells: int, origins: wp.array2
         whole[case, k] = value
 
 
-for _k in (crop, embed, support_box, closing_box, batch_support_box, batch_crop, batch_put_back):
+@wp.kernel
+def batch_copy_rows(source: wp.array2d(dtype=Any), rows: wp.array(dtype=wp.int32), dest: wp.array2d(dtype=Any)):
+    """dest[case] <- source[case] for the cases where ``rows[case]`` != 0."""
+    case, k = wp.tid()
+    if rows[case] != 0:
+        dest[case, k] = source[case, k]
+
+
+for _k in (crop, embed, support_box, closing_box, batch_support_box, batch_crop, batch_put_back, batch_copy_rows):
     register_float_overloads(_k)
 for _k in (crop, embed):
     wp.overload(_k, [wp.array2d(dtype=wp.int32), int, int, wp.array2d(dtype=wp.int32)])
 wp.overload(batch_crop, [wp.array2d(dtype=wp.int32), int, wp.array2d(dtype=wp.int32), int, wp.array2d(dtype=wp.int32)])
+wp.overload(batch_copy_rows, [wp.array2d(dtype=wp.int32), wp.array(dtype=wp.int32), wp.array2d(dtype=wp.int32)])
 wp.overload(batch_put_back, [wp.array2d(dtype=wp.int32), int, wp.array2d(dtype=wp.int32), wp.array(dtype=wp.int32), int,
                              wp.array2d(dtype=wp.int32)])

@@ -282,17 +282,20 @@ def test_gross_slip_ctrl_c_keeps_the_finished_states(tmp_path, monkeypatch, caps
     from warpcontact.studies import slip_search
     from warpcontact.cli import main
 
-    real = slip_search.find_gross_slip
+    real = slip_search.solve_search
 
-    def interrupted_after_3(*a, on_state, **kw):
+    def interrupted_after_3(search, solver):
+        on_state = search.on_state
+
         def hook(k, s):
             on_state(k, s)
             if k == 2:
                 raise KeyboardInterrupt
 
-        return real(*a, on_state=hook, **kw)
+        search.on_state = hook
+        return real(search, solver)
 
-    monkeypatch.setattr(slip_search, "find_gross_slip", interrupted_after_3)
+    monkeypatch.setattr(slip_search, "solve_search", interrupted_after_3)
     fast = {k: v for k, v in UNCONVERGED_GROSS_SLIP.items() if k != 'dtype = "float64"'}
     case = small_case(tmp_path, TABLE2_CASE, **fast)
     assert main(["gross-slip", str(case), "--out", str(tmp_path / "gs"), "--quiet"]) == 130

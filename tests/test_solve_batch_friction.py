@@ -255,3 +255,41 @@ def test_a_sweep_with_friction_batched_records_what_one_case_at_a_time_records(t
         assert (s["contact_area"], s["stick_area"]) == (t["contact_area"], t["stick_area"])
         for axis in ("x", "y", "z"):
             assert abs(s["force"][axis] - t["force"][axis]) <= 1e-9 * abs(s["force"]["z"]), axis
+
+
+def test_a_gross_slip_sweep_batched_records_what_one_case_at_a_time_records(tmp_path, monkeypatch):
+    """``warpcontact sweep --batch 4`` with the task "gross-slip": the four searches walk together
+    (each bisection trial from its own last stick state, batched), each record as one case at a
+    time writes it: the same states, the same delta_x_max (the same bisection decisions), mu within
+    2e-9 (F_x / F_z of forces within 1e-9 of |F_z|: (1 + mu) 1e-9; measured 1e-10)."""
+    import argparse
+    import json
+
+    from warpcontact.cli.sweep import add_parser, cmd_sweep
+    from warpcontact.studies import batch_solve
+
+    (tmp_path / "base.toml").write_text(SWEEP_BASE)
+    sweep = tmp_path / "sweep.toml"
+    sweep.write_text('base = "base.toml"\n[sweep]\n"friction.k_tau" = [0.8, 0.95]\n"flat.E" = [70e9, 120e9]\n'
+                     '[run]\ntask = "gross-slip"\n')
+    searches, search = [], batch_solve.gross_slip_batch
+    monkeypatch.setattr(batch_solve, "gross_slip_batch",
+                        lambda cases, **kw: searches.append(len(cases)) or search(cases, **kw))
+    parser = argparse.ArgumentParser()
+    add_parser(parser.add_subparsers(dest="command"))
+    for out, batch in (("one", "0"), ("together", "4")):
+        args = parser.parse_args(["sweep", str(sweep), "--out", str(tmp_path / out), "--quiet", "--batch", batch,
+                                  "--workers", "1"])
+        assert quiet(cmd_sweep, args) == 0
+    assert searches == [4]
+    ids = sorted(p.stem for p in (tmp_path / "one" / "cases").glob("*.json"))
+    assert len(ids) == 4
+    for i in ids:
+        x = json.loads((tmp_path / "one" / "cases" / f"{i}.json").read_text())
+        y = json.loads((tmp_path / "together" / "cases" / f"{i}.json").read_text())
+        assert (x["status"], x["converged"], sorted(x["warnings"])) == (y["status"], y["converged"], sorted(y["warnings"]))
+        s, t = x["summary"], y["summary"]
+        assert x["status"] == "ok" and s["n_states"] == t["n_states"]
+        assert s["delta_x_max"] == t["delta_x_max"] and s["delta_x_gross"] == t["delta_x_gross"]
+        assert abs(s["mu"] - t["mu"]) <= 2e-9
+        assert s["yielded"] == t["yielded"]

@@ -103,6 +103,7 @@ class BatchContactSolver:
         self._np_dtype = np_dtype
         self._pairs: list = []
         self._windows: OrderedDict = OrderedDict()  # cells per side -> BatchTangentialSolver
+        self._kept = None  # the rows' path state kept by ``keep``, made when first needed
         #: the side of the last turn's window (cells)
         self.last_window = None
 
@@ -124,6 +125,27 @@ class BatchContactSolver:
         """Every row's tractions, statuses and slip history zeroed (a path's start)."""
         for a in (self.normal.pressure, self.shear, self.status, self.slip):
             a.zero_()
+
+    def _state_fields(self) -> list:
+        """The arrays that carry a row's path from one step to the next: its pressure, shear,
+        statuses and slip (2-D, one row a case)."""
+        return [self.normal.pressure, self.shear[0], self.shear[1], self.status, self.slip[0], self.slip[1]]
+
+    def keep(self, rows):
+        """Keep the path state of the ``rows`` (booleans, one per row) for a later ``restore``
+        (a gross-slip search's last stick state)."""
+        if self._kept is None:
+            self._kept = [wp.zeros_like(a) for a in self._state_fields()]
+        self._copy_rows(rows, self._state_fields(), self._kept)
+
+    def restore(self, rows):
+        """The ``rows``' path state as ``keep`` kept it."""
+        self._copy_rows(rows, self._kept, self._state_fields())
+
+    def _copy_rows(self, rows, sources, destinations):
+        self.turning.assign(np.asarray(rows, dtype=np.int32))
+        for src, dst in zip(sources, destinations):
+            self.normal.launches.launch(gk.batch_copy_rows, (self.batch, self.n_cells), [src, self.turning], [dst])
 
     def _window(self, turning: np.ndarray) -> BatchTangentialSolver:
         """The tangential solver of the window that holds the contact (shear limit > 0) of every

@@ -306,3 +306,152 @@ class _Member:
         result.elapsed_s = elapsed
         result.warnings = list(dict.fromkeys(self.warnings))
         return result
+
+
+def gross_slip_batch(cases: list, rel_tol: float = 0.01, batch: int | None = None, on_case=None) -> list:
+    """The gross-slip search of each case (prepared cases with ``[friction]``), the searches of
+    cases without adhesion of one grid size, device and float type walking together: at each
+    batched step every search's next state (its own approach, from its own last stick state in
+    the bisection) is solved by one ``BatchContactSolver.step``. Returns one entry per case, in
+    order: (summary, warnings), the summary what ``tasks.gross_slip_summary`` returns for it (the
+    same checks; the forces within the solves' tolerance) and the messages of the warnings its
+    checks gave, or the exception the case raised. A search whose batched step does not converge
+    is run again on its own, as are cases with adhesion, and cases on the CPU unless ``batch`` is
+    given (``FRICTION_ON_CPU``). ``on_case(index, entry)`` as each case ends."""
+    from .tasks import check_gross_slip_case, gross_slip_summary
+
+    results: list = [None] * len(cases)
+
+    def done(index, entry):
+        results[index] = entry
+        if on_case is not None:
+            on_case(index, entry)
+
+    def alone(index):
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always")
+            try:
+                entry = (gross_slip_summary(cases[index], rel_tol=rel_tol), _messages(caught))
+            except Exception as e:  # noqa: BLE001 (the case's failure is its result)
+                entry = e
+        done(index, entry)
+
+    groups: OrderedDict = OrderedDict()
+    for index, case in enumerate(cases):
+        s = case.solver
+        on_cpu = wp.get_device(resolve_device(s.device)).is_cpu
+        if case.friction is None or case.adhesion is not None or (batch is None and on_cpu and not FRICTION_ON_CPU):
+            alone(index)
+            continue
+        check_gross_slip_case(case)
+        groups.setdefault((case.grid.n, str(resolve_device(s.device)), s.dtype), []).append(index)
+    for (n, device, dtype), indices in groups.items():
+        size = batch_size(n, device, resolve_dtype(dtype), len(indices), batch, friction=True)
+        solver = BatchContactSolver(n, size, device, resolve_dtype(dtype))
+        for start in range(0, len(indices), size):
+            chunk = indices[start:start + size]
+            for index, entry in _search_chunk(solver, [cases[i] for i in chunk], chunk, rel_tol):
+                if entry is None:
+                    alone(index)
+                else:
+                    done(index, entry)
+        solver.normal.convolution.library.release()
+    return results
+
+
+def _messages(caught) -> list:
+    return list(dict.fromkeys(str(w.message) for w in caught))
+
+
+class _Search:
+    """One case's gross-slip search in a batch: its model, states and checks."""
+
+    def __init__(self, row: int, index: int, case, model, rel_tol: float):
+        from .tasks import gross_slip_search
+
+        self.row, self.index, self.case, self.model = row, index, case, model
+        self.warnings: list = []
+        self.t0 = time.perf_counter()
+        self.state, self.last_stick = ContactState(model), ContactState(model)
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always")
+            self.search, self.finish = gross_slip_search(case, model, friction_law(case), None, rel_tol)
+        self.warnings += _messages(caught)
+
+    def checked(self, work):
+        """``work()`` with the warnings it gives kept as this case's."""
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always")
+            try:
+                return work()
+            finally:
+                self.warnings += _messages(caught)
+
+
+def _search_chunk(solver: BatchContactSolver, cases: list, indices: list, rel_tol: float):
+    """Walk the searches of ``cases`` (at most the solver's B) in step; yields (index, entry) as
+    each ends, entry None for a case to run again on its own."""
+    models: dict = {}
+    members = []
+    for row, case in enumerate(cases):
+        key = _model_key(case, row)
+        if key not in models:
+            models[key] = build_model(case)
+        members.append(_Search(row, indices[row], case, models[key], rel_tol))
+    normal = solver.normal
+    solver.clear()
+    for m in members:
+        wp.copy(normal.initial_gap, m.model.initial_gap.flatten(), dest_offset=m.row * normal.n_cells)
+    solver.set_cases([m.case.pair for m in members],
+                     [law_parameters(friction_law(m.case), m.model.traction_scale) for m in members],
+                     [m.case.pair.softer.hardness / m.model.traction_scale if m.case.friction.hardness_cap
+                      else np.inf for m in members])
+    rows = len(members)
+    tol = np.array([m.case.solver.tol or default_tolerance(normal.dtype) for m in members])
+    max_iter = np.array([m.case.solver.max_iter for m in members])
+    max_turns = min(BATCH_MAX_TURNS, *(m.case.solver.max_turns for m in members))
+    arrays = _rows_fields(solver)
+    pending = list(members)
+    while pending:
+        approach = np.zeros((rows, 3))
+        active, restore = np.zeros(rows, dtype=bool), np.zeros(rows, dtype=bool)
+        for m in list(pending):
+            try:
+                step = m.checked(m.search.next)
+                if step is None:
+                    pending.remove(m)
+                    yield m.index, (m.checked(lambda: m.finish(m.search.result(m.last_stick))), m.warnings)
+                    continue
+            except Exception as e:  # noqa: BLE001 (the case's failure is its result)
+                pending.remove(m)
+                yield m.index, e
+                continue
+            approach[m.row] = np.asarray(step[0], dtype=np.float64) / m.model.length_scale
+            active[m.row], restore[m.row] = True, step[1]
+        if not active.any():
+            break
+        if restore.any():
+            solver.restore(restore)
+        infos = solver.step(approach, tol, 100 * tol, max_iter, max_turns, active)
+        keep = np.zeros(rows, dtype=bool)
+        for m in [m for m in pending if active[m.row]]:
+            info = infos[m.row]
+            if not info.converged:  # run again on its own, where hard steps have more help
+                pending.remove(m)
+                yield m.index, None
+                continue
+            for name, source in arrays.items():
+                cells = source.shape[1]
+                wp.copy(getattr(m.state, name).flatten(), source, src_offset=m.row * cells, count=cells)
+            m.state.approach = tuple(a * m.model.length_scale for a in approach[m.row])
+            m.state.info = info
+            try:
+                check_contact_fits(m.state)  # a contact past the domain's edge: the case's error
+                if m.checked(lambda: m.search.record(m.state, info)):
+                    keep[m.row] = True
+                    m.last_stick.copy_from(m.state)
+            except Exception as e:  # noqa: BLE001 (the case's failure is its result)
+                pending.remove(m)
+                yield m.index, e
+        if keep.any():
+            solver.keep(keep)

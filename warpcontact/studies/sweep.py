@@ -301,10 +301,15 @@ def _placement_device(sweep: Sweep) -> str:
     return next((d for d in devices if str(d).startswith("cuda")), devices[0] if devices else "cpu")
 
 
+#: the tasks whose cases ``run_sweep`` may solve by batched solves: load paths
+#: (``batch_solve.solve_batch``) and gross-slip searches (``batch_solve.gross_slip_batch``)
+BATCHED_TASKS = ("solve", "gross-slip")
+
+
 def batched_cases(task: str, cases: list, placement, batch: int | None = None) -> list:
-    """Those of ``cases`` (``SweepCase``) that ``run_sweep`` solves by batched solves
-    (``warpcontact.solve_batch``, in this process): with the task "solve", cases without
-    adhesion; by default those on a CUDA device where the cases run in
+    """Those of ``cases`` (``SweepCase``) that ``run_sweep`` solves by batched solves (in this
+    process): with the task "solve", cases without adhesion (``warpcontact.solve_batch``); with
+    "gross-slip", cases with friction and without adhesion (``batch_solve.gross_slip_batch``); by default those on a CUDA device where the cases run in
     this process (``placement``), and where ``batch`` (cases per batched solve) is given, those on
     any device wherever the others run; none where ``batch`` is 0, or where fewer than two cases
     qualify. On 2 CPU cores a batch saves the launches' overhead but not their work, and
@@ -314,11 +319,22 @@ def batched_cases(task: str, cases: list, placement, batch: int | None = None) -
     from ..numerics.device import resolve_device
     from .batch_solve import batchable
 
-    if batch == 0 or task != "solve" or (batch is None and not placement.in_process(len(cases))):
+    if batch == 0 or task not in BATCHED_TASKS or (batch is None and not placement.in_process(len(cases))):
         return []
-    chosen = [sc for sc in cases if batchable(sc.case)
+    chosen = [sc for sc in cases if batchable(sc.case) and (task == "solve" or sc.case.friction is not None)
               and (batch is not None or wp.get_device(resolve_device(sc.case.solver.device)).is_cuda)]
     return chosen if len(chosen) > 1 else []
+
+
+def _searched_outcome(entry) -> dict:
+    """A batched gross-slip search's entry ((summary, warnings), or the exception the case raised)
+    as ``run_case``'s outcome."""
+    from .tasks import result_row
+
+    if isinstance(entry, BaseException):
+        return {"elapsed_s": 0.0, "warnings": [], "error": recorded_error(entry)}
+    summary, messages = entry
+    return {"elapsed_s": summary.get("elapsed_s", 0.0), "warnings": list(messages), "summary": result_row(summary)}
 
 
 def _batched_outcome(result) -> dict:
@@ -457,21 +473,27 @@ def run_sweep(sweep: Sweep, out: str | PathLike, quiet: bool = False, log=None, 
 
     def run_together():
         """The batched cases, each written as it ends (a stop ends the batch: what ended is written)."""
-        from .batch_solve import solve_batch
+        from .batch_solve import gross_slip_batch, solve_batch
         from .tasks import prepare
 
         last = [time.perf_counter()]
 
-        def on_case(i, result):
+        def on_case(i, outcome):
             table = time.perf_counter() - last[0] >= TABLE_EVERY_S
-            on_result(task_of(together[i]), _batched_outcome(result), table)
+            on_result(task_of(together[i]), outcome, table)
             if table:
                 last[0] = time.perf_counter()
             progress.status(len(records), extra=f"{len(records) - len(report.skipped)} case(s) solved, batched")
 
         with warnings.catch_warnings():  # each case's warnings are in its record (and printed with it)
             warnings.simplefilter("ignore")
-            solve_batch([prepare(sc.case) for sc in together], fields="none", batch=batch or None, on_case=on_case)
+            prepared = [prepare(sc.case) for sc in together]
+            if sweep.task == "gross-slip":
+                gross_slip_batch(prepared, rel_tol=sweep.rel_tol, batch=batch or None,
+                                 on_case=lambda i, entry: on_case(i, _searched_outcome(entry)))
+            else:
+                solve_batch(prepared, fields="none", batch=batch or None,
+                            on_case=lambda i, result: on_case(i, _batched_outcome(result)))
         with interrupts.deferred():
             write_table()
     try:

@@ -64,9 +64,21 @@ def run_gross_slip(case: Case, model, solver, rel_tol: float = 0.01, on_state=No
     """The gross-slip search of ``case`` on a built model and solver, with the run's checks
     (:class:`~warpcontact.records.guards.RunChecks`: resolution and yield, one warning each), as a summary:
     find_gross_slip's result with its results withheld (None, and a ``note``) when a state did
-    not converge. The one builder of a gross-slip summary."""
+    not converge. The one builder of a gross-slip summary (:func:`gross_slip_search`)."""
+    from .slip_search import solve_search
+
+    search, finish = gross_slip_search(case, model, solver.friction, solver.adhesion, rel_tol, on_state)
+    return finish(solve_search(search, solver))
+
+
+def gross_slip_search(case: Case, model, friction, adhesion, rel_tol: float = 0.01, on_state=None):
+    """(search, finish): the gross-slip search of ``case`` (a
+    :class:`~warpcontact.studies.slip_search.GrossSlipSearch`, whoever solves its states: one at a
+    time, or batched with other cases' by ``batch_solve.gross_slip_batch``) with the run's checks
+    observing its states, and ``finish(result)``, the summary of its result (checked, its results
+    withheld when a state did not converge)."""
     from ..records.guards import GROSS_SLIP_RESULTS, RunChecks, withhold_if_unconverged
-    from .slip_search import find_gross_slip
+    from .slip_search import GrossSlipSearch
     from ..numerics.yielding import state_yield_keys
 
     checks = RunChecks(case)
@@ -77,11 +89,15 @@ def run_gross_slip(case: Case, model, solver, rel_tol: float = 0.01, on_state=No
             on_state(k, s)
 
     steps = case.load.normal_leg_steps if not case.load.explicit else 4
-    r = find_gross_slip(model, solver, case.load.delta_z_max, normal_steps=steps, rel_tol=rel_tol, on_state=observe,
-                        at_max=state_yield_keys)
-    checks.gross_slip(r)
-    checks.yielded(r.get("yield_check"), f"at delta_x_max = {r['delta_x_max']:.4g} m")
-    return withhold_if_unconverged(r, GROSS_SLIP_RESULTS)
+    search = GrossSlipSearch(model, friction, adhesion, case.load.delta_z_max, normal_steps=steps, rel_tol=rel_tol,
+                             on_state=observe, at_max=state_yield_keys)
+
+    def finish(r: dict) -> dict:
+        checks.gross_slip(r)
+        checks.yielded(r.get("yield_check"), f"at delta_x_max = {r['delta_x_max']:.4g} m")
+        return withhold_if_unconverged(r, GROSS_SLIP_RESULTS)
+
+    return search, finish
 
 
 def run_pull_off(case: Case, model, solver, steps: int = 20, retract_to: float | None = None, on_state=None) -> dict:
