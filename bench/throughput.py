@@ -19,6 +19,11 @@ size runs, side by side in one process:
 kernels and transforms launched once for its B cases; one warm-up batch first); a case whose
 batched step did not converge is solved on its own inside it (counted: ``solved_alone``).
 
+``--problem gross-slip``: the coupled case's gross-slip search (``find_gross_slip``: 4 normal
+steps, then load and bisection steps, 14-18 states) at delta_z spread over 0.5 ... 1.5 x 1e-10 m:
+``api`` one case after another (``tasks.gross_slip_summary``, the model reused) against ``batch
+B`` rows (``batch_solve.gross_slip_batch``).
+
 ``--problem normal``: the same pair and sphere without ``[friction]``, one normal step to delta_z
 spread over 0.5 ... 1.5 x 1e-10 m; besides ``api``, ``batch B`` rows (on CUDA
 the yield checks of the cases a state ends made together); ``--own-checks`` adds ``api`` and the
@@ -178,6 +183,45 @@ def batched(cases: list, batch: int, own_checks: bool = False) -> dict:
             "cases": len(cases), "start_s": 0.0, "wall_s": wall, "solved_alone": len(alone)}
 
 
+def slip_cases(n: int, cases: int, device: str, dtype: str) -> list:
+    """``--problem gross-slip``: the coupled case's pair and law, the gross-slip search at
+    delta_z spread over 0.5 ... 1.5 x DZ (4 normal steps, then the load and bisection steps)."""
+    from warpcontact.studies.sweep_spec import load_sweep
+    from warpcontact.studies.tasks import prepare
+
+    folder = Path(tempfile.mkdtemp(prefix="throughput_case_"))
+    try:
+        (folder / "base.toml").write_text(base_case(n, device, dtype).replace("delta_x = 2e-11\n", ""))
+        values = ", ".join(repr(DZ * (0.5 + i / max(1, cases - 1))) for i in range(cases))
+        path = folder / "sweep.toml"
+        path.write_text(f'base = "base.toml"\n[sweep]\n"load.delta_z" = [{values}]\n[run]\ntask = "gross-slip"\n')
+        return [prepare(sc.case) for sc in load_sweep(path).cases]
+    finally:
+        shutil.rmtree(folder, ignore_errors=True)
+
+
+def searched(cases: list, batch: int) -> dict:
+    """``--problem gross-slip``: ``api`` (batch 0: ``gross_slip_summary`` one case after another,
+    the model reused) or ``batch B`` (``batch_solve.gross_slip_batch``), after a warm-up."""
+    from warpcontact.studies.batch_solve import gross_slip_batch
+    from warpcontact.studies.runner import build_model
+    from warpcontact.studies.tasks import gross_slip_summary
+
+    if batch:
+        gross_slip_batch(cases[:batch], batch=batch)
+        t0 = time.perf_counter()
+        results = [r if isinstance(r, Exception) else r[0] for r in gross_slip_batch(cases, batch=batch)]
+    else:
+        model = build_model(cases[0])
+        gross_slip_summary(cases[0], model=model)
+        t0 = time.perf_counter()
+        results = [gross_slip_summary(c, model=model) for c in cases]
+    wall = time.perf_counter() - t0
+    assert all(not isinstance(r, Exception) and r["converged"] for r in results), "a case did not converge"
+    return {"placement": f"batch {batch}" if batch else "api", "workers": 1, "cases": len(cases), "start_s": 0.0,
+            "wall_s": wall, "states": sum(len(r["states"]) for r in results)}
+
+
 def with_workers(path: Path, workers: int) -> dict:
     """``W workers``: the sweep engine on a local cluster of ``workers`` processes."""
     from warpcontact.studies.batch import Placement
@@ -205,8 +249,9 @@ def main(argv=None):
     ap.add_argument("--cases", type=int, default=24)
     ap.add_argument("--workers", type=int, nargs="*", default=[2],
                     help="worker counts of the local clusters (besides the one-at-a-time row; none: that row alone)")
-    ap.add_argument("--problem", default="coupled", choices=["coupled", "normal"],
-                    help="coupled: Tabor friction, a normal and a tangential step; normal: no friction, one step")
+    ap.add_argument("--problem", default="coupled", choices=["coupled", "normal", "gross-slip"],
+                    help="coupled: Tabor friction, a normal and a tangential step; normal: no friction, one step; "
+                         "gross-slip: the coupled case's gross-slip search")
     ap.add_argument("--batches", type=int, nargs="*", default=[16, 64],
                     help="batch sizes of the batched rows (none: no batched row)")
     ap.add_argument("--own-checks", action="store_true",
@@ -226,7 +271,11 @@ def main(argv=None):
     log = out_dir / f"throughput_{args.device.replace(':', '')}_{time.strftime('%Y%m%d_%H%M%S')}.jsonl"
     rows = []
     for n in args.sizes:
-        if args.problem == "normal":
+        if args.problem == "gross-slip":
+            cases = slip_cases(n, args.cases, args.device, args.dtype)
+            base = searched(cases, 0)
+            runs = [base] + [searched(cases, b) for b in args.batches]
+        elif args.problem == "normal":
             cases = normal_cases(n, args.cases, args.device, args.dtype)
             base = one_at_a_time(cases)
             runs = [base] + [batched(cases, b) for b in args.batches]

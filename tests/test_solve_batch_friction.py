@@ -293,3 +293,30 @@ def test_a_gross_slip_sweep_batched_records_what_one_case_at_a_time_records(tmp_
         assert s["delta_x_max"] == t["delta_x_max"] and s["delta_x_gross"] == t["delta_x_gross"]
         assert abs(s["mu"] - t["mu"]) <= 2e-9
         assert s["yielded"] == t["yielded"]
+
+
+def test_table2_cells_searched_together_record_what_one_at_a_time_records(tmp_path, monkeypatch):
+    """``warpcontact table2 --no-adhesion --batch 4``: the four cells' searches walk together (one
+    batch: cells of one n, each its own grid and k_tau); each record as one cell at a time writes
+    it: the same states and delta_x_max, mu within 2e-9 (as the sweep above)."""
+    import json
+
+    from warpcontact.cli import main
+    from warpcontact.studies import batch_solve
+
+    searches, search = [], batch_solve.search_batch
+    monkeypatch.setattr(batch_solve, "search_batch",
+                        lambda entries, *a, **kw: searches.append(len(entries)) or search(entries, *a, **kw))
+    sel = ["--no-adhesion", "--n", "24", "--k-tau", "0.8", "0.95", "--delta-z-um", "5e-5", "1e-5", "--quiet"]
+    codes = [quiet(main, ["table2", *sel, "--batch", batch, "--out", str(tmp_path / batch)]) for batch in ("0", "4")]
+    assert codes[0] == codes[1] and codes[0] in (0, 3)
+    assert searches == [4]
+    one, together = (json.loads((tmp_path / d / "table2.json").read_text())["cells"] for d in ("0", "4"))
+    key = sorted
+    assert key((c["k_tau"], c["delta_z_um"]) for c in one) == key((c["k_tau"], c["delta_z_um"]) for c in together)
+    by_cell = {(c["k_tau"], c["delta_z_um"]): c for c in together}
+    for a in one:
+        b = by_cell[(a["k_tau"], a["delta_z_um"])]
+        assert (a["converged"], a["states"], a["delta_x_max_um"]) == (b["converged"], b["states"], b["delta_x_max_um"])
+        if a["mu"] is not None:
+            assert abs(a["mu"] - b["mu"]) <= 2e-9

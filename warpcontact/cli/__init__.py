@@ -137,6 +137,9 @@ def _parser():
     from .sweep import add_batch_options
 
     add_batch_options(t, "1", default=1)  # warpcontact.studies.batch
+    t.add_argument("--batch", type=int, metavar="B",
+                   help="the cells without adhesion searched B at a time by batched steps, in this process (default: "
+                   "on CUDA all of them together; on the CPU one cell at a time); 0: one cell at a time everywhere")
     po = _case_command(
         sub, "pull-off", "case file (TOML) with an [adhesion] table",
         help="approach and retract the sphere: force-displacement curve and pull-off force",

@@ -66,9 +66,10 @@ def add_parser(sub):
         epilog=EXAMPLE_SWEEP,
     )
     p.add_argument("--batch", type=int, metavar="B",
-                   help="with the task \"solve\": cases of normal contact alone (no friction, no adhesion) solved B "
-                   "at a time by one batched solve, in this process (default: on CUDA, as many as half the free "
-                   "memory holds, up to 256; on the CPU one case at a time); 0: one case at a time everywhere")
+                   help="with the task \"solve\" (cases without adhesion) or \"gross-slip\" (cases with friction, "
+                   "without adhesion): cases solved B at a time by batched steps, in this process (default: on CUDA, "
+                   "as many as half the free memory holds, up to 256; on the CPU one case at a time); 0: one case at "
+                   "a time everywhere")
     return p
 
 

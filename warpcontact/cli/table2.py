@@ -38,7 +38,9 @@ def cmd_table2(args) -> int:
         study = Table2Run(settings, args.out, args.n, columns, args.k_tau, args.delta_z_um)
     except InputError as e:
         raise _option(e) from None
-    report = study.run(placement_from(args), quiet=args.quiet)
+    if args.batch is not None and args.batch < 0:
+        raise InputError("--batch", f"must be a whole number of cells, 0 or more, got {args.batch}")
+    report = study.run(placement_from(args), quiet=args.quiet, batch=args.batch)
     if report.write_error is not None:
         rest = "finish" if report.write_error_at_end else "compute the others"
         raise report.write_error.with_hint(f"{report.kept} cell(s) finished and kept in {report.path}: free space "

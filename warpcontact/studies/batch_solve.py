@@ -310,17 +310,69 @@ class _Member:
 
 def gross_slip_batch(cases: list, rel_tol: float = 0.01, batch: int | None = None, on_case=None) -> list:
     """The gross-slip search of each case (prepared cases with ``[friction]``), the searches of
-    cases without adhesion of one grid size, device and float type walking together: at each
-    batched step every search's next state (its own approach, from its own last stick state in
-    the bisection) is solved by one ``BatchContactSolver.step``. Returns one entry per case, in
-    order: (summary, warnings), the summary what ``tasks.gross_slip_summary`` returns for it (the
-    same checks; the forces within the solves' tolerance) and the messages of the warnings its
-    checks gave, or the exception the case raised. A search whose batched step does not converge
-    is run again on its own, as are cases with adhesion, and cases on the CPU unless ``batch`` is
-    given (``FRICTION_ON_CPU``). ``on_case(index, entry)`` as each case ends."""
-    from .tasks import check_gross_slip_case, gross_slip_summary
+    cases without adhesion of one grid size, device and float type walking together
+    (:func:`search_batch`). Returns one entry per case, in order: (summary, warnings), the summary
+    what ``tasks.gross_slip_summary`` returns for it (the same checks; the forces within the
+    solves' tolerance) and the messages of the warnings its checks gave, or the exception the case
+    raised. Cases with adhesion are searched on their own, and so are cases on the CPU unless
+    ``batch`` is given (``FRICTION_ON_CPU``). ``on_case(index, entry)`` as each case ends."""
+    from .tasks import check_gross_slip_case, gross_slip_search, gross_slip_summary
 
-    results: list = [None] * len(cases)
+    entries, results = [], [None] * len(cases)
+    for index, case in enumerate(cases):
+        s = case.solver
+        on_cpu = wp.get_device(resolve_device(s.device)).is_cpu
+        if case.friction is None or case.adhesion is not None or (batch is None and on_cpu and not FRICTION_ON_CPU):
+            entries.append(SearchEntry(alone=lambda c=case: gross_slip_summary(c, rel_tol=rel_tol)))
+            continue
+        try:
+            check_gross_slip_case(case)
+        except InputError:  # (the search on its own raises it: the case's error in its place)
+            entries.append(SearchEntry(alone=lambda c=case: gross_slip_summary(c, rel_tol=rel_tol)))
+            continue
+
+        def start(model, case=case):
+            law = friction_law(case)
+            search, finish = gross_slip_search(case, model, law, None, rel_tol)
+            cap = case.pair.softer.hardness / model.traction_scale if case.friction.hardness_cap else np.inf
+            return search, finish, law, cap
+
+        entries.append(SearchEntry(alone=lambda c=case: gross_slip_summary(c, rel_tol=rel_tol), start=start,
+                                   model_key=_model_key(case, index), build=lambda c=case: build_model(c),
+                                   tol=s.tol, max_iter=s.max_iter, max_turns=s.max_turns))
+    return search_batch(entries, batch, on_case)
+
+
+class SearchEntry:
+    """One gross-slip search for :func:`search_batch`.
+
+    Args:
+        alone: runs the search on its own and returns its summary (a case that is not batched, or
+            whose batched step did not converge).
+        start: ``start(model)`` -> (``GrossSlipSearch``, finish, friction law, pressure cap / E*)
+            on the search's model: ``finish(result)`` makes its summary; None: not batched.
+        model_key: what makes two searches' models the same (they share one); build: makes it.
+        tol, max_iter, max_turns: its solves' settings (tol None: the float type's default).
+    """
+
+    def __init__(self, alone, start=None, model_key=None, build=None, tol=None, max_iter=None, max_turns=None):
+        from ..solvers.settings import SolverSettings
+
+        defaults = SolverSettings()
+        self.alone, self.start, self.model_key, self.build = alone, start, model_key, build
+        self.tol = tol
+        self.max_iter = defaults.max_iter if max_iter is None else max_iter
+        self.max_turns = defaults.max_turns if max_turns is None else max_turns
+
+
+def search_batch(entries: list, batch: int | None = None, on_case=None) -> list:
+    """Run gross-slip searches (``SearchEntry``), those with a ``start`` of one grid size, device
+    and float type together: at each batched step every search's next state (its own approach,
+    from its own last stick state in the bisection) is solved by one ``BatchContactSolver.step``.
+    Returns one entry per search, in order: (summary, warnings) or the exception it raised. A
+    search whose batched step does not converge is run again on its own (``alone``), where hard
+    steps have the single solver's help. ``on_case(index, entry)`` as each ends."""
+    results: list = [None] * len(entries)
 
     def done(index, entry):
         results[index] = entry
@@ -331,26 +383,32 @@ def gross_slip_batch(cases: list, rel_tol: float = 0.01, batch: int | None = Non
         with warnings.catch_warnings(record=True) as caught:
             warnings.simplefilter("always")
             try:
-                entry = (gross_slip_summary(cases[index], rel_tol=rel_tol), _messages(caught))
+                entry = (entries[index].alone(), _messages(caught))
             except Exception as e:  # noqa: BLE001 (the case's failure is its result)
                 entry = e
         done(index, entry)
 
+    models: dict = {}
     groups: OrderedDict = OrderedDict()
-    for index, case in enumerate(cases):
-        s = case.solver
-        on_cpu = wp.get_device(resolve_device(s.device)).is_cpu
-        if case.friction is None or case.adhesion is not None or (batch is None and on_cpu and not FRICTION_ON_CPU):
+    for index, entry in enumerate(entries):
+        if entry.start is None:
             alone(index)
             continue
-        check_gross_slip_case(case)
-        groups.setdefault((case.grid.n, str(resolve_device(s.device)), s.dtype), []).append(index)
-    for (n, device, dtype), indices in groups.items():
-        size = batch_size(n, device, resolve_dtype(dtype), len(indices), batch, friction=True)
+        try:
+            model = models.get(entry.model_key)
+            if model is None:
+                model = models[entry.model_key] = entry.build()
+        except Exception as e:  # noqa: BLE001 (the case's failure is its result)
+            done(index, e)
+            continue
+        groups.setdefault((model.grid.n, str(model.device), model.dtype_name), []).append((index, model))
+    for (n, device, dtype), members in groups.items():
+        size = batch_size(n, device, resolve_dtype(dtype), len(members), batch, friction=True)
         solver = BatchContactSolver(n, size, device, resolve_dtype(dtype))
-        for start in range(0, len(indices), size):
-            chunk = indices[start:start + size]
-            for index, entry in _search_chunk(solver, [cases[i] for i in chunk], chunk, rel_tol):
+        for first in range(0, len(members), size):
+            chunk = members[first:first + size]
+            searches = [_Search(row, index, entries[index], model) for row, (index, model) in enumerate(chunk)]
+            for index, entry in _search_chunk(solver, searches):
                 if entry is None:
                     alone(index)
                 else:
@@ -364,22 +422,16 @@ def _messages(caught) -> list:
 
 
 class _Search:
-    """One case's gross-slip search in a batch: its model, states and checks."""
+    """One search of a batch: its model, states, checks and the warnings they gave."""
 
-    def __init__(self, row: int, index: int, case, model, rel_tol: float):
-        from .tasks import gross_slip_search
-
-        self.row, self.index, self.case, self.model = row, index, case, model
+    def __init__(self, row: int, index: int, entry: SearchEntry, model):
+        self.row, self.index, self.entry, self.model = row, index, entry, model
         self.warnings: list = []
-        self.t0 = time.perf_counter()
         self.state, self.last_stick = ContactState(model), ContactState(model)
-        with warnings.catch_warnings(record=True) as caught:
-            warnings.simplefilter("always")
-            self.search, self.finish = gross_slip_search(case, model, friction_law(case), None, rel_tol)
-        self.warnings += _messages(caught)
+        self.search, self.finish, self.law, self.cap = self.checked(lambda: entry.start(model))
 
     def checked(self, work):
-        """``work()`` with the warnings it gives kept as this case's."""
+        """``work()`` with the warnings it gives kept as this search's."""
         with warnings.catch_warnings(record=True) as caught:
             warnings.simplefilter("always")
             try:
@@ -388,28 +440,19 @@ class _Search:
                 self.warnings += _messages(caught)
 
 
-def _search_chunk(solver: BatchContactSolver, cases: list, indices: list, rel_tol: float):
-    """Walk the searches of ``cases`` (at most the solver's B) in step; yields (index, entry) as
-    each ends, entry None for a case to run again on its own."""
-    models: dict = {}
-    members = []
-    for row, case in enumerate(cases):
-        key = _model_key(case, row)
-        if key not in models:
-            models[key] = build_model(case)
-        members.append(_Search(row, indices[row], case, models[key], rel_tol))
+def _search_chunk(solver: BatchContactSolver, members: list):
+    """Walk the searches ``members`` (at most the solver's B) in step; yields (index, entry) as
+    each ends, entry None for a search to run again on its own."""
     normal = solver.normal
     solver.clear()
     for m in members:
         wp.copy(normal.initial_gap, m.model.initial_gap.flatten(), dest_offset=m.row * normal.n_cells)
-    solver.set_cases([m.case.pair for m in members],
-                     [law_parameters(friction_law(m.case), m.model.traction_scale) for m in members],
-                     [m.case.pair.softer.hardness / m.model.traction_scale if m.case.friction.hardness_cap
-                      else np.inf for m in members])
+    solver.set_cases([m.model.pair for m in members],
+                     [law_parameters(m.law, m.model.traction_scale) for m in members], [m.cap for m in members])
     rows = len(members)
-    tol = np.array([m.case.solver.tol or default_tolerance(normal.dtype) for m in members])
-    max_iter = np.array([m.case.solver.max_iter for m in members])
-    max_turns = min(BATCH_MAX_TURNS, *(m.case.solver.max_turns for m in members))
+    tol = np.array([m.entry.tol or default_tolerance(normal.dtype) for m in members])
+    max_iter = np.array([m.entry.max_iter for m in members])
+    max_turns = min(BATCH_MAX_TURNS, *(m.entry.max_turns for m in members))
     arrays = _rows_fields(solver)
     pending = list(members)
     while pending:

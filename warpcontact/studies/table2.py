@@ -139,53 +139,75 @@ def table2_cell(k_tau: float, delta_z_um: float, settings: Table2Settings, on_st
     pressure alone is reported beside it. ``model``: the cell's model to reuse (a
     :class:`~warpcontact.numerics.model.ContactModel` of :func:`cell_model_key`), else one is built.
     """
-    from ..physics.friction import TaborVonMises
-    from ..numerics.model import ContactModel
-    from .slip_search import find_gross_slip
+    from .slip_search import solve_search
     from ..solvers.contact import ContactSolver
+
+    if model is None:
+        model = cell_model(delta_z_um, settings, adhesion)
+    search, finish, law = cell_search(k_tau, delta_z_um, settings, adhesion, model, on_state)
+    return finish(solve_search(search, ContactSolver(model, law, adhesion=search.adhesion)))
+
+
+def cell_model(delta_z_um: float, settings: Table2Settings, adhesion: bool):
+    """The model of a cell (:func:`cell_model_key`)."""
+    from ..numerics.model import ContactModel
+
+    adhesive = settings.adhesion_law() if adhesion else None
+    return ContactModel(PAPER_PAIR, Sphere(RADIUS), cell_grid(delta_z_um * UM, settings, adhesive),
+                        device=settings.device, dtype=settings.dtype, fft=settings.fft)
+
+
+def cell_search(k_tau: float, delta_z_um: float, settings: Table2Settings, adhesion: bool, model, on_state=None):
+    """(search, finish, law): a cell's gross-slip search on its ``model``
+    (:class:`~warpcontact.studies.slip_search.GrossSlipSearch`, whoever solves its states: one at a
+    time, :func:`table2_cell`, or batched with other cells', :meth:`Table2Run.run`),
+    ``finish(result)`` its record, and its Tabor-von Mises law."""
+    from ..physics.friction import TaborVonMises
+    from .slip_search import GrossSlipSearch
     from ..numerics.yielding import state_yield_keys
 
     dz = delta_z_um * UM
     adhesive = settings.adhesion_law() if adhesion else None
-    if model is None:
-        model = ContactModel(PAPER_PAIR, Sphere(RADIUS), cell_grid(dz, settings, adhesive),
-                             device=settings.device, dtype=settings.dtype, fft=settings.fft)
     law = TaborVonMises(k_tau, PAPER_PAIR.softer.yield_strength)
     t0 = time.perf_counter()
-    r = find_gross_slip(model, ContactSolver(model, law, adhesion=adhesive), dz, rel_tol=settings.rel_tol,
-                        on_state=on_state, at_max=state_yield_keys)
-    paper_dx, paper_mu = paper_table().get((k_tau, delta_z_um, bool(adhesion)), (math.nan, math.nan))
-    dx_um = r["delta_x_max"] / UM
-    record = {
-        "k_tau": k_tau,
-        "delta_z_um": delta_z_um,
-        "adhesion": bool(adhesion),
-        "delta_x_max_um": dx_um,
-        "delta_x_gross_um": r["delta_x_gross"] / UM,
-        "mu": r["mu"],
-        "mu_elastic": r["mu_elastic"],
-        "force_N": r["force"],
-        "force_elastic_N": r["force_elastic"],
-        "paper_delta_x_max_um": paper_dx,
-        "paper_mu": paper_mu,
-        "rel_diff_delta_x_max": dx_um / paper_dx - 1.0,
-        "rel_diff_mu": None if r["mu"] is None else r["mu"] / paper_mu - 1.0,
-        "converged": r["converged"],
-        "n": settings.n,
-        "grid_n": model.grid.n,
-        "size_m": model.grid.size,
-        "cell_m": model.grid.dx,
-        "mu_b": law.mu_b,
-        "crossover_pressure_Pa": law.crossover_pressure,
-        "elapsed_s": time.perf_counter() - t0,
-        "states": len(r["states"]),
-        **{k: r.get(k) for k in ("yielded", "yield_margin", "yield_check")},  # at delta_x_max (find_gross_slip)
-    }
-    if "mu_note" in r:
-        record["mu_note"] = r["mu_note"]
-    if adhesive is not None:
-        record["adhesion_law"] = adhesive.describe()
-    return withhold_if_unconverged(record, TABLE2_RESULTS)
+    search = GrossSlipSearch(model, law, adhesive, dz, rel_tol=settings.rel_tol, on_state=on_state,
+                             at_max=state_yield_keys)
+
+    def finish(r: dict) -> dict:
+        paper_dx, paper_mu = paper_table().get((k_tau, delta_z_um, bool(adhesion)), (math.nan, math.nan))
+        dx_um = r["delta_x_max"] / UM
+        record = {
+            "k_tau": k_tau,
+            "delta_z_um": delta_z_um,
+            "adhesion": bool(adhesion),
+            "delta_x_max_um": dx_um,
+            "delta_x_gross_um": r["delta_x_gross"] / UM,
+            "mu": r["mu"],
+            "mu_elastic": r["mu_elastic"],
+            "force_N": r["force"],
+            "force_elastic_N": r["force_elastic"],
+            "paper_delta_x_max_um": paper_dx,
+            "paper_mu": paper_mu,
+            "rel_diff_delta_x_max": dx_um / paper_dx - 1.0,
+            "rel_diff_mu": None if r["mu"] is None else r["mu"] / paper_mu - 1.0,
+            "converged": r["converged"],
+            "n": settings.n,
+            "grid_n": model.grid.n,
+            "size_m": model.grid.size,
+            "cell_m": model.grid.dx,
+            "mu_b": law.mu_b,
+            "crossover_pressure_Pa": law.crossover_pressure,
+            "elapsed_s": time.perf_counter() - t0,
+            "states": len(r["states"]),
+            **{k: r.get(k) for k in ("yielded", "yield_margin", "yield_check")},  # at delta_x_max (find_gross_slip)
+        }
+        if "mu_note" in r:
+            record["mu_note"] = r["mu_note"]
+        if adhesive is not None:
+            record["adhesion_law"] = adhesive.describe()
+        return withhold_if_unconverged(record, TABLE2_RESULTS)
+
+    return search, finish, law
 
 
 def cell_model_key(delta_z_um: float, settings: Table2Settings, adhesion: bool) -> tuple:
@@ -470,6 +492,51 @@ class Table2Run:
             raise
         self.kept = len(self.records)
 
+    def _batched_cells(self, placement, batch) -> list:
+        """The pending cells searched by batched steps (:meth:`run`): those without adhesion."""
+        import warp as wp
+
+        from ..numerics.device import resolve_device
+
+        if batch == 0 or (batch is None and not (placement.in_process(len(self._pending))
+                                                  and wp.get_device(resolve_device(self.settings.device)).is_cuda)):
+            return []
+        cells = [(i, c) for i, c in self._pending if not c[3]]
+        return cells if len(cells) > 1 else []
+
+    def _run_batched(self, cells, batch, progress) -> None:
+        """Search ``cells`` ((index, (n, k_tau, delta_z_um, adhesion)) each) by batched steps, each
+        record kept and the tables written as the cell ends."""
+        import dataclasses
+        import warnings
+
+        from .batch_solve import SearchEntry, search_batch
+
+        entries, labels, settings_of = [], [], []
+        for i, (n, k, dz, adh) in cells:
+            settings = dataclasses.replace(self.settings, n=n)
+
+            def start(model, k=k, dz=dz, settings=settings):
+                search, finish, law = cell_search(k, dz, settings, False, model)
+                return search, finish, law, math.inf
+
+            entries.append(SearchEntry(alone=lambda k=k, dz=dz, settings=settings: run_cell(k, dz, settings, False),
+                                       start=start, model_key=cell_model_key(dz, settings, False),
+                                       build=lambda dz=dz, settings=settings: cell_model(dz, settings, False)))
+            labels.append(f"n {n} k_tau {k:.2f} delta_z {dz:.1e} um adhesionless")
+            settings_of.append(settings)
+
+        def on_case(j, entry):
+            if isinstance(entry, BaseException):
+                raise entry
+            record, messages = entry
+            for message in messages:  # the cell's checks' warnings, as a cell on its own gives them
+                warnings.warn(message, stacklevel=2)
+            self._finish(cells[j][0], labels[j], record, settings_of[j], progress)
+
+        progress.status(self.finished, extra=f"{len(cells)} cells without adhesion, batched")
+        search_batch(entries, batch, on_case)
+
     def _finish(self, i, cell, rec, settings, progress) -> bool:
         """Keep a finished cell and write the tables at once; False if stopped meanwhile (a stop
         signal, a write error)."""
@@ -489,10 +556,13 @@ class Table2Run:
         progress.status(self.finished)
         return True
 
-    def run(self, placement=None, quiet: bool = False, log=None) -> "Table2Run":
+    def run(self, placement=None, quiet: bool = False, log=None, batch: int | None = None) -> "Table2Run":
         """Compute the planned cells not finished before where ``placement`` says
         (:class:`warpcontact.studies.batch.Placement`; default: this process) and write the tables
         after each (:func:`write_table2`; table2.json's ``complete`` is false until the last write).
+        The cells without adhesion are searched together by batched steps
+        (``batch_solve.search_batch``, ``batch`` cells at a time) where ``batch`` is given, and by
+        default on CUDA where the cells run in this process; ``batch`` 0: one cell at a time.
         A stop ends the run with ``interrupted`` set; a write that fails, with ``write_error``. Unless
         quiet, a result line per cell goes to ``log`` (stderr), under a progress bar on a terminal.
         Returns self."""
@@ -506,8 +576,11 @@ class Table2Run:
         try:
             with interrupts.deferred():
                 self._write()  # this run's marker (complete: false) replaces the last run's before any cell
+            together = self._batched_cells(placement, batch)
+            if together:
+                self._run_batched(together, batch, progress)
             tasks = []
-            for i, (n, k, dz, adh) in self._pending:  # one task of the batch engine per cell
+            for i, (n, k, dz, adh) in [p for p in self._pending if p not in together]:  # one task per cell
                 settings = dataclasses.replace(self.settings, n=n)
                 label = f"n {n} k_tau {k:.2f} delta_z {dz:.1e} um {'adhesive' if adh else 'adhesionless'}"
                 tasks.append(Task(str(i), label, run_cell, (k, dz, settings, adh), cell_model_key(dz, settings, adh)))
