@@ -318,7 +318,7 @@ def gross_slip_batch(cases: list, rel_tol: float = 0.01, batch: int | None = Non
     ``batch`` is given (``FRICTION_ON_CPU``). ``on_case(index, entry)`` as each case ends."""
     from .tasks import check_gross_slip_case, gross_slip_search, gross_slip_summary
 
-    entries, results = [], [None] * len(cases)
+    entries = []
     for index, case in enumerate(cases):
         s = case.solver
         on_cpu = wp.get_device(resolve_device(s.device)).is_cpu
