@@ -133,9 +133,14 @@ def test_a_case_whose_batched_step_does_not_converge_is_solved_on_its_own(monkey
     assert_same_path(results[0], quiet(wc.solve, MIXED[0], fields="none"), rel=1e-9)
 
 
-def test_on_the_cpu_friction_cases_are_batched_only_when_asked(monkeypatch):
-    """On the CPU the batched step with friction is slower than one case at a time
-    (``FRICTION_ON_CPU``): without ``batch`` its cases go to the single solver."""
+def test_friction_cases_are_batched_by_default_only_where_it_pays(monkeypatch):
+    """Without ``batch``, cases with friction are batched on CUDA from ``FRICTION_MIN_BATCH`` cases
+    of one grid size on, never on the CPU (the batched step with friction is slower there, and
+    with few cases anywhere): here on the CPU they go to the single solver."""
+    from warpcontact.studies.batch_solve import FRICTION_MIN_BATCH, friction_batched
+
+    assert friction_batched(FRICTION_MIN_BATCH, True, None) and not friction_batched(FRICTION_MIN_BATCH - 1, True, None)
+    assert not friction_batched(1000, False, None) and friction_batched(2, False, 2) and not friction_batched(64, True, 0)
     from warpcontact.studies import batch_solve
 
     made = []

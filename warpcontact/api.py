@@ -82,8 +82,9 @@ def solve_batch(cases, device=None, dtype=None, fft=None, fields: str = "none", 
 
     A case with friction whose batched step does not converge is solved again on its own (with
     what the single solver adds for hard steps): its result is then [`solve`][warpcontact.solve]'s.
-    Cases with adhesion are solved one at a time; so are cases with friction on the CPU unless
-    ``batch`` is given (there a batch is slower); so are a batch's cases where the
+    Cases with adhesion are solved one at a time; so are cases with friction unless ``batch`` is
+    given or they run on CUDA, 32 or more of one grid size (fewer, and on the CPU, a batch is
+    slower: ``batch_solve.FRICTION_MIN_BATCH``); so are a batch's cases where the
     batched solve itself fails (a device's refusal, a library's error, no CuPy on CUDA: one
     RuntimeWarning says why). A case that fails (a contact past its domain's edge) has the exception in its place and
     the others go on; a mistake in a case's

@@ -139,7 +139,7 @@ def _parser():
     add_batch_options(t, "1", default=1)  # warpcontact.studies.batch
     t.add_argument("--batch", type=int, metavar="B",
                    help="the cells without adhesion searched B at a time by batched steps, in this process (default: "
-                   "on CUDA all of them together; on the CPU one cell at a time); 0: one cell at a time everywhere")
+                   "one cell at a time: a column's 12 cells are too few for a batch to pay)")
     po = _case_command(
         sub, "pull-off", "case file (TOML) with an [adhesion] table",
         help="approach and retract the sphere: force-displacement curve and pull-off force",

@@ -48,11 +48,24 @@ FRICTION_BYTES_PER_CELL = 85
 #: turns of a batched step with friction; a case whose turns have not settled by then is solved on
 #: its own, where stalled turns are mixed (the Table 2 cells at n = 128 took 2-12 turns a step)
 BATCH_MAX_TURNS = 60
-#: whether cases with friction on the CPU are batched where ``batch`` does not ask for it: there
-#: the batched step's plain tangential iteration makes about twice the transforms of the single
-#: solver's preconditioned one, and transforms are the CPU's time (bench/throughput.py on 2 cores,
-#: n = 64: 1.9 cases/s batched against 3.5 one at a time)
-FRICTION_ON_CPU = False
+#: cases with friction of one grid size are batched, where ``batch`` does not ask for it, on CUDA
+#: and from this many on (``friction_batched``). The batched step's plain tangential iteration
+#: makes about twice the iterations of the single solver's preconditioned one, each with a host
+#: round trip, where the single solver runs its iterations in CUDA graphs: the batch pays where
+#: many cases share the device (one H200, a normal and a tangential step: 3.9-5.8x one case at a
+#: time with 64 cases at n = 64-256; gross-slip searches at n = 128: 1.4x with 32, 3.4x with 128),
+#: not with few (the 12 cells of Table 2's column without adhesion at n = 256: 13-15 s batched
+#: against 8.3-8.7 s one at a time). On the CPU, where transforms are the time, never by default
+#: (2 cores, n = 64: 1.9 cases/s batched against 3.5 one at a time).
+FRICTION_MIN_BATCH = 32
+
+
+def friction_batched(count: int, is_cuda: bool, batch: int | None) -> bool:
+    """Whether ``count`` cases with friction of one grid size are solved by batched steps: where
+    ``batch`` asks (not 0), else on CUDA from ``FRICTION_MIN_BATCH`` cases on."""
+    if batch is not None:
+        return batch > 0
+    return is_cuda and count >= FRICTION_MIN_BATCH
 
 
 def batchable(case) -> bool:
@@ -122,13 +135,16 @@ def _solve_all(cases: list, fields: str, batch: int | None, on_case) -> list:
     groups: OrderedDict = OrderedDict()
     for index, case in enumerate(cases):
         s = case.solver
-        if not batchable(case) or (case.friction is not None and batch is None and not FRICTION_ON_CPU
-                                   and wp.get_device(resolve_device(s.device)).is_cpu):
+        if not batchable(case):
             alone(index)
             continue
         key = (case.grid.n, str(resolve_device(s.device)), s.dtype, case.friction is not None)
         groups.setdefault(key, []).append(index)
     for (n, device, dtype, friction), indices in groups.items():
+        if friction and not friction_batched(len(indices), wp.get_device(device).is_cuda, batch):
+            for index in indices:
+                alone(index)
+            continue
         try:
             size = batch_size(n, device, resolve_dtype(dtype), len(indices), batch, friction)
             kind = BatchContactSolver if friction else BatchNormalSolver
@@ -314,15 +330,14 @@ def gross_slip_batch(cases: list, rel_tol: float = 0.01, batch: int | None = Non
     (:func:`search_batch`). Returns one entry per case, in order: (summary, warnings), the summary
     what ``tasks.gross_slip_summary`` returns for it (the same checks; the forces within the
     solves' tolerance) and the messages of the warnings its checks gave, or the exception the case
-    raised. Cases with adhesion are searched on their own, and so are cases on the CPU unless
-    ``batch`` is given (``FRICTION_ON_CPU``). ``on_case(index, entry)`` as each case ends."""
+    raised. Cases with adhesion are searched on their own, and so are groups that
+    ``friction_batched`` leaves alone. ``on_case(index, entry)`` as each case ends."""
     from .tasks import check_gross_slip_case, gross_slip_search, gross_slip_summary
 
     entries = []
     for index, case in enumerate(cases):
         s = case.solver
-        on_cpu = wp.get_device(resolve_device(s.device)).is_cpu
-        if case.friction is None or case.adhesion is not None or (batch is None and on_cpu and not FRICTION_ON_CPU):
+        if case.friction is None or case.adhesion is not None:
             entries.append(SearchEntry(alone=lambda c=case: gross_slip_summary(c, rel_tol=rel_tol)))
             continue
         try:
@@ -367,7 +382,8 @@ class SearchEntry:
 
 def search_batch(entries: list, batch: int | None = None, on_case=None) -> list:
     """Run gross-slip searches (``SearchEntry``), those with a ``start`` of one grid size, device
-    and float type together: at each batched step every search's next state (its own approach,
+    and float type together (where ``friction_batched`` says: ``batch``, else on CUDA from
+    ``FRICTION_MIN_BATCH`` searches on): at each batched step every search's next state (its own approach,
     from its own last stick state in the bisection) is solved by one ``BatchContactSolver.step``.
     Returns one entry per search, in order: (summary, warnings) or the exception it raised. A
     search whose batched step does not converge is run again on its own (``alone``), where hard
@@ -403,6 +419,10 @@ def search_batch(entries: list, batch: int | None = None, on_case=None) -> list:
             continue
         groups.setdefault((model.grid.n, str(model.device), model.dtype_name), []).append((index, model))
     for (n, device, dtype), members in groups.items():
+        if not friction_batched(len(members), wp.get_device(device).is_cuda, batch):
+            for index, _ in members:
+                alone(index)
+            continue
         size = batch_size(n, device, resolve_dtype(dtype), len(members), batch, friction=True)
         solver = BatchContactSolver(n, size, device, resolve_dtype(dtype))
         for first in range(0, len(members), size):

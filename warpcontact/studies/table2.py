@@ -492,14 +492,10 @@ class Table2Run:
             raise
         self.kept = len(self.records)
 
-    def _batched_cells(self, placement, batch) -> list:
-        """The pending cells searched by batched steps (:meth:`run`): those without adhesion."""
-        import warp as wp
-
-        from ..numerics.device import resolve_device
-
-        if batch == 0 or (batch is None and not (placement.in_process(len(self._pending))
-                                                  and wp.get_device(resolve_device(self.settings.device)).is_cuda)):
+    def _batched_cells(self, batch) -> list:
+        """The pending cells searched by batched steps (:meth:`run`): with ``batch`` given, those
+        without adhesion."""
+        if not batch:
             return []
         cells = [(i, c) for i, c in self._pending if not c[3]]
         return cells if len(cells) > 1 else []
@@ -560,9 +556,9 @@ class Table2Run:
         """Compute the planned cells not finished before where ``placement`` says
         (:class:`warpcontact.studies.batch.Placement`; default: this process) and write the tables
         after each (:func:`write_table2`; table2.json's ``complete`` is false until the last write).
-        The cells without adhesion are searched together by batched steps
-        (``batch_solve.search_batch``, ``batch`` cells at a time) where ``batch`` is given, and by
-        default on CUDA where the cells run in this process; ``batch`` 0: one cell at a time.
+        With ``batch`` B, the cells without adhesion are searched together by batched steps
+        (``batch_solve.search_batch``, B cells at a time); by default (None) or 0 one at a time:
+        a column's 12 cells are too few for a batch to pay (``batch_solve.FRICTION_MIN_BATCH``).
         A stop ends the run with ``interrupted`` set; a write that fails, with ``write_error``. Unless
         quiet, a result line per cell goes to ``log`` (stderr), under a progress bar on a terminal.
         Returns self."""
@@ -576,7 +572,7 @@ class Table2Run:
         try:
             with interrupts.deferred():
                 self._write()  # this run's marker (complete: false) replaces the last run's before any cell
-            together = self._batched_cells(placement, batch)
+            together = self._batched_cells(batch)
             if together:
                 self._run_batched(together, batch, progress)
             tasks = []
