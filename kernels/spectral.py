@@ -328,17 +328,3 @@ for _r, _v in ((wp.float32, wp.vec2f), (wp.float64, wp.vec2d)):
          "half_axis": int, "half_length": int, "energy_scale": _r, "eigen_floor": _r, "slot": int, "first_row": int,
          "cells": Cells, "sums": wp.array(dtype=_r)},
     )
-
-
-@wp.kernel
-def tangential_inverse_blocks(kxx: wp.array2d(dtype=wp.float64), kyy: wp.array2d(dtype=wp.float64),
-                              kxy: wp.array2d(dtype=wp.float64), eigen_floor: wp.float64,
-                              blocks: wp.array3d(dtype=wp.float64)):
-    """``blocks[:, i, j]`` <- (M_xx, M_yy, M_xy) of each wavenumber (:func:`tangential_inverse_block`)
-    from real spectra of K_xx, K_yy, K_xy: the batched solver's preconditioner, made once per
-    material pair (``fft/batch.py``)."""
-    i, j = wp.tid()
-    m = tangential_inverse_block(kxx[i, j], kyy[i, j], kxy[i, j], eigen_floor)
-    blocks[0, i, j] = m[0]
-    blocks[1, i, j] = m[1]
-    blocks[2, i, j] = m[2]

@@ -249,20 +249,6 @@ def plain_direction(gx: Any, gy: Any, qx: Any, qy: Any, q_max: Any, status: int,
     return t
 
 
-@wp.func
-def preconditioned_direction(zx: Any, zy: Any, gx: Any, gy: Any, qx: Any, qy: Any, q_max: Any, status: int,
-                             last_x: Any, last_y: Any, stiffness: Any, beta: Any):
-    """One cell of the preconditioned direction (``tangential_direction_stick`` and
-    ``tangential_direction_rest`` in one): z = M g plus beta times the last direction on stick
-    cells, :func:`slip_direction` on slip cells, 0 out of contact."""
-    t = wp.vector(zx + beta * last_x, zy + beta * last_y)
-    if status == SLIP:
-        t = slip_direction(gx, gy, qx, qy, q_max, last_x, last_y, stiffness, beta)
-    elif status != STICK:
-        t = wp.vector(stiffness - stiffness, stiffness - stiffness)
-    return t
-
-
 @wp.kernel
 def tangential_direction(
     grad_x: wp.array(dtype=Any),

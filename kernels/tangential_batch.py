@@ -29,8 +29,7 @@ from .reduce import (
     block_add, block_add_vector, cell_index, cg_converged, cg_step_length, conjugacy, residual_of,
 )
 from .tangential import (
-    N_SUMS, OUT, S_STICK, STICK, classify_cell, disk_step, gradient_cell, may_release, plain_direction,
-    preconditioned_direction, step_terms,
+    N_SUMS, OUT, S_STICK, STICK, classify_cell, disk_step, gradient_cell, may_release, plain_direction, step_terms,
 )
 
 wp.set_module_options({"enable_backward": False})
@@ -40,15 +39,14 @@ F_ACTIVE = wp.constant(0)
 
 
 @wp.kernel
-def batch_tangential_classify(shear_limit: wp.array2d(dtype=Any), active: wp.array(dtype=wp.int32), keep_slip: int,
+def batch_tangential_classify(shear_limit: wp.array2d(dtype=Any), active: wp.array(dtype=wp.int32),
                               shear_x: wp.array2d(dtype=Any), shear_y: wp.array2d(dtype=Any),
                               status: wp.array2d(dtype=wp.int32)):
-    """The start of each active case's solve (``tangential_classify``; ``keep_slip`` 1 for the
-    preconditioned iteration, 0 for the plain one, which reclassifies every cell)."""
+    """The start of each active case's solve (``tangential_classify`` without ``keep_slip``: the
+    plain iteration reclassifies every cell)."""
     case, i = wp.tid()
     if active[case] != 0:
-        qx, qy, st = classify_cell(shear_limit[case, i], shear_x[case, i], shear_y[case, i], status[case, i],
-                                   keep_slip)
+        qx, qy, st = classify_cell(shear_limit[case, i], shear_x[case, i], shear_y[case, i], status[case, i], 0)
         shear_x[case, i] = qx
         shear_y[case, i] = qy
         status[case, i] = st
@@ -60,13 +58,12 @@ def batch_tangential_residual(disp_x: wp.array2d(dtype=Any), disp_y: wp.array2d(
                               target_x: wp.array2d(dtype=Any), target_y: wp.array2d(dtype=Any),
                               shear_x: wp.array2d(dtype=Any), shear_y: wp.array2d(dtype=Any),
                               shear_limit: wp.array2d(dtype=Any), status: wp.array2d(dtype=wp.int32),
-                              stiffness: wp.array(dtype=Any), jacobi_stick: int, cells: Cells,
+                              stiffness: wp.array(dtype=Any), cells: Cells,
                               grad_x: wp.array2d(dtype=Any), grad_y: wp.array2d(dtype=Any),
                               sums: wp.array2d(dtype=Any)):
     """Each case's exact g = K q + u_known - target from ``disp`` = K q, and its residual sums
-    (slots S_G, S_VIOL, S_RHS, S_STICK, S_REVERSAL: the single solver's ``tangential_residual``;
-    ``jacobi_stick`` 1: S_G with the stick cells' Jacobi part, the plain iteration; 0: without,
-    ``batch_stick_energy`` adds theirs)."""
+    (slots S_G with the stick cells' Jacobi part, S_VIOL, S_RHS, S_STICK, S_REVERSAL: the
+    single solver's ``tangential_residual`` with ``jacobi_stick`` = 1)."""
     case, block, lane = wp.tid()
     thread = block * wp.block_dim() + lane
     k_self = stiffness[case]
@@ -78,7 +75,7 @@ def batch_tangential_residual(disp_x: wp.array2d(dtype=Any), disp_y: wp.array2d(
         if i < cells.n:
             gx, gy, a, b = gradient_cell(disp_x[case, i], disp_y[case, i], known_x[case, i], known_y[case, i],
                                          target_x[case, i], target_y[case, i], shear_x[case, i], shear_y[case, i],
-                                         shear_limit[case, i], status[case, i], k_self, jacobi_stick)
+                                         shear_limit[case, i], status[case, i], k_self, 1)
             grad_x[case, i] = gx
             grad_y[case, i] = gy
             first += a
@@ -86,53 +83,6 @@ def batch_tangential_residual(disp_x: wp.array2d(dtype=Any), disp_y: wp.array2d(
     row = sums[case]
     block_add_vector(row, S_G, first, lane)  # slots S_G, S_VIOL, S_RHS
     block_add_vector(row, S_STICK, second, lane)  # slots S_STICK, S_REVERSAL
-
-
-@wp.kernel
-def batch_stick_gradient(grad_x: wp.array2d(dtype=Any), grad_y: wp.array2d(dtype=Any),
-                         status: wp.array2d(dtype=wp.int32), out_x: wp.array2d(dtype=Any),
-                         out_y: wp.array2d(dtype=Any)):
-    """g on each case's stick cells, 0 elsewhere: what the preconditioner transforms
-    (``tangential_stick_gradient``)."""
-    case, i = wp.tid()
-    stick = status[case, i] == STICK
-    zero = grad_x[case, i] - grad_x[case, i]
-    out_x[case, i] = wp.where(stick, grad_x[case, i], zero)
-    out_y[case, i] = wp.where(stick, grad_y[case, i], zero)
-
-
-@wp.kernel
-def batch_stick_energy(grad_x: wp.array2d(dtype=Any), grad_y: wp.array2d(dtype=Any),
-                       z_x: wp.array2d(dtype=Any), z_y: wp.array2d(dtype=Any), status: wp.array2d(dtype=wp.int32),
-                       cells: Cells, sums: wp.array2d(dtype=Any)):
-    """g . M g over each case's stick cells (z = M g of its stick cells' g) into slot S_G: the
-    stick cells' share of the preconditioned squared gradient."""
-    case, block, lane = wp.tid()
-    thread = block * wp.block_dim() + lane
-    zero = sums[case, S_G] - sums[case, S_G]
-    total = zero
-    for k in range(cells.per):
-        i = cell_index(thread, cells, k)
-        if i < cells.n and status[case, i] == STICK:
-            total += grad_x[case, i] * z_x[case, i] + grad_y[case, i] * z_y[case, i]
-    block_add(sums[case], S_G, total)
-
-
-@wp.kernel
-def batch_preconditioned_direction(z_x: wp.array2d(dtype=Any), z_y: wp.array2d(dtype=Any),
-                                   grad_x: wp.array2d(dtype=Any), grad_y: wp.array2d(dtype=Any),
-                                   shear_x: wp.array2d(dtype=Any), shear_y: wp.array2d(dtype=Any),
-                                   shear_limit: wp.array2d(dtype=Any), status: wp.array2d(dtype=wp.int32),
-                                   stiffness: wp.array(dtype=Any), sums: wp.array2d(dtype=Any),
-                                   scalars: wp.array2d(dtype=Any), dir_x: wp.array2d(dtype=Any),
-                                   dir_y: wp.array2d(dtype=Any)):
-    """Each case's preconditioned conjugate direction (``preconditioned_direction``)."""
-    case, i = wp.tid()
-    t = preconditioned_direction(z_x[case, i], z_y[case, i], grad_x[case, i], grad_y[case, i], shear_x[case, i],
-                                 shear_y[case, i], shear_limit[case, i], status[case, i], dir_x[case, i],
-                                 dir_y[case, i], stiffness[case], conjugacy(sums[case], scalars[case]))
-    dir_x[case, i] = t[0]
-    dir_y[case, i] = t[1]
 
 
 @wp.kernel
@@ -241,7 +191,6 @@ def batch_tangential_advance(sums: wp.array2d(dtype=Any), parameters: wp.array2d
         sums[case, slot] = zero
 
 
-for _k in (batch_tangential_classify, batch_tangential_residual, batch_stick_gradient, batch_stick_energy,
-           batch_preconditioned_direction, batch_tangential_direction,
+for _k in (batch_tangential_classify, batch_tangential_residual, batch_tangential_direction,
            batch_tangential_step_sums, batch_tangential_update, batch_tangential_advance):
     register_float_overloads(_k)

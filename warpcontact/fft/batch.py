@@ -173,22 +173,6 @@ def tangential_influence(pair, n: int) -> tuple[dict, float, float]:
     return spectra, float(stiffness), column_norm
 
 
-@functools.lru_cache(maxsize=8)
-def tangential_inverse(pair, n: int) -> np.ndarray:
-    """The circulant inverse of a pair's K_tt on the padded grid (its 2x2 block inverted per
-    wavenumber, eigenvalues floored at a quarter of the self-influence, as the single solver's
-    preconditioner: ``kernels/spectral.py``, ``tangential_inverse_block``): (3, 2 n, n + 1) float64,
-    M_xx, M_yy, M_xy in ``tangential_influence``'s layout."""
-    from warpcontact.kernels import spectral
-
-    spectra, stiffness, _ = tangential_influence(pair, n)
-    arrays = [wp.array(np.ascontiguousarray(spectra[k]), dtype=wp.float64, device="cpu") for k in ("xx", "yy", "xy")]
-    blocks = wp.zeros((3, *spectra["xx"].shape), dtype=wp.float64, device="cpu")
-    wp.launch(spectral.tangential_inverse_blocks, dim=spectra["xx"].shape,
-              inputs=[*arrays, wp.float64(0.25 * stiffness)], outputs=[blocks], device="cpu")
-    return blocks.numpy()
-
-
 class BatchElasticOperator:
     """The tangential block K_tt and the coupling blocks K_tz, K_zt of B cases at once, each case
     with its own material pair, on (B, n^2) Warp fields (one row a case, row-major cells) viewed
@@ -224,13 +208,11 @@ class BatchElasticOperator:
             self._pairs = tuple(pairs)
             distinct = list(dict.fromkeys(pairs))
             rows = pairs[:1] if len(distinct) == 1 else pairs
-            spectra = [dict(tangential_influence(p, self.n)[0]) for p in rows]
-            for p, s in zip(rows, spectra):  # the preconditioner's blocks beside the operator's
-                s["mxx"], s["myy"], s["mxy"] = tangential_inverse(p, self.n)
+            spectra = [tangential_influence(p, self.n)[0] for p in rows]
             with self.library.on_device():
                 xp = self.library.xp
                 self._spectra = {k: xp.asarray(np.stack([s[k] for s in spectra]).astype(
-                    self._complex if k in ("xz", "yz") else self._real)) for k in spectra[0]}
+                    self._real if k in ("xx", "yy", "xy") else self._complex)) for k in spectra[0]}
         info = [tangential_influence(p, self.n) for p in pairs]
         return (np.array([i[1] for i in info]), np.array([i[2] for i in info]),
                 np.array([p.D != 0.0 for p in pairs]))
@@ -265,17 +247,6 @@ class BatchElasticOperator:
                 u[0] += s["xz"] * p
                 u[1] += s["yz"] * p
             self._to_pair(u, disp)
-
-    def inverse(self, gradient, out):
-        """``out`` <- M ``gradient`` (each a (2, B, n^2) pair): the circulant inverse of each row's
-        K_tt (``tangential_inverse``), the batched tangential solver's preconditioner."""
-        s, lib = self._spectra, self.library
-        with lib.on_device():
-            g = self._pair_spectra(gradient)
-            z = lib.xp.empty_like(g)
-            z[0] = s["mxx"] * g[0] + s["mxy"] * g[1]
-            z[1] = s["mxy"] * g[0] + s["myy"] * g[1]
-            self._to_pair(z, out)
 
     def cross_tangential(self, pressure, disp):
         """``disp`` (a (2, B, n^2) pair) <- K_tz p: the pressure's tangential displacement."""

@@ -53,7 +53,7 @@ class BatchTangentialSolver:
     ``shear_y`` etc. views of them.
     """
 
-    def __init__(self, operator: BatchElasticOperator, stiffness, preconditioned: bool = True):
+    def __init__(self, operator: BatchElasticOperator, stiffness):
         self.operator = operator
         self.n, self.batch = operator.n, operator.batch
         self.device, self.dtype = operator.device, operator.dtype
@@ -67,11 +67,7 @@ class BatchTangentialSolver:
         def pair():  # x and y of a vector field in one array (2, B, n^2): transformed together
             return wp.zeros((2, *cells), dtype=self.dtype, device=self.device)
 
-        #: the iteration: preconditioned (the default) or plain (class docstring)
-        self.preconditioned = bool(preconditioned)
         self.shear, self.disp, self.known, self.direction, self.response = (pair() for _ in range(5))
-        #: z = M g (the preconditioned iteration; the stick cells' g goes through ``response``)
-        self.preconditioned_gradient = pair() if self.preconditioned else None
         self.shear_x, self.shear_y = self.shear[0], self.shear[1]
         self.disp_x, self.disp_y = self.disp[0], self.disp[1]
         self.known_x, self.known_y = self.known[0], self.known[1]
@@ -119,24 +115,14 @@ class BatchTangentialSolver:
         self.scalars.zero_()
         self.sums.zero_()
         self.direction.zero_()
-        self._cells(tbk.batch_tangential_classify, [self.shear_limit, self.active, int(self.preconditioned)],
+        self._cells(tbk.batch_tangential_classify, [self.shear_limit, self.active],
                     [self.shear_x, self.shear_y, self.status])
         limit = int(max_iter[active].max()) if active.any() else 0
         for _ in range(limit + 1):
             self._gradient()
-            if self.preconditioned:  # z = M g of the stick cells' g, and its share of S_G
-                self._cells(tbk.batch_stick_gradient, [self.grad_x, self.grad_y, self.status],
-                            [self.response[0], self.response[1]])
-                self.operator.inverse(self.response, self.preconditioned_gradient)
-                z_x, z_y = self.preconditioned_gradient[0], self.preconditioned_gradient[1]
-                self._reduce(tbk.batch_stick_energy, [self.grad_x, self.grad_y, z_x, z_y, self.status], [self.sums])
-                self._cells(tbk.batch_preconditioned_direction,
-                            [z_x, z_y, self.grad_x, self.grad_y, self.shear_x, self.shear_y, self.shear_limit,
-                             self.status, self.stiffness, self.sums, self.scalars], [self.dir_x, self.dir_y])
-            else:
-                self._cells(tbk.batch_tangential_direction,
-                            [self.grad_x, self.grad_y, self.shear_x, self.shear_y, self.shear_limit, self.status,
-                             self.stiffness, self.sums, self.scalars], [self.dir_x, self.dir_y])
+            self._cells(tbk.batch_tangential_direction,
+                        [self.grad_x, self.grad_y, self.shear_x, self.shear_y, self.shear_limit, self.status,
+                         self.stiffness, self.sums, self.scalars], [self.dir_x, self.dir_y])
             self.operator.tangential(self.direction, self.response)
             self._reduce(tbk.batch_tangential_step_sums,
                          [self.grad_x, self.grad_y, self.dir_x, self.dir_y, self.resp_x, self.resp_y, self.shear_x,
@@ -163,6 +149,5 @@ class BatchTangentialSolver:
         self.operator.tangential(self.shear, self.disp)
         self._reduce(tbk.batch_tangential_residual,
                      [self.disp_x, self.disp_y, self.known_x, self.known_y, self.target_x, self.target_y,
-                      self.shear_x, self.shear_y, self.shear_limit, self.status, self.stiffness,
-                      0 if self.preconditioned else 1],
+                      self.shear_x, self.shear_y, self.shear_limit, self.status, self.stiffness],
                      [self.grad_x, self.grad_y, self.sums])
