@@ -209,6 +209,15 @@ def batch_update(direction: wp.array2d(dtype=Any), response: wp.array3d(dtype=An
     block_add_vector(row, B_CORRECTION, wp.vector(corrected, s_viol, s_rhs), lane)  # B_CORRECTION, B_NEXT_*
 
 
+@wp.func
+def case_ended(sums: wp.array(dtype=Any), parameters: wp.array(dtype=Any), scalars: wp.array(dtype=Any)):
+    """Whether a case of a batched solve stops at this iteration: its iterate (the one the
+    iteration started from) meets its tolerance or is not finite, or it reached its iteration
+    limit (its rows of ``sums``, ``parameters`` and ``scalars``)."""
+    res, finite = residual_of(sums[S_VIOL], sums[S_RHS])
+    return (not finite) or res < parameters[P_TOL] or int(scalars[C_ITER]) >= int(parameters[P_MAX_ITER])
+
+
 @wp.kernel
 def batch_advance(sums: wp.array2d(dtype=Any), parameters: wp.array2d(dtype=Any), exact_every: int,
                   column_norm: Any, deferral: Any, scalars: wp.array2d(dtype=Any), active: wp.array(dtype=wp.int32),
@@ -232,9 +241,8 @@ def batch_advance(sums: wp.array2d(dtype=Any), parameters: wp.array2d(dtype=Any)
     next_viol = sums[case, B_NEXT_VIOL]
     next_rhs = sums[case, B_NEXT_RHS]
     if active[case] != 0:
-        res, finite = residual_of(sums[case, S_VIOL], sums[case, S_RHS])
         it = int(scalars[case, C_ITER])
-        if (not finite) or res < parameters[case, P_TOL] or it >= int(parameters[case, P_MAX_ITER]):
+        if case_ended(sums[case], parameters[case], scalars[case]):
             active[case] = 0
         else:
             scalars[case, C_G_OLD] = sums[case, S_G]

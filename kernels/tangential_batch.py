@@ -23,10 +23,11 @@ from typing import Any
 
 import warp as wp
 
+from .normal_batch import case_ended
 from .overloads import register_float_overloads
 from .reduce import (
-    Cells, C_DELTA, C_G_OLD, C_ITER, P_MAX_ITER, P_TOL, S_G, S_GT, S_RESTART, S_RHS, S_VIOL,
-    block_add, block_add_vector, cell_index, cg_converged, cg_step_length, conjugacy, residual_of,
+    Cells, C_DELTA, C_G_OLD, C_ITER, P_TOL, S_G, S_GT, S_RESTART,
+    block_add, block_add_vector, cell_index, cg_converged, cg_step_length, conjugacy,
 )
 from .tangential import (
     N_SUMS, OUT, S_STICK, STICK, classify_cell, disk_step, gradient_cell, may_release, plain_direction, step_terms,
@@ -176,12 +177,10 @@ def batch_tangential_advance(sums: wp.array2d(dtype=Any), parameters: wp.array2d
     case = wp.tid()
     zero = sums[case, S_G] - sums[case, S_G]
     if active[case] != 0:
-        res, finite = residual_of(sums[case, S_VIOL], sums[case, S_RHS])
-        it = int(scalars[case, C_ITER])
-        if (not finite) or res < parameters[case, P_TOL] or it >= int(parameters[case, P_MAX_ITER]):
+        if case_ended(sums[case], parameters[case], scalars[case]):
             active[case] = 0
         else:
-            done = it + 1
+            done = int(scalars[case, C_ITER]) + 1
             scalars[case, C_G_OLD] = wp.where(restart_every > 0 and done % restart_every == 0, zero,
                                               sums[case, S_G])
             scalars[case, C_DELTA] = wp.where(sums[case, S_RESTART] > zero, zero, type(zero)(1.0))

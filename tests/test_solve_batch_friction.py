@@ -1,7 +1,6 @@
-"""Cases with friction solved together (``warpcontact.solve_batch``): each case's result is what
-``warpcontact.solve`` gives it, whatever the batch around it."""
-
-import warnings
+"""Cases with friction solved together (``warpcontact.solve_batch``, the batched gross-slip
+searches): each case's result is what ``warpcontact.solve`` (its own search) gives it, whatever
+the batch around it."""
 
 import numpy as np
 import pytest
@@ -9,9 +8,7 @@ import pytest
 import warp as wp
 
 import warpcontact as wc
-
-DEVICES = ["cpu", pytest.param("cuda", marks=pytest.mark.skipif(wp.get_cuda_device_count() == 0,
-                                                                reason="no CUDA device here"))]
+from test_solve_batch import DEVICES, quiet
 
 # a small case: 32 cells over about 4 contact radii, steel on aluminium
 BASE = {
@@ -31,12 +28,6 @@ def case(**tables):
         else:
             out.setdefault(name, {}).update(values)
     return out
-
-
-def quiet(function, *args, **kwargs):
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore")  # the coarse-grid warning of these small grids
-        return function(*args, **kwargs)
 
 
 #: the cases of one mixed batch: the Tabor law on a dissimilar pair (coupled turns), Coulomb on
@@ -226,10 +217,10 @@ path = [[0.0, 0.0, 1e-9], [2e-10, 0.0, 1e-9]]
 """
 
 
-def test_a_sweep_with_friction_batched_records_what_one_case_at_a_time_records(tmp_path, monkeypatch):
-    """``warpcontact sweep --batch 4`` of four cases with friction (k_tau and the flat's modulus
-    swept): one batched solve of the four, each record as one case at a time writes it: statuses,
-    stick and contact areas the same, the forces within 1e-9 of |F_z| (as the solves above)."""
+def sweep_both_ways(tmp_path, monkeypatch, task: str, counted: str):
+    """The sweep of four cases of ``SWEEP_BASE`` (k_tau and the flat's modulus swept) with ``task``,
+    one case at a time (``--batch 0``) and batched (``--batch 4``): (each case's record one at a
+    time, batched, by case id) and the number of cases of each call of ``batch_solve.<counted>``."""
     import argparse
     import json
 
@@ -239,21 +230,29 @@ def test_a_sweep_with_friction_batched_records_what_one_case_at_a_time_records(t
     (tmp_path / "base.toml").write_text(SWEEP_BASE)
     sweep = tmp_path / "sweep.toml"
     sweep.write_text('base = "base.toml"\n[sweep]\n"friction.k_tau" = [0.8, 0.95]\n"flat.E" = [70e9, 120e9]\n'
-                     '[run]\ntask = "solve"\n')
-    batches, solve_batch = [], batch_solve.solve_batch
-    monkeypatch.setattr(batch_solve, "solve_batch", lambda cases, **kw: batches.append(len(cases)) or solve_batch(cases, **kw))
+                     f'[run]\ntask = "{task}"\n')
+    calls, function = [], getattr(batch_solve, counted)
+    monkeypatch.setattr(batch_solve, counted, lambda cases, **kw: calls.append(len(cases)) or function(cases, **kw))
     parser = argparse.ArgumentParser()
     add_parser(parser.add_subparsers(dest="command"))
     for out, batch in (("one", "0"), ("together", "4")):
         args = parser.parse_args(["sweep", str(sweep), "--out", str(tmp_path / out), "--quiet", "--batch", batch,
                                   "--workers", "1"])
         assert quiet(cmd_sweep, args) == 0
-    assert batches == [4]
     ids = sorted(p.stem for p in (tmp_path / "one" / "cases").glob("*.json"))
     assert len(ids) == 4
-    for i in ids:
-        x = json.loads((tmp_path / "one" / "cases" / f"{i}.json").read_text())
-        y = json.loads((tmp_path / "together" / "cases" / f"{i}.json").read_text())
+    records = {i: tuple(json.loads((tmp_path / d / "cases" / f"{i}.json").read_text()) for d in ("one", "together"))
+               for i in ids}
+    return records, calls
+
+
+def test_a_sweep_with_friction_batched_records_what_one_case_at_a_time_records(tmp_path, monkeypatch):
+    """``warpcontact sweep --batch 4`` of four cases with friction: one batched solve of the four,
+    each record as one case at a time writes it: statuses, stick and contact areas the same, the
+    forces within 1e-9 of |F_z| (as the solves above)."""
+    records, calls = sweep_both_ways(tmp_path, monkeypatch, "solve", "solve_batch")
+    assert calls == [4]
+    for x, y in records.values():
         assert (x["status"], x["converged"], x["params"]) == (y["status"], y["converged"], y["params"]) == \
             ("ok", True, x["params"])
         s, t = x["summary"], y["summary"]
@@ -267,31 +266,9 @@ def test_a_gross_slip_sweep_batched_records_what_one_case_at_a_time_records(tmp_
     (each bisection trial from its own last stick state, batched), each record as one case at a
     time writes it: the same states, the same delta_x_max (the same bisection decisions), mu within
     2e-9 (F_x / F_z of forces within 1e-9 of |F_z|: (1 + mu) 1e-9; measured 1e-10)."""
-    import argparse
-    import json
-
-    from warpcontact.cli.sweep import add_parser, cmd_sweep
-    from warpcontact.studies import batch_solve
-
-    (tmp_path / "base.toml").write_text(SWEEP_BASE)
-    sweep = tmp_path / "sweep.toml"
-    sweep.write_text('base = "base.toml"\n[sweep]\n"friction.k_tau" = [0.8, 0.95]\n"flat.E" = [70e9, 120e9]\n'
-                     '[run]\ntask = "gross-slip"\n')
-    searches, search = [], batch_solve.gross_slip_batch
-    monkeypatch.setattr(batch_solve, "gross_slip_batch",
-                        lambda cases, **kw: searches.append(len(cases)) or search(cases, **kw))
-    parser = argparse.ArgumentParser()
-    add_parser(parser.add_subparsers(dest="command"))
-    for out, batch in (("one", "0"), ("together", "4")):
-        args = parser.parse_args(["sweep", str(sweep), "--out", str(tmp_path / out), "--quiet", "--batch", batch,
-                                  "--workers", "1"])
-        assert quiet(cmd_sweep, args) == 0
-    assert searches == [4]
-    ids = sorted(p.stem for p in (tmp_path / "one" / "cases").glob("*.json"))
-    assert len(ids) == 4
-    for i in ids:
-        x = json.loads((tmp_path / "one" / "cases" / f"{i}.json").read_text())
-        y = json.loads((tmp_path / "together" / "cases" / f"{i}.json").read_text())
+    records, calls = sweep_both_ways(tmp_path, monkeypatch, "gross-slip", "gross_slip_batch")
+    assert calls == [4]
+    for x, y in records.values():
         assert (x["status"], x["converged"], sorted(x["warnings"])) == (y["status"], y["converged"], sorted(y["warnings"]))
         s, t = x["summary"], y["summary"]
         assert x["status"] == "ok" and s["n_states"] == t["n_states"]

@@ -349,3 +349,39 @@ class LaunchCache:
             self.split(kernel, rows, part_launch, inputs, outputs, block_dim=1)
             return
         self.launch_tiled(kernel, shape.num_blocks, shape.block_dim, [*inputs, *shape.args(n)], outputs)
+
+
+class BatchLaunches:
+    """The launches of a batched solver (``solvers/*_batch.py``) over B cases of ``n_cells`` cells
+    each, recorded once and replayed (:class:`LaunchCache`: its arrays are the solver's own):
+    elementwise kernels over (B, n_cells), reducing kernels over (B, blocks) tiles of the
+    reduction's threads (``kernels/normal_batch.py``), kernels of one thread a case.
+
+    Args:
+        batch: cases B.
+        n_cells: cells of a case.
+        device: the Warp device.
+    """
+
+    def __init__(self, batch: int, n_cells: int, device):
+        self.batch, self.n_cells = int(batch), int(n_cells)
+        self.reduction = ReductionLaunch.for_cells(self.n_cells, device)
+        self.cache = LaunchCache(device)
+
+    def launch(self, kernel, dim, inputs, outputs=()):
+        """Any other launch over ``dim``."""
+        self.cache.launch(kernel, dim, inputs, outputs)
+
+    def cells(self, kernel, inputs, outputs=()):
+        """An elementwise kernel over (B, n_cells)."""
+        self.cache.launch(kernel, (self.batch, self.n_cells), inputs, outputs)
+
+    def reduce(self, kernel, inputs, outputs):
+        """A reducing kernel over (B, blocks) tiles: ``inputs``, the reduction's ``Cells``, ``outputs``."""
+        r = self.reduction
+        self.cache.launch(kernel, (self.batch, r.num_blocks, r.block_dim), [*inputs, *r.args(self.n_cells)], outputs,
+                          block_dim=r.block_dim)
+
+    def cases(self, kernel, inputs, outputs=()):
+        """A kernel of one thread a case."""
+        self.cache.launch(kernel, self.batch, inputs, outputs)

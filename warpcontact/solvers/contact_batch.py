@@ -145,7 +145,7 @@ class BatchContactSolver:
     def _copy_rows(self, rows, sources, destinations):
         self.turning.assign(np.asarray(rows, dtype=np.int32))
         for src, dst in zip(sources, destinations):
-            self.normal.launches.launch(gk.batch_copy_rows, (self.batch, self.n_cells), [src, self.turning], [dst])
+            self.normal.launches.cells(gk.batch_copy_rows, [src, self.turning], [dst])
 
     def _window(self, turning: np.ndarray) -> BatchTangentialSolver:
         """The tangential solver of the window that holds the contact (shear limit > 0) of every
@@ -182,8 +182,7 @@ class BatchContactSolver:
         if back:
             self.turning.assign(turning.astype(np.int32))
             for whole, part in pairs:
-                launches.launch(gk.batch_put_back, (self.batch, self.n_cells), [part, m, self.origins, self.turning, n],
-                                [whole])
+                launches.cells(gk.batch_put_back, [part, m, self.origins, self.turning, n], [whole])
             return
         pairs += [(self.target[0], window.target_x), (self.target[1], window.target_y),
                   (self.known[0], window.known_x), (self.known[1], window.known_y), (self.shear_limit, window.shear_limit)]
@@ -191,7 +190,7 @@ class BatchContactSolver:
             launches.launch(gk.batch_crop, (self.batch, m * m), [whole, n, self.origins, m], [part])
 
     def _cells(self, kernel, inputs, outputs):
-        self.normal.launches.launch(kernel, (self.batch, self.n_cells), inputs, outputs)
+        self.normal.launches.cells(kernel, inputs, outputs)
 
     def _change_sums(self) -> np.ndarray:
         """Each row's change sums of the pressure and the shear since the last call (the previous

@@ -30,13 +30,25 @@ from warpcontact.kernels import reduce as rk
 
 from ..fft.batch import BatchConvolution
 from ..numerics.device import numpy_dtype
-from ..numerics.launch import LaunchCache, ReductionLaunch
+from ..numerics.launch import BatchLaunches
 from ..numerics.state import SolveInfo
 
 #: iterations between exact recomputations of the carried gap (rounding), and the share of the
 #: violation the carried gap may miss, as the single solver's defaults (``SolverSettings``)
 EXACT_EVERY = 50
 DEFERRAL = 0.1
+
+
+def row_infos(solver, active, tol) -> list:
+    """One ``SolveInfo`` per row of a batched ``solver`` (its ``launches``, ``sums``, ``residual``
+    and ``scalars``), from each row's residual sums and iterations; a row not ``active``: not
+    converged, no iteration."""
+    solver.launches.cases(bk.batch_residual, [solver.sums], [solver.residual])
+    residual = solver.residual.numpy().astype(np.float64)
+    iterations = solver.scalars.numpy()[:, rk.C_ITER].astype(np.int64)
+    return [SolveInfo(converged=bool(on and math.isfinite(r) and r < t), iterations=int(k) if on else 0,
+                      residual=float(r) if on else math.nan)
+            for on, r, k, t in zip(active, residual, iterations, tol)]
 
 
 class BatchNormalSolver:
@@ -83,22 +95,9 @@ class BatchNormalSolver:
         self.flags = wp.zeros(2, dtype=wp.int32, device=self.device)
         #: each case's L1 change by projections since its last exact gap (scaled)
         self.deferred = wp.zeros(self.batch, dtype=dtype, device=self.device)
-        self.reduction = ReductionLaunch.for_cells(self.n_cells, self.device)
-        #: the launches, recorded once and replayed (their arrays are the solver's own)
-        self.launches = LaunchCache(self.device)
-
-    # -- launches ---------------------------------------------------------------------------
-    def _cells(self, kernel, inputs, outputs=()):
-        self.launches.launch(kernel, (self.batch, self.n_cells), inputs, outputs)
-
-    def _reduce(self, kernel, inputs, outputs):
-        """A reducing kernel over (B, blocks) tiles of ``reduction.block_dim`` threads."""
-        r = self.reduction
-        self.launches.launch(kernel, (self.batch, r.num_blocks, r.block_dim), [*inputs, *r.args(self.n_cells)],
-                             outputs, block_dim=r.block_dim)
-
-    def _cases(self, kernel, inputs, outputs=()):
-        self.launches.launch(kernel, self.batch, inputs, outputs)
+        #: the launches, recorded once and replayed
+        self.launches = BatchLaunches(self.batch, self.n_cells, self.device)
+        self._cells, self._reduce, self._cases = self.launches.cells, self.launches.reduce, self.launches.cases
 
     # -- the solve --------------------------------------------------------------------------
     def solve(self, approach_z, tol, max_iter, pressure_cap=None, active=None) -> list:
@@ -143,12 +142,7 @@ class BatchNormalSolver:
             if exact:
                 self._exact_gap()
         self._exact_gap()  # every row's exact gap, displacement and residual
-        self._cases(bk.batch_residual, [self.sums], [self.residual])
-        residual = self.residual.numpy().astype(np.float64)
-        iterations = self.scalars.numpy()[:, rk.C_ITER].astype(np.int64)
-        return [SolveInfo(converged=bool(on and math.isfinite(r) and r < t), iterations=int(k) if on else 0,
-                          residual=float(r) if on else math.nan)
-                for on, r, k, t in zip(active, residual, iterations, tol)]
+        return row_infos(self, active, tol)
 
     def _guess(self):
         """The first guess of each case whose pressure is zero (``NormalSolver._guess``)."""

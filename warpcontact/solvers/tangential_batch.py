@@ -17,20 +17,17 @@ iterations, each a few batched launches, and its answer is the same problem's to
 
 from __future__ import annotations
 
-import math
-
 import numpy as np
 import warp as wp
 
-from warpcontact.kernels import normal_batch as bk
 from warpcontact.kernels import reduce as rk
 from warpcontact.kernels import tangential as tk
 from warpcontact.kernels import tangential_batch as tbk
 
 from ..fft.batch import BatchElasticOperator
 from ..numerics.device import numpy_dtype
-from ..numerics.launch import LaunchCache, ReductionLaunch
-from ..numerics.state import SolveInfo
+from ..numerics.launch import BatchLaunches
+from .normal_batch import row_infos
 
 #: iterations between restarts of the conjugacy (the single solver's ``restart_every``)
 RESTART_EVERY = 100
@@ -82,22 +79,13 @@ class BatchTangentialSolver:
         self.residual = wp.zeros(self.batch, dtype=self.dtype, device=self.device)
         self.active = wp.zeros(self.batch, dtype=wp.int32, device=self.device)
         self.flags = wp.zeros(1, dtype=wp.int32, device=self.device)
-        self.reduction = ReductionLaunch.for_cells(self.n_cells, self.device)
-        #: the launches, recorded once and replayed (their arrays are the solver's own)
-        self.launches = LaunchCache(self.device)
+        #: the launches, recorded once and replayed
+        self.launches = BatchLaunches(self.batch, self.n_cells, self.device)
+        self._cells, self._reduce, self._cases = self.launches.cells, self.launches.reduce, self.launches.cases
 
     def set_stiffness(self, stiffness):
         """Each row's self-influence of K_tt (its pair's: ``BatchElasticOperator.set_pairs``)."""
         self.stiffness.assign(np.asarray(stiffness, dtype=self.np_dtype))
-
-    # -- launches (as BatchNormalSolver's) ----------------------------------------------------
-    def _cells(self, kernel, inputs, outputs=()):
-        self.launches.launch(kernel, (self.batch, self.n_cells), inputs, outputs)
-
-    def _reduce(self, kernel, inputs, outputs):
-        r = self.reduction
-        self.launches.launch(kernel, (self.batch, r.num_blocks, r.block_dim), [*inputs, *r.args(self.n_cells)],
-                             outputs, block_dim=r.block_dim)
 
     # -- the solve ------------------------------------------------------------------------------
     def solve(self, tol, max_iter, active) -> list:
@@ -131,17 +119,12 @@ class BatchTangentialSolver:
                          [self.grad_x, self.grad_y, self.dir_x, self.dir_y, self.shear_limit, self.stiffness,
                           self.parameters, self.active], [self.shear_x, self.shear_y, self.status, self.sums])
             self.flags.zero_()
-            self.launches.launch(tbk.batch_tangential_advance, self.batch, [self.sums, self.parameters, RESTART_EVERY],
-                                 [self.scalars, self.active, self.flags])
+            self._cases(tbk.batch_tangential_advance, [self.sums, self.parameters, RESTART_EVERY],
+                        [self.scalars, self.active, self.flags])
             if not int(self.flags.numpy()[tbk.F_ACTIVE]):
                 break
         self._gradient()  # every row's exact g, K_tt q and residual
-        self.launches.launch(bk.batch_residual, self.batch, [self.sums], [self.residual])
-        residual = self.residual.numpy().astype(np.float64)
-        iterations = self.scalars.numpy()[:, rk.C_ITER].astype(np.int64)
-        return [SolveInfo(converged=bool(on and math.isfinite(r) and r < t), iterations=int(k) if on else 0,
-                          residual=float(r) if on else math.nan)
-                for on, r, k, t in zip(active, residual, iterations, tol)]
+        return row_infos(self, active, tol)
 
     def _gradient(self):
         """K_tt q into ``disp``, the exact g and each row's residual sums (zeroed before)."""
