@@ -100,6 +100,33 @@ def test_a_batch_of_friction_cases_gives_each_what_solve_gives(device):
         assert_same_path(result, quiet(wc.solve, c, device=device, fields="none"), rel=1e-9)
 
 
+def test_batched_searches_that_fail_leave_their_cases_to_search_on_their_own(monkeypatch):
+    """Where the batched steps themselves fail (a device's refusal, a library's error; here made
+    to raise at the fifth step), one RuntimeWarning says so and the searches not ended run on their
+    own: each result is the case's own search's."""
+    from warpcontact.solvers.contact_batch import BatchContactSolver
+    from warpcontact.studies.batch_solve import gross_slip_batch
+    from warpcontact.studies.tasks import gross_slip_summary, prepare
+
+    step, calls = BatchContactSolver.step, []
+
+    def failing(self, *args, **kwargs):
+        calls.append(1)
+        if len(calls) == 5:
+            raise RuntimeError("cuFFT refused the plan")
+        return step(self, *args, **kwargs)
+
+    monkeypatch.setattr(BatchContactSolver, "step", failing)
+    cases = [prepare(wc.case_from_dict(c)) for c in MIXED[:2]]
+    with pytest.warns(RuntimeWarning, match="refused the plan"):
+        results = gross_slip_batch(cases, batch=2)
+    assert len(calls) == 5
+    for c, (summary, _) in zip(cases, results):
+        own = quiet(gross_slip_summary, c)
+        assert (summary["delta_x_max"], summary["mu"], len(summary["states"])) == \
+            (own["delta_x_max"], own["mu"], len(own["states"]))
+
+
 def test_a_case_whose_batched_step_does_not_converge_is_solved_on_its_own(monkeypatch):
     """A case whose inner solves cannot converge within its iteration limit (max_iter 3) is
     handed back and solved on its own: its result is solve's (the same unconverged states),

@@ -389,9 +389,11 @@ def search_batch(entries: list, batch: int | None = None, on_case=None) -> list:
     search whose batched step does not converge is run again on its own (``alone``), where hard
     steps have the single solver's help. ``on_case(index, entry)`` as each ends."""
     results: list = [None] * len(entries)
+    ended = set()
 
     def done(index, entry):
         results[index] = entry
+        ended.add(index)
         if on_case is not None:
             on_case(index, entry)
 
@@ -423,17 +425,25 @@ def search_batch(entries: list, batch: int | None = None, on_case=None) -> list:
             for index, _ in members:
                 alone(index)
             continue
-        size = batch_size(n, device, resolve_dtype(dtype), len(members), batch, friction=True)
-        solver = BatchContactSolver(n, size, device, resolve_dtype(dtype))
-        for first in range(0, len(members), size):
-            chunk = members[first:first + size]
-            searches = [_Search(row, index, entries[index], model) for row, (index, model) in enumerate(chunk)]
-            for index, entry in _search_chunk(solver, searches):
-                if entry is None:
-                    alone(index)
-                else:
-                    done(index, entry)
-        solver.normal.convolution.library.release()
+        try:
+            size = batch_size(n, device, resolve_dtype(dtype), len(members), batch, friction=True)
+            solver = BatchContactSolver(n, size, device, resolve_dtype(dtype))
+            for first in range(0, len(members), size):
+                chunk = members[first:first + size]
+                searches = [_Search(row, index, entries[index], model) for row, (index, model) in enumerate(chunk)]
+                for index, entry in _search_chunk(solver, searches):
+                    if entry is None:
+                        alone(index)
+                    else:
+                        done(index, entry)
+            solver.normal.convolution.library.release()
+        except (RuntimeError, MemoryError, OSError, InputError) as e:  # the batched steps themselves failed
+            # (as _solve_all's): the searches not ended run on their own, each with its own failure
+            left = [index for index, _ in members if index not in ended]
+            warnings.warn(f"the batched gross-slip searches of {len(left)} case(s) at n = {n} on {device} failed "
+                          f"({type(e).__name__}: {e}); they are run one at a time", RuntimeWarning, stacklevel=2)
+            for index in left:
+                alone(index)
     return results
 
 
