@@ -53,7 +53,7 @@ estimate above (friction and adhesion, n = 256-4096), on CUDA all of it on the h
 
 Not counted: a path's saved fields (``runner.run_path`` keeps about 13 float64 (n, n) arrays per
 state of the path on the host, made by ``results.state_fields``; summaries stay on the device), and
-extra states (``find_gross_slip`` holds 3: pass ``states=3``).
+extra states (``find_gross_slip`` holds 2, the state and the last stick state: pass ``states=2``).
 """
 
 from __future__ import annotations
@@ -324,7 +324,7 @@ def estimate_bytes(n: int, dtype: str, device_kind: str, friction: bool, fft: st
         device_kind: "cpu", "cuda" or "cuda:N".
         friction: whether the solver has a friction law (a TangentialSolver and its buffers).
         fft: "auto", "scipy", "cupy" or "warp" ("auto" as ``fft.make_fft`` picks it).
-        states: ContactStates alive at once (``find_gross_slip`` holds 3).
+        states: ContactStates alive at once (``find_gross_slip`` holds 2).
         max_iter: iteration limit of the inner solvers (sets the residual histories).
         adhesion: whether the solver has an adhesion law (the fixed point's buffers).
     """
