@@ -2,6 +2,8 @@
 searches): each case's result is what ``warpcontact.solve`` (its own search) gives it, whatever
 the batch around it."""
 
+import warnings
+
 import numpy as np
 import pytest
 
@@ -125,6 +127,26 @@ def test_batched_searches_that_fail_leave_their_cases_to_search_on_their_own(mon
         own = quiet(gross_slip_summary, c)
         assert (summary["delta_x_max"], summary["mu"], len(summary["states"])) == \
             (own["delta_x_max"], own["mu"], len(own["states"]))
+
+
+def test_an_error_of_the_callers_on_case_is_raised_as_it_was(monkeypatch):
+    """An error raised by ``on_case`` (a caller's write that failed) ends the batched searches
+    and is raised as it was, not taken for a failure of the batched steps (no search is run again
+    on its own, no RuntimeWarning)."""
+    from warpcontact.studies import batch_solve, tasks
+
+    alone = []
+    monkeypatch.setattr(tasks, "gross_slip_summary", lambda case, **kw: alone.append(case))
+
+    def full(index, entry):
+        raise OSError("no space left on device")
+
+    cases = [tasks.prepare(wc.case_from_dict(c)) for c in MIXED[:2]]
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        with pytest.raises(OSError, match="no space left"):
+            batch_solve.gross_slip_batch(cases, batch=2, on_case=full)
+    assert alone == [] and not [w for w in caught if issubclass(w.category, RuntimeWarning)]
 
 
 def test_a_case_whose_batched_step_does_not_converge_is_solved_on_its_own(monkeypatch):

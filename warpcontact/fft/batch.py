@@ -151,12 +151,11 @@ class BatchConvolution:
 
 
 @functools.lru_cache(maxsize=8)
-def tangential_influence(pair, n: int) -> tuple[dict, float, float]:
+def tangential_influence(pair, n: int) -> tuple[dict, float]:
     """The scaled tangential and coupling influence spectra of a material pair on an n x n grid
     of square cells, ``numpy.fft.rfft2``'s layout (2 n, n + 1) on the (2 n, 2 n) padded grid:
     "xx", "yy", "xy" real (even kernels), "xz", "yz" complex (i times the imaginary part: kernels
-    odd in one axis); with the self-influence 1/2 (K_xx + K_yy)(0) and the 2-norm bound of one
-    cell's two columns of K_tt (``ElasticOperator.tangential_column_norm``). In scaled units
+    odd in one axis); with the self-influence 1/2 (K_xx + K_yy)(0). In scaled units
     (tractions / E*, lengths / dx) they depend on the pair's A E*, B E* and D E* alone, not on
     the cell size: they are computed with dx = 1."""
     from ..physics.influence import influence_coefficients
@@ -168,9 +167,7 @@ def tangential_influence(pair, n: int) -> tuple[dict, float, float]:
         spectrum = np.fft.rfft2(a)
         spectra[k] = spectrum.real.copy() if k in ("xx", "yy", "xy") else 1j * spectrum.imag
     stiffness = 0.5 * (coefficients["xx"][0, 0] + coefficients["yy"][0, 0]) * pair.E_star
-    norms = {k: float(np.linalg.norm(coefficients[k])) * pair.E_star for k in ("xx", "yy", "xy")}
-    column_norm = float(np.sqrt(norms["xx"] ** 2 + 2.0 * norms["xy"] ** 2 + norms["yy"] ** 2))
-    return spectra, float(stiffness), column_norm
+    return spectra, float(stiffness)
 
 
 class BatchElasticOperator:
@@ -199,10 +196,9 @@ class BatchElasticOperator:
         self._spectra: dict = {}
         self._pairs: tuple = ()
 
-    def set_pairs(self, pairs: list) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    def set_pairs(self, pairs: list) -> tuple[np.ndarray, np.ndarray]:
         """Give rows 0 .. len(pairs) - 1 the pairs ``pairs`` (the rows after them the last one).
-        Returns per row the self-influence of K_tt, the column-norm bound and whether the pair
-        couples (D != 0)."""
+        Returns per row the self-influence of K_tt and whether the pair couples (D != 0)."""
         pairs = list(pairs) + [pairs[-1]] * (self.batch - len(pairs))
         if tuple(pairs) != self._pairs:
             self._pairs = tuple(pairs)
@@ -213,8 +209,7 @@ class BatchElasticOperator:
                 xp = self.library.xp
                 self._spectra = {k: xp.asarray(np.stack([s[k] for s in spectra]).astype(
                     self._real if k in ("xx", "yy", "xy") else self._complex)) for k in spectra[0]}
-        info = [tangential_influence(p, self.n) for p in pairs]
-        return (np.array([i[1] for i in info]), np.array([i[2] for i in info]),
+        return (np.array([tangential_influence(p, self.n)[1] for p in pairs]),
                 np.array([p.D != 0.0 for p in pairs]))
 
     def _view(self, a: wp.array):

@@ -105,14 +105,12 @@ class BatchContactSolver:
         self._pairs: list = []
         self._windows: OrderedDict = OrderedDict()  # cells per side -> BatchTangentialSolver
         self._kept = None  # the rows' path state kept by ``keep``, made when first needed
-        #: the side of the last turn's window (cells)
-        self.last_window = None
 
     def set_cases(self, pairs: list, laws: list, pressure_caps: list):
         """Rows 0 .. len(pairs) - 1: each case's material pair, its shear-limit law's parameters
         (``law_parameters``) and its pressure cap / E* (inf for none)."""
         self._pairs = list(pairs)
-        _, _, self.coupled = self.operator.set_pairs(pairs)
+        _, self.coupled = self.operator.set_pairs(pairs)
         for window in self._windows.values():
             window.set_stiffness(window.operator.set_pairs(pairs)[0])
         rows = np.zeros((self.batch, lk.N_LAW_PARAMETERS))
@@ -171,7 +169,6 @@ class BatchContactSolver:
             while len(self._windows) > WINDOW_CACHE:
                 self._windows.popitem(last=False)
         self._windows.move_to_end(cells)
-        self.last_window = cells
         return window
 
     def _transfer(self, window: BatchTangentialSolver, turning: np.ndarray, back: bool = False):

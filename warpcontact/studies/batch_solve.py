@@ -32,7 +32,7 @@ from ..numerics.state import ContactState, check_contact_fits
 from ..solvers.base import default_tolerance
 from ..solvers.contact_batch import BatchContactSolver, law_parameters
 from ..solvers.normal_batch import BatchNormalSolver
-from .runner import PathRecorder, build_model, friction_law, run_path
+from .runner import PathRecorder, build_model, friction_law, pressure_cap, run_path
 
 #: cases a batch holds at most by default: on the CPU a batch saves the per-case overhead of the
 #: launches but not their work; on CUDA it is bounded by the device's free memory
@@ -97,14 +97,11 @@ def solve_batch(cases: list, fields: str = "none", batch: int | None = None, on_
     so that one case's failure leaves the others' results. ``fields``: as ``run_path``'s.
     ``batch``: cases per batched solve (default: ``batch_size``). ``on_case(index, result)`` is
     called as each case ends; an error it raises ends the solve and is raised as it was."""
-    try:
-        return _solve_all(cases, fields, batch, on_case)
-    except _CallerError as e:  # on_case's own error, not the batch's: raised as it was
-        raise e.error from None
+    return _callers_raised(lambda: _solve_all(cases, fields, batch, on_case))
 
 
 class _CallerError(Exception):
-    """An error raised by ``solve_batch``'s ``on_case`` (a caller's write that failed, say), carried
+    """An error raised by a batched call's ``on_case`` (a caller's write that failed, say), carried
     past the batched solve's fallback to one case at a time."""
 
     def __init__(self, error: Exception):
@@ -112,18 +109,36 @@ class _CallerError(Exception):
         self.error = error
 
 
-def _solve_all(cases: list, fields: str, batch: int | None, on_case) -> list:
-    results: list = [None] * len(cases)
-    ended = set()
+def _callers_raised(run):
+    """``run()``, an error of the caller's ``on_case`` raised as it was (``_CallerError``)."""
+    try:
+        return run()
+    except _CallerError as e:  # on_case's own error, not the batch's
+        raise e.error from None
 
-    def done(index, result):
-        results[index] = result
-        ended.add(index)
-        if on_case is not None:
+
+class _Outcomes:
+    """The entry of each case of a batched call, those ended, and the caller's ``on_case(index,
+    entry)`` as each ends (its error carried as ``_CallerError``)."""
+
+    def __init__(self, count: int, on_case):
+        self.results: list = [None] * count
+        self.ended: set = set()
+        self.on_case = on_case
+
+    def done(self, index: int, entry) -> None:
+        self.results[index] = entry
+        self.ended.add(index)
+        if self.on_case is not None:
             try:
-                on_case(index, result)
-            except Exception as e:  # noqa: BLE001 - the caller's, raised by solve_batch as it was
+                self.on_case(index, entry)
+            except Exception as e:  # noqa: BLE001 - the caller's, raised by the call as it was
                 raise _CallerError(e) from e
+
+
+def _solve_all(cases: list, fields: str, batch: int | None, on_case) -> list:
+    outcomes = _Outcomes(len(cases), on_case)
+    done, results, ended = outcomes.done, outcomes.results, outcomes.ended
 
     def alone(index):  # one case as solve solves it
         try:
@@ -195,21 +210,9 @@ def _solve_chunk(solver, cases: list, indices: list, fields: str):
             models[key] = build_model(case)
         model = models[key]
         members.append(_Member(row, indices[row], case, model, fields))
-    normal = _normal(solver)
-    friction = normal is not solver
-    normal.pressure.zero_()
-    for member in members:
-        wp.copy(normal.initial_gap, member.model.initial_gap.flatten(), dest_offset=member.row * normal.n_cells)
+    friction = _normal(solver) is not solver
     rows = len(members)
-    tol = np.array([m.case.solver.tol or default_tolerance(normal.dtype) for m in members])
-    max_iter = np.array([m.case.solver.max_iter for m in members])
-    if friction:
-        solver.clear()
-        solver.set_cases([m.case.pair for m in members],
-                         [law_parameters(friction_law(m.case), m.model.traction_scale) for m in members],
-                         [m.case.pair.softer.hardness / m.model.traction_scale if m.case.friction.hardness_cap
-                          else np.inf for m in members])
-        max_turns = min(BATCH_MAX_TURNS, *(m.case.solver.max_turns for m in members))
+    tol, max_iter, max_turns = _load_rows(solver, members)
     arrays = _rows_fields(solver)
     for k in range(max(len(m.path) for m in members)):
         running = [m for m in members if m.error is None and not m.alone and k < len(m.path)]
@@ -245,6 +248,31 @@ def _solve_chunk(solver, cases: list, indices: list, fields: str):
             yield m.index, result
 
 
+def _load_rows(solver, members) -> tuple:
+    """A chunk's start: each member's initial gap in its row, the rows' tractions (and with
+    friction statuses and slip) zeroed, with friction each row's pair, law and pressure cap (the
+    members' ``row``, ``model``, ``law``, ``cap``); returns each row's tolerance and iteration
+    limit, and the chunk's turn limit (from the members' ``tol``, ``max_iter``, ``max_turns``)."""
+    normal = _normal(solver)
+    normal.pressure.zero_()
+    for m in members:
+        wp.copy(normal.initial_gap, m.model.initial_gap.flatten(), dest_offset=m.row * normal.n_cells)
+    if normal is not solver:
+        solver.clear()
+        solver.set_cases([m.model.pair for m in members],
+                         [law_parameters(m.law, m.model.traction_scale) for m in members], [m.cap for m in members])
+    tol = np.array([m.tol or default_tolerance(normal.dtype) for m in members])
+    max_iter = np.array([m.max_iter for m in members])
+    return tol, max_iter, min(BATCH_MAX_TURNS, *(m.max_turns for m in members))
+
+
+def _copy_row(arrays: dict, row: int, state) -> None:
+    """A row's fields (``arrays``: name -> the batch's array, ``_rows_fields``) into ``state``."""
+    for name, source in arrays.items():
+        cells = source.shape[1]
+        wp.copy(getattr(state, name).flatten(), source, src_offset=row * cells, count=cells)
+
+
 def _yield_checks(ended: list) -> dict:
     """{row: yield check} of the cases whose paths ended at this state, made together where
     ``yielding.checks_by_planes`` says (CUDA, a plane that fits a chunk: a few launches for them
@@ -278,7 +306,10 @@ class _Member:
         self.row, self.index, self.case, self.model = row, index, case, model
         self.path = case.load.path()
         self.state = ContactState(model)
-        self.recorder = PathRecorder(case, model, fields, friction=friction_law(case))
+        #: its shear-limit law (None without friction), its pressure cap / E* and its solves' settings
+        self.law, self.cap = friction_law(case), pressure_cap(case) / model.traction_scale
+        self.tol, self.max_iter, self.max_turns = case.solver.tol, case.solver.max_iter, case.solver.max_turns
+        self.recorder = PathRecorder(case, model, fields, friction=self.law)
         self.error: Exception | None = None
         #: its batched step did not converge: the case is solved again on its own
         self.alone = False
@@ -294,9 +325,7 @@ class _Member:
         """State ``k`` from the batch's row: the fields (``arrays``: name -> the batch's array,
         ``_rows_fields``) into this case's state, then recorded."""
         state = self.state
-        for name, source in arrays.items():
-            cells = source.shape[1]
-            wp.copy(getattr(state, name).flatten(), source, src_offset=self.row * cells, count=cells)
+        _copy_row(arrays, self.row, state)
         state.approach = tuple(float(a) for a in self.path[k])
         # a step of normal contact is one turn, as a path counts it
         state.info = info if info.outer_iterations else replace(info, outer_iterations=1)
@@ -349,8 +378,7 @@ def gross_slip_batch(cases: list, rel_tol: float = 0.01, batch: int | None = Non
         def start(model, case=case):
             law = friction_law(case)
             search, finish = gross_slip_search(case, model, law, None, rel_tol)
-            cap = case.pair.softer.hardness / model.traction_scale if case.friction.hardness_cap else np.inf
-            return search, finish, law, cap
+            return search, finish, law, pressure_cap(case) / model.traction_scale
 
         entries.append(SearchEntry(alone=lambda c=case: gross_slip_summary(c, rel_tol=rel_tol), start=start,
                                    model_key=_model_key(case, index), build=lambda c=case: build_model(c),
@@ -388,14 +416,12 @@ def search_batch(entries: list, batch: int | None = None, on_case=None) -> list:
     Returns one entry per search, in order: (summary, warnings) or the exception it raised. A
     search whose batched step does not converge is run again on its own (``alone``), where hard
     steps have the single solver's help. ``on_case(index, entry)`` as each ends."""
-    results: list = [None] * len(entries)
-    ended = set()
+    return _callers_raised(lambda: _search_all(entries, batch, on_case))
 
-    def done(index, entry):
-        results[index] = entry
-        ended.add(index)
-        if on_case is not None:
-            on_case(index, entry)
+
+def _search_all(entries: list, batch: int | None, on_case) -> list:
+    outcomes = _Outcomes(len(entries), on_case)
+    done, results, ended = outcomes.done, outcomes.results, outcomes.ended
 
     def alone(index):
         with warnings.catch_warnings(record=True) as caught:
@@ -437,6 +463,8 @@ def search_batch(entries: list, batch: int | None = None, on_case=None) -> list:
                     else:
                         done(index, entry)
             solver.normal.convolution.library.release()
+        except _CallerError:
+            raise
         except (RuntimeError, MemoryError, OSError, InputError) as e:  # the batched steps themselves failed
             # (as _solve_all's): the searches not ended run on their own, each with its own failure
             left = [index for index, _ in members if index not in ended]
@@ -459,6 +487,7 @@ class _Search:
         self.warnings: list = []
         self.state, self.last_stick = ContactState(model), ContactState(model)
         self.search, self.finish, self.law, self.cap = self.checked(lambda: entry.start(model))
+        self.tol, self.max_iter, self.max_turns = entry.tol, entry.max_iter, entry.max_turns
 
     def checked(self, work):
         """``work()`` with the warnings it gives kept as this search's."""
@@ -473,16 +502,8 @@ class _Search:
 def _search_chunk(solver: BatchContactSolver, members: list):
     """Walk the searches ``members`` (at most the solver's B) in step; yields (index, entry) as
     each ends, entry None for a search to run again on its own."""
-    normal = solver.normal
-    solver.clear()
-    for m in members:
-        wp.copy(normal.initial_gap, m.model.initial_gap.flatten(), dest_offset=m.row * normal.n_cells)
-    solver.set_cases([m.model.pair for m in members],
-                     [law_parameters(m.law, m.model.traction_scale) for m in members], [m.cap for m in members])
     rows = len(members)
-    tol = np.array([m.entry.tol or default_tolerance(normal.dtype) for m in members])
-    max_iter = np.array([m.entry.max_iter for m in members])
-    max_turns = min(BATCH_MAX_TURNS, *(m.entry.max_turns for m in members))
+    tol, max_iter, max_turns = _load_rows(solver, members)
     arrays = _rows_fields(solver)
     pending = list(members)
     while pending:
@@ -513,9 +534,7 @@ def _search_chunk(solver: BatchContactSolver, members: list):
                 pending.remove(m)
                 yield m.index, None
                 continue
-            for name, source in arrays.items():
-                cells = source.shape[1]
-                wp.copy(getattr(m.state, name).flatten(), source, src_offset=m.row * cells, count=cells)
+            _copy_row(arrays, m.row, m.state)
             m.state.approach = tuple(a * m.model.length_scale for a in approach[m.row])
             m.state.info = info
             try:

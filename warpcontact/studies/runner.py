@@ -54,6 +54,12 @@ def build_model(case) -> ContactModel:
     return ContactModel(case.pair, case.sphere, case.grid, device=s.device, dtype=s.dtype, fft=s.fft)
 
 
+def pressure_cap(case) -> float:
+    """A case's cap of the contact pressure [Pa]: the softer body's hardness where its friction
+    law asks for it (``friction.hardness_cap``), else inf."""
+    return case.pair.softer.hardness if case.friction is not None and case.friction.hardness_cap else math.inf
+
+
 def build(case, model=None, **choices):
     """(model, solver, state) for a case. ``model``: a model built for the same materials, sphere,
     grid, device, float type and FFT backend to reuse (:mod:`warpcontact.studies.batch` keeps one per
@@ -62,7 +68,7 @@ def build(case, model=None, **choices):
     s = case.solver
     if model is None:
         model = build_model(case)
-    cap = case.pair.softer.hardness if case.friction is not None and case.friction.hardness_cap else math.inf
+    cap = pressure_cap(case)
     settings = SolverSettings(tol=s.tol, max_iter=s.max_iter, max_turns=s.max_turns, nested=s.nested, window=s.window,
                               **choices)
     # a long step's turns on the progress line open now (solve, gross-slip, pull-off)

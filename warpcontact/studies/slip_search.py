@@ -83,10 +83,6 @@ class GrossSlipSearch:
         self.lo, self.lo_summary, self.hi = 0.0, None, None
         self._trial = None  # the bisection's delta_x being solved
 
-    @property
-    def done(self) -> bool:
-        return self.phase == "done"
-
     def next(self):
         """The next state: (approach [m], starts from the last stick state), or None at the end."""
         if self.phase == "normal":
@@ -111,7 +107,7 @@ class GrossSlipSearch:
         """Take the solved state of the last ``next()``; whether it is the new last stick state."""
         self.converged = self.converged and info.converged
         summary = state_summary(state, self.adhesion)
-        summary["kind"] = {"normal": "normal", "load": "load", "bisect": "bisect"}[self.phase]
+        summary["kind"] = self.phase  # "normal", "load" or "bisect"
         summary["stick_cells"] = stick_cells(state)
         self.path.append(summary)
         if self.on_state is not None:
