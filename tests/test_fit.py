@@ -376,3 +376,53 @@ def test_a_trial_point_that_gives_no_output_is_a_bad_point_not_the_end(hertz_for
     assert "a trial point is counted as bad" in err and "gives no force_z" in err, err
     e = report.parameters["sphere.E"]["value"]
     assert 60e9 < e <= 80e9, e
+
+
+def test_a_fit_batched_gives_what_one_case_at_a_time_gives(hertz_forces, tmp_path, monkeypatch):
+    """``--batch 3`` (task "solve", normal contact): every evaluation's cases solved together
+    (``run_batched``; on the CPU only when asked), none left to the batch engine, and the fit ends
+    where the fit of one case at a time (``--batch 0``) ends: E within 1e-6 (the batched and the
+    single solves both stop at a relative residual of 1e-10; their forces agree within 1e-8 and the
+    fit recovers E to 1e-4 of the truth either way)."""
+    from warpcontact.studies import batch, batch_solve
+
+    fit_file = hertz_fit(tmp_path, hertz_forces)
+    solved, engine = [], []  # cases per batched call; cases per batch of the engine
+    real_solve, real_run = batch_solve.solve_batch, batch.run_tasks
+    monkeypatch.setattr(batch_solve, "solve_batch", lambda cases, **kw: solved.append(len(cases)) or real_solve(cases, **kw))
+    monkeypatch.setattr(batch, "run_tasks", lambda tasks, *a, **kw: engine.append(len(tasks)) or real_run(tasks, *a, **kw))
+    run = ["fit", str(fit_file), "--workers", "1", "--quiet", "--out"]
+    assert main(run + [str(tmp_path / "batched"), "--batch", "3"]) == 0
+    assert solved and engine == []
+    calls = len(solved)
+    assert main(run + [str(tmp_path / "one"), "--batch", "0"]) == 0
+    assert len(solved) == calls and engine
+    a, b = (json.loads((tmp_path / name / "fit.json").read_text()) for name in ("batched", "one"))
+    assert a["evaluations"]["batched"] == a["evaluations"]["computed"] == sum(solved)
+    assert a["evaluations"]["where"] == "this process, batched solves"
+    assert b["evaluations"]["batched"] == 0 and b["evaluations"]["computed"] == sum(engine)
+    va, vb = (r["parameters"]["sphere.E"]["value"] for r in (a, b))
+    assert abs(va / vb - 1) < 1e-6 and abs(va / E_TRUE - 1) < 1e-4, (va, vb)
+
+
+def test_a_fits_gross_slip_evaluations_batched_are_those_of_one_case_at_a_time(gs_data, tmp_path):
+    """The gross-slip rows at one k_tau evaluated with ``batch`` 3 (the searches walk together)
+    and one case at a time: the same statuses and delta_x_max, mu within 2e-9 relative (a batched
+    search's states are its own search's; both solve each state to a relative residual of 1e-10)."""
+    from warpcontact.studies.batch import Placement
+    from warpcontact.studies.fit_evaluations import _Evaluator
+
+    folder, rows = gs_data
+    fit_file = write(folder / "fit.toml", K_TAU_FIT)
+    write_csv(folder / "data.csv", ["load.delta_z", "grid.size", "mu", "delta_x_max"],
+              [(dz, size, repr(mu), repr(dx)) for dz, size, mu, dx in rows])
+    fit = load_fit(fit_file)
+    point = {"friction.k_tau": 0.6}
+    together = _Evaluator(fit, tmp_path / "batched", Placement(workers=1), batch=3)
+    alone = _Evaluator(fit, tmp_path / "one", Placement(workers=1), batch=0)
+    (a,), (b,) = together.outcomes([point]), alone.outcomes([point])
+    assert together.batched == len(GS_ROWS) and not together.batches and alone.batched == 0
+    for ra, rb in zip(a, b):
+        assert ra["status"] == rb["status"] == "ok"
+        assert ra["summary"]["delta_x_max"] == rb["summary"]["delta_x_max"]
+        assert abs(ra["summary"]["mu"] / rb["summary"]["mu"] - 1) < 2e-9

@@ -253,14 +253,14 @@ def test_batched_solve_sweep_records_what_one_case_at_a_time_records(tmp_path, m
     from warpcontact.studies.sweep import batched_cases
 
     path = write_sweep(tmp_path, BATCH_SWEEP)
-    sw = load_sweep(path)
-    assert batched_cases("solve", sw.cases, Placement(workers=1)) == []  # the CPU: one at a time by default
-    assert len(batched_cases("solve", sw.cases, Placement(workers=1), batch=4)) == 6
-    assert batched_cases("gross-slip", sw.cases, Placement(workers=1), batch=4) == []
-    assert batched_cases("solve", sw.cases, Placement(workers=1), batch=0) == []
+    cases = [sc.case for sc in load_sweep(path).cases]
+    assert batched_cases("solve", cases, Placement(workers=1)) == []  # the CPU: one at a time by default
+    assert len(batched_cases("solve", cases, Placement(workers=1), batch=4)) == 6
+    assert batched_cases("gross-slip", cases, Placement(workers=1), batch=4) == []
+    assert batched_cases("solve", cases, Placement(workers=1), batch=0) == []
     one, together = tmp_path / "one", tmp_path / "together"
-    assert batched_cases("solve", sw.cases, Placement(workers=2)) == []  # workers of a cluster: theirs
-    assert len(batched_cases("solve", sw.cases, Placement(workers=2), batch=4)) == 6  # asked for: here
+    assert batched_cases("solve", cases, Placement(workers=2)) == []  # workers of a cluster: theirs
+    assert len(batched_cases("solve", cases, Placement(workers=2), batch=4)) == 6  # asked for: here
     batches = count_batches(monkeypatch)
     assert cmd_sweep(parse("sweep", path, "--out", one, "--quiet", "--batch", "0", "--workers", "1")) == 3
     assert batches == []

@@ -66,12 +66,12 @@ def cmd_fit(args) -> int:
     evaluation failed) or 128 + the signal (stopped). A bad fit file raises InputError; a write
     that fails, OutputError."""
     from .. import interrupts
-    from .sweep import placement_from
+    from .sweep import batch_from, placement_from
     from ..studies.fit import load_fit, run_fit
 
     fit = load_fit(args.fit, device=args.device, dtype=args.dtype, fft=args.fft)
     placement = placement_from(args, fit.scheduler)
-    report = run_fit(fit, args.out, quiet=args.quiet, placement=placement)
+    report = run_fit(fit, args.out, quiet=args.quiet, placement=placement, batch=batch_from(args))
     out = args.out
     ev = report.evaluations
     kept = f"{ev['computed']} case(s) computed now, {ev['cached']} found done, kept in {out}/evaluations"

@@ -65,11 +65,6 @@ def add_parser(sub):
         "finished cases.",
         epilog=EXAMPLE_SWEEP,
     )
-    p.add_argument("--batch", type=int, metavar="B",
-                   help="with the task \"solve\" (cases without adhesion) or \"gross-slip\" (cases with friction, "
-                   "without adhesion): cases solved B at a time by batched steps, in this process (default: on CUDA, "
-                   "as many as half the free memory holds, up to 256; on the CPU one case at a time); 0: one case at "
-                   "a time everywhere")
     return p
 
 
@@ -93,6 +88,20 @@ def add_many_case_options(p):
     p.add_argument("--fft", choices=FFT_BACKENDS, help="override [solver] fft of every case")
     p.add_argument("--quiet", action="store_true", help="no progress lines (warnings and errors are still printed)")
     add_batch_options(p, default_workers="one per GPU for CUDA cases, else one per CPU core")
+    p.add_argument("--batch", type=int, metavar="B",
+                   help="with the task \"solve\" (cases without adhesion) or \"gross-slip\" (cases with friction, "
+                   "without adhesion): cases solved B at a time by batched steps, in this process (default: on CUDA, "
+                   "as many as half the free memory holds, up to 256; on the CPU one case at a time); 0: one case at "
+                   "a time everywhere")
+
+
+def batch_from(args) -> int | None:
+    """``--batch`` of a many-case command; InputError for a negative count."""
+    if args.batch is not None and args.batch < 0:
+        from ..errors import InputError
+
+        raise InputError("--batch", f"must be a whole number of cases, 0 or more, got {args.batch}")
+    return args.batch
 
 
 def add_batch_options(p, default_workers: str, default: int | None = None):
@@ -157,11 +166,7 @@ def cmd_sweep(args) -> int:
 
     sweep = load_sweep(args.sweep, device=args.device, dtype=args.dtype, fft=args.fft)
     placement = placement_from(args, sweep.scheduler)
-    if args.batch is not None and args.batch < 0:
-        from ..errors import InputError
-
-        raise InputError("--batch", f"must be a whole number of cases, 0 or more, got {args.batch}")
-    report = run_sweep(sweep, args.out, quiet=args.quiet, placement=placement, batch=args.batch,
+    report = run_sweep(sweep, args.out, quiet=args.quiet, placement=placement, batch=batch_from(args),
                        finish=lambda records: plot_sweep(sweep, records, args.out))  # writes after a stop: deferred
     out = args.out
     if report.write_error is not None:

@@ -131,7 +131,8 @@ def _values(fit: Fit, u) -> dict:
 
 
 
-def run_fit(fit: Fit, out: str | PathLike, quiet: bool = False, log=None, placement=None) -> FitReport:
+def run_fit(fit: Fit, out: str | PathLike, quiet: bool = False, log=None, placement=None,
+            batch: int | None = None) -> FitReport:
     """Fit ``fit``'s parameters to its data; write ``out/fit.json``, ``out/fit.png``,
     ``out/fitted.toml`` and every evaluation in ``out/evaluations/``.
 
@@ -145,6 +146,9 @@ def run_fit(fit: Fit, out: str | PathLike, quiet: bool = False, log=None, placem
     output (mu of a cell in tension) is a bad point: each such output counts
     ``BAD_POINT_RESIDUAL``, the log says so, and the optimiser steps back; a difference step
     that reaches one is taken backwards. The start and the optimum must give every output.
+    ``batch``: cases per batched solve, as a sweep's (``sweep.batched_cases``: with the task
+    "solve" or "gross-slip", the cases without adhesion of each evaluation, by default on CUDA in
+    this process; 0: one case at a time).
     """
     from scipy.optimize import least_squares
 
@@ -235,7 +239,7 @@ def run_fit(fit: Fit, out: str | PathLike, quiet: bool = False, log=None, placem
     result = None
     try:
         with session(placement, pending) as (where, where_text):
-            ev = _Evaluator(fit, out, where, where_text)
+            ev = _Evaluator(fit, out, where, where_text, batch)
             # the trust-region subproblem in a 2-D subspace (lsmr), the variables scaled by the Jacobian's
             # columns: where the data cannot see a parameter (a zero column), 'exact' shrank the trust
             # region at nearly every step (two-parameter test: 24 evaluations instead of 5) and x_scale=1
@@ -271,7 +275,9 @@ def run_fit(fit: Fit, out: str | PathLike, quiet: bool = False, log=None, placem
     report.evaluations = {"count": ev.requested if ev else 0, "cached": ev.cached if ev else 0,
                           "computed": ev.computed if ev else 0,
                           "residual_evaluations": len(state["trace"]), "iterations": state["iteration"],
-                          "where": (ev.where or ev.batches[-1].where) if ev and ev.batches else None}
+                          "batched": ev.batched if ev else 0,
+                          "where": (ev.where or ev.batches[-1].where) if ev and ev.batches else
+                          ("this process, batched solves" if ev and ev.batched else None)}
     if result is None:  # stopped: fit.json says so, with the best point met
         result = {"complete": False, "converged": False, "interrupted": report.interrupted,
                   "stop_signal": report.stop_signal, "error": report.error, "message": report.message,

@@ -41,8 +41,8 @@ def evaluation_hash(ident: dict) -> str:
 class _Evaluator:
     """The model at parameter points: every row's case, from the cache or the batch engine."""
 
-    def __init__(self, fit: Fit, out: Path, placement, where: str | None = None):
-        self.fit, self.out, self.placement = fit, out, placement
+    def __init__(self, fit: Fit, out: Path, placement, where: str | None = None, batch: int | None = None):
+        self.fit, self.out, self.placement, self.batch = fit, out, placement, batch
         self.where = where  # the words for a local cluster of the fit's own; else each batch's
         self.folder = out / "evaluations"
         self.memory: dict = {}  # hash -> outcome
@@ -50,6 +50,8 @@ class _Evaluator:
         self.compute_s = 0.0
         self.data_name = Path(fit.data_file).name
         self.batches = []
+        #: cases computed by batched solves in this process (``run_batched``)
+        self.batched = 0
 
     def _load(self, h: str, ident: dict):
         if h in self.memory:
@@ -65,13 +67,16 @@ class _Evaluator:
 
     def outcomes(self, points: list) -> list:
         """For each point (parameter key -> value), each row's outcome (summary or error), in row
-        order; the missing ones computed together, each written as it finishes."""
+        order; the missing ones computed together, each written as it finishes: by batched solves
+        in this process where ``sweep.batched_cases`` takes them (the task "solve" or
+        "gross-slip", cases without adhesion; by default on CUDA, or with ``batch``), the others
+        on the batch engine."""
         from .batch import Task, model_key, models_to_keep, run_tasks
         from ..records.results import atomic_write_json
-        from .sweep import run_case
+        from .sweep import batched_cases, run_batched, run_case
 
         fit = self.fit
-        plan, tasks, pending = [], [], {}
+        plan, tasks, task_cases, pending = [], [], [], {}
         cases = [[_row_case(fit.base_dict, row, values, fit.overrides, self.data_name, fit.grid_size) for row in fit.rows]
                  for values in points]
         # the models of one point's rows, kept by each process across the fit's batches (the next
@@ -91,6 +96,7 @@ class _Evaluator:
                 pending[h] = (ident, row, values)
                 tasks.append(Task(h, f"line {row.line} {_show(values)}", run_case, (fit.task, fit.rel_tol, case, keep),
                                   model_key(case.pair, case.sphere, case.grid, s.device, s.dtype, s.fft)))
+                task_cases.append(case)
             plan.append(hashes)
 
         def on_result(task, outcome):
@@ -123,8 +129,15 @@ class _Evaluator:
                 from ..records.results import output_error
 
                 raise output_error(self.folder, e, "create the folder") from None
-            stats = run_tasks(tasks, on_result, self.placement, on_error=on_error, keep_models=True)
-            self.batches.append(stats)
+            together = batched_cases(fit.task, task_cases, self.placement, self.batch)
+            if together:
+                run_batched(fit.task, fit.rel_tol, [task_cases[i] for i in together], self.batch,
+                            lambda k, outcome: on_result(tasks[together[k]], outcome))
+                self.batched += len(together)
+            together = set(together)
+            rest = [t for i, t in enumerate(tasks) if i not in together]
+            if rest:
+                self.batches.append(run_tasks(rest, on_result, self.placement, on_error=on_error, keep_models=True))
             self.compute_s += time.perf_counter() - t0
         return [[self.memory[h] for h in hashes] for hashes in plan]
 

@@ -307,13 +307,14 @@ BATCHED_TASKS = ("solve", "gross-slip")
 
 
 def batched_cases(task: str, cases: list, placement, batch: int | None = None) -> list:
-    """Those of ``cases`` (``SweepCase``) that ``run_sweep`` solves by batched solves (in this
-    process): with the task "solve", cases without adhesion (``warpcontact.solve_batch``); with
-    "gross-slip", cases with friction and without adhesion (``batch_solve.gross_slip_batch``); by default those on a CUDA device where the cases run in
-    this process (``placement``), and where ``batch`` (cases per batched solve) is given, those on
-    any device wherever the others run; none where ``batch`` is 0, or where fewer than two cases
-    qualify. On 2 CPU cores a batch saves the launches' overhead but not their work, and
-    each case there checks its own yield (docs/performance.md): one case at a time by default."""
+    """The indices of those of ``cases`` (``Case``) that a many-case command (``run_sweep``,
+    ``run_fit``) solves by batched solves (in this process, ``run_batched``): with the task "solve",
+    cases without adhesion (``warpcontact.solve_batch``); with "gross-slip", cases with friction and
+    without adhesion (``batch_solve.gross_slip_batch``); by default those on a CUDA device where the
+    cases run in this process (``placement``), and where ``batch`` (cases per batched solve) is
+    given, those on any device wherever the others run; none where ``batch`` is 0, or where fewer
+    than two cases qualify. On 2 CPU cores a batch saves the launches' overhead but not their work,
+    and each case there checks its own yield (docs/performance.md): one case at a time by default."""
     import warp as wp
 
     from ..numerics.device import resolve_device
@@ -321,9 +322,30 @@ def batched_cases(task: str, cases: list, placement, batch: int | None = None) -
 
     if batch == 0 or task not in BATCHED_TASKS or (batch is None and not placement.in_process(len(cases))):
         return []
-    chosen = [sc for sc in cases if batchable(sc.case) and (task == "solve" or sc.case.friction is not None)
-              and (batch is not None or wp.get_device(resolve_device(sc.case.solver.device)).is_cuda)]
+    chosen = [i for i, case in enumerate(cases) if batchable(case) and (task == "solve" or case.friction is not None)
+              and (batch is not None or wp.get_device(resolve_device(case.solver.device)).is_cuda)]
     return chosen if len(chosen) > 1 else []
+
+
+def run_batched(task: str, rel_tol: float, cases: list, batch: int | None, on_outcome) -> None:
+    """Solve ``cases`` (``Case``, chosen by ``batched_cases``) together in this process, as
+    ``task`` asks ("solve": ``warpcontact.solve_batch``; "gross-slip":
+    ``batch_solve.gross_slip_batch``), ``batch`` cases at a time (None: the device's default);
+    ``on_outcome(i, outcome)`` as case i ends, with the outcome ``run_case`` gives of it (its
+    summary as a row, or its error; its warnings' messages, not issued again; ``elapsed_s``: its
+    batch's time from the start to the case's end)."""
+    from .batch_solve import gross_slip_batch, solve_batch
+    from .tasks import prepare
+
+    with warnings.catch_warnings():  # each case's warnings are in its outcome
+        warnings.simplefilter("ignore")
+        prepared = [prepare(case) for case in cases]
+        if task == "gross-slip":
+            gross_slip_batch(prepared, rel_tol=rel_tol, batch=batch or None,
+                             on_case=lambda i, entry: on_outcome(i, _searched_outcome(entry)))
+        else:
+            solve_batch(prepared, fields="none", batch=batch or None,
+                        on_case=lambda i, result: on_outcome(i, _batched_outcome(result)))
 
 
 def _searched_outcome(entry) -> dict:
@@ -467,33 +489,22 @@ def run_sweep(sweep: Sweep, out: str | PathLike, quiet: bool = False, log=None, 
     placement = placement or Placement(workers=1)
     if placement.device == "cpu" and placement.scheduler is None:
         placement = Placement(placement.scheduler, placement.workers, _placement_device(sweep))
-    together = batched_cases(sweep.task, pending, placement, batch)
+    together = [pending[i] for i in batched_cases(sweep.task, [sc.case for sc in pending], placement, batch)]
     batched_ids = {sc.id for sc in together}
     tasks = [task_of(sc) for sc in pending if sc.id not in batched_ids]
 
     def run_together():
         """The batched cases, each written as it ends (a stop ends the batch: what ended is written)."""
-        from .batch_solve import gross_slip_batch, solve_batch
-        from .tasks import prepare
-
         last = [time.perf_counter()]
 
-        def on_case(i, outcome):
+        def on_outcome(i, outcome):
             table = time.perf_counter() - last[0] >= TABLE_EVERY_S
             on_result(task_of(together[i]), outcome, table)
             if table:
                 last[0] = time.perf_counter()
             progress.status(len(records), extra=f"{len(records) - len(report.skipped)} case(s) solved, batched")
 
-        with warnings.catch_warnings():  # each case's warnings are in its record (and printed with it)
-            warnings.simplefilter("ignore")
-            prepared = [prepare(sc.case) for sc in together]
-            if sweep.task == "gross-slip":
-                gross_slip_batch(prepared, rel_tol=sweep.rel_tol, batch=batch or None,
-                                 on_case=lambda i, entry: on_case(i, _searched_outcome(entry)))
-            else:
-                solve_batch(prepared, fields="none", batch=batch or None,
-                            on_case=lambda i, result: on_case(i, _batched_outcome(result)))
+        run_batched(sweep.task, sweep.rel_tol, [sc.case for sc in together], batch, on_outcome)
         with interrupts.deferred():
             write_table()
     try:
