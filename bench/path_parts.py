@@ -19,6 +19,7 @@ tangential solves' inner iterations and the tolerance each was solved to.
     python bench/path_parts.py --path figure2c --sizes 1024 4096 --device cuda
     python bench/path_parts.py --path figure2c --sizes 512 --device cpu --turns 1 9 16 --set nested=false
     python bench/path_parts.py --path figure2d --sizes 4096 --device cuda --normal-window off
+    python bench/path_parts.py --path figure2c --sizes 1024 --device cpu --window-turns off
 """
 
 from __future__ import annotations
@@ -138,7 +139,15 @@ def main(argv=None):
     p.add_argument("--normal-window", choices=("auto", "on", "off"), default="auto",
                    help='with window = "auto": the normal solves on windows as chosen (NORMAL_WINDOW_AUTO_N), '
                         'at every n, or at none (the shear\'s window as chosen either way)')
+    p.add_argument("--window-turns", choices=("on", "off"), default="on",
+                   help="the later turns' normal solves on the first turn's window, judged once a step (on, the "
+                        "default), or each judged on the whole grid (off): SolverSettings.window_turns")
     args = p.parse_args(argv)
+    if args.window_turns == "off":
+        from warpcontact.studies import runner
+
+        build = runner.build
+        runner.build = lambda case, model=None, **choices: build(case, model, window_turns=False, **choices)
     if args.normal_window != "auto":
         from warpcontact.solvers import normal
 
@@ -169,7 +178,8 @@ def main(argv=None):
             wall = time.perf_counter() - t0
             timers.on = False
         states = result.states
-        chosen = (args.set or []) + ([f"normal window {args.normal_window}"] if args.normal_window != "auto" else [])
+        chosen = ((args.set or []) + ([f"normal window {args.normal_window}"] if args.normal_window != "auto" else [])
+                  + (["window turns off"] if args.window_turns == "off" else []))
         print(f"\n{args.path}, n = {n}, {args.device}, {chosen or 'as shipped'}: {wall:.2f} s, "
               f"{len(states)} states, all converged: {all(bool(s['converged']) for s in states)}, "
               f"inner iterations {sum(int(s['iterations']) for s in states)} "

@@ -63,3 +63,24 @@ def handlers():
     for s, h in saved.items():
         signal.signal(s, h)
     interrupts.reset()
+
+
+@pytest.fixture
+def small_normal_windows(monkeypatch):
+    """Normal solves' windows placed as if the approach were a sixth of the solve's, with no
+    margin, so that the contact outgrows them; returns the windows chosen ((row0, col0, cells), or
+    None for the whole grid), and undoes the change where a test calls ``monkeypatch.undo()``."""
+    from warpcontact.solvers import normal as normal_module
+    from warpcontact.solvers.normal import NormalSolver
+
+    monkeypatch.setattr(normal_module, "WINDOW_MARGIN", 0.0)
+    original = NormalSolver._window_for
+    chosen = []
+
+    def small(self, state, approach_z, known):
+        window = original(self, state, approach_z / 6, known)
+        chosen.append(None if window is None else (window.row0, window.col0, window.cells))
+        return window
+
+    monkeypatch.setattr(NormalSolver, "_window_for", small)
+    return chosen

@@ -53,22 +53,13 @@ def test_a_path_on_windows_is_the_path_on_the_whole_grid(device):
         assert abs(a.iterations - b.iterations) <= 3, ([i.iterations for i in infos_on], [i.iterations for i in infos_whole])
 
 
-def test_a_contact_grown_past_its_window_is_finished_on_the_whole_grid(device, monkeypatch):
+def test_a_contact_grown_past_its_window_is_finished_on_the_whole_grid(device, monkeypatch, small_normal_windows):
     """The window chosen as if the approach were a sixth of the step's (so the contact outgrows
     it): the solve on the window holds the pressure at zero outside, the whole grid's residual
     misses the tolerance there, and the whole grid's solve goes on from the window's pressure to
     the same answer as the whole grid alone (within 1e-8 of the largest pressure, as above), with
     pressure on cells outside the window."""
-    monkeypatch.setattr(normal_module, "WINDOW_MARGIN", 0.0)
-    original = NormalSolver._window_for
-    chosen = []
-
-    def small(self, state, approach_z, known):
-        window = original(self, state, approach_z / 6, known)
-        chosen.append(None if window is None else (window.row0, window.col0, window.cells))
-        return window
-
-    monkeypatch.setattr(NormalSolver, "_window_for", small)
+    chosen = small_normal_windows
     on, infos, _, _ = path(True, device, [DZ])
     monkeypatch.undo()
     whole, _, _, _ = path(False, device, [DZ])

@@ -270,6 +270,14 @@ class ContactSolver:
             op.normal(state.adhesive_pressure, self.adhesive_z)
         return residual
 
+    def pressure_change(self, state) -> float:
+        """Relative change of the pressure since the last turn (``previous``); updates its copy."""
+        self.change.zero_()
+        self.model.launch_reduce(ck.change_sums, [state.pressure.flatten(), ck.CHANGE_PRESSURE],
+                                 [self.previous[0].flatten(), self.change])
+        sums = self.change.numpy().astype(np.float64)
+        return ratio(sums[ck.CHANGE_PRESSURE], sums[ck.CHANGE_PRESSURE + 1])
+
     def relative_change(self, state) -> float:
         """Largest relative change of pressure and shear since the last turn; updates the copies."""
         m = self.model

@@ -105,6 +105,9 @@ class NormalSolver(ProjectedCG):
         self._box = wp.zeros(4, dtype=wp.int32, device=model.device)
         #: the side of the last solve's window in cells, None where it ran on the whole grid
         self.last_window: int | None = None
+        #: the window of the last solve, placed where it was (None: the whole grid), which
+        #: ``solve_on_window`` solves on again
+        self._placed = None
 
     def solve(self, state, approach_z: float, known_displacement: wp.array | None = None, tol=None,
               displacement_current: bool = False) -> SolveInfo:
@@ -124,9 +127,26 @@ class NormalSolver(ProjectedCG):
         """
         window = self._window_for(state, approach_z, known_displacement) if self.uses_window else None
         self.last_window = None
+        self._placed = window
         if window is not None:
             return window.solve(self, state, approach_z, known_displacement, tol, displacement_current)
         return self._solve_whole(state, approach_z, known_displacement, tol, displacement_current)
+
+    def solve_on_window(self, state, approach_z: float, shear_x, shear_y, tol=None) -> SolveInfo | None:
+        """A coupled turn's solve on the window of the last ``solve`` alone, placed where it was:
+        ``state.pressure`` at ``approach_z`` [m] with the normal displacement K_zt q of the shear
+        (``shear_x``, ``shear_y``, scaled, zero outside the contact) held fixed, K_zt q made on the
+        window (its transforms, not the whole grid's). The pressure is put back (zero outside the
+        window) and not judged on the whole grid: ``state.disp_z`` and ``state.gap`` are left as
+        they were, and the caller's next ``solve`` (displacement not current) judges the answer.
+        Exact where the contact stays inside the window (the window holds the contact's box and
+        a margin; the shear lies inside the contact). None where the last solve ran on the whole
+        grid (then nothing is solved)."""
+        window = self._placed
+        if window is None:
+            return None
+        self.last_window = window.cells
+        return window.solve_alone(state, approach_z, shear_x, shear_y, tol)
 
     @property
     def uses_window(self) -> bool:
@@ -288,6 +308,18 @@ class _NormalWindow:
         f = model.field
         # the state the window's solve works on (the attributes of ContactState it reads and writes)
         self.pressure, self.disp_z, self.gap, self.known = f(), f(), f(), f()
+        self.parent_gap = parent.model.initial_gap
+        self._shear = None
+        #: the window's ``disp_z`` is K p of its pressure, which is the state's pressure cut out:
+        #: its last solve was ``solve_alone`` (a judged solve may move the pressure on the whole grid)
+        self.current = False
+
+    @property
+    def shear(self):
+        """The shear cut out for its normal displacement (``solve_alone``; made when first needed)."""
+        if self._shear is None:
+            self._shear = (self.solver.model.field(), self.solver.model.field())
+        return self._shear
 
     def solve(self, parent: NormalSolver, state, approach_z, known, tol, displacement_current) -> SolveInfo:
         """``parent.solve`` on the window, then on the whole grid from its pressure."""
@@ -302,7 +334,24 @@ class _NormalWindow:
         Windows.transfer(self, gk.embed, [(self.pressure, state.pressure)])
         whole = parent._solve_whole(state, approach_z, known, tol)
         parent.last_window = self.cells
+        self.current = False
         # the residual the solve started from first (``turns.starting_residual``), the whole grid's last
         history = (inner.history if inner.iterations else []) + (whole.history if whole.iterations else [])
         return SolveInfo(converged=whole.converged, iterations=inner.iterations + whole.iterations,
                          residual=whole.residual, history=history)
+
+    def solve_alone(self, state, approach_z, shear_x, shear_y, tol) -> SolveInfo:
+        """``NormalSolver.solve_on_window`` on this window as it is placed: the pressure, the
+        gap before deformation and the shear cut out, K_zt q of the shear made here as the known
+        displacement, solved, the pressure put back. K p on the window is the last solve's where
+        that was this one's (``current``): the turns after the second make no convolution of it."""
+        solver = self.solver
+        shear = self.shear
+        Windows.transfer(self, gk.crop, [(state.pressure, self.pressure), (self.parent_gap, solver.model.initial_gap),
+                                         (shear_x, shear[0]), (shear_y, shear[1])])
+        solver.model.operator.cross_normal(shear[0], shear[1], self.known)
+        info = solver.solve(self, approach_z, self.known, tol, displacement_current=self.current)
+        self.current = True
+        state.pressure.zero_()
+        Windows.transfer(self, gk.embed, [(self.pressure, state.pressure)])
+        return info

@@ -61,6 +61,11 @@ class SolverSettings:
             the contact (the pressure's answer judged on the whole grid); "auto": the shear from
             ``WINDOW_AUTO_N`` cells per side, the pressure from ``NORMAL_WINDOW_AUTO_N`` (by
             device).
+        window_turns: with the pressure solved on windows (``window``), a step with friction and
+            without adhesion solves its later turns' pressure on its first turn's window alone,
+            with the shear's normal displacement made there, and judges it on the whole grid once,
+            at the step's end (the turns again, each judged, where the whole grid moves it: a
+            contact grown past the window); False: every turn's pressure judged on the whole grid.
         use_graphs: replay solves as captured CUDA graphs; None: where the device supports the
             conditional graph nodes they need (CUDA 12.4+).
     """
@@ -82,6 +87,7 @@ class SolverSettings:
     relax: float = 0.5
     nested: Choice = "auto"
     window: Choice = "auto"
+    window_turns: bool = True
     use_graphs: bool | None = None
 
     def __post_init__(self):
@@ -97,7 +103,8 @@ class SolverSettings:
             raise ValueError(f"settings.deferral: must be a number in [0, 1], got {self.deferral!r}")
         if not (_real(self.relax) and 0.0 < self.relax <= 1.0):
             raise ValueError(f"settings.relax: must be a number in (0, 1], got {self.relax!r}")
-        for name in ("normal_preconditioner", "tangential_preconditioner", "one_convolution", "turn_mixing"):
+        for name in ("normal_preconditioner", "tangential_preconditioner", "one_convolution", "turn_mixing",
+                     "window_turns"):
             if not isinstance(getattr(self, name), bool):
                 raise ValueError(f"settings.{name}: must be True or False, got {getattr(self, name)!r}")
         for name in ("fourier_step_sums", "use_graphs"):

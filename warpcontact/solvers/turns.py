@@ -107,20 +107,31 @@ class LaggedTurns:
 
     def solve(self, state, dx: float, dy: float, dz: float) -> SolveInfo:
         s = self.solver
-        normal_info, tangential_info, outer, converged, iterations = self._turns(state, dx, dy, dz)
+        on_window = s.settings.window_turns and s.iterative and s.friction is not None and s.adhesion is None
+        normal_info, tangential_info, outer, converged, iterations, judged = self._turns(state, dx, dy, dz, on_window)
         if s.adhesion is not None and not converged:  # once more from zero tractions
             for a in (state.pressure, state.shear_x, state.shear_y, state.adhesive_pressure, state.adhesive_shear_x,
                       state.adhesive_shear_y):
                 a.zero_()
-            normal_info, tangential_info, retry_outer, converged, retry_iterations = self._turns(state, dx, dy, dz)
+            normal_info, tangential_info, retry_outer, converged, retry_iterations, judged = self._turns(
+                state, dx, dy, dz, on_window)
             outer += retry_outer
             iterations += retry_iterations
         if s.iterative:  # gap and u_z with the final tractions held fixed
             # known_x, known_y: the last turn's adhesive part; update_slip adds the pressure's
             # K_tp p where the last tangential solve left it to make
             s.known_displacements(state, tangential=False)
-            normal_info = s.normal.solve(state, dz, s.known_z, displacement_current=True)
+            normal_info = s.normal.solve(state, dz, s.known_z, displacement_current=judged)
             iterations += normal_info.iterations
+            if not judged and s.pressure_change(state) >= s.outer_tol:
+                # the whole grid moved the window turns' answer (a contact grown past their window)
+                # by more than a turn may: the turns again from it, each normal solve judged
+                normal_info, tangential_info, more, converged, more_iterations, _ = self._turns(
+                    state, dx, dy, dz, on_window=False)
+                s.known_displacements(state, tangential=False)
+                normal_info = s.normal.solve(state, dz, s.known_z, displacement_current=True)
+                outer += more
+                iterations += more_iterations + normal_info.iterations
             if s.friction is not None:
                 s.update_slip(state, dx, dy, final=True)
         residual = max(normal_info.residual, tangential_info.residual if tangential_info else 0.0)
@@ -138,9 +149,12 @@ class LaggedTurns:
         # 1/100 of the coupled residual, never looser than the last turn's
         return max(s.tol, min(TURN_TOL_START if outer == 1 else last, TURN_TOL_RATIO * coupled))
 
-    def _turns(self, state, dx: float, dy: float, dz: float):
+    def _turns(self, state, dx: float, dy: float, dz: float, on_window: bool):
         """The turns from the tractions in ``state``: (normal info, tangential info, turns,
-        whether the turns converged, inner iterations)."""
+        whether the turns converged, inner iterations, whether ``state.disp_z`` is K p of the last
+        pressure: its normal solve judged on the whole grid). ``on_window``: from the second turn
+        on, the normal solves on the first turn's window alone (``NormalSolver.solve_on_window``,
+        ``SolverSettings.window_turns``), where it ran on one."""
         s = self.solver
         m = s.model
         iterations = 0
@@ -154,16 +168,24 @@ class LaggedTurns:
         converged = not s.iterative
         changes = []  # each turn's change (the stall test); None once a stall was met
         mixing = None  # Anderson mixing of the shear, from a stall on
+        judged = True  # state.disp_z is K p of state.pressure (the last normal solve judged on the whole grid)
         while outer < s.settings.max_turns:
             interrupts.check()
             outer += 1
             turn_tol = self._turn_tolerance(outer, change, coupled, turn_tol)
             adhesive_change = s.update_adhesion(state, first=outer == 1) if s.adhesion is not None else 0.0
-            if s.iterative:
-                s.known_displacements(state, tangential=False)
-            # from the second turn on, state.disp_z is K p of the pressure the last turn's solve left
-            normal_info = s.normal.solve(state, dz, s.known_z if s.iterative else None, tol=turn_tol,
-                                         displacement_current=outer > 1)
+            windowed = s.normal.solve_on_window(state, dz, state.shear_x, state.shear_y, tol=turn_tol) \
+                if on_window and outer > 1 else None
+            if windowed is None:
+                if s.iterative:
+                    s.known_displacements(state, tangential=False)
+                # from the second turn on, state.disp_z is K p of the pressure the last turn's solve
+                # left where that solve was judged on the whole grid
+                normal_info = s.normal.solve(state, dz, s.known_z if s.iterative else None, tol=turn_tol,
+                                             displacement_current=outer > 1 and judged)
+                judged = True
+            else:
+                normal_info, judged = windowed, False
             iterations += normal_info.iterations
             if outer == 1 and s.iterative:  # a contact far past the domain's edge: stop now, not at max_turns
                 check_contact_fits(state, (dx, dy, dz), EDGE_SHARE_AT_FIRST_TURN)
@@ -206,7 +228,7 @@ class LaggedTurns:
                 if stalled(changes):  # one try per step: no room for the mixing leaves the turns plain
                     mixing = self._mixing_after_stall()
                     changes = None
-        return normal_info, tangential_info, outer, converged, iterations
+        return normal_info, tangential_info, outer, converged, iterations, judged
 
     def _mixing_after_stall(self):
         """The Anderson mixing of the turns' shear after a stall (``stalled``), made when first
@@ -227,14 +249,11 @@ class LaggedTurns:
         ``state``; x: the shear it started from, in ``previous``, which then holds Anderson's next
         shear)."""
         s = self.solver
-        s.change.zero_()
-        s.model.launch_reduce(ck.change_sums, [state.pressure.flatten(), ck.CHANGE_PRESSURE],
-                              [s.previous[0].flatten(), s.change])
+        pressure_change = s.pressure_change(state)
         for image, shear in zip(mixing.residual, (state.shear_x, state.shear_y)):
             wp.copy(image, shear.flatten())
         shear_change = mixing.step([s.previous[1].flatten(), s.previous[2].flatten()])
-        sums = s.change.numpy().astype(np.float64)
-        return max(ratio(sums[ck.CHANGE_PRESSURE], sums[ck.CHANGE_PRESSURE + 1]), shear_change)
+        return max(pressure_change, shear_change)
 
 
 class MinimisedTurns:
