@@ -64,8 +64,9 @@ class SolverSettings:
         window_turns: with the pressure solved on windows (``window``), a step with friction and
             without adhesion solves its later turns' pressure on its first turn's window alone,
             with the shear's normal displacement made there, and judges it on the whole grid once,
-            at the step's end (the turns again, each judged, where the whole grid moves it: a
-            contact grown past the window); False: every turn's pressure judged on the whole grid.
+            at the step's end (where the turns converged and the whole grid moves it, a contact
+            grown past the window, the turns again, each judged); False: every turn's pressure
+            judged on the whole grid.
         use_graphs: replay solves as captured CUDA graphs; None: where the device supports the
             conditional graph nodes they need (CUDA 12.4+).
     """

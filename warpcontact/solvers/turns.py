@@ -123,9 +123,12 @@ class LaggedTurns:
             s.known_displacements(state, tangential=False)
             normal_info = s.normal.solve(state, dz, s.known_z, displacement_current=judged)
             iterations += normal_info.iterations
-            if not judged and s.pressure_change(state) >= s.outer_tol:
+            if not judged and converged and s.pressure_change(state) >= s.outer_tol:
                 # the whole grid moved the window turns' answer (a contact grown past their window)
-                # by more than a turn may: the turns again from it, each normal solve judged
+                # by more than a turn may: the turns again from it, each normal solve judged (not
+                # where the window turns did not converge: a problem restricted to a window is as
+                # well posed as the whole one, and turns that stall there stall on the whole grid:
+                # Figure 2a's path with the hardness cap at n = 4096, states 3 and 4, either way)
                 normal_info, tangential_info, more, converged, more_iterations, _ = self._turns(
                     state, dx, dy, dz, on_window=False)
                 s.known_displacements(state, tangential=False)
