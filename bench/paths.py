@@ -20,6 +20,7 @@ Paths (``--paths``, names or "all"; default: the examples and the extras):
 - ``float32``: figure2c's path in float32;
 - ``dugdale`` / ``exponential``: figure2c's path with friction and Dugdale (sigma_0 2 MPa, h_0 5 pm)
   or exponential (w 1.36e-5 J/m^2, rho 5 pm) adhesion;
+- ``frictionless``: figure2c's sphere and pair without friction, its 8 normal steps alone;
 - ``unload``: figure2c's normal leg up in 8 steps, 4 tangential steps, and back down to a quarter of
   the approach in 4 steps (the contact recedes under a shear history);
 - ``rough``: figure2d's sphere, pair, friction and SMC adhesion on a rough flat (a self-affine map
@@ -52,7 +53,7 @@ ROOT = Path(__file__).resolve().parents[1]
 EXAMPLES = ROOT / "examples"
 EXAMPLE_PATHS = ["figure1a", "figure1b", "figure1c", "figure1d", "figure2a", "figure2b", "figure2c", "figure2d",
                  "table2_k080_dz5e-5"]
-EXTRA_PATHS = ["steel", "hardness", "float32", "dugdale", "exponential", "unload", "rough"]
+EXTRA_PATHS = ["steel", "hardness", "float32", "dugdale", "exponential", "unload", "rough", "frictionless"]
 #: the ``rough`` path's flat: a self-affine map of ROUGH_PIXELS^2 pixels over figure2d's domain
 #: (H 0.8, rms height 50 pm, wavelengths down to 4 pixels, seed 1), resampled onto every grid
 ROUGH_PIXELS = 256
@@ -110,6 +111,9 @@ def case_dict(name: str) -> dict:
         base["flat"].update(height_map=str(rough_map(base["grid"]["size"])), pixel_size=base["grid"]["size"] / ROUGH_PIXELS)
         base["grid"]["size"] = "map"
         base["load"]["steps"] = 5
+    elif name == "frictionless":
+        del base["friction"]
+        base["load"] = {"delta_z": base["load"]["delta_z"], "steps": 8}
     elif name == "unload":
         load = base.pop("load")
         dz, dx = load["delta_z"], load["delta_x"]

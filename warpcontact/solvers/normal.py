@@ -19,7 +19,7 @@ from .tangential import Windows, window_enabled
 
 #: ``window = "auto"``: the normal solves on windows from these grids on (cells per side), by device
 #: kind, where they were measured to cost less than they save (docs/performance.md)
-NORMAL_WINDOW_AUTO_N = {"cpu": 1024, "cuda": 4096}
+NORMAL_WINDOW_AUTO_N = {"cpu": 128, "cuda": 4096}
 #: the normal solve's window holds the box of its starting contact and the cells its approach
 #: closes, widened by this share of its extent on every side (where the contact grows past the
 #: window, the solve on the whole grid that judges the window's answer goes on from it)
