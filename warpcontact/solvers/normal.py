@@ -146,7 +146,7 @@ class NormalSolver(ProjectedCG):
         if window is None:
             return None
         self.last_window = window.cells
-        return window.solve_alone(state, approach_z, shear_x, shear_y, tol)
+        return window.solve_alone(self, state, approach_z, shear_x, shear_y, tol)
 
     @property
     def uses_window(self) -> bool:
@@ -308,7 +308,6 @@ class _NormalWindow:
         f = model.field
         # the state the window's solve works on (the attributes of ContactState it reads and writes)
         self.pressure, self.disp_z, self.gap, self.known = f(), f(), f(), f()
-        self.parent_gap = parent.model.initial_gap
         self._shear = None
         #: the window's ``disp_z`` is K p of its pressure, which is the state's pressure cut out:
         #: its last solve was ``solve_alone`` (a judged solve may move the pressure on the whole grid)
@@ -340,14 +339,15 @@ class _NormalWindow:
         return SolveInfo(converged=whole.converged, iterations=inner.iterations + whole.iterations,
                          residual=whole.residual, history=history)
 
-    def solve_alone(self, state, approach_z, shear_x, shear_y, tol) -> SolveInfo:
+    def solve_alone(self, parent: NormalSolver, state, approach_z, shear_x, shear_y, tol) -> SolveInfo:
         """``NormalSolver.solve_on_window`` on this window as it is placed: the pressure, the
         gap before deformation and the shear cut out, K_zt q of the shear made here as the known
         displacement, solved, the pressure put back. K p on the window is the last solve's where
         that was this one's (``current``): the turns after the second make no convolution of it."""
         solver = self.solver
         shear = self.shear
-        Windows.transfer(self, gk.crop, [(state.pressure, self.pressure), (self.parent_gap, solver.model.initial_gap),
+        Windows.transfer(self, gk.crop, [(state.pressure, self.pressure),
+                                         (parent.model.initial_gap, solver.model.initial_gap),
                                          (shear_x, shear[0]), (shear_y, shear[1])])
         solver.model.operator.cross_normal(shear[0], shear[1], self.known)
         info = solver.solve(self, approach_z, self.known, tol, displacement_current=self.current)

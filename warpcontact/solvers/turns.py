@@ -120,21 +120,21 @@ class LaggedTurns:
         if s.iterative:  # gap and u_z with the final tractions held fixed
             # known_x, known_y: the last turn's adhesive part; update_slip adds the pressure's
             # K_tp p where the last tangential solve left it to make
-            s.known_displacements(state, tangential=False)
-            normal_info = s.normal.solve(state, dz, s.known_z, displacement_current=judged)
-            iterations += normal_info.iterations
-            if not judged and converged and s.pressure_change(state) >= s.outer_tol:
+            while True:
+                s.known_displacements(state, tangential=False)
+                normal_info = s.normal.solve(state, dz, s.known_z, displacement_current=judged)
+                iterations += normal_info.iterations
+                if judged or not converged or s.pressure_change(state) < s.outer_tol:
+                    break
                 # the whole grid moved the window turns' answer (a contact grown past their window)
                 # by more than a turn may: the turns again from it, each normal solve judged (not
                 # where the window turns did not converge: a problem restricted to a window is as
                 # well posed as the whole one, and turns that stall there stall on the whole grid:
                 # Figure 2a's path with the hardness cap at n = 4096, states 3 and 4, either way)
-                normal_info, tangential_info, more, converged, more_iterations, _ = self._turns(
+                normal_info, tangential_info, more, converged, more_iterations, judged = self._turns(
                     state, dx, dy, dz, on_window=False)
-                s.known_displacements(state, tangential=False)
-                normal_info = s.normal.solve(state, dz, s.known_z, displacement_current=True)
                 outer += more
-                iterations += more_iterations + normal_info.iterations
+                iterations += more_iterations
             if s.friction is not None:
                 s.update_slip(state, dx, dy, final=True)
         residual = max(normal_info.residual, tangential_info.residual if tangential_info else 0.0)

@@ -134,8 +134,8 @@ class _Evaluator:
                 run_batched(fit.task, fit.rel_tol, [task_cases[i] for i in together], self.batch,
                             lambda k, outcome: on_result(tasks[together[k]], outcome))
                 self.batched += len(together)
-            together = set(together)
-            rest = [t for i, t in enumerate(tasks) if i not in together]
+            batched = set(together)
+            rest = [t for i, t in enumerate(tasks) if i not in batched]
             if rest:
                 self.batches.append(run_tasks(rest, on_result, self.placement, on_error=on_error, keep_models=True))
             self.compute_s += time.perf_counter() - t0
