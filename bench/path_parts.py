@@ -20,6 +20,7 @@ tangential solves' inner iterations and the tolerance each was solved to.
     python bench/path_parts.py --path figure2c --sizes 512 --device cpu --turns 1 9 16 --set nested=false
     python bench/path_parts.py --path figure2d --sizes 4096 --device cuda --normal-window off
     python bench/path_parts.py --path figure2c --sizes 1024 --device cpu --window-turns off
+    python bench/path_parts.py --path hardness --sizes 2048 4096 --device cuda --stall-mixing global
 """
 
 from __future__ import annotations
@@ -142,7 +143,21 @@ def main(argv=None):
     p.add_argument("--window-turns", choices=("on", "off"), default="on",
                    help="the later turns' normal solves on the first turn's window, judged once a step (on, the "
                         "default), or each judged on the whole grid (off): SolverSettings.window_turns")
+    p.add_argument("--stall-mixing", choices=("local", "global"), default="local",
+                   help="the lagged turns' mixing after a stall: each cell's own coefficients (local, as "
+                        "shipped: LocalAndersonMixing) or one set for the whole shear (global: "
+                        "AndersonMixing, depth 5)")
     args = p.parse_args(argv)
+    if args.stall_mixing == "global":
+        from warpcontact.solvers import fixed_point, turns
+
+        def global_mixing(self):
+            if self._stall_mixing is None:
+                self._stall_mixing = fixed_point.AndersonMixing(self.solver.model, 2, beta=1.0, depth=5)
+            self._stall_mixing.reset()
+            return self._stall_mixing
+
+        turns.LaggedTurns._mixing_after_stall = global_mixing
     if args.window_turns == "off":
         from warpcontact.studies import runner
 
@@ -179,11 +194,13 @@ def main(argv=None):
             timers.on = False
         states = result.states
         chosen = ((args.set or []) + ([f"normal window {args.normal_window}"] if args.normal_window != "auto" else [])
-                  + (["window turns off"] if args.window_turns == "off" else []))
+                  + (["window turns off"] if args.window_turns == "off" else [])
+                  + (["stall mixing global"] if args.stall_mixing == "global" else []))
         print(f"\n{args.path}, n = {n}, {args.device}, {chosen or 'as shipped'}: {wall:.2f} s, "
               f"{len(states)} states, all converged: {all(bool(s['converged']) for s in states)}, "
               f"inner iterations {sum(int(s['iterations']) for s in states)} "
-              f"(largest state {max(int(s['iterations']) for s in states)})")
+              f"(largest state {max(int(s['iterations']) for s in states)}), "
+              f"most turns of a state {max(int(s['outer_iterations']) for s in states)}")
         print("| part | s | calls | inner it. | ms / it. |\n|---|---|---|---|---|")
         for key in sorted(timers.seconds, key=lambda k: -timers.seconds[k]):
             it = timers.iterations[key]

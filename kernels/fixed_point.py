@@ -5,6 +5,7 @@ history of the last ``depth`` differences of residuals (dF) and iterates (dX) of
 (depth, n) array. Per turn: ``anderson_residual`` turns G into f = G - x, writes the new history
 column and sums the norms and the dot products that the host's small least-squares problem needs;
 ``anderson_update`` applies x <- x + beta f - sum_j gamma_j (dX_j + beta dF_j).
+``local_anderson_update`` does the same with each cell's own gamma, from the cells around it.
 """
 
 from typing import Any
@@ -83,3 +84,83 @@ def anderson_update(
 
 for _k in (anderson_residual, anderson_update):
     register_float_overloads(_k)
+
+
+@wp.kernel
+def local_anderson_update(
+    residual_x: wp.array(dtype=Any),
+    residual_y: wp.array(dtype=Any),
+    residual_diff_x: wp.array2d(dtype=Any),
+    residual_diff_y: wp.array2d(dtype=Any),
+    iterate_diff_x: wp.array2d(dtype=Any),
+    iterate_diff_y: wp.array2d(dtype=Any),
+    use: wp.array(dtype=Any),
+    n: int,
+    radius: int,
+    iterate_x: wp.array(dtype=Any),
+    iterate_y: wp.array(dtype=Any),
+):
+    """Anderson's step of a two-component field with coefficients of each cell's own: gamma of
+    the cell (r, c) minimises |f - sum_j gamma_j dF_j|^2 over the (2 radius + 1)^2 cells around it
+    (history columns 0-2, ``use[j]`` 1 or 0), then x <- x + f - sum_j gamma_j (dX_j + dF_j). The
+    least squares carry a Tikhonov term of 1e-10 of the Gram matrix's trace."""
+    r, c = wp.tid()
+    zero = use[0] - use[0]
+    g00 = zero
+    g01 = zero
+    g02 = zero
+    g11 = zero
+    g12 = zero
+    g22 = zero
+    b0 = zero
+    b1 = zero
+    b2 = zero
+    for dr in range(-radius, radius + 1):
+        rr = r + dr
+        if rr >= 0 and rr < n:
+            for dc in range(-radius, radius + 1):
+                cc = c + dc
+                if cc >= 0 and cc < n:
+                    j = rr * n + cc
+                    fx = residual_x[j]
+                    fy = residual_y[j]
+                    ax0 = use[0] * residual_diff_x[0, j]
+                    ax1 = use[1] * residual_diff_x[1, j]
+                    ax2 = use[2] * residual_diff_x[2, j]
+                    ay0 = use[0] * residual_diff_y[0, j]
+                    ay1 = use[1] * residual_diff_y[1, j]
+                    ay2 = use[2] * residual_diff_y[2, j]
+                    g00 += ax0 * ax0 + ay0 * ay0
+                    g01 += ax0 * ax1 + ay0 * ay1
+                    g02 += ax0 * ax2 + ay0 * ay2
+                    g11 += ax1 * ax1 + ay1 * ay1
+                    g12 += ax1 * ax2 + ay1 * ay2
+                    g22 += ax2 * ax2 + ay2 * ay2
+                    b0 += ax0 * fx + ay0 * fy
+                    b1 += ax1 * fx + ay1 * fy
+                    b2 += ax2 * fx + ay2 * fy
+    one = zero + type(zero)(1.0)
+    trace = g00 + g11 + g22
+    i = r * n + c
+    fx = residual_x[i]
+    fy = residual_y[i]
+    x = iterate_x[i] + fx
+    y = iterate_y[i] + fy
+    if trace > zero:
+        eps = type(zero)(1.0e-10) * trace
+        # an unused column: its row and column zero, its diagonal one (gamma_j = 0)
+        g00 = g00 + eps + (one - use[0])
+        g11 = g11 + eps + (one - use[1])
+        g22 = g22 + eps + (one - use[2])
+        m = wp.matrix(g00, g01, g02, g01, g11, g12, g02, g12, g22, shape=(3, 3))
+        det = wp.determinant(m)
+        if det > zero:
+            gamma = wp.inverse(m) * wp.vector(b0, b1, b2)
+            for k in range(3):
+                x = x - gamma[k] * (iterate_diff_x[k, i] + residual_diff_x[k, i])
+                y = y - gamma[k] * (iterate_diff_y[k, i] + residual_diff_y[k, i])
+    iterate_x[i] = x
+    iterate_y[i] = y
+
+
+register_float_overloads(local_anderson_update)

@@ -4,8 +4,9 @@ Anderson's method, and the mixed turns end on the same state as the plain ones.
 Near the von Mises crossover (p -> S_Y) the shear limit k_VM sqrt(S_Y^2 - p^2) has an unbounded
 slope: on Figure 2a's pair at 4 times its approach, n = 1024 on a GPU, a few cells on the ring
 where p passes S_Y held the plain turns in a cycle of 4 turns for the whole limit of 1000 turns
-(their change 7.0e-5 to 7.6e-5, the state not converged); with the mixing from the stall on, the
-state converged in 58 turns (``bench/paths.py``, path ``hardness``).
+(their change 7.0e-5 to 7.6e-5, the state not converged); with the mixing from the stall on
+(``LocalAndersonMixing``), every state of the path converges at n = 1024-4096
+(``bench/path_parts.py --path hardness``; docs/performance.md).
 """
 
 from pathlib import Path

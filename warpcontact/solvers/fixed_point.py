@@ -10,6 +10,10 @@ is equivalent to GMRES, and it keeps the cost to a few reductions per turn.
 
 Device work per turn: one pass to form the residual and the new history column, ``depth`` passes
 of dot products, one update pass. The host solves a depth x depth least-squares problem.
+
+``LocalAndersonMixing`` gives each cell coefficients of its own, from the residuals of the cells
+around it: the lagged turns' mixing after a stall, whose error modes are many small clusters of
+cells (docs/model.md, "The turns' stall").
 """
 
 from __future__ import annotations
@@ -78,8 +82,22 @@ class AndersonMixing:
         ``len(iterates)`` components); returns the residual |G(x) - x| / |G(x)| before the step (0
         when G(x) = 0); ``norms`` then holds |G(x) - x|^2 and |G(x)|^2. ``beta``: this step's
         mixing of the residual (default: the mixing's own)."""
-        m = self.model
         beta = self.beta if beta is None else float(beta)
+        column = self._record(iterates)
+        sums = self._combine(iterates, column, beta)
+        self._has_previous = True
+        self.norms = (float(sums[fk.S_RESIDUAL]), float(sums[fk.S_IMAGE]))
+        residual = math.sqrt(sums[fk.S_RESIDUAL] / sums[fk.S_IMAGE]) if sums[fk.S_IMAGE] > 0 else 0.0
+        self.best = min(self.best, residual)
+        if residual > RESTART_GROWTH * self.best:  # the mixing has gone astray: start it again from here
+            self._forget()
+            self.best = residual
+        return residual
+
+    def _record(self, iterates) -> int:
+        """f = G(x) - x into ``residual``, the norms' sums, and (after a first step) the history
+        column of dF and dX, made the newest used column; returns that column."""
+        m = self.model
         column = self._next
         self.sums.zero_()
         for k, x in enumerate(iterates):
@@ -93,14 +111,20 @@ class AndersonMixing:
                 self.columns.remove(column)
             self.columns.append(column)
             self._next = (column + 1) % self.depth
-            for j in self.columns:
-                for k in range(len(iterates)):
-                    # dF_column . dF_j into the Gram matrix's slot j, dF_j . f into the right side's
-                    diff = self.residual_diff[k]
-                    m.launch_reduce(rk.sums_of_products,
-                                    products((diff[column], diff[j], fk.GRAM_SLOTS + j),
-                                             (diff[j], self.residual[k], fk.GRAM_SLOTS + self.depth + j)),
-                                    [self.sums])
+        return column
+
+    def _combine(self, iterates, column: int, beta: float) -> np.ndarray:
+        """x <- x + beta f - sum_j gamma_j (dX_j + beta dF_j), gamma the least-squares
+        coefficients of the whole field; returns the sums read back."""
+        m = self.model
+        for j in self.columns:
+            for k in range(len(iterates)):
+                # dF_column . dF_j into the Gram matrix's slot j, dF_j . f into the right side's
+                diff = self.residual_diff[k]
+                m.launch_reduce(rk.sums_of_products,
+                                products((diff[column], diff[j], fk.GRAM_SLOTS + j),
+                                         (diff[j], self.residual[k], fk.GRAM_SLOTS + self.depth + j)),
+                                [self.sums])
         s = self.sums.numpy().astype(np.float64)
         gamma = np.zeros(self.depth)
         if self.columns:
@@ -114,14 +138,7 @@ class AndersonMixing:
                      inputs=[self.residual[k], self.residual_diff[k], self.iterate_diff[k], self.gamma, self.depth,
                              m.scalar(beta)],
                      outputs=[x.flatten()])
-        self._has_previous = True
-        self.norms = (float(s[fk.S_RESIDUAL]), float(s[fk.S_IMAGE]))
-        residual = math.sqrt(s[fk.S_RESIDUAL] / s[fk.S_IMAGE]) if s[fk.S_IMAGE] > 0 else 0.0
-        self.best = min(self.best, residual)
-        if residual > RESTART_GROWTH * self.best:  # the mixing has gone astray: start it again from here
-            self._forget()
-            self.best = residual
-        return residual
+        return s
 
     def _least_squares(self, rhs):
         """gamma = argmin |f - dF gamma| over the used columns through the normal equations,
@@ -135,3 +152,47 @@ class AndersonMixing:
                 return gamma
             self.columns.pop(0)
         return gamma
+
+
+#: the local mixing's history columns (``local_anderson_update`` holds three) and the radius of
+#: the patch of cells whose residuals set a cell's coefficients ((2 r + 1)^2 cells)
+LOCAL_DEPTH = 3
+LOCAL_RADIUS = 2
+
+
+class LocalAndersonMixing(AndersonMixing):
+    """Anderson mixing of a two-component (n, n) field whose coefficients are each cell's own:
+    those that best cancel the residual over the patch of cells around it
+    (``kernels/fixed_point.py``, ``local_anderson_update``).
+
+    Where the turn map's error modes are many small clusters of cells far apart, each with its own
+    gain (the lagged turns at the von Mises crossover: docs/model.md, "The turns' stall"), one set
+    of coefficients for the whole field cannot cancel them all: a cluster of two cells whose
+    gains make a rotation takes two coefficients of its own. Each cell's least-squares problem
+    sees its neighbourhood alone, so each cluster gets its own; where the map is smooth the local
+    coefficients vary slowly and act as the global ones would.
+    """
+
+    def __init__(self, model, radius: int = LOCAL_RADIUS):
+        super().__init__(model, 2, beta=1.0, depth=LOCAL_DEPTH)
+        self.radius = int(radius)
+        self.use = wp.zeros(LOCAL_DEPTH, dtype=model.dtype, device=model.device)
+
+    def step(self, iterates, beta: float | None = None) -> float:
+        """As [`AndersonMixing.step`][warpcontact.solvers.fixed_point.AndersonMixing.step], with
+        each cell's coefficients from its patch; ``beta`` must be 1 (the kernel's)."""
+        if beta is not None and beta != 1.0:
+            raise ValueError(f"LocalAndersonMixing mixes with beta = 1 only, got beta = {beta}")
+        return super().step(iterates)
+
+    def _combine(self, iterates, column: int, beta: float) -> np.ndarray:
+        m = self.model
+        use = np.zeros(self.depth)
+        use[self.columns] = 1.0
+        self.use.assign(use.astype(m.np_dtype))
+        n = m.grid.n
+        m.launch(fk.local_anderson_update, (n, n),
+                 [self.residual[0], self.residual[1], self.residual_diff[0], self.residual_diff[1],
+                  self.iterate_diff[0], self.iterate_diff[1], self.use, n, self.radius],
+                 [iterates[0].flatten(), iterates[1].flatten()])
+        return self.sums.numpy().astype(np.float64)

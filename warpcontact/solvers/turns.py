@@ -30,7 +30,7 @@ from warpcontact.kernels import coupling as ck
 from .. import interrupts
 from ..numerics.resources import allocation_refused
 from ..numerics.state import EDGE_SHARE_AT_FIRST_TURN, SolveInfo, check_contact_fits
-from .fixed_point import AndersonMixing
+from .fixed_point import LocalAndersonMixing
 
 #: the minimised turns' inner tolerance: TURN_TOL_FACTOR x the last turn's change, at most
 #: TURN_TOL_CAP (and at least the solvers' own): loose early turns cost fewer inner iterations
@@ -41,10 +41,10 @@ TURN_TOL_FACTOR = 1e-3
 TURN_TOL_START = 1e-3
 TURN_TOL_RATIO = 0.01
 #: the lagged turns stall (``stalled``) where their change has not halved in STALL_TURNS turns;
-#: from there the shear is mixed by Anderson's method over the last STALL_MIXING_DEPTH turns (a
-#: cycle of a few cells at the von Mises crossover: docs/model.md, "The turns' stall")
+#: from there the shear is mixed by Anderson's method with coefficients of each cell's own
+#: (``LocalAndersonMixing``: cycles of a few cells at the von Mises crossover, docs/model.md,
+#: "The turns' stall")
 STALL_TURNS = 10
-STALL_MIXING_DEPTH = 5
 #: the nested start: the coarsest grid solved (cells per side), and the tolerance of the coarse
 #: solves (a starting guess needs the coarse grid's accuracy, not the fine tolerance)
 NESTED_MIN_N = 64
@@ -234,11 +234,11 @@ class LaggedTurns:
         return normal_info, tangential_info, outer, converged, iterations, judged
 
     def _mixing_after_stall(self):
-        """The Anderson mixing of the turns' shear after a stall (``stalled``), made when first
-        needed; None where the device has no room for it (the turns go on unmixed)."""
+        """The local Anderson mixing of the turns' shear after a stall (``stalled``), made when
+        first needed; None where the device has no room for it (the turns go on unmixed)."""
         if self._stall_mixing is None:
             try:
-                self._stall_mixing = AndersonMixing(self.solver.model, 2, beta=1.0, depth=STALL_MIXING_DEPTH)
+                self._stall_mixing = LocalAndersonMixing(self.solver.model)
             except (MemoryError, RuntimeError) as e:
                 if not allocation_refused(e):
                     raise
