@@ -103,9 +103,17 @@ def local_anderson_update(
     """Anderson's step of a two-component field with coefficients of each cell's own: gamma of
     the cell (r, c) minimises |f - sum_j gamma_j dF_j|^2 over the (2 radius + 1)^2 cells around it
     (history columns 0-2, ``use[j]`` 1 or 0), then x <- x + f - sum_j gamma_j (dX_j + dF_j). The
-    least squares carry a Tikhonov term of 1e-10 of the Gram matrix's trace."""
+    least squares carry a Tikhonov term of 1e-10 of the Gram matrix's trace. A cell whose own f,
+    dF and dX are zero keeps its x whatever its gamma (most cells outside the contact): no patch."""
     r, c = wp.tid()
+    i = r * n + c
     zero = use[0] - use[0]
+    own = wp.abs(residual_x[i]) + wp.abs(residual_y[i])
+    for k in range(3):
+        own += wp.abs(residual_diff_x[k, i]) + wp.abs(residual_diff_y[k, i])
+        own += wp.abs(iterate_diff_x[k, i]) + wp.abs(iterate_diff_y[k, i])
+    if own == zero:
+        return
     g00 = zero
     g01 = zero
     g02 = zero
@@ -141,7 +149,6 @@ def local_anderson_update(
                     b2 += ax2 * fx + ay2 * fy
     one = zero + type(zero)(1.0)
     trace = g00 + g11 + g22
-    i = r * n + c
     fx = residual_x[i]
     fy = residual_y[i]
     x = iterate_x[i] + fx
