@@ -154,15 +154,18 @@ def local_anderson_update(
     x = iterate_x[i] + fx
     y = iterate_y[i] + fy
     if trace > zero:
-        eps = type(zero)(1.0e-10) * trace
+        # the Gram matrix and its right side over the trace (gamma unchanged): entries of order 1,
+        # whose determinant neither underflows (shears of 1e-3 in units of E* moving by 1e-5 make
+        # entries of 1e-16) nor overflows, in float32 too
+        w = one / trace
+        eps = type(zero)(1.0e-10)
         # an unused column: its row and column zero, its diagonal one (gamma_j = 0)
-        g00 = g00 + eps + (one - use[0])
-        g11 = g11 + eps + (one - use[1])
-        g22 = g22 + eps + (one - use[2])
-        m = wp.matrix(g00, g01, g02, g01, g11, g12, g02, g12, g22, shape=(3, 3))
+        m = wp.matrix(w * g00 + eps + (one - use[0]), w * g01, w * g02,
+                      w * g01, w * g11 + eps + (one - use[1]), w * g12,
+                      w * g02, w * g12, w * g22 + eps + (one - use[2]), shape=(3, 3))
         det = wp.determinant(m)
         if det > zero:
-            gamma = wp.inverse(m) * wp.vector(b0, b1, b2)
+            gamma = wp.inverse(m) * wp.vector(w * b0, w * b1, w * b2)
             for k in range(3):
                 x = x - gamma[k] * (iterate_diff_x[k, i] + residual_diff_x[k, i])
                 y = y - gamma[k] * (iterate_diff_y[k, i] + residual_diff_y[k, i])

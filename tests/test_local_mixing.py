@@ -64,6 +64,23 @@ def test_local_coefficients_solve_many_rotations_one_set_does_not(device):
     assert whole > scale
 
 
+@pytest.mark.parametrize("dtype, bound", [("float64", 1e-8), ("float32", 1e-5)])
+def test_local_mixing_at_the_scale_of_shears(device, dtype, bound):
+    """The same map scaled by 1e-3 (shears in units of E* are 1e-3 to 1e-2): the Gram entries of
+    a cell's patch are then 1e-12 and smaller, whose determinant underflows float32 unless the
+    kernel scales them. Bounds: 1e-8 of the fixed point in float64 (7e-12 measured); in float32
+    its epsilon, 1.2e-7, times the pairs' 1 + mu^2 up to 37 (2.2e-6 measured)."""
+    model = ContactModel(PAPER_PAIR, Sphere(1e-6), Grid(N, 1e-7), device=device, dtype=dtype)
+    image, fixed_x, fixed_y = rotation_clusters()
+    k = 1e-3
+
+    def scaled(x, y):
+        return tuple(k * a for a in image(x / k, y / k))
+
+    error = mixed_error(LocalAndersonMixing(model), model, scaled, k * fixed_x, k * fixed_y)
+    assert error < bound * k * max(np.abs(fixed_x).max(), np.abs(fixed_y).max())
+
+
 def test_local_mixing_needs_beta_one():
     model = ContactModel(PAPER_PAIR, Sphere(1e-6), Grid(8, 1e-7), device="cpu")
     with pytest.raises(ValueError, match="beta"):
