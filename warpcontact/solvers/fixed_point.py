@@ -1,4 +1,4 @@
-"""Anderson acceleration of the adhesive fixed point t = law(h(t), s(t)) (MODEL.md section 6).
+"""Anderson acceleration of fixed points: the adhesive tractions t = law(h(t), s(t)) (MODEL.md section 6).
 
 Each turn of ContactSolver evaluates the law at the last gap and slip (G(t)) and asks this class
 for the next tractions. Plain relaxation t <- t + beta (G - t) converges slowly or not at all when
