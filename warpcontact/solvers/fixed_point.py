@@ -49,9 +49,6 @@ class AndersonMixing:
         depth: history columns.
     """
 
-    #: a residual this many times the step's smallest restarts the mixing (``RESTART_GROWTH``)
-    restart_growth = RESTART_GROWTH
-
     def __init__(self, model, components: int, beta: float = 0.5, depth: int = DEPTH):
         self.model = model
         self.beta = float(beta)
@@ -92,7 +89,7 @@ class AndersonMixing:
         self.norms = (float(sums[fk.S_RESIDUAL]), float(sums[fk.S_IMAGE]))
         residual = math.sqrt(sums[fk.S_RESIDUAL] / sums[fk.S_IMAGE]) if sums[fk.S_IMAGE] > 0 else 0.0
         self.best = min(self.best, residual)
-        if residual > self.restart_growth * self.best:  # the mixing has gone astray: start it again from here
+        if residual > RESTART_GROWTH * self.best:  # the mixing has gone astray: start it again from here
             self._forget()
             self.best = residual
         return residual
@@ -175,14 +172,6 @@ class LocalAndersonMixing(AndersonMixing):
     sees its neighbourhood alone, so each cluster gets its own; where the map is smooth the local
     coefficients vary slowly and act as the global ones would.
     """
-
-    #: restarted only where the residual grows a thousandfold: the whole field's residual grows
-    #: tenfold where one cluster flares up, and a restart would forget every other cluster's
-    #: history with it (Figure 2a's path with the hardness cap at n = 1024 on 2 CPU cores: 3048
-    #: inner iterations and at most 50 turns a state, 3965 and 113 restarted at tenfold, every
-    #: state converged both ways); never restarted, float32 wanders off at rounding's floor
-    #: (tests/test_local_mixing.py: 5e-3 of the fixed point, 1e-7 with this restart)
-    restart_growth = 1000.0
 
     def __init__(self, model, radius: int = LOCAL_RADIUS):
         super().__init__(model, 2, beta=1.0, depth=LOCAL_DEPTH)
