@@ -151,13 +151,8 @@ def main(argv=None):
     if args.stall_mixing == "global":
         from warpcontact.solvers import fixed_point, turns
 
-        def global_mixing(self):
-            if self._stall_mixing is None:
-                self._stall_mixing = fixed_point.AndersonMixing(self.solver.model, 2, beta=1.0, depth=5)
-            self._stall_mixing.reset()
-            return self._stall_mixing
-
-        turns.LaggedTurns._mixing_after_stall = global_mixing
+        turns.LaggedTurns.stall_mixing_type = staticmethod(
+            lambda model: fixed_point.AndersonMixing(model, 2, beta=1.0, depth=5))
     if args.window_turns == "off":
         from warpcontact.studies import runner
 

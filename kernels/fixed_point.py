@@ -104,14 +104,18 @@ def local_anderson_update(
     the cell (r, c) minimises |f - sum_j gamma_j dF_j|^2 over the (2 radius + 1)^2 cells around it
     (history columns 0-2, ``use[j]`` 1 or 0), then x <- x + f - sum_j gamma_j (dX_j + dF_j). The
     least squares carry a Tikhonov term of 1e-10 of the Gram matrix's trace. A cell whose own f,
-    dF and dX are zero keeps its x whatever its gamma (most cells outside the contact): no patch."""
+    dF and dX (in the used columns) are zero keeps its x whatever its gamma (most cells outside the
+    contact): no patch."""
     r, c = wp.tid()
     i = r * n + c
-    zero = use[0] - use[0]
+    u0 = use[0]
+    u1 = use[1]
+    u2 = use[2]
+    zero = u0 - u0
     own = wp.abs(residual_x[i]) + wp.abs(residual_y[i])
     for k in range(3):
-        own += wp.abs(residual_diff_x[k, i]) + wp.abs(residual_diff_y[k, i])
-        own += wp.abs(iterate_diff_x[k, i]) + wp.abs(iterate_diff_y[k, i])
+        own += use[k] * (wp.abs(residual_diff_x[k, i]) + wp.abs(residual_diff_y[k, i])
+                         + wp.abs(iterate_diff_x[k, i]) + wp.abs(iterate_diff_y[k, i]))
     if own == zero:
         return
     g00 = zero
@@ -132,12 +136,12 @@ def local_anderson_update(
                     j = rr * n + cc
                     fx = residual_x[j]
                     fy = residual_y[j]
-                    ax0 = use[0] * residual_diff_x[0, j]
-                    ax1 = use[1] * residual_diff_x[1, j]
-                    ax2 = use[2] * residual_diff_x[2, j]
-                    ay0 = use[0] * residual_diff_y[0, j]
-                    ay1 = use[1] * residual_diff_y[1, j]
-                    ay2 = use[2] * residual_diff_y[2, j]
+                    ax0 = u0 * residual_diff_x[0, j]
+                    ax1 = u1 * residual_diff_x[1, j]
+                    ax2 = u2 * residual_diff_x[2, j]
+                    ay0 = u0 * residual_diff_y[0, j]
+                    ay1 = u1 * residual_diff_y[1, j]
+                    ay2 = u2 * residual_diff_y[2, j]
                     g00 += ax0 * ax0 + ay0 * ay0
                     g01 += ax0 * ax1 + ay0 * ay1
                     g02 += ax0 * ax2 + ay0 * ay2
@@ -160,9 +164,9 @@ def local_anderson_update(
         w = one / trace
         eps = type(zero)(1.0e-10)
         # an unused column: its row and column zero, its diagonal one (gamma_j = 0)
-        m = wp.matrix(w * g00 + eps + (one - use[0]), w * g01, w * g02,
-                      w * g01, w * g11 + eps + (one - use[1]), w * g12,
-                      w * g02, w * g12, w * g22 + eps + (one - use[2]), shape=(3, 3))
+        m = wp.matrix(w * g00 + eps + (one - u0), w * g01, w * g02,
+                      w * g01, w * g11 + eps + (one - u1), w * g12,
+                      w * g02, w * g12, w * g22 + eps + (one - u2), shape=(3, 3))
         det = wp.determinant(m)
         if det > zero:
             gamma = wp.inverse(m) * wp.vector(w * b0, w * b1, w * b2)

@@ -100,6 +100,9 @@ class LaggedTurns:
     step ends with a normal solve against the final tractions (its gap and u_z)."""
 
     fallback_counter = "turn_fallbacks"
+    #: the mixing made at the first stall, from the model (bench/path_parts.py --stall-mixing
+    #: global replaces it by a function, as a staticmethod)
+    stall_mixing_type = LocalAndersonMixing
 
     def __init__(self, solver):
         self.solver = solver
@@ -238,7 +241,7 @@ class LaggedTurns:
         first needed; None where the device has no room for it (the turns go on unmixed)."""
         if self._stall_mixing is None:
             try:
-                self._stall_mixing = LocalAndersonMixing(self.solver.model)
+                self._stall_mixing = self.stall_mixing_type(self.solver.model)
             except (MemoryError, RuntimeError) as e:
                 if not allocation_refused(e):
                     raise
