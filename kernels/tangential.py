@@ -275,7 +275,13 @@ def tangential_direction(
 
 @wp.func
 def step_terms(gx: Any, gy: Any, tx: Any, ty: Any, rx: Any, ry: Any, qx: Any, qy: Any, q_max: Any, status: int):
-    """One cell's shares of g.t and t.(K t) + (lambda / q_max) |t|^2 (slip cells), 0 out of contact."""
+    """One cell's shares of g.t and t.(K t) + (lambda / q_max) |t|^2 (slip cells), 0 out of contact.
+
+    On a slip cell g.t is taken with g's tangent part g_t: t is tangent there but for rounding,
+    and g's normal part (minus the slip increment lambda) is up to 1e9 times g_t near a solution,
+    so lambda times t's rounded normal part (lambda |t| eps) would swamp g_t . t: the sums g.t
+    and g.M g then disagree, the step tau changes sign and the iteration wanders from a relative
+    residual near lambda eps / |g_t| (1e-10 on a fretting reversal) instead of converging."""
     zero = gx - gx
     s_gt = zero
     s_rt = zero
@@ -284,8 +290,9 @@ def step_terms(gx: Any, gy: Any, tx: Any, ty: Any, rx: Any, ry: Any, qx: Any, qy
         s_rt = rx * tx + ry * ty
         if status == SLIP:
             e = slip_frame(qx, qy)
-            lam = wp.max(-(gx * e[0] + gy * e[1]), zero)
-            s_rt += lam / q_max * (tx * tx + ty * ty)
+            normal = gx * e[0] + gy * e[1]
+            s_gt = (gx - normal * e[0]) * tx + (gy - normal * e[1]) * ty
+            s_rt += wp.max(-normal, zero) / q_max * (tx * tx + ty * ty)
     return s_gt, s_rt
 
 

@@ -134,6 +134,38 @@ def test_a_reversing_slip_cell_waits_for_the_proportioning_test(device, precondi
     assert run(2.0 * reversal / ratio, near) == (tk.STICK, 1.0)  # near the tolerance: released
 
 
+def test_a_slip_cells_step_sum_takes_the_tangent_part_of_its_gradient(device):
+    """``tangential_step_sums`` on one slip cell near a solution: g = -lambda e + g_t with the
+    slip increment lambda = 1e-3 and g_t = 1e-13 (relative residuals near 1e-10), the direction
+    t tangent but for a normal part of 1e-19 (t's rounding: lambda eps |t| / |g_t| with |t| =
+    2e-13). Slot S_GT must hold g_t . t = 2e-26 (to 1e-5: g_t taken from g carries a few ulps of
+    lambda, lambda eps / |g_t| = 2e-6 of it), not g . t,
+    where lambda times the normal part (-1e-22) swamps it, the step length tau turns negative and
+    the iteration wanders (it did for hundreds of iterations at a fretting reversal); slot S_RT
+    holds t . K t plus the constraint's curvature (lambda / q_max) |t|^2."""
+    from warpcontact.kernels import reduce as rk
+    from warpcontact.numerics.launch import ReductionLaunch
+
+    lam, g_t, t_normal, t_tangent, q_max, response = 1e-3, 1e-13, 1e-19, 2e-13, 5e-4, 7e-13
+    e = np.array([0.6, 0.8])  # the slip cell's direction, q = q_max e
+    perp = np.array([-0.8, 0.6])
+    g = -lam * e + g_t * perp
+    t = t_normal * e + t_tangent * perp
+    f = lambda a: wp.array(np.ascontiguousarray(a, dtype=np.float64), device=device)  # noqa: E731
+    cells = [np.array([v, 0.0]) for v in (g[0], g[1], t[0], t[1], response, 0.0, q_max * e[0], q_max * e[1],
+                                          q_max)]
+    status = wp.array(np.array([tk.SLIP, tk.OUT], dtype=np.int32), device=device)
+    sums = f(np.zeros(tk.N_SUMS_PRECONDITIONED))
+    launch = ReductionLaunch.for_cells(2, wp.get_device(device))
+    wp.launch_tiled(tk.tangential_step_sums, dim=launch.num_blocks,
+                    inputs=[*(f(c) for c in cells), status, *launch.args(2)], outputs=[sums],
+                    block_dim=launch.block_dim, device=device)
+    gt, rt = sums.numpy()[rk.S_GT], sums.numpy()[rk.S_RT]
+    assert abs(gt / (g_t * t_tangent) - 1.0) < 1e-5, (gt, g_t * t_tangent)  # (pytest.approx's abs floor is 1e-12)
+    expected_rt = response * t[0] + lam / q_max * (t @ t)
+    assert abs(rt / expected_rt - 1.0) < 1e-12, (rt, expected_rt)
+
+
 def mindlin_step(n, device, dtype, preconditioned, tol=None):
     """Identical copper bodies, Coulomb mu = 0.3: delta_z, then delta_x at Q / (mu P) = 0.5: one
     tangential solve from zero shear. Returns (state, tangential SolveInfo, model)."""

@@ -135,8 +135,10 @@ class TangentialSolver(ProjectedCG):
     when the last solve ended start as slip cells on their new circle (``tangential_classify``'s
     ``keep_slip``). It takes half the iterations of the plain one and fewer as the grid grows
     (docs/model.md, "Partial slip"; ``tests/test_tangential_precond.py``).
-    The iteration's floor in float64 lies near a relative residual of 1e-11 for both (the last
-    iterations before 1e-10 can wander). Related work: Zhao, Vollebregt & Oosterlee, "A fast
+    On slip cells the sums take g's tangent part (``kernels/tangential.py``, ``step_terms``): g's
+    normal part, the slip increment, is up to 1e9 times it near a solution, and rounding let it
+    into g . t, which held both iterations near a relative residual of 1e-10 for hundreds of
+    iterations at a fretting reversal (``tests/test_fretting.py``). Related work: Zhao, Vollebregt & Oosterlee, "A fast
     nonlinear conjugate gradient based method for 3D frictional contact problems", J. Comput.
     Phys. (2015; TU Delft report 14-02): active set, slip tractions by their azimuth angle,
     diagonal scaling, FFT products; FFT-based (circulant inverse) preconditioners for the normal
