@@ -57,14 +57,16 @@ EXTRA_PATHS = ["steel", "hardness", "float32", "dugdale", "exponential", "unload
 #: the ``rough`` path's flat: a self-affine map of ROUGH_PIXELS^2 pixels over figure2d's domain
 #: (H 0.8, rms height 50 pm, wavelengths down to 4 pixels, seed 1), resampled onto every grid
 ROUGH_PIXELS = 256
-#: the solver's choices a run forces: (nested, window)
+#: the solver's choices a run forces ([solver] keys; the rest "auto")
 CHOICES = {
-    "auto": ("auto", "auto"),
-    "nested-on": (True, "auto"),
-    "nested-off": (False, "auto"),
-    "window-on": ("auto", True),
-    "window-off": ("auto", False),
-    "both-off": (False, False),
+    "auto": {},
+    "nested-on": {"nested": True},
+    "nested-off": {"nested": False},
+    "window-on": {"window": True},
+    "window-off": {"window": False},
+    "both-off": {"nested": False, "window": False},
+    "precond32-on": {"preconditioner_float32": True},
+    "precond32-off": {"preconditioner_float32": False},
 }
 #: choices of the launch layer (numerics/launch.py, ``LaunchCache``'s class defaults), the solver's
 #: choices "auto": on the CPU, launches not split over its threads; and not replayed either
@@ -198,9 +200,9 @@ def child(args) -> None:
 def run_one(name: str, n: int, choice: str, device: str, timeout: float) -> dict:
     d = case_dict(name)
     d["grid"]["n"] = int(n)
-    nested, window = CHOICES.get(choice, CHOICES["auto"])
     solver = d.setdefault("solver", {})
-    solver.update({"device": device, "nested": nested, "window": window})
+    solver.update({"device": device, "nested": "auto", "window": "auto", "preconditioner_float32": "auto",
+                   **CHOICES.get(choice, CHOICES["auto"])})
     if choice in LAUNCH_CHOICES:
         d["launches"] = LAUNCH_CHOICES[choice]
     row = {"path": name, "n": n, "choice": choice, "device": device, "dtype": solver.get("dtype", "float64")}

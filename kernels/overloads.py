@@ -29,3 +29,12 @@ def float_overload(kernel, scalar):
     """The overload of a generic kernel registered by :func:`register_float_overloads` for the
     float type ``scalar`` (for ``wp.get_cuda_kernel_properties``, which takes a concrete one)."""
     return wp.overload(kernel, [_substitute(a.type, scalar) for a in kernel.adj.args])
+
+
+def mixed_float_overloads(kernel, float32_args):
+    """Register ``kernel`` with the arguments named in ``float32_args`` in float32 and every other
+    ``Any`` in float64: the float64 solver kernels that read or write the buffers of a float32
+    transform (``SolverSettings.preconditioner_float32``); returns the kernel."""
+    wp.overload(kernel, [_substitute(a.type, wp.float32 if a.label in float32_args else wp.float64)
+                         for a in kernel.adj.args])
+    return kernel

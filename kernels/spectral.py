@@ -316,7 +316,7 @@ def spectral_tangential_inverse_energy(
             spectrum_x[i, j] = zx
             spectrum_y[i, j] = zy
             weight = parseval_weight(i, j, first_row, half_axis, half_length, energy_scale)
-            energy += weight * (wp.dot(gx, zx) + wp.dot(gy, zy))
+            energy += weight * type(energy_scale)(wp.dot(gx, zx) + wp.dot(gy, zy))
         i, j = next_entry(i, j, di, dj, width)
     block_add(sums, slot, energy)
 
@@ -328,3 +328,18 @@ for _r, _v in ((wp.float32, wp.vec2f), (wp.float64, wp.vec2d)):
          "half_axis": int, "half_length": int, "energy_scale": _r, "eigen_floor": _r, "slot": int, "first_row": int,
          "cells": Cells, "sums": wp.array(dtype=_r)},
     )
+# float32 spectra and influence, the sum in float64 (SolverSettings.preconditioner_float32)
+wp.overload(
+    spectral_tangential_inverse_energy,
+    {"influence": wp.array3d(dtype=wp.float32), "spectrum_x": wp.array2d(dtype=wp.vec2f),
+     "spectrum_y": wp.array2d(dtype=wp.vec2f), "half_axis": int, "half_length": int, "energy_scale": wp.float64,
+     "eigen_floor": wp.float32, "slot": int, "first_row": int, "cells": Cells, "sums": wp.array(dtype=wp.float64)},
+)
+
+
+@wp.kernel
+def float32_copy(source: wp.array3d(dtype=wp.float64), target: wp.array3d(dtype=wp.float32)):
+    """``target`` <- ``source`` rounded to float32, entry by entry (influence spectra for the
+    float32 preconditioner, ``ElasticOperator.inverse_transforms``)."""
+    k, i, j = wp.tid()
+    target[k, i, j] = wp.float32(source[k, i, j])

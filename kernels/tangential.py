@@ -40,7 +40,7 @@ from typing import Any
 
 import warp as wp
 
-from .overloads import register_float_overloads
+from .overloads import mixed_float_overloads, register_float_overloads
 from .reduce import (  # noqa: F401  (shared slots)
     Cells, C_DELTA, C_G_OLD, N_SCALARS, N_PARAMETERS, N_SHARED_SUMS, P_EXACT, P_TOL, S_G, S_GT, S_RHS, S_RT, S_VIOL, advance, block_add,
     block_add_vector, cell_index, cg_converged, cg_step_length, conjugacy, residual_of, stop_loop,
@@ -431,12 +431,13 @@ N_SUMS_PRECONDITIONED = N_SUMS + 4
 def tangential_stick_gradient(grad: wp.array(dtype=Any), status: wp.array(dtype=wp.int32), width: int, per: int,
                               padded_input: wp.array2d(dtype=Any)):
     """One component of g on the stick cells, 0 elsewhere, into the FFT backend's
-    ``padded_input``: what the preconditioner transforms. Launched over (rows, chunks)
-    (``LaunchCache.launch_rows``)."""
+    ``padded_input``: what the preconditioner transforms (in its backend's float type, which
+    may be float32 beside float64 fields: ``SolverSettings.preconditioner_float32``). Launched
+    over (rows, chunks) (``LaunchCache.launch_rows``)."""
     i, c = wp.tid()
     for j in range(c * per, wp.min((c + 1) * per, width)):
         cell = i * width + j
-        padded_input[i, j] = wp.where(status[cell] == STICK, grad[cell], type(grad[cell])(0.0))
+        padded_input[i, j] = padded_input.dtype(wp.where(status[cell] == STICK, grad[cell], type(grad[cell])(0.0)))
 
 
 @wp.kernel
@@ -460,9 +461,9 @@ def tangential_direction_stick(
         cell = i * width + j
         st = status[cell]
         if st == STICK:
-            direction[cell] = output_scale * preconditioned[i, j] + beta * direction[cell]
+            direction[cell] = type(beta)(output_scale * preconditioned[i, j]) + beta * direction[cell]
         elif st == OUT:
-            direction[cell] = output_scale - output_scale
+            direction[cell] = beta - beta
 
 
 @wp.kernel
@@ -493,14 +494,14 @@ def tangential_direction_rest(
         cell = i * width + j
         st = status[cell]
         if st == STICK:
-            dir_y[cell] = output_scale * preconditioned[i, j] + beta * dir_y[cell]
+            dir_y[cell] = type(beta)(output_scale * preconditioned[i, j]) + beta * dir_y[cell]
         elif st == SLIP:
             t = slip_direction(grad_x[cell], grad_y[cell], shear_x[cell], shear_y[cell], shear_limit[cell],
                                dir_x[cell], dir_y[cell], stiffness, beta)
             dir_x[cell] = t[0]
             dir_y[cell] = t[1]
         else:
-            dir_y[cell] = output_scale - output_scale
+            dir_y[cell] = beta - beta
 
 
 @wp.kernel
@@ -644,3 +645,8 @@ for _k in (
     tangential_advance,
 ):
     register_float_overloads(_k)
+
+# the preconditioner's transforms in float32 beside float64 fields (SolverSettings.preconditioner_float32)
+mixed_float_overloads(tangential_stick_gradient, ("padded_input",))
+mixed_float_overloads(tangential_direction_stick, ("preconditioned", "output_scale"))
+mixed_float_overloads(tangential_direction_rest, ("preconditioned", "output_scale"))

@@ -84,6 +84,7 @@ VALUES = {
     "solver.fft": _enum(C.FFT_BACKENDS),
     "solver.nested": {"enum": [True, False, "auto"]},
     "solver.window": {"enum": [True, False, "auto"]},
+    "solver.preconditioner_float32": {"enum": [True, False, "auto"]},
     "friction.law": _enum(C.FRICTION_KEYS),
     "friction.mu": {"type": "number", "minimum": 0},
     "friction.k_tau": {"type": "number", "exclusiveMinimum": 0, "exclusiveMaximum": 1},

@@ -149,9 +149,14 @@ class FFTBackend:
         self.transform_input(spectrum)
         self.transform_to_output(spectrum)
 
+    #: set by :meth:`transient`: this backend's grid serves only a few solves
+    is_transient = False
+
     def transient(self):
         """Say that this backend's grid serves only a few solves (a tangential solve's window):
-        a backend whose plans cost time to make may make cheaper ones. Here: nothing."""
+        a backend whose plans cost time to make may make cheaper ones. Here: only noted
+        (``is_transient``, which a backend made beside it for the same grid follows)."""
+        self.is_transient = True
 
     def check_field(self, name: str, a: wp.array):
         """Raise ValueError naming ``name`` unless ``a`` is an (ny, nx) array of this dtype and device."""

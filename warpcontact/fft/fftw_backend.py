@@ -206,6 +206,7 @@ class FFTWBackend(ScipyFFT):
         follows the contact from state to state): plans from the machine's wisdom where it has
         some, else estimated, not measured. A path at n = 512 on a machine without wisdom met 19
         layouts, and measuring them took 14 s of its solve."""
+        super().transient()
         self.measure_new = False
 
     def spectrum_of_padded(self, padded):

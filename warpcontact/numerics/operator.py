@@ -6,6 +6,8 @@ the influence coefficients are of order one in float32 and float64 alike.
 
 from __future__ import annotations
 
+from typing import NamedTuple
+
 import numpy as np
 import warp as wp
 
@@ -18,6 +20,17 @@ from ..physics.influence import KERNELS, SPECTRUM_PARTS, device_coefficients, in
 
 #: where the influence coefficients are computed (``ElasticOperator``'s ``influence``)
 INFLUENCE_PATHS = ("auto", "host", "device")
+
+
+class InverseTransforms(NamedTuple):
+    """Where the tangential preconditioner runs (``ElasticOperator.inverse_transforms``): an FFT
+    backend of the operator's padded grid, two of its spectral buffers (x and y) and the
+    influence spectra (at least K_zz, K_xx, K_yy, K_xy, in the spectral kernels' order), all in
+    the backend's float type."""
+
+    fft: object
+    buffers: list
+    influence: wp.array
 
 
 class ElasticOperator:
@@ -91,6 +104,7 @@ class ElasticOperator:
         #: the six influence spectra, each real or imaginary: only that part (SPECTRUM_PARTS)
         self.influence = self.fft.alloc_influence(len(KERNELS))
         self.fft.influence_spectra(scaled(), [SPECTRUM_PARTS[k] for k in KERNELS], self.influence, self._buf[0])
+        self._inverse32 = None  # (inverse_transforms(float32=True), made when first asked)
 
     def self_coefficient(self, kernel: str) -> float:
         """Displacement of a cell under its own unit traction, scaled units (kernel in KERNELS)."""
@@ -176,6 +190,27 @@ class ElasticOperator:
 
     # --- the circulant inverse of the tangential block: the tangential solver's preconditioner ---
 
+    def inverse_transforms(self, float32: bool = False) -> "InverseTransforms":
+        """The FFT backend, two spectral buffers and the influence spectra that the tangential
+        preconditioner runs on: the operator's own, or with ``float32`` in a float64 operator
+        float32 ones of the same padded grid (``SolverSettings.preconditioner_float32``), made
+        when first asked: a float32 backend of the same kind, two float32 spectral buffers and
+        the spectra K_zz, K_xx, K_yy, K_xy rounded to float32 (six padded grids' worth of float32
+        at most, against the float64 operator's twelve)."""
+        if not float32 or self.dtype == wp.float32:
+            return InverseTransforms(self.fft, self._buf[1:3], self.influence)
+        if self._inverse32 is None:
+            fft = make_fft(self.fft.name, self.grid.n, self.grid.n, self.fft.device, wp.float32)
+            if self.fft.is_transient:
+                fft.transient()
+            kept = len(KERNELS[:4])  # zz, xx, yy, xy: the spectral kernels' indices ZZ .. XY
+            influence = wp.empty((kept, *fft.spectral_shape), dtype=wp.float32, device=fft.device)
+            wp.launch(spectral.float32_copy, dim=influence.shape, inputs=[self.influence[:kept]], outputs=[influence],
+                      device=fft.device)
+            buffers = [wp.zeros(fft.spectral_shape, dtype=fft.complex_dtype, device=fft.device) for _ in range(2)]
+            self._inverse32 = InverseTransforms(fft, buffers, influence)
+        return self._inverse32
+
     def tangential_column_norm(self) -> float:
         """Bound on the 2-norm of the displacements one cell's unit shear (of any direction)
         causes over the padded grid, scaled units: the Frobenius norm of the cell's two columns
@@ -183,35 +218,40 @@ class ElasticOperator:
         c = self._column_norms
         return float(np.sqrt(c["xx"] ** 2 + 2.0 * c["xy"] ** 2 + c["yy"] ** 2))
 
-    def tangential_inverse_product(self, energy: wp.array, slot: int, eigen_floor: float):
+    def tangential_inverse_product(self, energy: wp.array, slot: int, eigen_floor: float,
+                                   inverse: "InverseTransforms | None" = None):
         """The circulant inverse of K_tt (``spectral.spectral_tangential_inverse_energy``, its
-        eigenvalues floored at ``eigen_floor``, scaled) on the spectra in the shear buffers
-        (``_buf[1]``, ``_buf[2]``), in place, and ``energy[slot] += g . M g`` for the fields g
-        whose spectra they are (Parseval)."""
-        fft = self.fft
+        eigenvalues floored at ``eigen_floor``, scaled) on the spectra in the buffers of
+        ``inverse`` (default: the operator's own shear buffers ``_buf[1]``, ``_buf[2]``), in
+        place, and ``energy[slot] += g . M g`` for the fields g whose spectra they are
+        (Parseval; summed in ``energy``'s float type)."""
+        inverse = inverse or self.inverse_transforms()
+        fft = inverse.fft
         self.launches.launch_reduce(
             spectral.spectral_tangential_inverse_energy, self._spectral_reduction, self._spectral_entries,
-            [Rows(self.influence, axis=1), Rows(self._buf[1]), Rows(self._buf[2]), fft.half_axis, fft.half_length,
-             fft.energy_scale, fft.dtype(eigen_floor), int(slot), FirstRow()],
+            [Rows(inverse.influence, axis=1), *(Rows(b) for b in inverse.buffers), fft.half_axis, fft.half_length,
+             self.fft.energy_scale, fft.dtype(eigen_floor), int(slot), FirstRow()],
             [Sums(energy)], rows=fft.spectral_shape)
 
     def tangential_inverse_padded(self, fill_x, fill_y, use_x, use_y, energy: wp.array, slot: int,
-                                  eigen_floor: float):
+                                  eigen_floor: float, inverse: "InverseTransforms | None" = None):
         """M g for solver kernels that pad and crop as part of their own passes: ``fill_x()`` and
-        ``fill_y()`` each write one component of g into the corner of ``fft.padded_input`` (each
-        is transformed before the next is written); M g's components come out in the corner of
-        ``fft.padded_output`` (times ``fft.output_scale``), x while ``use_x()`` runs, then y while
-        ``use_y()`` runs. ``energy[slot] += g . M g``. Four transforms and the spectral product
-        (:meth:`tangential_inverse_product`)."""
-        fft = self.fft
+        ``fill_y()`` each write one component of g into the corner of ``padded_input`` of
+        ``inverse.fft`` (each is transformed before the next is written); M g's components come
+        out in the corner of its ``padded_output`` (times its ``output_scale``), x while
+        ``use_x()`` runs, then y while ``use_y()`` runs. ``energy[slot] += g . M g``. Four
+        transforms and the spectral product (:meth:`tangential_inverse_product`); ``inverse``:
+        :meth:`inverse_transforms` (default: the operator's own)."""
+        inverse = inverse or self.inverse_transforms()
+        fft, (spectrum_x, spectrum_y) = inverse.fft, inverse.buffers
         fill_x()
-        fft.transform_input(self._buf[1])
+        fft.transform_input(spectrum_x)
         fill_y()
-        fft.transform_input(self._buf[2])
-        self.tangential_inverse_product(energy, slot, eigen_floor)
-        fft.transform_to_output(self._buf[1])
+        fft.transform_input(spectrum_y)
+        self.tangential_inverse_product(energy, slot, eigen_floor, inverse)
+        fft.transform_to_output(spectrum_x)
         use_x()
-        fft.transform_to_output(self._buf[2])
+        fft.transform_to_output(spectrum_y)
         use_y()
 
     def tangential_inverse(self, grad_x, grad_y, out_x, out_y, energy: wp.array, slot: int, eigen_floor: float):

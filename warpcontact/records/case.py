@@ -54,7 +54,7 @@ TABLES = ("sphere", "flat", "grid", "load", "solver", "friction", "adhesion")
 REQUIRED_TABLES = ("sphere", "flat", "grid", "load")
 
 GRID_KEYS = ("n", "size")
-SOLVER_KEYS = ("device", "dtype", "tol", "max_iter", "max_turns", "fft", "nested", "window")
+SOLVER_KEYS = ("device", "dtype", "tol", "max_iter", "max_turns", "fft", "nested", "window", "preconditioner_float32")
 FRICTION_KEYS = {"coulomb": ("law", "mu"), "tabor": ("law", "k_tau", "k_vm", "hardness_cap")}
 ADHESION_KEYS = {"smc": ("law", "sigma_max", "tau_max", "delta_n", "delta_t", "contact_shear"),
                  "dugdale": ("law", "sigma_0", "h_0", "smoothing", "ramps"),
@@ -131,6 +131,9 @@ class SolverSpec:
             where the contact is a fraction of the domain. true, false or "auto" (the default:
             the shear from 128 cells per side on the CPU and 1024 on CUDA, the pressure from 1024
             and 4096).
+        preconditioner_float32: in float64, the tangential solves' preconditioner transforms in
+            float32 (``SolverSettings.preconditioner_float32``): the same answer to the
+            tolerance, cheaper iterations. true, false or "auto" (the default: on CUDA).
         tol_default: True when ``tol`` came from the dtype's default; such a tol follows a dtype
             override (see :meth:`with_overrides`). Not compared, not written by ``to_dict``.
     """
@@ -143,6 +146,7 @@ class SolverSpec:
     fft: str = "auto"
     nested: bool | str = "auto"
     window: bool | str = "auto"
+    preconditioner_float32: bool | str = "auto"
     tol_default: bool = field(default=False, compare=False, repr=False)
 
     def __post_init__(self):
@@ -161,7 +165,7 @@ class SolverSpec:
         _set(self, "max_iter", _integer("solver.max_iter", self.max_iter, 1))
         _set(self, "max_turns", _integer("solver.max_turns", self.max_turns, 1))
         _choice("solver.fft", self.fft, FFT_BACKENDS)
-        for key in ("nested", "window"):
+        for key in ("nested", "window", "preconditioner_float32"):
             value = getattr(self, key)
             if not (_is_bool(value) or value == "auto"):
                 raise InputError(f"solver.{key}", f"must be true, false or \"auto\", {_got(value)}")
@@ -189,7 +193,8 @@ class SolverSpec:
     def to_dict(self) -> dict:
         """All settings, the tol in effect included (so a record pins the run down)."""
         return {"device": self.device, "dtype": self.dtype, "tol": self.tol, "max_iter": self.max_iter,
-                "max_turns": self.max_turns, "fft": self.fft, "nested": self.nested, "window": self.window}
+                "max_turns": self.max_turns, "fft": self.fft, "nested": self.nested, "window": self.window,
+                "preconditioner_float32": self.preconditioner_float32}
 
 
 @dataclass(frozen=True)

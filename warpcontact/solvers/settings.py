@@ -61,6 +61,10 @@ class SolverSettings:
             the contact (the pressure's answer judged on the whole grid); "auto": the shear from
             ``WINDOW_AUTO_N`` cells per side, the pressure from ``NORMAL_WINDOW_AUTO_N`` (by
             device).
+        preconditioner_float32: in a float64 model, the tangential solves' preconditioner (the
+            circulant inverse of K_tt on their stick cells) transforms in float32: half its
+            transforms' bytes, the iteration's sums and updates still float64; "auto": on CUDA.
+            No effect in a float32 model.
         window_turns: with the pressure solved on windows (``window``), a step with friction and
             without adhesion solves its later turns' pressure on its first turn's window alone,
             with the shear's normal displacement made there, and judges it on the whole grid once,
@@ -88,6 +92,7 @@ class SolverSettings:
     relax: float = 0.5
     nested: Choice = "auto"
     window: Choice = "auto"
+    preconditioner_float32: Choice = "auto"
     window_turns: bool = True
     use_graphs: bool | None = None
 
@@ -111,7 +116,8 @@ class SolverSettings:
         for name in ("fourier_step_sums", "use_graphs"):
             if not (getattr(self, name) is None or isinstance(getattr(self, name), bool)):
                 raise ValueError(f"settings.{name}: must be True, False or None (by device), got {getattr(self, name)!r}")
-        for name, kind in (("turn_tolerance", TurnTolerance), ("turns", Turns), ("nested", Choice), ("window", Choice)):
+        for name, kind in (("turn_tolerance", TurnTolerance), ("turns", Turns), ("nested", Choice), ("window", Choice),
+                           ("preconditioner_float32", Choice)):
             value = getattr(self, name)
             choices = get_args(kind)
             if not any(value is c if isinstance(c, bool) else (isinstance(value, str) and value == c) for c in choices):

@@ -31,6 +31,9 @@ WINDOW_CACHE = 2
 #: tangential solves on the contact's window": ``bench/scaling.py``'s coupled problem, rows
 #: coupled-window and coupled-whole)
 WINDOW_AUTO_N = {"cpu": 128, "cuda": 1024}
+#: ``preconditioner_float32 = "auto"`` (the default): the preconditioner's transforms in float32
+#: on these device kinds (docs/performance.md, "The preconditioner in float32")
+PRECONDITIONER_FLOAT32_AUTO = {"cpu": False, "cuda": True}
 
 
 def window_cells(extent: int, n: int) -> int | None:
@@ -289,6 +292,15 @@ class TangentialSolver(ProjectedCG):
             self.grad_x, self.grad_y, self.dir_x, self.dir_y, self.resp_x, self.resp_y = (f() for _ in range(6))
 
     @property
+    def float32_preconditioner(self) -> bool:
+        """Whether the preconditioner transforms in float32 beside float64 fields
+        (``settings.preconditioner_float32``; "auto": ``PRECONDITIONER_FLOAT32_AUTO``)."""
+        choice = self.settings.preconditioner_float32
+        if choice == "auto":
+            choice = PRECONDITIONER_FLOAT32_AUTO["cuda" if self.model.device.is_cuda else "cpu"]
+        return bool(choice) and self.model.dtype == wp.float64
+
+    @property
     def uses_window(self) -> bool:
         """Whether solves may run on a window (``settings.window``)."""
         return window_enabled(self.settings.window, self.model)
@@ -324,7 +336,7 @@ class TangentialSolver(ProjectedCG):
             target_y, shear_limit, self.grad_x, self.grad_y, self.dir_x, self.dir_y, self.resp_x, self.resp_y))
 
     def _key(self, state, target_x, target_y, shear_limit, known_x, known_y):
-        return (self.settings.tangential_preconditioner, *(a.ptr for a in (state.shear_x, state.shear_y, state.status, state.disp_x,
+        return (self.settings.tangential_preconditioner, self.float32_preconditioner, *(a.ptr for a in (state.shear_x, state.shear_y, state.status, state.disp_x,
                                                        state.disp_y, known_x, known_y, target_x, target_y,
                                                        shear_limit)))
 
@@ -336,7 +348,8 @@ class TangentialSolver(ProjectedCG):
 
     def _solve_preconditioned(self, state, target_x, target_y, shear_limit, known_x, known_y, tol) -> SolveInfo:
         m = self.model
-        fft = m.operator.fft
+        inverse = m.operator.inverse_transforms(self.float32_preconditioner)
+        fft = inverse.fft  # the preconditioner's transforms (float32 where settings.preconditioner_float32)
         qx, qy, st, ux, uy, kx, ky, tgx, tgy, limit, gx, gy, tx, ty, rx, ry = self._fields(
             state, target_x, target_y, shear_limit, known_x, known_y)
         sums = Sums(self.sums)
@@ -385,7 +398,8 @@ class TangentialSolver(ProjectedCG):
 
         def body():  # after recompute() where self.recompute is set (the device decides: _run's prelude)
             m.operator.tangential_inverse_padded(stick_gradient(self.grad_x), stick_gradient(self.grad_y),
-                                                 direction_x, direction_rest, self.sums, tk.S_G, self.eigen_floor)
+                                                 direction_x, direction_rest, self.sums, tk.S_G, self.eigen_floor,
+                                                 inverse)
             m.operator.tangential(self.dir_x, self.dir_y, self.resp_x, self.resp_y)
             m.launch_reduce(tk.tangential_step_sums, [gx, gy, tx, ty, rx, ry, qx, qy, limit, st], [sums])
             m.launch_reduce(tk.tangential_carried_update,
