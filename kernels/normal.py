@@ -36,7 +36,7 @@ from typing import Any
 
 import warp as wp
 
-from .overloads import register_float_overloads
+from .overloads import mixed_float_overloads, register_float_overloads
 from .reduce import (  # noqa: F401  (shared slots)
     Cells, C_DELTA, C_G_OLD, C_ITER, N_SCALARS, N_PARAMETERS, N_SHARED_SUMS, P_APPROACH, P_CHUNK, P_EXACT, P_MAX_ITER, P_TOL, S_G, S_GT, S_RHS,
     S_RT, S_VIOL, advance, residual_of, stop_loop,
@@ -177,7 +177,7 @@ def normal_free_gap(gap: wp.array(dtype=Any), pressure: wp.array(dtype=Any), pre
         p = pressure[cell]
         if is_stepped(p, gap[cell], pressure_cap, 1):
             g = gap[cell]
-        padded_input[i, j] = g
+        padded_input[i, j] = padded_input.dtype(g)
 
 
 @wp.func
@@ -208,7 +208,7 @@ def conjugate_direction(pressure: wp.array(dtype=Any), gap: wp.array(dtype=Any),
         g = gap[cell]
         z = g
         if precondition != 0:
-            z = output_scale * padded_entry(preconditioned, cell, width)
+            z = type(g)(output_scale * padded_entry(preconditioned, cell, width))
         t = z + beta * direction[cell]
         gt = g * t
     return t, gt
@@ -549,3 +549,8 @@ for _k in (normal_interference, normal_gap, normal_free_gap, normal_direction, n
            normal_update, normal_advance, count_positive, guess_needed, guess_max_interference, guess_shape,
            guess_fit_sums, guess_scale):
     register_float_overloads(_k)
+
+# the preconditioner's transforms in float32 beside float64 fields (SolverSettings.preconditioner_float32)
+mixed_float_overloads(normal_free_gap, ("padded_input",))
+mixed_float_overloads(normal_direction, ("preconditioned", "output_scale"))
+mixed_float_overloads(normal_direction_sum, ("preconditioned", "output_scale"))

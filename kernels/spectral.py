@@ -127,10 +127,10 @@ def spectral_normal_energy(
                     kj = mirror - j
             kzz = influence[ZZ, ki, kj]
             if inverse != 0:
-                kzz = wp.where(kzz > zero, type(zero)(1.0) / kzz, zero)
+                kzz = wp.where(kzz > kzz - kzz, type(kzz)(1.0) / kzz, kzz - kzz)
             spectrum[i, j] = kzz * s
             weight = parseval_weight(i, j, first_row, half_axis, half_length, energy_scale)
-            energy += weight * kzz * wp.dot(s, s)
+            energy += weight * type(energy_scale)(kzz * wp.dot(s, s))
         i, j = next_entry(i, j, di, dj, width)
     block_add(sums, slot, energy)
 
@@ -238,6 +238,14 @@ for _r, _v in ((wp.float32, wp.vec2f), (wp.float64, wp.vec2d)):
             },
         )
 
+
+# float32 spectra and influence, the sum in float64 (SolverSettings.preconditioner_float32)
+wp.overload(
+    spectral_normal_energy,
+    {"influence": wp.array3d(dtype=wp.float32), "spectrum": wp.array2d(dtype=wp.vec2f), "half_axis": int,
+     "half_length": int, "energy_scale": wp.float64, "inverse": int, "slot": int, "first_row": int, "mirror": int,
+     "cells": Cells, "sums": wp.array(dtype=wp.float64)},
+)
 
 # --- the circulant inverse of the tangential block: the tangential solver's preconditioner ---
 

@@ -23,7 +23,7 @@ INFLUENCE_PATHS = ("auto", "host", "device")
 
 
 class InverseTransforms(NamedTuple):
-    """Where the tangential preconditioner runs (``ElasticOperator.inverse_transforms``): an FFT
+    """Where the preconditioners run (``ElasticOperator.inverse_transforms``): an FFT
     backend of the operator's padded grid, two of its spectral buffers (x and y) and the
     influence spectra (at least K_zz, K_xx, K_yy, K_xy, in the spectral kernels' order), all in
     the backend's float type."""
@@ -129,12 +129,14 @@ class ElasticOperator:
         self.fft.inverse(self._buf[0], displacement)
 
     def normal_product(self, spectrum: wp.array2d, energy: wp.array | None = None, slot: int = 0,
-                       inverse: bool = False):
+                       inverse: bool = False, influence: wp.array | None = None):
         """The spectral product of K_zz on ``spectrum``, in place; with ``energy``, also
         ``energy[slot] += (K_zz t) . t`` for the field t whose spectrum it is, summed in Fourier
-        space (Parseval; ``spectral.spectral_normal_energy``: no pass over the grid of its own).
-        ``inverse``: the product of the circulant inverse 1 / K_zz instead, with its sum
-        t . (K_zz^-1 t) (``energy`` required), the normal solver's preconditioner."""
+        space (Parseval; ``spectral.spectral_normal_energy``: no pass over the grid of its own;
+        in ``energy``'s float type). ``inverse``: the product of the circulant inverse 1 / K_zz
+        instead, with its sum t . (K_zz^-1 t) (``energy`` required), the normal solver's
+        preconditioner. ``influence``: the spectra in ``spectrum``'s float type (default: the
+        operator's; ``inverse_transforms``)."""
         if energy is None:
             if inverse:
                 raise ValueError("normal_product: the inverse product is launched with its sum (pass energy)")
@@ -143,18 +145,22 @@ class ElasticOperator:
         fft = self.fft
         self.launches.launch_reduce(
             spectral.spectral_normal_energy, self._spectral_reduction, self._spectral_entries,
-            [Rows(self.influence, axis=1), Rows(spectrum), fft.half_axis, fft.half_length, fft.energy_scale,
-             int(inverse), int(slot), FirstRow(), self._mirror],
+            [Rows(self.influence if influence is None else influence, axis=1), Rows(spectrum), fft.half_axis,
+             fft.half_length, fft.energy_scale, int(inverse), int(slot), FirstRow(), self._mirror],
             [Sums(energy)], rows=fft.spectral_shape)
 
-    def normal_padded(self, energy: wp.array | None = None, slot: int = 0, inverse: bool = False):
+    def normal_padded(self, energy: wp.array | None = None, slot: int = 0, inverse: bool = False,
+                      transforms: "InverseTransforms | None" = None):
         """K_zz applied to the field a kernel wrote into the corner of ``fft.padded_input``; the
         result, times ``fft.output_scale``, in the corner of ``fft.padded_output`` (for solver
         kernels that pad and crop as part of their own passes). ``energy``, ``slot``,
-        ``inverse``: as :meth:`normal_product`."""
-        self.fft.transform_input(self._buf[0])
-        self.normal_product(self._buf[0], energy, slot, inverse)
-        self.fft.transform_to_output(self._buf[0])
+        ``inverse``: as :meth:`normal_product`. ``transforms``: run on these
+        (:meth:`inverse_transforms`; ``fft`` above is theirs; default: the operator's own)."""
+        fft, spectrum, influence = (self.fft, self._buf[0], None) if transforms is None else (
+            transforms.fft, transforms.buffers[0], transforms.influence)
+        fft.transform_input(spectrum)
+        self.normal_product(spectrum, energy, slot, inverse, influence)
+        fft.transform_to_output(spectrum)
 
     def tangential(self, shear_x, shear_y, disp_x, disp_y):
         """(disp_x, disp_y) <- K_tt (shear_x, shear_y) (no coupling)."""
@@ -191,8 +197,8 @@ class ElasticOperator:
     # --- the circulant inverse of the tangential block: the tangential solver's preconditioner ---
 
     def inverse_transforms(self, float32: bool = False) -> "InverseTransforms":
-        """The FFT backend, two spectral buffers and the influence spectra that the tangential
-        preconditioner runs on: the operator's own, or with ``float32`` in a float64 operator
+        """The FFT backend, two spectral buffers and the influence spectra that the preconditioners
+        (the circulant inverses) run on: the operator's own, or with ``float32`` in a float64 operator
         float32 ones of the same padded grid (``SolverSettings.preconditioner_float32``), made
         when first asked: a float32 backend of the same kind, two float32 spectral buffers and
         the spectra K_zz, K_xx, K_yy, K_xy rounded to float32 (six padded grids' worth of float32

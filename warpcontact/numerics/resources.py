@@ -235,9 +235,9 @@ def breakdown(n: int, dtype="float64", device_kind="cpu", friction: bool = True,
     """Bytes per part of a ContactModel + ``states`` ContactStates + a ContactSolver, on the device.
 
     ``preconditioner_float32`` (``SolverSettings.preconditioner_float32``; "auto": as it chooses
-    on the device kind): with friction in float64, the tangential preconditioner's float32
-    transforms (``ElasticOperator.inverse_transforms``): 4 influence spectra and 2 spectral
-    buffers in float32, and a float32 backend's work buffers and temporaries.
+    for n on the device kind): in float64, the preconditioners' float32 transforms
+    (``ElasticOperator.inverse_transforms``): 4 influence spectra and 2 spectral buffers in
+    float32, and a float32 backend's work buffers and temporaries.
 
     Keys: ``spectra`` (influence and buffers), ``fft_work`` (the FFT backend's work buffers),
     ``fields`` ((n, n) arrays of the model, states and solvers), ``scalars`` (reductions and
@@ -294,7 +294,7 @@ def breakdown(n: int, dtype="float64", device_kind="cpu", friction: bool = True,
         fft_temporaries = int(math.ceil(allowance * spectrum))
     if fft == "warp" and kind == "cuda":
         fft_temporaries = cells * real
-    if _float32_preconditioner(dtype, friction, kind, preconditioner_float32):  # a float32 backend: half of each part
+    if _float32_preconditioner(n, dtype, kind, preconditioner_float32):  # a float32 backend: half of each part
         spectra += (4 * spectral_entries(n, fft) * real + 2 * spectrum) // 2
         fft_work += fft_work // 2
         fft_temporaries += fft_temporaries // 2
@@ -453,7 +453,7 @@ def _required(n, dtype, kind, friction, fft, states, adhesion=False) -> int:
     return max(est, setup_device_bytes(n, dtype, fft))
 
 
-def _bluestein_extra(n: int, dtype, fft: str, friction: bool = False, kind: str = "cpu") -> int:
+def _bluestein_extra(n: int, dtype, fft: str, kind: str = "cpu") -> int:
     """Bytes of the cuFFT work allowance beyond one spectrum (``cufft_work_spectra``; half again
     where ``breakdown`` counts the float32 preconditioner's backend): 0 unless the cupy
     backend's transform length 2n has a prime factor above 127. Without it the need grows with
@@ -462,19 +462,19 @@ def _bluestein_extra(n: int, dtype, fft: str, friction: bool = False, kind: str 
         return 0
     spectrum = spectral_entries(n, fft) * 2 * np.dtype(_np_name(resolve_dtype(dtype))).itemsize
     extra = int(math.ceil(cufft_work_spectra(n) * spectrum)) - int(math.ceil(spectrum))
-    if _float32_preconditioner(dtype, friction, kind, "auto"):
+    if _float32_preconditioner(n, dtype, kind, "auto"):
         extra += extra // 2 + 1  # (breakdown adds half of each allowance, rounded down)
     return extra
 
 
-def _float32_preconditioner(dtype, friction: bool, kind: str, choice) -> bool:
-    """Whether ``breakdown`` counts the float32 preconditioner's arrays: with friction in float64,
-    where ``choice`` (``SolverSettings.preconditioner_float32``) or its "auto" says so."""
+def _float32_preconditioner(n: int, dtype, kind: str, choice) -> bool:
+    """Whether ``breakdown`` counts the float32 preconditioners' arrays: in float64, where
+    ``choice`` (``SolverSettings.preconditioner_float32``) or its "auto" says so."""
     if choice == "auto":
-        from ..solvers.tangential import PRECONDITIONER_FLOAT32_AUTO
+        from ..solvers.settings import preconditioner_float32_auto
 
-        choice = PRECONDITIONER_FLOAT32_AUTO[kind]
-    return bool(choice) and friction and resolve_dtype(dtype) == wp.float64
+        choice = preconditioner_float32_auto(n, kind == "cuda")
+    return bool(choice) and resolve_dtype(dtype) == wp.float64
 
 
 def _fit_tests(dtype, memory_bytes: int, friction: bool, kind: str, fft: str, states: int, adhesion: bool):
@@ -488,7 +488,7 @@ def _fit_tests(dtype, memory_bytes: int, friction: bool, kind: str, fft: str, st
 
     def may_fit(n):
         need = _required(n, dtype, kind, friction, fft, states, adhesion)
-        return n <= cap and need - _bluestein_extra(n, dtype, fft, friction, kind) <= memory_bytes
+        return n <= cap and need - _bluestein_extra(n, dtype, fft, kind) <= memory_bytes
 
     def fits(n):
         return n <= cap and _required(n, dtype, kind, friction, fft, states, adhesion) <= memory_bytes

@@ -16,7 +16,7 @@ from warpcontact.kernels.reduce import (
 
 from .. import interrupts
 from ..numerics.state import SolveInfo
-from .settings import SolverSettings
+from .settings import SolverSettings, preconditioner_float32_auto
 
 
 def default_tolerance(dtype) -> float:
@@ -91,6 +91,15 @@ class ProjectedCG:
         #: the parts of an iteration (the code of a loop body) that have run eagerly: their kernels
         #: are loaded for this float type; a capture waits until they have (see _launch)
         self._ran_eagerly: set = set()
+
+    @property
+    def float32_preconditioner(self) -> bool:
+        """Whether the preconditioner transforms in float32 beside float64 fields
+        (``settings.preconditioner_float32``; "auto": ``preconditioner_float32_auto``)."""
+        choice = self.settings.preconditioner_float32
+        if choice == "auto":
+            choice = preconditioner_float32_auto(self.model.grid.n, self.model.device.is_cuda)
+        return bool(choice) and self.model.dtype == wp.float64
 
     def _stage(self, slot: int, value: float):
         """parameters[slot] <- value on the host; ``_upload`` sends them."""

@@ -191,6 +191,9 @@ class NormalSolver(ProjectedCG):
         # the passes of an iteration, as the CPU splits them over its threads (by rows)
         p_rows, g_rows, t_rows, b_rows = (Rows(a) for a in (p, g, t, b))
         output = [Rows(fft.padded_output), fft.output_scale, m.grid.n]
+        # the preconditioner's transforms (float32 where settings.preconditioner_float32)
+        inverse = m.operator.inverse_transforms(self.float32_preconditioner)
+        inverse_output = [Rows(inverse.fft.padded_output), inverse.fft.output_scale]
 
         def displacement():  # state.disp_z <- K p
             m.operator.normal(state.pressure, state.disp_z)
@@ -226,15 +229,15 @@ class NormalSolver(ProjectedCG):
 
         def precondition():  # M g on the free set into the padded output; its G = g . M g into slot S_G
             m.launches.launch_rows(nk.normal_free_gap, m.grid.shape, [g_rows, p_rows, self._cap, m.grid.n],
-                                   [Rows(fft.padded_input)])
+                                   [Rows(inverse.fft.padded_input)])
             self._preconditioned_g.zero_()
-            m.operator.normal_padded(self.sums, nk.S_G, inverse=True)
+            m.operator.normal_padded(self.sums, nk.S_G, inverse=True, transforms=inverse)
 
         def body():  # after recompute() where self.recompute is set (the device decides: _run's prelude)
             if preconditioned:
                 precondition()
-            direction_in = [g_rows, p_rows, self._cap, self.sums, self.scalars, *output[:2], int(preconditioned),
-                            m.grid.n]
+            direction_in = [g_rows, p_rows, self._cap, self.sums, self.scalars,
+                            *(inverse_output if preconditioned else output[:2]), int(preconditioned), m.grid.n]
             if self.fourier_step_sums:  # g . t with t, (K t) . t in the spectral product
                 m.launches.launch_reduce(nk.normal_direction_sum, self._direction_launch, m.n_cells, direction_in,
                                          [t, fft.padded_input])
@@ -259,7 +262,8 @@ class NormalSolver(ProjectedCG):
         def on_non_finite(it):
             raise_non_finite("normal solve", state, ("pressure", "gap", "disp_z"), it)
 
-        key = (state.pressure.ptr, state.gap.ptr, state.disp_z.ptr, known.ptr, preconditioned, displacement_current)
+        key = (state.pressure.ptr, state.gap.ptr, state.disp_z.ptr, known.ptr, preconditioned, displacement_current,
+               self.float32_preconditioner)
         return self._run(key, start, exact, body, on_non_finite, on_disagreement, start_exact=exact_from_displacement,
                          prelude=(self.recompute, recompute))
 

@@ -20,6 +20,12 @@ TurnTolerance = Literal["residual", "change", "exact"]
 Turns = Literal["auto", "lagged", "minimised"]
 #: a speed-up chosen by the grid and the device (``"auto"``) or forced on or off
 Choice = Literal["auto", True, False]
+#: ``preconditioner_float32 = "auto"`` (the default): the preconditioners' transforms in float32
+#: from these cells per side of a solver's grid (a window's own) on, by device kind; None: never
+#: (docs/performance.md, "The preconditioners in float32": on an H200 Figure 2c and 2d at n = 4096,
+#: windows of 2560, 10-13 % faster; at n = 1024, windows of 512-640, no faster; 2 CPU cores at
+#: n = 256 and 512 within the runs' spread)
+PRECONDITIONER_FLOAT32_AUTO = {"cpu": None, "cuda": 2048}
 
 
 @dataclass(frozen=True)
@@ -61,10 +67,11 @@ class SolverSettings:
             the contact (the pressure's answer judged on the whole grid); "auto": the shear from
             ``WINDOW_AUTO_N`` cells per side, the pressure from ``NORMAL_WINDOW_AUTO_N`` (by
             device).
-        preconditioner_float32: in a float64 model, the tangential solves' preconditioner (the
-            circulant inverse of K_tt on their stick cells) transforms in float32: half its
-            transforms' bytes, the iteration's sums and updates still float64; "auto": on CUDA.
-            No effect in a float32 model.
+        preconditioner_float32: in a float64 model, the normal and tangential solves'
+            preconditioners (the circulant inverses of K_zz and K_tt) transform in float32: half
+            their transforms' bytes, the iterations' sums and updates still float64; "auto":
+            on CUDA from 2048 cells per side of the solver's grid or window on
+            (``PRECONDITIONER_FLOAT32_AUTO``). No effect in a float32 model.
         window_turns: with the pressure solved on windows (``window``), a step with friction and
             without adhesion solves its later turns' pressure on its first turn's window alone,
             with the shear's normal displacement made there, and judges it on the whole grid once,
@@ -137,6 +144,13 @@ class SolverSettings:
         if not isinstance(base, cls):
             raise TypeError(f"settings must be a {cls.__name__}, got {type(base).__name__}")
         return replace(base, **choices) if choices else base
+
+
+def preconditioner_float32_auto(n: int, cuda: bool) -> bool:
+    """What ``preconditioner_float32 = "auto"`` chooses for a solver's grid of n cells per side
+    (``PRECONDITIONER_FLOAT32_AUTO``)."""
+    start = PRECONDITIONER_FLOAT32_AUTO["cuda" if cuda else "cpu"]
+    return start is not None and n >= start
 
 
 def _real(value) -> bool:

@@ -31,9 +31,6 @@ WINDOW_CACHE = 2
 #: tangential solves on the contact's window": ``bench/scaling.py``'s coupled problem, rows
 #: coupled-window and coupled-whole)
 WINDOW_AUTO_N = {"cpu": 128, "cuda": 1024}
-#: ``preconditioner_float32 = "auto"`` (the default): the preconditioner's transforms in float32
-#: on these device kinds (docs/performance.md, "The preconditioner in float32")
-PRECONDITIONER_FLOAT32_AUTO = {"cpu": False, "cuda": True}
 
 
 def window_cells(extent: int, n: int) -> int | None:
@@ -290,15 +287,6 @@ class TangentialSolver(ProjectedCG):
         if self.grad_x is None:
             f = self.model.field
             self.grad_x, self.grad_y, self.dir_x, self.dir_y, self.resp_x, self.resp_y = (f() for _ in range(6))
-
-    @property
-    def float32_preconditioner(self) -> bool:
-        """Whether the preconditioner transforms in float32 beside float64 fields
-        (``settings.preconditioner_float32``; "auto": ``PRECONDITIONER_FLOAT32_AUTO``)."""
-        choice = self.settings.preconditioner_float32
-        if choice == "auto":
-            choice = PRECONDITIONER_FLOAT32_AUTO["cuda" if self.model.device.is_cuda else "cpu"]
-        return bool(choice) and self.model.dtype == wp.float64
 
     @property
     def uses_window(self) -> bool:
