@@ -18,6 +18,8 @@ size runs, side by side in one process:
 ``batch B`` rows (``--batches``): ``warpcontact.solve_batch(cases, batch=B)`` (each batch's
 kernels and transforms launched once for its B cases; one warm-up batch first); a case whose
 batched step did not converge is solved on its own inside it (counted: ``solved_alone``).
+``--plain-tangential`` adds, after them, the largest batch with the batched tangential solves'
+plain iteration and again with the preconditioned one (the default), side by side.
 
 ``--problem gross-slip``: the coupled case's gross-slip search (``find_gross_slip``: 4 normal
 steps, then load and bisection steps, 14-18 states) at delta_z spread over 0.5 ... 1.5 x 1e-10 m:
@@ -154,13 +156,17 @@ def swept(path: Path, batch: int) -> dict:
             "cases": len(report.records), "start_s": 0.0, "wall_s": wall}
 
 
-def batched(cases: list, batch: int, own_checks: bool = False) -> dict:
+def batched(cases: list, batch: int, own_checks: bool = False, plain_tangential: bool = False) -> dict:
     """``batch B``: ``solve_batch`` with batches of B cases; ``own_checks``: each case's yield
-    check made on its own (as on the CPU), not the batch's together."""
+    check made on its own (as on the CPU), not the batch's together; ``plain_tangential``: the
+    batched tangential solves' plain iteration (``BatchContactSolver.tangential_preconditioned``
+    False) instead of the preconditioned one."""
     import warpcontact as wc
+    from warpcontact.solvers.contact_batch import BatchContactSolver
     from warpcontact.studies import batch_solve
 
     made_together, own_solve = batch_solve._yield_checks, batch_solve.run_path
+    BatchContactSolver.tangential_preconditioned = not plain_tangential
     alone = []
     if own_checks:
         batch_solve._yield_checks = lambda ended: {}
@@ -178,8 +184,10 @@ def batched(cases: list, batch: int, own_checks: bool = False) -> dict:
         wall = time.perf_counter() - t0
     finally:
         batch_solve._yield_checks, batch_solve.run_path = made_together, own_solve
+        BatchContactSolver.tangential_preconditioned = True
     assert all(not isinstance(r, Exception) and r.converged for r in results), "a case did not converge"
-    return {"placement": f"batch {batch}" + (", own checks" if own_checks else ""), "workers": 1,
+    return {"placement": f"batch {batch}" + (", own checks" if own_checks else "")
+            + (", plain tangential" if plain_tangential else ""), "workers": 1,
             "cases": len(cases), "start_s": 0.0, "wall_s": wall, "solved_alone": len(alone)}
 
 
@@ -259,6 +267,8 @@ def main(argv=None):
                          "largest batch)")
     ap.add_argument("--sweeps", action="store_true",
                     help="add run_sweep of the cases, one at a time and batched (--problem normal)")
+    ap.add_argument("--plain-tangential", action="store_true",
+                    help="coupled: add rows of the largest batch with the batched tangential solves' plain iteration")
     ap.add_argument("--out", default="bench_results/throughput")
     args = ap.parse_args(argv)
     if any(w < 2 for w in args.workers):
@@ -299,6 +309,8 @@ def main(argv=None):
                 cases = [sc.case for sc in load_sweep(path).cases]
                 base = one_at_a_time(cases)
                 runs = [base] + [with_workers(path, w) for w in args.workers] + [batched(cases, b) for b in args.batches]
+                if args.plain_tangential and args.batches:
+                    runs += [batched(cases, max(args.batches), plain_tangential=True), batched(cases, max(args.batches))]
                 if args.own_checks:
                     runs.append(one_at_a_time(cases, own_checks=True))
             finally:

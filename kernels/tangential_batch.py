@@ -30,7 +30,8 @@ from .reduce import (
     block_add, block_add_vector, cell_index, cg_converged, cg_step_length, conjugacy,
 )
 from .tangential import (
-    N_SUMS, OUT, S_STICK, STICK, classify_cell, disk_step, gradient_cell, may_release, plain_direction, step_terms,
+    N_SUMS, OUT, S_STICK, SLIP, STICK, classify_cell, disk_step, gradient_cell, may_release, plain_direction,
+    slip_direction, step_terms,
 )
 
 wp.set_module_options({"enable_backward": False})
@@ -41,13 +42,15 @@ F_ACTIVE = wp.constant(0)
 
 @wp.kernel
 def batch_tangential_classify(shear_limit: wp.array2d(dtype=Any), active: wp.array(dtype=wp.int32),
-                              shear_x: wp.array2d(dtype=Any), shear_y: wp.array2d(dtype=Any),
+                              keep_slip: int, shear_x: wp.array2d(dtype=Any), shear_y: wp.array2d(dtype=Any),
                               status: wp.array2d(dtype=wp.int32)):
-    """The start of each active case's solve (``tangential_classify`` without ``keep_slip``: the
-    plain iteration reclassifies every cell)."""
+    """The start of each active case's solve (``tangential_classify``: with ``keep_slip`` 1, the
+    preconditioned iteration, the cells that slipped stay slip on their new circle; 0, the plain
+    iteration, reclassifies every cell)."""
     case, i = wp.tid()
     if active[case] != 0:
-        qx, qy, st = classify_cell(shear_limit[case, i], shear_x[case, i], shear_y[case, i], status[case, i], 0)
+        qx, qy, st = classify_cell(shear_limit[case, i], shear_x[case, i], shear_y[case, i], status[case, i],
+                                   keep_slip)
         shear_x[case, i] = qx
         shear_y[case, i] = qy
         status[case, i] = st
@@ -59,12 +62,13 @@ def batch_tangential_residual(disp_x: wp.array2d(dtype=Any), disp_y: wp.array2d(
                               target_x: wp.array2d(dtype=Any), target_y: wp.array2d(dtype=Any),
                               shear_x: wp.array2d(dtype=Any), shear_y: wp.array2d(dtype=Any),
                               shear_limit: wp.array2d(dtype=Any), status: wp.array2d(dtype=wp.int32),
-                              stiffness: wp.array(dtype=Any), cells: Cells,
+                              stiffness: wp.array(dtype=Any), jacobi_stick: int, cells: Cells,
                               grad_x: wp.array2d(dtype=Any), grad_y: wp.array2d(dtype=Any),
                               sums: wp.array2d(dtype=Any)):
     """Each case's exact g = K q + u_known - target from ``disp`` = K q, and its residual sums
-    (slots S_G with the stick cells' Jacobi part, S_VIOL, S_RHS, S_STICK, S_REVERSAL: the
-    single solver's ``tangential_residual`` with ``jacobi_stick`` = 1)."""
+    (slots S_G, S_VIOL, S_RHS, S_STICK, S_REVERSAL: the single solver's ``tangential_residual``;
+    ``jacobi_stick`` = 1, the plain iteration: S_G with the stick cells' Jacobi part; 0: their
+    part comes from ``batch_stick_energy``)."""
     case, block, lane = wp.tid()
     thread = block * wp.block_dim() + lane
     k_self = stiffness[case]
@@ -76,7 +80,7 @@ def batch_tangential_residual(disp_x: wp.array2d(dtype=Any), disp_y: wp.array2d(
         if i < cells.n:
             gx, gy, a, b = gradient_cell(disp_x[case, i], disp_y[case, i], known_x[case, i], known_y[case, i],
                                          target_x[case, i], target_y[case, i], shear_x[case, i], shear_y[case, i],
-                                         shear_limit[case, i], status[case, i], k_self, 1)
+                                         shear_limit[case, i], status[case, i], k_self, jacobi_stick)
             grad_x[case, i] = gx
             grad_y[case, i] = gy
             first += a
@@ -100,6 +104,65 @@ def batch_tangential_direction(grad_x: wp.array2d(dtype=Any), grad_y: wp.array2d
                         conjugacy(sums[case], scalars[case]))
     dir_x[case, i] = t[0]
     dir_y[case, i] = t[1]
+
+
+@wp.kernel
+def batch_stick_gradient(grad_x: wp.array2d(dtype=Any), grad_y: wp.array2d(dtype=Any),
+                         status: wp.array2d(dtype=wp.int32), stick_x: wp.array2d(dtype=Any),
+                         stick_y: wp.array2d(dtype=Any)):
+    """g on each case's stick cells, 0 elsewhere: what the preconditioner transforms
+    (``tangential_stick_gradient``)."""
+    case, i = wp.tid()
+    stick = status[case, i] == STICK
+    zero = grad_x[case, i] - grad_x[case, i]
+    stick_x[case, i] = wp.where(stick, grad_x[case, i], zero)
+    stick_y[case, i] = wp.where(stick, grad_y[case, i], zero)
+
+
+@wp.kernel
+def batch_stick_energy(grad_x: wp.array2d(dtype=Any), grad_y: wp.array2d(dtype=Any),
+                       precond_x: wp.array2d(dtype=Any), precond_y: wp.array2d(dtype=Any),
+                       status: wp.array2d(dtype=wp.int32), cells: Cells, sums: wp.array2d(dtype=Any)):
+    """Each case's g . M g over its stick cells (z = M g in ``precond``) added to slot S_G, where
+    ``batch_tangential_residual`` put the slip cells' part."""
+    case, block, lane = wp.tid()
+    thread = block * wp.block_dim() + lane
+    zero = sums[case, S_G] - sums[case, S_G]
+    energy = zero
+    for k in range(cells.per):
+        i = cell_index(thread, cells, k)
+        if i < cells.n:
+            if status[case, i] == STICK:
+                energy += grad_x[case, i] * precond_x[case, i] + grad_y[case, i] * precond_y[case, i]
+    block_add(sums[case], S_G, energy)
+
+
+@wp.kernel
+def batch_tangential_direction_preconditioned(grad_x: wp.array2d(dtype=Any), grad_y: wp.array2d(dtype=Any),
+                                              precond_x: wp.array2d(dtype=Any), precond_y: wp.array2d(dtype=Any),
+                                              shear_x: wp.array2d(dtype=Any), shear_y: wp.array2d(dtype=Any),
+                                              shear_limit: wp.array2d(dtype=Any),
+                                              status: wp.array2d(dtype=wp.int32), stiffness: wp.array(dtype=Any),
+                                              sums: wp.array2d(dtype=Any), scalars: wp.array2d(dtype=Any),
+                                              dir_x: wp.array2d(dtype=Any), dir_y: wp.array2d(dtype=Any)):
+    """Each case's preconditioned conjugate direction: t = z + beta t_last on stick cells with
+    z = M g from ``precond``, the Jacobi-scaled tangent part on slip cells (``slip_direction``), 0
+    out of contact (``tangential_direction_stick`` and ``tangential_direction_rest``)."""
+    case, i = wp.tid()
+    beta = conjugacy(sums[case], scalars[case])
+    st = status[case, i]
+    tx = beta - beta
+    ty = tx
+    if st == STICK:
+        tx = precond_x[case, i] + beta * dir_x[case, i]
+        ty = precond_y[case, i] + beta * dir_y[case, i]
+    elif st == SLIP:
+        t = slip_direction(grad_x[case, i], grad_y[case, i], shear_x[case, i], shear_y[case, i], shear_limit[case, i],
+                           dir_x[case, i], dir_y[case, i], stiffness[case], beta)
+        tx = t[0]
+        ty = t[1]
+    dir_x[case, i] = tx
+    dir_y[case, i] = ty
 
 
 @wp.kernel
@@ -191,5 +254,6 @@ def batch_tangential_advance(sums: wp.array2d(dtype=Any), parameters: wp.array2d
 
 
 for _k in (batch_tangential_classify, batch_tangential_residual, batch_tangential_direction,
+           batch_stick_gradient, batch_stick_energy, batch_tangential_direction_preconditioned,
            batch_tangential_step_sums, batch_tangential_update, batch_tangential_advance):
     register_float_overloads(_k)

@@ -80,10 +80,12 @@ def build(n, dtype="float64", fft="scipy", friction=True, adhesion=False):
      pytest.param(256, "float32", "fftw", False, True, marks=NEEDS_FFTW)],
 )
 def test_estimate_matches_what_is_allocated(n, dtype, fft, friction, adhesion):
-    """estimate_bytes within 30 % of the Warp memory the objects hold (the bound allowed: the
-    estimate adds the FFT library's temporaries and the solves' Python-side residual histories,
-    which the objects do not hold); the counted arrays alone within 2 % (a count that no longer matches the code: a buffer
-    was added to or removed from a class without updating resources.py)."""
+    """estimate_bytes without its host part (the solves' Python-side residual histories and the
+    records of launches split over the CPU's threads, which grow with the machine's cores and are
+    no Warp memory) within 30 % of the Warp memory the objects hold (the bound allowed: the
+    estimate adds the FFT library's temporaries, which the objects do not hold), and the whole
+    estimate not under it; the counted arrays alone within 2 % (a count that no longer matches
+    the code: a buffer was added to or removed from a class without updating resources.py)."""
     objs = build(n, dtype, fft, friction, adhesion)
     measured = allocated_bytes(*objs)
     parts = resources.breakdown(n, dtype, "cpu", friction, fft, adhesion=adhesion)
@@ -91,7 +93,7 @@ def test_estimate_matches_what_is_allocated(n, dtype, fft, friction, adhesion):
     print(f"\nn {n} {dtype} {fft} friction={friction} adhesion={adhesion}: measured {measured / 2**20:.2f} MiB, arrays counted "
           f"{parts['arrays'] / 2**20:.2f} MiB, estimate {est / 2**20:.2f} MiB ({est / measured - 1:+.1%})")
     assert abs(parts["arrays"] / measured - 1) < 0.02, (parts, measured)
-    assert abs(est / measured - 1) < 0.30, (est, measured)
+    assert abs((est - parts["host_temporaries"]) / measured - 1) < 0.30, (est, parts["host_temporaries"], measured)
     assert est >= measured  # the temporaries only add
 
 

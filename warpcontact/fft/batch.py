@@ -170,6 +170,25 @@ def tangential_influence(pair, n: int) -> tuple[dict, float]:
     return spectra, float(stiffness)
 
 
+@functools.lru_cache(maxsize=8)
+def tangential_inverse_blocks(pair, n: int) -> dict:
+    """The tangential solver's preconditioner of a material pair on an n x n grid: per wavenumber
+    of the padded grid the inverse of K_tt's 2x2 block [[xx, xy], [xy, yy]]
+    (:func:`tangential_influence`'s spectra) with its eigenvalues raised to at least a quarter of
+    the self-influence, as ``spectral.tangential_inverse_block`` makes it for one case: "xx",
+    "yy", "xy", real, ``numpy.fft.rfft2``'s layout."""
+    spectra, stiffness = tangential_influence(pair, n)
+    xx, yy, xy = spectra["xx"], spectra["yy"], spectra["xy"]
+    floor = 0.25 * stiffness
+    mean, diff = 0.5 * (xx + yy), 0.5 * (xx - yy)
+    spread = np.sqrt(diff * diff + xy * xy)
+    inv_high, inv_low = 1.0 / np.maximum(mean + spread, floor), 1.0 / np.maximum(mean - spread, floor)
+    safe = np.where(spread > 0.0, spread, 1.0)
+    cos2, sin2 = np.where(spread > 0.0, diff / safe, 1.0), np.where(spread > 0.0, xy / safe, 0.0)
+    average, half_gap = 0.5 * (inv_high + inv_low), 0.5 * (inv_high - inv_low)
+    return {"xx": average + half_gap * cos2, "yy": average - half_gap * cos2, "xy": half_gap * sin2}
+
+
 class BatchElasticOperator:
     """The tangential block K_tt and the coupling blocks K_tz, K_zt of B cases at once, each case
     with its own material pair, on (B, n^2) Warp fields (one row a case, row-major cells) viewed
@@ -194,6 +213,7 @@ class BatchElasticOperator:
         self._complex = np.complex128 if dtype == wp.float64 else np.complex64
         self._views: dict = {}
         self._spectra: dict = {}
+        self._inverse: dict = {}
         self._pairs: tuple = ()
 
     def set_pairs(self, pairs: list) -> tuple[np.ndarray, np.ndarray]:
@@ -205,10 +225,13 @@ class BatchElasticOperator:
             distinct = list(dict.fromkeys(pairs))
             rows = pairs[:1] if len(distinct) == 1 else pairs
             spectra = [tangential_influence(p, self.n)[0] for p in rows]
+            inverses = [tangential_inverse_blocks(p, self.n) for p in rows]
             with self.library.on_device():
                 xp = self.library.xp
                 self._spectra = {k: xp.asarray(np.stack([s[k] for s in spectra]).astype(
                     self._real if k in ("xx", "yy", "xy") else self._complex)) for k in spectra[0]}
+                self._inverse = {k: xp.asarray(np.stack([s[k] for s in inverses]).astype(self._real))
+                                 for k in inverses[0]}
         return (np.array([tangential_influence(p, self.n)[1] for p in pairs]),
                 np.array([p.D != 0.0 for p in pairs]))
 
@@ -242,6 +265,18 @@ class BatchElasticOperator:
                 u[0] += s["xz"] * p
                 u[1] += s["yz"] * p
             self._to_pair(u, disp)
+
+    def tangential_inverse(self, gradient, out):
+        """``out`` <- M ``gradient`` (each a (2, B, n^2) pair: x, y), M each row's circulant
+        inverse of K_tt on the padded grid (:func:`tangential_inverse_blocks`): the batched
+        tangential solver's preconditioner, applied to g on the stick cells."""
+        m, lib = self._inverse, self.library
+        with lib.on_device():
+            g = self._pair_spectra(gradient)
+            z = lib.xp.empty_like(g)
+            z[0] = m["xx"] * g[0] + m["xy"] * g[1]
+            z[1] = m["xy"] * g[0] + m["yy"] * g[1]
+            self._to_pair(z, out)
 
     def cross_tangential(self, pressure, disp):
         """``disp`` (a (2, B, n^2) pair) <- K_tz p: the pressure's tangential displacement."""

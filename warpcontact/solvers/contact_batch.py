@@ -72,6 +72,11 @@ class BatchContactSolver:
     tractions of the last state start the next step, ``slip`` is its slip history.
     """
 
+    #: the tangential solves' iteration (``BatchTangentialSolver``'s ``preconditioned``): the
+    #: circulant inverse on the stick cells; False: the plain one (``bench/throughput.py
+    #: --plain-tangential`` compares them)
+    tangential_preconditioned = True
+
     def __init__(self, n: int, batch: int, device, dtype):
         self.normal = BatchNormalSolver(n, batch, device, dtype)
         #: the whole grid's tangential and coupling blocks (the turns' known displacements, u_t)
@@ -165,7 +170,7 @@ class BatchContactSolver:
         if window is None:
             operator = BatchElasticOperator(cells, self.batch, self.device, self.dtype)
             stiffness = operator.set_pairs(self._pairs)[0]
-            window = self._windows[cells] = BatchTangentialSolver(operator, stiffness)
+            window = self._windows[cells] = BatchTangentialSolver(operator, stiffness, self.tangential_preconditioned)
             while len(self._windows) > WINDOW_CACHE:
                 self._windows.popitem(last=False)
         self._windows.move_to_end(cells)

@@ -1,18 +1,19 @@
 """Partial slip of B cases of one grid size, solved together.
 
-The plain bounded conjugate gradients of [`TangentialSolver`][warpcontact.solvers.tangential.TangentialSolver]
-(Chen & Wang 2008, Jacobi-scaled: ``SolverSettings.tangential_preconditioner = False``) with a
-case axis: every kernel (``kernels/tangential_batch.py``) and every transform
-([`BatchElasticOperator`][warpcontact.fft.batch.BatchElasticOperator]) is launched once for all B
-cases, each case with its own material pair, shear limit, target, tolerance, iterate, conjugacy and
-convergence. A converged case stops changing while the others go on; the solve ends when every
-case has ended. An iteration makes K q (the exact g) and K t, two batched applications of K_tt,
-and reads one count back (the cases still active).
+The bounded conjugate gradients of [`TangentialSolver`][warpcontact.solvers.tangential.TangentialSolver]
+(after Chen & Wang 2008) with a case axis: every kernel (``kernels/tangential_batch.py``) and
+every transform ([`BatchElasticOperator`][warpcontact.fft.batch.BatchElasticOperator]) is launched
+once for all B cases, each case with its own material pair, shear limit, target, tolerance,
+iterate, conjugacy and convergence. A converged case stops changing while the others go on; the
+solve ends when every case has ended. Each iteration reads one count back (the cases still
+active).
 
-Why the plain iteration and not the single solver's preconditioned one: the preconditioner's
-circulant inverse of K_tt is a 2x2 block per wavenumber and per material pair, and the carried
-gradient needs the deferral bookkeeping per case; the plain iteration takes about twice the
-iterations, each a few batched launches, and its answer is the same problem's to the tolerance.
+Preconditioned (the default, as the single solver): the direction is built from z = M g on the
+stick cells, M each case's circulant inverse of K_tt (its pair's 2x2 blocks per wavenumber,
+floored as the single solver floors them), and the Jacobi-scaled tangent part of g on slip
+cells. Unlike the single solver, g is not carried: an iteration makes K q (the exact g), M g and
+K t, three batched transform pairs, where the plain iteration (Chen & Wang's Jacobi scaling,
+``preconditioned=False``) makes two but takes about twice the iterations.
 """
 
 from __future__ import annotations
@@ -40,6 +41,8 @@ class BatchTangentialSolver:
         operator: the cases' [`BatchElasticOperator`][warpcontact.fft.batch.BatchElasticOperator]
             (its rows' pairs set).
         stiffness: each row's self-influence of K_tt (``BatchElasticOperator.set_pairs``).
+        preconditioned: build the directions from the circulant inverse of K_tt on the stick
+            cells; False: the plain iteration (Jacobi scaling).
 
     The caller fills ``target_x/y`` (delta - s_prev), ``shear_limit`` (q_max) and ``known``
     (the tangential displacement of tractions held fixed) and calls
@@ -50,8 +53,9 @@ class BatchTangentialSolver:
     ``shear_y`` etc. views of them.
     """
 
-    def __init__(self, operator: BatchElasticOperator, stiffness):
+    def __init__(self, operator: BatchElasticOperator, stiffness, preconditioned: bool = True):
         self.operator = operator
+        self.preconditioned = bool(preconditioned)
         self.n, self.batch = operator.n, operator.batch
         self.device, self.dtype = operator.device, operator.dtype
         self.np_dtype = numpy_dtype(self.dtype)
@@ -65,6 +69,10 @@ class BatchTangentialSolver:
             return wp.zeros((2, *cells), dtype=self.dtype, device=self.device)
 
         self.shear, self.disp, self.known, self.direction, self.response = (pair() for _ in range(5))
+        #: g on the stick cells and M of it (the preconditioned iteration's)
+        self.stick_gradient = self.preconditioned_gradient = None
+        if self.preconditioned:
+            self.stick_gradient, self.preconditioned_gradient = pair(), pair()
         self.shear_x, self.shear_y = self.shear[0], self.shear[1]
         self.disp_x, self.disp_y = self.disp[0], self.disp[1]
         self.known_x, self.known_y = self.known[0], self.known[1]
@@ -103,14 +111,12 @@ class BatchTangentialSolver:
         self.scalars.zero_()
         self.sums.zero_()
         self.direction.zero_()
-        self._cells(tbk.batch_tangential_classify, [self.shear_limit, self.active],
+        self._cells(tbk.batch_tangential_classify, [self.shear_limit, self.active, int(self.preconditioned)],
                     [self.shear_x, self.shear_y, self.status])
         limit = int(max_iter[active].max()) if active.any() else 0
         for _ in range(limit + 1):
             self._gradient()
-            self._cells(tbk.batch_tangential_direction,
-                        [self.grad_x, self.grad_y, self.shear_x, self.shear_y, self.shear_limit, self.status,
-                         self.stiffness, self.sums, self.scalars], [self.dir_x, self.dir_y])
+            self._direction()
             self.operator.tangential(self.direction, self.response)
             self._reduce(tbk.batch_tangential_step_sums,
                          [self.grad_x, self.grad_y, self.dir_x, self.dir_y, self.resp_x, self.resp_y, self.shear_x,
@@ -127,10 +133,26 @@ class BatchTangentialSolver:
         return row_infos(self, active, tol)
 
     def _gradient(self):
-        """K_tt q into ``disp``, the exact g and each row's residual sums (zeroed before)."""
+        """K_tt q into ``disp``, the exact g and each row's residual sums (zeroed before; slot
+        S_G without the stick cells' part where preconditioned: ``_direction`` adds it)."""
         self.sums.zero_()
         self.operator.tangential(self.shear, self.disp)
         self._reduce(tbk.batch_tangential_residual,
                      [self.disp_x, self.disp_y, self.known_x, self.known_y, self.target_x, self.target_y,
-                      self.shear_x, self.shear_y, self.shear_limit, self.status, self.stiffness],
+                      self.shear_x, self.shear_y, self.shear_limit, self.status, self.stiffness,
+                      int(not self.preconditioned)],
                      [self.grad_x, self.grad_y, self.sums])
+
+    def _direction(self):
+        """Each row's conjugate direction: preconditioned, z = M g on the stick cells (with
+        their g . z into slot S_G first, for the conjugacy), or the plain one."""
+        common = [self.shear_x, self.shear_y, self.shear_limit, self.status, self.stiffness, self.sums, self.scalars]
+        if not self.preconditioned:
+            self._cells(tbk.batch_tangential_direction, [self.grad_x, self.grad_y, *common], [self.dir_x, self.dir_y])
+            return
+        stick, z = self.stick_gradient, self.preconditioned_gradient
+        self._cells(tbk.batch_stick_gradient, [self.grad_x, self.grad_y, self.status], [stick[0], stick[1]])
+        self.operator.tangential_inverse(stick, z)
+        self._reduce(tbk.batch_stick_energy, [self.grad_x, self.grad_y, z[0], z[1], self.status], [self.sums])
+        self._cells(tbk.batch_tangential_direction_preconditioned, [self.grad_x, self.grad_y, z[0], z[1], *common],
+                    [self.dir_x, self.dir_y])
