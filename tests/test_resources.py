@@ -3,7 +3,6 @@
 import gc
 import tracemalloc
 
-import numpy as np
 import pytest
 import warp as wp
 
@@ -173,34 +172,56 @@ def test_setup_peak_on_the_host(monkeypatch):
         assert on_cpu >= peak
 
 
+#: one host transform's peak, measured in a process of its own: tracemalloc counts every thread's
+#: allocations, and threads that earlier tests leave (a cluster's event loop, say) allocate too
+HOST_TRANSFORM_PEAK = """
+import gc, json, sys, tracemalloc
+import numpy as np
+import warp as wp
+wp.config.quiet = True
+from warpcontact.fft import make_fft
+backend, n, peaks, differ = sys.argv[1], int(sys.argv[2]), {}, []
+for dtype in (wp.float64, wp.float32):
+    fft = make_fft(backend, n, n, "cpu", dtype)
+    out, scratch = fft.alloc_influence(2), fft.alloc_spectra(1)[0]
+    arrays = [np.random.default_rng(k).random((2 * n, 2 * n)) for k in range(2)]
+    parts = ["real", "imag"]
+    fft.influence_spectra(iter(arrays), parts, out, scratch)  # kernels and plans loaded
+    gc.collect()
+    tracemalloc.start()
+    base = tracemalloc.get_traced_memory()[0]
+    fft.influence_spectra(iter(arrays), parts, out, scratch)
+    peaks[dtype.__name__] = tracemalloc.get_traced_memory()[1] - base
+    tracemalloc.stop()
+    spectra = [fft.spectrum_of_padded(a) for a in arrays]
+    if not np.array_equal(out.numpy(), np.stack([spectra[0].real, spectra[1].imag]).astype(fft.np_real)):
+        differ.append(dtype.__name__)
+print("PEAKS " + json.dumps(peaks))
+print("SPECTRA DIFFER " + " ".join(differ) if differ else "SPECTRA EQUAL")
+"""
+
+
 @pytest.mark.parametrize("backend", [pytest.param("fftw", marks=NEEDS_FFTW), "scipy", "warp"])
 def test_host_transform_temporaries(backend):
     """What one host transform of FFTBackend.influence_spectra holds beyond its input
-    (tracemalloc): at most ``HOST_FFT_SPECTRA`` complex128 spectra, and not less than 3/4 of it
-    (an allowance far above the need would refuse grids that fit)."""
-    from warpcontact.fft import make_fft
+    (tracemalloc, in a process of its own: ``HOST_TRANSFORM_PEAK``): at most
+    ``HOST_FFT_SPECTRA`` complex128 spectra, and not less than 3/4 of it (an allowance far above
+    the need would refuse grids that fit). Measured alone 0.95-0.96 of it (fftw, scipy), 0.89
+    (warp); in the whole suite, in its process, 1.02 (fftw, scipy): another thread's allocations."""
+    import json
+    import subprocess
+    import sys
 
     n = 128
-    for dtype in (wp.float64, wp.float32):
-        fft = make_fft(backend, n, n, "cpu", dtype)
-        out, scratch = fft.alloc_influence(2), fft.alloc_spectra(1)[0]
-        arrays = [np.random.default_rng(k).random((2 * n, 2 * n)) for k in range(2)]
-        parts = ["real", "imag"]
-        fft.influence_spectra(iter(arrays), parts, out, scratch)  # kernels and plans loaded
-        gc.collect()
-        tracemalloc.start()
-        try:
-            base = tracemalloc.get_traced_memory()[0]
-            fft.influence_spectra(iter(arrays), parts, out, scratch)
-            peak = tracemalloc.get_traced_memory()[1] - base
-        finally:
-            tracemalloc.stop()
-        allowance = resources.HOST_FFT_SPECTRA[backend] * resources.spectral_entries(n, backend) * 16
-        print(f"\n{backend} {dtype.__name__}: {peak / allowance:.2f} of the allowance")
-        assert 0.75 * allowance <= peak <= allowance, (peak, allowance)
-        spectra = [fft.spectrum_of_padded(a) for a in arrays]
-        want = np.stack([spectra[0].real, spectra[1].imag]).astype(fft.np_real)
-        assert np.array_equal(out.numpy(), want)
+    run = subprocess.run([sys.executable, "-c", HOST_TRANSFORM_PEAK, backend, str(n)], capture_output=True,
+                         text=True, timeout=300)
+    line = next((ln for ln in run.stdout.splitlines() if ln.startswith("PEAKS ")), None)
+    assert line is not None, run.stdout + run.stderr
+    allowance = resources.HOST_FFT_SPECTRA[backend] * resources.spectral_entries(n, backend) * 16
+    for dtype, peak in json.loads(line[len("PEAKS "):]).items():
+        print(f"\n{backend} {dtype}: {peak / allowance:.2f} of the allowance")
+        assert 0.75 * allowance <= peak <= allowance, (dtype, peak, allowance)
+    assert "SPECTRA EQUAL" in run.stdout, run.stdout  # and the spectra made are the backend's own
 
 
 def test_check_fits_refuses_a_grid_too_large(monkeypatch):
