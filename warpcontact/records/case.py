@@ -133,7 +133,8 @@ class SolverSpec:
             and 4096).
         preconditioner_float32: in float64, the tangential solves' preconditioner transforms in
             float32 (``SolverSettings.preconditioner_float32``): the same answer to the
-            tolerance, cheaper iterations. true, false or "auto" (the default: on CUDA).
+            tolerance, cheaper iterations. true, false or "auto" (the default: from 2048 cells per
+            side of a solve's grid or window on CUDA, 512 on the CPU).
         tol_default: True when ``tol`` came from the dtype's default; such a tol follows a dtype
             override (see :meth:`with_overrides`). Not compared, not written by ``to_dict``.
     """

@@ -22,10 +22,11 @@ Turns = Literal["auto", "lagged", "minimised"]
 Choice = Literal["auto", True, False]
 #: ``preconditioner_float32 = "auto"`` (the default): the preconditioners' transforms in float32
 #: from these cells per side of a solver's grid (a window's own) on, by device kind; None: never
-#: (docs/performance.md, "The preconditioners in float32": on an H200 Figure 2c and 2d at n = 4096,
-#: windows of 2560, 10-13 % faster; at n = 1024, windows of 512-640, no faster; 2 CPU cores at
-#: n = 256 and 512 within the runs' spread)
-PRECONDITIONER_FLOAT32_AUTO = {"cpu": None, "cuda": 2048}
+#: (docs/performance.md, "The preconditioners in float32": on an H200 Figure 2c and 2d at n = 2048
+#: and 4096 (windows of 1280-2560) 5-29 % faster, at n = 1024 (windows of 512-640) no faster; on 2
+#: CPU cores Figure 2c at n = 1024 (windows of 512-640) 12 % faster, at 256 and 512 within the
+#: runs' spread)
+PRECONDITIONER_FLOAT32_AUTO = {"cpu": 512, "cuda": 2048}
 
 
 @dataclass(frozen=True)
@@ -70,7 +71,7 @@ class SolverSettings:
         preconditioner_float32: in a float64 model, the normal and tangential solves'
             preconditioners (the circulant inverses of K_zz and K_tt) transform in float32: half
             their transforms' bytes, the iterations' sums and updates still float64; "auto":
-            on CUDA from 2048 cells per side of the solver's grid or window on
+            from 2048 cells per side of the solver's grid or window on CUDA, 512 on the CPU
             (``PRECONDITIONER_FLOAT32_AUTO``). No effect in a float32 model.
         window_turns: with the pressure solved on windows (``window``), a step with friction and
             without adhesion solves its later turns' pressure on its first turn's window alone,
