@@ -174,7 +174,7 @@ def tangential_influence(pair, n: int) -> tuple[dict, float]:
 def tangential_inverse_blocks(pair, n: int) -> dict:
     """The tangential solver's preconditioner of a material pair on an n x n grid: per wavenumber
     of the padded grid the inverse of K_tt's 2x2 block [[xx, xy], [xy, yy]]
-    (:func:`tangential_influence`'s spectra) with its eigenvalues raised to at least a quarter of
+    (``tangential_influence``'s spectra) with its eigenvalues raised to at least a quarter of
     the self-influence, as ``spectral.tangential_inverse_block`` makes it for one case: "xx",
     "yy", "xy", real, ``numpy.fft.rfft2``'s layout."""
     spectra, stiffness = tangential_influence(pair, n)
@@ -268,7 +268,7 @@ class BatchElasticOperator:
 
     def tangential_inverse(self, gradient, out):
         """``out`` <- M ``gradient`` (each a (2, B, n^2) pair: x, y), M each row's circulant
-        inverse of K_tt on the padded grid (:func:`tangential_inverse_blocks`): the batched
+        inverse of K_tt on the padded grid (``tangential_inverse_blocks``): the batched
         tangential solver's preconditioner, applied to g on the stick cells."""
         m, lib = self._inverse, self.library
         with lib.on_device():
