@@ -252,14 +252,21 @@ class BatchElasticOperator:
         """``vector`` (2, B, n^2) <- the inverse of ``spectra`` (2, B, 2 n, n + 1): one batched transform."""
         self.library.inverse(spectra.reshape(2 * self.batch, 2 * self.n, self.n + 1), self._view(vector))
 
+    def _block_product(self, blocks, vector):
+        """The spectra (2, B, 2 n, n + 1) of the symmetric 2x2 ``blocks`` ("xx", "xy", "yy" per
+        wavenumber: K_tt or its inverse) applied to the (2, B, n^2) pair ``vector`` (on the
+        library's device)."""
+        q = self._pair_spectra(vector)
+        u = self.library.xp.empty_like(q)
+        u[0] = blocks["xx"] * q[0] + blocks["xy"] * q[1]
+        u[1] = blocks["xy"] * q[0] + blocks["yy"] * q[1]
+        return u
+
     def tangential(self, shear, disp, pressure=None):
         """``disp`` <- K_tt ``shear`` (each a (2, B, n^2) pair: x, y), plus K_tz ``pressure`` where given."""
         s, lib = self._spectra, self.library
         with lib.on_device():
-            q = self._pair_spectra(shear)
-            u = lib.xp.empty_like(q)
-            u[0] = s["xx"] * q[0] + s["xy"] * q[1]
-            u[1] = s["xy"] * q[0] + s["yy"] * q[1]
+            u = self._block_product(s, shear)
             if pressure is not None:
                 p = lib.forward(self._view(pressure))
                 u[0] += s["xz"] * p
@@ -270,13 +277,8 @@ class BatchElasticOperator:
         """``out`` <- M ``gradient`` (each a (2, B, n^2) pair: x, y), M each row's circulant
         inverse of K_tt on the padded grid (``tangential_inverse_blocks``): the batched
         tangential solver's preconditioner, applied to g on the stick cells."""
-        m, lib = self._inverse, self.library
-        with lib.on_device():
-            g = self._pair_spectra(gradient)
-            z = lib.xp.empty_like(g)
-            z[0] = m["xx"] * g[0] + m["xy"] * g[1]
-            z[1] = m["xy"] * g[0] + m["yy"] * g[1]
-            self._to_pair(z, out)
+        with self.library.on_device():
+            self._to_pair(self._block_product(self._inverse, gradient), out)
 
     def cross_tangential(self, pressure, disp):
         """``disp`` (a (2, B, n^2) pair) <- K_tz p: the pressure's tangential displacement."""
