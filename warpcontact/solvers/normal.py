@@ -191,8 +191,10 @@ class NormalSolver(ProjectedCG):
         # the passes of an iteration, as the CPU splits them over its threads (by rows)
         p_rows, g_rows, t_rows, b_rows = (Rows(a) for a in (p, g, t, b))
         output = [Rows(fft.padded_output), fft.output_scale, m.grid.n]
-        # the preconditioner's transforms (float32 where settings.preconditioner_float32)
-        inverse = m.operator.inverse_transforms(self.float32_preconditioner)
+        preconditioned = self.settings.normal_preconditioner
+        # the preconditioner's transforms (float32 where settings.preconditioner_float32; none made
+        # when the solve is not preconditioned)
+        inverse = m.operator.inverse_transforms(self.float32_preconditioner and preconditioned)
         inverse_output = [Rows(inverse.fft.padded_output), inverse.fft.output_scale]
 
         def displacement():  # state.disp_z <- K p
@@ -224,8 +226,6 @@ class NormalSolver(ProjectedCG):
             self._current_sums.zero_()
             displacement()
             gap_sums()
-
-        preconditioned = self.settings.normal_preconditioner
 
         def precondition():  # M g on the free set into the padded output; its G = g . M g into slot S_G
             m.launches.launch_rows(nk.normal_free_gap, m.grid.shape, [g_rows, p_rows, self._cap, m.grid.n],
