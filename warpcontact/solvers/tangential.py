@@ -79,10 +79,10 @@ class Windows:
     def transfer(window, kernel, pairs):
         """``kernel`` (``grids.crop``: whole grid to window, or ``grids.embed``: back) on each
         (source, destination) pair of fields, at the ``window``'s ``row0``, ``col0`` (on its
-        solver's model)."""
+        solver's model; recorded launches, replayed while the window stays in place)."""
         m = window.solver.model
         for src, dst in pairs:
-            wp.launch(kernel, dim=m.grid.shape, inputs=[src, window.row0, window.col0], outputs=[dst], device=m.device)
+            m.launch(kernel, m.grid.shape, [src, window.row0, window.col0], [dst])
 
     def place(self, first_row: int, last_row: int, first_col: int, last_col: int, extent: int, make):
         """The window that holds rows ``first_row`` .. ``last_row`` and columns ``first_col`` ..
@@ -308,8 +308,7 @@ class TangentialSolver(ProjectedCG):
         self._box.assign(np.array([n, -1, n, -1], dtype=np.int32))
         for field in (shear_limit, pressure):
             if field is not None:
-                wp.launch(gk.support_box, dim=(-(-n // int(gk.SUPPORT_ROWS)), n), inputs=[field],
-                          outputs=[self._box], device=m.device)
+                m.launch(gk.support_box, (-(-n // int(gk.SUPPORT_ROWS)), n), [field], [self._box])
         first_row, last_row, first_col, last_col = (int(v) for v in self._box.numpy())
         if last_row < 0:
             return None
