@@ -45,9 +45,11 @@ corner sums cancel to 1/r^2 of the corner terms' size far from the load).
 
 from __future__ import annotations
 
+import functools
 import math
 import time
 from dataclasses import dataclass, field
+from types import SimpleNamespace
 
 import numpy as np
 
@@ -151,6 +153,25 @@ def body_tables(pair, bodies, z_cells: float, loads=(True, True, True)) -> dict:
         table[:, [not on for on in loads], :] = 0.0
         tables[name] = table
     return tables
+
+
+@functools.lru_cache(maxsize=256)
+def affine_terms(nu: float, sphere: bool, loads: tuple) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """A body's stress table as an affine function of the depth z [cells]: (terms, constant,
+    slope), the table's non-zero terms (``table_terms``' order, only the first ``len(constant)``
+    rows) and their coefficients c0 + z c1. Each entry of ``stress_table`` is a constant or +-z,
+    so its non-zero terms at z = 1 are those at every z > 0 (``body_tables``' sign and ``loads``
+    for a ``sphere`` or the flat). Read-only arrays (cached)."""
+    pair = SimpleNamespace(elastic={"sphere" if sphere else "flat": SimpleNamespace(nu=nu)})
+    name = "sphere" if sphere else "flat"
+    at0, at1 = (body_tables(pair, (name,), z, loads)[name] for z in (0.0, 1.0))
+    terms, _, count = table_terms(at1)
+    c, l, b = terms[:count].T
+    constant = at0[c, l, b]
+    out = terms[:count], constant, at1[c, l, b] - constant
+    for a in out:
+        a.flags.writeable = False
+    return out
 
 
 def table_terms(table: np.ndarray) -> tuple[np.ndarray, np.ndarray, int]:

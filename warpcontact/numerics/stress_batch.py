@@ -17,7 +17,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .stress import BASIS, BASIS_PARITY, BODIES, body_tables, table_terms
+from .stress import BASIS, BASIS_PARITY, BODIES, affine_terms
 
 #: bytes a chunk of planes may take on a device (its stacks and the library's work arrays)
 CHUNK_BYTES = 1 << 30
@@ -128,18 +128,24 @@ class PlaneStress:
         terms = np.zeros((q_count * width, 3), dtype=np.int32)
         weights = np.zeros(q_count * width)
         counts = np.zeros(q_count, dtype=np.int32)
-        tables = [body_tables(pairs[c], tuple(pairs[c].elastic), z, loaded[c]) for c, z in planes]
+        # each case's tables as affine functions of the depth (``affine_terms``): {body: (terms,
+        # constant, slope)}, a plane's weights constant + z slope
+        forms = {}
+        for c in {c for c, _ in planes}:
+            forms[c] = {name: affine_terms(e.nu, name == "sphere", loaded[c]) for name, e in pairs[c].elastic.items()}
         # the bases any table uses (8 of the 14 for pressures alone), each in a slot of its own
-        used = np.flatnonzero(np.any([(t != 0).any(axis=(0, 1)) for ts in tables for t in ts.values()], axis=0))
+        used = np.unique(np.concatenate([t[:, 2] for f in forms.values() for t, _, _ in f.values()] or [[]])
+                         ).astype(np.int64)
         slot = np.zeros(nb, dtype=np.int32)
         slot[used] = np.arange(len(used))
-        for p, ts in enumerate(tables):
+        for p, (c, z) in enumerate(planes):
             for b, name in enumerate(BODIES):
-                if name in ts:  # a rigid body: no terms, a zero stress
-                    q = p * bodies + b
-                    t, w, count = table_terms(ts[name])
-                    t[:count, 2] = slot[t[:count, 2]]
-                    terms[q * width:(q + 1) * width], weights[q * width:(q + 1) * width] = t, w
+                if name in forms[c]:  # a rigid body: no terms, a zero stress
+                    t, constant, slope = forms[c][name]
+                    q, count = p * bodies + b, len(constant)
+                    at = slice(q * width, q * width + count)
+                    terms[at, :2], terms[at, 2] = t[:, :2], slot[t[:, 2]]
+                    weights[at] = constant + z * slope
                     counts[q] = count
         depths = wp.array(np.array([z for _, z in planes], dtype=np.float64), dtype=wp.float64)
         plane_case = wp.array(np.array([c for c, _ in planes], dtype=np.int32), dtype=int)
