@@ -53,7 +53,7 @@ class BatchLibrary:
             import scipy.fft
 
             self.fft, self.xp, self.workers = scipy.fft, np, {"workers": -1}
-            self._stream = None
+            self._stream = self._plans = None
             return
         from . import OPTIONAL, cupy_backend
 
@@ -65,21 +65,42 @@ class BatchLibrary:
 
         self.fft, self.xp, self.workers = cupy.fft, cupy, {}
         self._cuda_device = cupy.cuda.Device(self.device.ordinal)
-        self._stream = cupy.cuda.ExternalStream(wp.get_stream(self.device).cuda_stream, self.device.ordinal)
+        stream = wp.get_stream(self.device).cuda_stream
+        self._stream = cupy.cuda.ExternalStream(stream, self.device.ordinal)
+        #: the solves' transforms: cuFFT's 2-D plans of the padded grids, called directly
+        self._plans = cupy_backend.BatchedPlans(stream)
 
     def forward(self, fields):
-        """The spectra (B, 2 n, n + 1) of (B, n, n) ``fields``, each zero-padded to (2 n, 2 n): the
-        rows' real transforms of the n data rows, then the columns' (the padding never transformed)."""
-        fft, n, w = self.fft, fields.shape[-1], self.workers
-        rows = fft.rfft(fields, n=2 * n, axis=-1, **w)
-        return fft.fft(rows, n=2 * n, axis=-2, **w)
+        """The spectra (B, 2 n, n + 1) of (B, n, n) ``fields``, each zero-padded to (2 n, 2 n). On
+        the CPU the rows' real transforms of the n data rows, then the columns' (the padding never
+        transformed); on CUDA one batched 2-D transform of the padded grids
+        (``cupy_backend.BatchedPlans``: on a batch of small grids the host's time per call is
+        what counts, and CuPy's functions take about ten times as much)."""
+        n = fields.shape[-1]
+        if self._plans is None:
+            fft, w = self.fft, self.workers
+            rows = fft.rfft(fields, n=2 * n, axis=-1, **w)
+            return fft.fft(rows, n=2 * n, axis=-2, **w)
+        xp = self.xp
+        padded = xp.zeros((fields.shape[0], 2 * n, 2 * n), dtype=fields.dtype)
+        padded[:, :n, :n] = fields
+        spectrum = xp.empty((fields.shape[0], 2 * n, n + 1), dtype=np.result_type(fields.dtype, np.complex64))
+        self._plans.execute(True, padded, spectrum)
+        return spectrum
 
     def inverse(self, spectrum, out):
         """``out`` (B, n, n) <- the first n rows and columns of the inverse of ``spectrum``
-        (B, 2 n, n + 1)."""
-        fft, n, w = self.fft, out.shape[-1], self.workers
-        rows = fft.ifft(spectrum, axis=-2, **w)[:, :n]  # the n rows kept
-        out[...] = fft.irfft(rows, n=2 * n, axis=-1, **w)[:, :, :n]
+        (B, 2 n, n + 1), which it may overwrite."""
+        n = out.shape[-1]
+        if self._plans is None:
+            fft, w = self.fft, self.workers
+            rows = fft.ifft(spectrum, axis=-2, **w)[:, :n]  # the n rows kept
+            out[...] = fft.irfft(rows, n=2 * n, axis=-1, **w)[:, :, :n]
+            return
+        xp = self.xp
+        padded = xp.empty((spectrum.shape[0], 2 * n, 2 * n), dtype=out.dtype)
+        self._plans.execute(False, xp.ascontiguousarray(spectrum), padded)
+        xp.multiply(padded[:, :n, :n], out.dtype.type(1.0 / (4 * n * n)), out=out)
 
     def view(self, a: wp.array):
         """``a`` (on this device) as a numpy or CuPy array sharing its memory."""

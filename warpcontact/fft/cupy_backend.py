@@ -306,3 +306,77 @@ class CupyFFT(FFTBackend):
                 _check(self._complex_to_real(self._row_inverse, spectrum.ptr, self._rows_out.ptr), "inverse row transform")
             else:
                 _check(self._complex_to_real(self._inverse_plan, spectrum.ptr, self._padded_out.ptr), "inverse transform")
+
+
+class BatchedPlans:
+    """cuFFT's 2-D transforms of stacks of padded grids, for the batched solves (``fft/batch.py``):
+    the forward real-to-complex transform of m real (2 n, 2 n) grids into their (2 n, n + 1)
+    spectra, and the inverse complex-to-real one (which overwrites the spectra, as cuFFT's
+    complex-to-real transforms do), unnormalised. One plan per direction, m, n and float type
+    (cufftMakePlanMany, rank 2, contiguous stacks), made when first asked and run through
+    ``ctypes`` on ``stream``, with its work area taken from CuPy's memory pool at each call (the
+    pool orders its reuse on the stream).
+
+    CuPy's own ``rfft``/``fft`` look their plans up, pad through copies and allocate their
+    outputs at every call: about ten times this host time per transform on a batch of small grids,
+    where the host's time is what a batched solve spends (docs/performance.md, "Many cases with
+    friction solved together").
+
+    Args:
+        stream: the CUDA stream (its handle) the transforms run on.
+    """
+
+    def __init__(self, stream: int):
+        self._lib = _cufft_library()
+        self._stream = stream
+        self._plans: dict = {}  # (direction, m, n, double) -> (plan, work bytes)
+
+    def _plan(self, forward: bool, m: int, n: int, double: bool) -> tuple[int, int]:
+        key = (forward, m, n, double)
+        made = self._plans.get(key)
+        if made is None:
+            lib = self._lib
+            plan, size = ctypes.c_int(0), ctypes.c_size_t(0)
+            _check(lib.cufftCreate(ctypes.byref(plan)), "cufftCreate")
+            try:
+                _check(lib.cufftSetAutoAllocation(plan.value, 0), "cufftSetAutoAllocation")
+                kind = (_D2Z if forward else _Z2D) if double else (_R2C if forward else _C2R)
+                shape = (ctypes.c_int * 2)(2 * n, 2 * n)
+                _check(lib.cufftMakePlanMany(plan.value, 2, shape, None, 1, 0, None, 1, 0, kind, m, ctypes.byref(size)),
+                       "cufftMakePlanMany")
+                _check(lib.cufftSetStream(plan.value, ctypes.c_void_p(self._stream)), "cufftSetStream")
+            except Exception:
+                lib.cufftDestroy(plan.value)
+                raise
+            made = self._plans[key] = (plan.value, size.value)
+        return made
+
+    def execute(self, forward: bool, source, target):
+        """``target`` <- the transform of ``source`` (C-contiguous CuPy stacks on the plans' device:
+        forward (m, 2 n, 2 n) real to (m, 2 n, n + 1) complex, or the reverse)."""
+        import cupy
+
+        real, spectra = (source, target) if forward else (target, source)
+        m, n = real.shape[0], real.shape[-1] // 2
+        double = real.dtype == np.float64
+        complex_type = np.complex128 if double else np.complex64
+        if (real.shape != (m, 2 * n, 2 * n) or spectra.shape != (m, 2 * n, n + 1) or spectra.dtype != complex_type
+                or real.dtype not in (np.float64, np.float32) or not (real.flags.c_contiguous and spectra.flags.c_contiguous)):
+            raise ValueError(f"fft: batched transforms of {real.shape} {real.dtype} and {spectra.shape} "
+                             f"{spectra.dtype}: expected contiguous stacks (m, 2 n, 2 n) and (m, 2 n, n + 1)")
+        plan, size = self._plan(forward, m, n, double)
+        work = cupy.empty(max(1, size), dtype=cupy.uint8)
+        lib = self._lib
+        _check(lib.cufftSetWorkArea(plan, ctypes.c_void_p(work.data.ptr)), "cufftSetWorkArea")
+        run = (lib.cufftExecD2Z if forward else lib.cufftExecZ2D) if double else (
+            lib.cufftExecR2C if forward else lib.cufftExecC2R)
+        _check(run(plan, ctypes.c_void_p(source.data.ptr), ctypes.c_void_p(target.data.ptr)),
+               "batched forward transform" if forward else "batched inverse transform")
+
+    def __del__(self):
+        lib = getattr(self, "_lib", None)
+        for plan, _ in getattr(self, "_plans", {}).values():
+            try:
+                lib.cufftDestroy(plan)
+            except Exception:  # interpreter shutdown
+                pass
