@@ -1,13 +1,16 @@
 """The DC-FFT convolutions of B cases of one grid size at once: batched transforms.
 
 Each case's field is an (n, n) slice of a (B, n, n) Warp array the batched kernels write
-(``kernels/normal_batch.py``), zero-padded to (2 n, 2 n) by the transforms themselves: the rows'
-real transforms of length 2 n of the n data rows, then the columns' of length 2 n, one spectral
-product, and back, keeping the n rows and n columns of the result, into a second (B, n, n) array
-the kernels read. The zero padding is never transformed (as the single-case backends prune it:
-``warpcontact.fft``), and the library does the batching: ``scipy.fft`` (its ``workers``
-threads) on the CPU, cuFFT through CuPy on CUDA, on Warp's stream (``cupy.cuda.ExternalStream``),
-the buffers shared without a copy (DLPack).
+(``kernels/normal_batch.py``), zero-padded to (2 n, 2 n): transformed, one spectral product, and
+back, keeping the n rows and n columns of the result, into a second (B, n, n) array the kernels
+read. The library does the batching. On the CPU ``scipy.fft`` (its ``workers`` threads) transforms
+the rows of the n data rows, then the columns, so the zero padding is never transformed (as the
+single-case backends prune it: ``warpcontact.fft``). On CUDA cuFFT's batched 2-D plans of the
+padded grids are called directly (``cupy_backend.BatchedPlans``) on Warp's stream
+(``cupy.cuda.ExternalStream``), CuPy arrays sharing the buffers without a copy (DLPack) for the
+padding, the products and the cropping: on a batch of small grids the host's time per call is what
+a batched step spends, and CuPy's own FFT functions (plan look-up, padded copies) took the most of
+it (docs/performance.md, "Many cases with friction solved together").
 
 In the model's scaled units (tractions / E*, lengths / the cell size) the normal influence
 coefficients of a square grid depend on n alone (K_zz = (1 - nu_1^2) / E_1 + (1 - nu_2^2) / E_2
