@@ -104,7 +104,7 @@ def jkr_side_pull_off(w: float) -> tuple[float, float, float, float]:
     """The SMC law's pull-off on the JKR side (R = 1 um, delta_n = 0.2 nm, work of adhesion ``w``
     [J/m^2]; n = 128 on a domain of 4 JKR radii at zero load, approach to 2 nm and back to -1.5 nm
     in 16 steps each way): (Tabor parameter, pull-off / (pi R w), Maugis-Dugdale's at the law's
-    peak stress and work, Maugis-Dugdale's at lambda = 1.16 mu, Johnson-Greenwood's mapping)."""
+    peak stress and work, Maugis-Dugdale's at Johnson-Greenwood's lambda = 1.16 mu)."""
     R, dn = 1e-6, 2e-10
     mu = tabor_parameter(PAPER_PAIR, R, w, dn)
     a0 = (9 * math.pi * w * R**2 / (2 * PAPER_PAIR.E_star)) ** (1 / 3)  # JKR contact radius, zero load

@@ -162,8 +162,8 @@ def affine_terms(nu: float, sphere: bool, loads: tuple) -> tuple[np.ndarray, np.
     rows) and their coefficients c0 + z c1. Each entry of ``stress_table`` is a constant or +-z,
     so its non-zero terms at z = 1 are those at every z > 0 (``body_tables``' sign and ``loads``
     for a ``sphere`` or the flat). Read-only arrays (cached)."""
-    pair = SimpleNamespace(elastic={"sphere" if sphere else "flat": SimpleNamespace(nu=nu)})
     name = "sphere" if sphere else "flat"
+    pair = SimpleNamespace(elastic={name: SimpleNamespace(nu=nu)})
     at0, at1 = (body_tables(pair, (name,), z, loads)[name] for z in (0.0, 1.0))
     terms, _, count = table_terms(at1)
     c, l, b = terms[:count].T

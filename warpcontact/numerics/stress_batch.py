@@ -134,8 +134,7 @@ class PlaneStress:
         for c in {c for c, _ in planes}:
             forms[c] = {name: affine_terms(e.nu, name == "sphere", loaded[c]) for name, e in pairs[c].elastic.items()}
         # the bases any table uses (8 of the 14 for pressures alone), each in a slot of its own
-        used = np.unique(np.concatenate([t[:, 2] for f in forms.values() for t, _, _ in f.values()] or [[]])
-                         ).astype(np.int64)
+        used = np.unique([b for f in forms.values() for t, _, _ in f.values() for b in t[:, 2]]).astype(np.int64)
         slot = np.zeros(nb, dtype=np.int32)
         slot[used] = np.arange(len(used))
         for p, (c, z) in enumerate(planes):
