@@ -332,7 +332,7 @@ class _Cluster:
         self.cluster = None
         if placement.scheduler is not None:
             try:
-                self.client = Client(placement.scheduler, timeout=f"{CONNECT_TIMEOUT_S}s")
+                self.client = Client(placement.scheduler, timeout=f"{CONNECT_TIMEOUT_S}s", set_as_default=False)
             except (OSError, TimeoutError, ValueError) as e:
                 from ..errors import InputError
 
@@ -359,7 +359,9 @@ class _Cluster:
             with dask.config.set({"distributed.scheduler.worker-saturation": 1.0}):
                 self.cluster = SpecCluster(scheduler=scheduler, workers=workers, silence_logs=quiet,
                                            name="warpcontact")
-            self.client = Client(self.cluster, timeout=f"{CONNECT_TIMEOUT_S}s")
+            # not dask's default client: distributed closes that one again at exit, and after a stop
+            # (the workers killed, this close cut short) it prints a traceback there
+            self.client = Client(self.cluster, timeout=f"{CONNECT_TIMEOUT_S}s", set_as_default=False)
         except BaseException:  # an error while the workers start: they end now
             for cluster in set(SpecCluster._instances) - started:
                 _abandon(cluster)
