@@ -121,10 +121,10 @@ def test_friction_cases_go_one_at_a_time_and_a_failing_case_leaves_the_others(mo
     refused = 0.7e-9
     checked = batch_solve.check_contact_fits
 
-    def check(state, *args):
+    def check(state, *args, **kwargs):
         if state.approach[2] == refused:
             raise InputError("grid.size", "the contact reaches the domain's edge")
-        checked(state, *args)
+        checked(state, *args, **kwargs)
 
     monkeypatch.setattr(batch_solve, "check_contact_fits", check)
     friction = case(load={"delta_z": 1e-9, "delta_x": 2e-10, "steps": 2}, friction={"law": "coulomb", "mu": 0.3})
@@ -183,3 +183,23 @@ def test_mistakes_are_input_errors():
         wc.solve_batch([case()], fields="some")
     with pytest.raises(InputError, match="grid.n"):
         wc.solve_batch([case(), case(grid={"n": -4})])
+
+
+@pytest.mark.parametrize("friction", [None, {"law": "coulomb", "mu": 0.3}])
+def test_a_contact_past_the_domains_edge_is_its_cases_error_in_a_batch(friction):
+    """The batch's edge check (the count of edge cells in contact, from the rows' summaries) refuses
+    a case whose contact reaches the domain's edge with the error its own solve gives, at the same
+    state, and leaves the case beside it its result. At delta_z = 1e-9 m the contact radius,
+    sqrt(R delta_z) = 3.16e-8 m, is a fifth of the 1.6e-7 m side; on a 6.4e-8 m side (just over
+    the diameter, which the case's check asks for) the edge cells' centres are 3.1e-8 m out."""
+    extra = {} if friction is None else {"friction": friction, "load": {"delta_z": 1e-9, "delta_x": 2e-10, "steps": 2}}
+    cut = case(grid={"n": 32, "size": 6.4e-8}, **extra)
+    fits = case(**extra)
+    with pytest.raises(InputError) as single:
+        quiet(wc.solve, cut, fields="none")
+    results = quiet(wc.solve_batch, [cut, fits], batch=2)
+    assert isinstance(results[0], InputError) and str(results[0]) == str(single.value)
+    assert "grid.size" in str(results[0])
+    alone = quiet(wc.solve, fits, fields="none")
+    for a, b in zip(results[1].states, alone.states, strict=True):
+        assert a["force"]["z"] == pytest.approx(b["force"]["z"], rel=1e-8)

@@ -121,7 +121,7 @@ def domain_edge(field) -> np.ndarray:
 EDGE_SHARE_AT_FIRST_TURN = 0.5
 
 
-def check_contact_fits(state, approach=None, edge_share: float = 0.0):
+def check_contact_fits(state, approach=None, edge_share: float = 0.0, edge_contact: float | None = None):
     """InputError (key ``grid.size``) if contact cells touch the edge of the domain: the domain is
     too small for the load, and the DC-FFT solution would miss the contact beyond it. Made after
     each step, and after the first turn of a step that turns (``ContactSolver``) with
@@ -130,11 +130,15 @@ def check_contact_fits(state, approach=None, edge_share: float = 0.0):
     the step, named in the message (default: ``state.approach``); ``edge_share``: the share of the
     edge's cells in contact above which it raises [-] (0: any cell). A body given as a height map
     (``profile = "height_map"``) is the map over the domain, with nothing beyond it: its contact
-    may reach the edge."""
+    may reach the edge. ``edge_contact``: the count of the edge's cells in contact where it is made
+    already (a batch's summaries, ``kernels/summary.py``'s S_EDGE_CONTACT), with ``edge_share`` 0."""
     if state.model.sphere.fills_domain:
         return  # the body is its map, cut by nothing: the non-periodic contact of the map as given
-    edge = domain_edge(state.pressure)  # the edge cells alone leave the device
-    if np.mean(edge > 0) > edge_share:
+    if edge_contact is not None:
+        touches = edge_contact > 0
+    else:
+        touches = np.mean(domain_edge(state.pressure) > 0) > edge_share  # the edge cells alone leave the device
+    if touches:
         g = state.model.grid
         dx, dy, dz = state.approach if approach is None else approach
         raise InputError(

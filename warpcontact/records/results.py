@@ -65,7 +65,7 @@ def summary_sums(state, adhesion=None) -> np.ndarray:
     return np.array(sums.numpy(), dtype=np.float64)  # a copy: on the CPU numpy() is a view of the buffer
 
 
-def state_summary(state, adhesion=None) -> dict:
+def state_summary(state, adhesion=None, sums=None) -> dict:
     """Forces, areas and convergence of one solved state, SI units, JSON-ready.
 
     force: total force the sphere exerts on the flat [N] (z: compressive positive, adhesive
@@ -77,7 +77,8 @@ def state_summary(state, adhesion=None) -> dict:
     of connected regions of contact cells (neighbours across an edge; :func:`contact_patches`),
     from the pressure read on the host.
 
-    Reduced on the model's device (:func:`summary_sums`): no field reaches the host. The forces
+    Reduced on the model's device (:func:`summary_sums`, or ``sums``: the state's row of a batch's
+    sums, ``kernels/summary.py``'s ``batch_summary_sums``): no field reaches the host. The forces
     agree with float64 sums of the SI fields on the host to the rounding of a float64 sum, about
     n_cells x 1.1e-16 of the sum of the magnitudes, for float32 states too (their values are
     summed in float64); the areas, the maximum pressure and the stick centroid's cell offsets
@@ -86,7 +87,7 @@ def state_summary(state, adhesion=None) -> dict:
     from warpcontact.kernels import summary as sk
 
     m = state.model
-    s = summary_sums(state, adhesion)
+    s = summary_sums(state, adhesion) if sums is None else sums
     dA = m.grid.cell_area
     E = m.traction_scale
     area = float(s[sk.S_CONTACT_CELLS] * dA)

@@ -198,6 +198,33 @@ def _rows_fields(solver) -> dict:
     return out
 
 
+class _RowSummaries:
+    """The summaries' sums of every row of a batch's solver, ``kernels/summary.py``'s slots: one
+    launch (``batch_summary_sums``) and one read a step, where each case's own summary and edge
+    check would launch and read for each row."""
+
+    def __init__(self, solver):
+        from warpcontact.kernels import summary as sk
+
+        normal = _normal(solver)
+        self.kernel, self.launches = sk.batch_summary_sums, normal.launches
+        start = np.zeros((normal.batch, sk.N_SUMMARY))
+        start[:, sk.S_MAX_PRESSURE] = start[:, sk.S_MAX_TENSION] = -np.inf
+        self.start = wp.array(start, dtype=wp.float64, device=normal.device)
+        self.sums = wp.zeros_like(self.start)
+        if normal is solver:  # without friction: no shear (the pressure stands in, unread) and no status
+            shear, status = (normal.pressure, normal.pressure), wp.zeros((1, 1), dtype=wp.int32, device=normal.device)
+        else:
+            shear, status = (solver.shear[0], solver.shear[1]), solver.status
+        self.inputs = [normal.pressure, *shear, normal.gap, status, int(normal is not solver), normal.n, normal.n]
+
+    def __call__(self) -> np.ndarray:
+        """(B, N_SUMMARY) float64 on the host: each row's sums, as ``results.summary_sums``'s."""
+        wp.copy(self.sums, self.start)
+        self.launches.reduce(self.kernel, self.inputs, [self.sums])
+        return self.sums.numpy().copy()  # a copy: on the CPU numpy() is a view of the buffer
+
+
 def _solve_chunk(solver, cases: list, indices: list, fields: str):
     """Walk the paths of ``cases`` (at most the solver's B) in step; yields (index, result) as
     each case ends."""
@@ -213,7 +240,7 @@ def _solve_chunk(solver, cases: list, indices: list, fields: str):
     friction = _normal(solver) is not solver
     rows = len(members)
     tol, max_iter, max_turns = _load_rows(solver, members)
-    arrays = _rows_fields(solver)
+    arrays, summaries = _rows_fields(solver), _RowSummaries(solver)
     for k in range(max(len(m.path) for m in members)):
         running = [m for m in members if m.error is None and not m.alone and k < len(m.path)]
         if not running:
@@ -227,11 +254,12 @@ def _solve_chunk(solver, cases: list, indices: list, fields: str):
             infos = solver.step(approach, tol, 100 * tol, max_iter, max_turns, active)
         else:
             infos = solver.solve(approach[:, 2], tol, max_iter, active=active)
+        sums = summaries()
         for m in running:
             if friction and not infos[m.row].converged:  # solved again on its own (module docstring)
                 m.alone = True
                 continue
-            m.record(arrays, k, infos[m.row])
+            m.record(arrays, k, infos[m.row], sums[m.row])
         ended = [m for m in running if m.error is None and not m.alone and k == len(m.path) - 1]
         checks = _yield_checks(ended)
         for m in running:
@@ -321,19 +349,25 @@ class _Member:
             self.warnings.append(str(w.message))
             warnings.warn_explicit(w.message, w.category, w.filename, w.lineno)
 
-    def record(self, arrays: dict, k: int, info):
-        """State ``k`` from the batch's row: the fields (``arrays``: name -> the batch's array,
-        ``_rows_fields``) into this case's state, then recorded."""
+    def record(self, arrays: dict, k: int, info, sums: np.ndarray):
+        """State ``k`` from the batch's row, recorded from its summary's ``sums`` (its row of
+        ``_RowSummaries``). The row's fields (``arrays``: name -> the batch's array,
+        ``_rows_fields``) are copied into this case's state where something reads them: fields
+        kept, the path's last state (its yield check), a body that is not a sphere (its patches
+        are counted on the host)."""
+        from warpcontact.kernels.summary import S_EDGE_CONTACT
+
         state = self.state
-        _copy_row(arrays, self.row, state)
+        if self.recorder.fields != "none" or k == len(self.path) - 1 or not self.model.sphere.hertzian:
+            _copy_row(arrays, self.row, state)
         state.approach = tuple(float(a) for a in self.path[k])
         # a step of normal contact is one turn, as a path counts it
         state.info = info if info.outer_iterations else replace(info, outer_iterations=1)
         with warnings.catch_warnings(record=True) as caught:
             warnings.simplefilter("always")
             try:
-                check_contact_fits(state)
-                self.recorder.record(k, state)
+                check_contact_fits(state, edge_contact=sums[S_EDGE_CONTACT])
+                self.recorder.record(k, state, sums)
             except Exception as e:  # noqa: BLE001 (the case's failure is its result)
                 self.error = e
         self._issued(caught)

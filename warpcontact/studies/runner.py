@@ -173,15 +173,16 @@ class PathRecorder:
         self.checks = RunChecks(case)  # resolution and yield: one warning each per path
         self.started = time.perf_counter() if started is None else started
 
-    def record(self, k: int, state):
-        """State ``k`` of the path, solved in ``state``: summarised, its fields kept as asked,
-        ``on_state`` called (a stop that arrives meanwhile waits until the lists are in step)."""
+    def record(self, k: int, state, sums=None):
+        """State ``k`` of the path, solved in ``state``: summarised (``sums``: its summary's sums
+        when they are made already, as ``state_summary``'s), its fields kept as asked, ``on_state``
+        called (a stop that arrives meanwhile waits until the lists are in step)."""
         from .. import interrupts
 
         result = self.result
         if not self.edge_warned:
             self.edge_warned = warn_if_adhesion_at_edge(state, self.adhesion, result.case.load.delta_z_max)
-        summary = state_summary(state, self.adhesion)
+        summary = state_summary(state, self.adhesion, sums)
         self.checks.observe(summary, decisive=self.checks.decisive(summary))
         kept = state_fields(state, self.adhesion, self.friction) if self.fields != "none" else None
         with interrupts.deferred():  # the lists, and what on_state writes, stay in step
