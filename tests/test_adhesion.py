@@ -155,24 +155,35 @@ def test_pull_off_at_tabor_parameters_4_35_and_5_7_falls_towards_jkr():
     assert abs(at_5_7 / peak - 1) < 0.03, (at_5_7, peak)
 
 
-def test_dugdale_pull_off_matches_maugis_dugdale():
+def dugdale_pull_off_difference(n: int) -> float:
     """The Dugdale law at Maugis parameter lambda = 0.5 (R = 1 um, w = 0.5 J/m^2, sigma_0 = 643 MPa,
-    h_0 = 0.78 nm, the default ramp of 0.05 h_0 centred on h_0; domain 5 a0; 12 steps each way):
-    every state converges and the pull-off approaches Maugis-Dugdale's -1.718 pi R w as the grid is
-    refined. Measured: -0.20 % at n = 96, +0.17 % at n = 192 (with the ramps at both ends: +0.8 %,
-    +0.3 %). Allowed: 2 % at n = 96, and the finer grid closer (the remaining difference is the
-    grid's and the 0.19 nm sampling of the curve)."""
+    h_0 = 0.78 nm, the default ramp of 0.05 h_0 centred on h_0; domain 5 a0; 12 steps each way) on
+    an n-cell grid: every state converges; returns the pull-off's relative difference from
+    Maugis-Dugdale's -1.718 pi R w."""
     R, w, lam = 1e-6, 0.5, 0.5
     sigma_0 = lam / (9 * R / (2 * math.pi * w * PAPER_PAIR.E_star**2)) ** (1 / 3)
     law = Dugdale(sigma_0=sigma_0, h_0=w / sigma_0, smoothing=0.05)
     a0 = (9 * math.pi * w * R**2 / (2 * PAPER_PAIR.E_star)) ** (1 / 3)
-    reference = maugis_dugdale_pull_off(lam)
-    differences = []
-    for n in (96, 192):
-        model = ContactModel(PAPER_PAIR, Sphere(R), Grid(n, 5 * a0))
-        r = approach_retract(model, ContactSolver(model, None, adhesion=law), -law.h_0, 2 * law.h_0, -3 * law.h_0, 12)
-        assert r["converged"], n
-        differences.append(r["pull_off_force"] / (math.pi * R * w) / reference - 1)
+    model = ContactModel(PAPER_PAIR, Sphere(R), Grid(n, 5 * a0))
+    r = approach_retract(model, ContactSolver(model, None, adhesion=law), -law.h_0, 2 * law.h_0, -3 * law.h_0, 12)
+    assert r["converged"], n
+    return r["pull_off_force"] / (math.pi * R * w) / maugis_dugdale_pull_off(lam) - 1
+
+
+def test_dugdale_pull_off_matches_maugis_dugdale():
+    """``dugdale_pull_off_difference`` at n = 96: measured -0.20 % (+0.8 % with the ramps at both
+    ends of h_0); allowed 2 %, the grid's error at 96 cells (the refinement to 192 is the slow
+    study below)."""
+    difference = dugdale_pull_off_difference(96)
+    assert abs(difference) < 0.02, difference
+
+
+@pytest.mark.slow
+def test_dugdale_pull_off_closer_to_maugis_dugdale_on_a_finer_grid():
+    """Refined from n = 96 to 192 the pull-off comes closer to Maugis-Dugdale's: measured -0.20 % at
+    96, +0.17 % at 192 (with the ramps at both ends: +0.8 %, +0.3 %); the remaining difference is
+    the grid's and the 0.19 nm sampling of the curve. About 30 s on 2 CPU cores."""
+    differences = [dugdale_pull_off_difference(n) for n in (96, 192)]
     print(f"\nDugdale pull-off vs Maugis-Dugdale at lambda 0.5: {differences[0]:+.2%} (n 96), {differences[1]:+.2%} (n 192)")
     assert abs(differences[0]) < 0.02 and abs(differences[1]) < abs(differences[0]), differences
 
