@@ -4,7 +4,6 @@ import math
 
 import numpy as np
 import pytest
-import warp as wp
 from scipy import integrate
 
 from warpcontact.physics.adhesion import SMC, TOUCHING, Dugdale
