@@ -5,9 +5,8 @@ The bounded conjugate gradients of [`TangentialSolver`][warpcontact.solvers.tang
 every transform ([`BatchElasticOperator`][warpcontact.fft.batch.BatchElasticOperator]) is launched
 once for all B cases, each case with its own material pair, shear limit, target, tolerance,
 iterate, conjugacy and convergence. A converged case stops changing while the others go on; the
-solve ends when every case has ended. Every ``CHECK_EVERY`` iterations it reads one count back
-(the cases still active): in between, the host queues the iterations without waiting for the
-device.
+solve ends when every case has ended. Each iteration reads one count back (the cases still
+active).
 
 Preconditioned (the default, as the single solver): the direction is built from z = M g on the
 stick cells, M each case's circulant inverse of K_tt (its pair's 2x2 blocks per wavenumber,
@@ -33,11 +32,6 @@ from .normal_batch import row_infos
 
 #: iterations between restarts of the conjugacy (the single solver's ``restart_every``)
 RESTART_EVERY = 100
-#: iterations between reads of the count of active cases. An ended case's row does not change in
-#: the iterations after, so the reads' spacing changes no result: a solve whose cases have all
-#: ended runs at most CHECK_EVERY - 1 iterations that change nothing, where a read every
-#: iteration would make the host wait for the device at each
-CHECK_EVERY = 4
 
 
 class BatchTangentialSolver:
@@ -120,7 +114,7 @@ class BatchTangentialSolver:
         self._cells(tbk.batch_tangential_classify, [self.shear_limit, self.active, int(self.preconditioned)],
                     [self.shear_x, self.shear_y, self.status])
         limit = int(max_iter[active].max()) if active.any() else 0
-        for iteration in range(limit + 1):
+        for _ in range(limit + 1):
             self._gradient()
             self._direction()
             self.operator.tangential(self.direction, self.response)
@@ -133,7 +127,7 @@ class BatchTangentialSolver:
             self.flags.zero_()
             self._cases(tbk.batch_tangential_advance, [self.sums, self.parameters, RESTART_EVERY],
                         [self.scalars, self.active, self.flags])
-            if (iteration + 1) % CHECK_EVERY == 0 and not int(self.flags.numpy()[tbk.F_ACTIVE]):
+            if not int(self.flags.numpy()[tbk.F_ACTIVE]):
                 break
         self._gradient()  # every row's exact g, K_tt q and residual
         return row_infos(self, active, tol)
