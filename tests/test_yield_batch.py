@@ -10,6 +10,7 @@ import pytest
 
 import warpcontact as wc
 from warpcontact.numerics import stress_batch, yielding
+from warpcontact.numerics.stress import contact_radius
 from warpcontact.studies import runner
 
 PAIR = {"sphere": {"radius": 10e-6, "E": 106e9, "nu": 0.33, "yield_strength": 200e6},
@@ -155,10 +156,18 @@ def test_solve_batch_makes_its_cases_checks_together(monkeypatch):
         batches = []
         together = yielding.batch_yield_checks
         monkeypatch.setattr(yielding, "checks_by_planes", lambda model: True)
-        monkeypatch.setattr(yielding, "batch_yield_checks",
-                            lambda states, friction=True, adhesion=True: batches.append(len(states))
-                            or together(states, friction, adhesion))
+        seen = []  # (radius given, radius counted from the state's pressure)
+
+        def checks(states, friction=True, adhesion=True, radii=None):
+            batches.append(len(states))
+            seen.extend((r, contact_radius({"pressure": s.pressure.numpy()}, s.model.grid.cell_area))
+                        for s, r in zip(states, radii))
+            return together(states, friction, adhesion, radii)
+
+        monkeypatch.setattr(yielding, "batch_yield_checks", checks)
         batched = wc.solve_batch(cases, batch=3)
     assert batches == [1, 2]
+    # the radii the batch gives (its summaries' contact_radius) are the pressure's own count
+    assert len(seen) == 3 and all(given == counted > 0 for given, counted in seen), seen
     for b, a in zip(batched, alone):
         assert_same(b.yield_check, a.yield_check, rel=1e-8, z_rel=1e-6)

@@ -237,9 +237,9 @@ def _state_yield_check(state, friction: bool, adhesion: bool) -> dict:
     return _yield_check(m.pair, m.grid, totals, radius, m.device, m.dtype_name, m.fft_name)
 
 
-def _state_totals(state, friction: bool, adhesion: bool) -> tuple:
+def _state_totals(state, friction: bool, adhesion: bool, radius: float | None = None) -> tuple:
     """((p, q_x, q_y) totals of a state on its device, scaled by E*, None for one left out; the
-    contact radius [m])."""
+    contact radius [m]: ``radius`` where given, else counted from the pressure read to the host)."""
     import warp as wp
 
     from warpcontact.kernels import adhesion as ak
@@ -258,7 +258,9 @@ def _state_totals(state, friction: bool, adhesion: bool) -> tuple:
         if adhesion:
             m.launch(ak.add_to, dim=m.n_cells, inputs=[adhesive.flatten()], outputs=[total.flatten()])
         totals.append(total)
-    return tuple(totals), contact_radius({"pressure": state.pressure.numpy()}, m.grid.cell_area)
+    if radius is None:
+        radius = contact_radius({"pressure": state.pressure.numpy()}, m.grid.cell_area)
+    return tuple(totals), radius
 
 
 def _yield_check(pair, grid, totals, radius: float, device, dtype, fft) -> dict:
@@ -336,21 +338,23 @@ def _verdict(pair, depths, maxima) -> dict:
     return out
 
 
-def batch_yield_checks(states: list, friction: bool = True, adhesion: bool = True) -> list[dict]:
+def batch_yield_checks(states: list, friction: bool = True, adhesion: bool = True, radii=None) -> list[dict]:
     """:func:`state_yield_check` of many solved states of one grid size, device and float type,
     made together: each pass's depths of every state in one evaluation
     (``stress_batch.PlaneStress``; the half grid's in a second), so a batch of small cases
     launches a few kernels and transforms where one case at a time launches hundreds. The same
     depths, half grid and refinement as each state's own check, so the same answers to
-    round-off. Should the batched evaluation fail (a device's refusal, a library's error), each
+    round-off. ``radii``: each state's contact radius [m] where known already (its summary's
+    ``contact_radius``: the same count of cells with p > 0), so that no pressure is read to the
+    host for it. Should the batched evaluation fail (a device's refusal, a library's error), each
     state is checked on its own, depth by depth."""
     try:
-        return _batch_yield_checks(states, friction, adhesion)
+        return _batch_yield_checks(states, friction, adhesion, radii)
     except Exception:  # noqa: BLE001 - each state's own check then, with its own failure in its place
         return [_own_yield_check(s, friction, adhesion) for s in states]
 
 
-def _batch_yield_checks(states, friction, adhesion) -> list[dict]:
+def _batch_yield_checks(states, friction, adhesion, radii) -> list[dict]:
     from .stress_batch import PlaneStress
 
     checks: list = [None] * len(states)
@@ -359,7 +363,7 @@ def _batch_yield_checks(states, friction, adhesion) -> list[dict]:
         pair = state.model.pair
         checks[i] = _unchecked(pair)
         if checks[i] is None:
-            totals, radius = _state_totals(state, friction, adhesion)
+            totals, radius = _state_totals(state, friction, adhesion, None if radii is None else radii[i])
             cases.append((i, pair, state.model.grid, totals, radius))
     if not cases:
         return checks

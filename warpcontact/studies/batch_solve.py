@@ -312,7 +312,9 @@ def _yield_checks(ended: list) -> dict:
     if not ended or not checks_by_planes(ended[0].model):
         return {}
     friction = ended[0].case.friction is not None  # (a batch's cases all have friction, or none has)
-    checks = batch_yield_checks([m.state for m in ended], friction=friction, adhesion=False)
+    # each case's contact radius from its last summary: the count the check would read it for
+    radii = [m.recorder.result.states[-1]["contact_radius"] for m in ended]
+    checks = batch_yield_checks([m.state for m in ended], friction=friction, adhesion=False, radii=radii)
     return {m.row: check for m, check in zip(ended, checks)}
 
 
