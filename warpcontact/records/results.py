@@ -35,6 +35,20 @@ def adhesive_mask(fields: dict, adhesion) -> np.ndarray:
 _SUMMARY_BUFFERS = weakref.WeakKeyDictionary()
 
 
+def summary_buffers(device, rows: int | None = None) -> tuple:
+    """The device array a summary kernel adds to and its starting values (0 in every slot, -inf in
+    S_MAX_PRESSURE and S_MAX_TENSION), float64: N_SUMMARY slots, or (``rows``, N_SUMMARY) for one
+    row a case of a batch (``kernels/summary.py``'s ``batch_summary_sums``)."""
+    import warp as wp
+
+    from warpcontact.kernels import summary as sk
+
+    start = np.zeros(sk.N_SUMMARY if rows is None else (rows, sk.N_SUMMARY))
+    start[..., sk.S_MAX_PRESSURE] = start[..., sk.S_MAX_TENSION] = -np.inf
+    start = wp.array(start, dtype=wp.float64, device=device)
+    return wp.zeros_like(start), start
+
+
 def summary_sums(state, adhesion=None) -> np.ndarray:
     """The sums of ``kernels/summary.py`` for ``state`` (its slots S_*), float64 on the host: one
     pass over the fields on the model's device (one launch; on the CPU split by rows over its
@@ -48,11 +62,7 @@ def summary_sums(state, adhesion=None) -> np.ndarray:
     m = state.model
     buffers = _SUMMARY_BUFFERS.get(m)
     if buffers is None:
-        start = np.zeros(sk.N_SUMMARY)
-        start[sk.S_MAX_PRESSURE] = start[sk.S_MAX_TENSION] = -np.inf
-        buffers = (wp.zeros(sk.N_SUMMARY, dtype=wp.float64, device=m.device),
-                   wp.array(start, dtype=wp.float64, device=m.device))
-        _SUMMARY_BUFFERS[m] = buffers
+        buffers = _SUMMARY_BUFFERS[m] = summary_buffers(m.device)
     sums, start = buffers
     wp.copy(sums, start)
     fields = [Rows(getattr(state, name).flatten()) for name in (

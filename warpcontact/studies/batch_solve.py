@@ -206,12 +206,11 @@ class _RowSummaries:
     def __init__(self, solver):
         from warpcontact.kernels import summary as sk
 
+        from ..records.results import summary_buffers
+
         normal = _normal(solver)
         self.kernel, self.launches = sk.batch_summary_sums, normal.launches
-        start = np.zeros((normal.batch, sk.N_SUMMARY))
-        start[:, sk.S_MAX_PRESSURE] = start[:, sk.S_MAX_TENSION] = -np.inf
-        self.start = wp.array(start, dtype=wp.float64, device=normal.device)
-        self.sums = wp.zeros_like(self.start)
+        self.sums, self.start = summary_buffers(normal.device, normal.batch)
         if normal is solver:  # without friction: no shear (the pressure stands in, unread) and no status
             shear, status = (normal.pressure, normal.pressure), wp.zeros((1, 1), dtype=wp.int32, device=normal.device)
         else:
