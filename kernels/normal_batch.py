@@ -2,7 +2,8 @@
 of one grid size at once, each kernel launched once for all of them.
 
 Fields are (B, n_cells) arrays, one row a case (row-major cells); the transforms' buffers are
-(B, n, n) (``fft/batch.py`` pads and crops). Each case has its own row of
+each case's zero-padded (2 n, 2 n) grid, (B, 2 n, 2 n), whose (n, n) corner the kernels write and
+read (``corner``: ``fft/batch.py``'s ``BatchConvolution``). Each case has its own row of
 ``sums``, ``scalars`` and ``parameters`` (the slots of ``kernels/reduce.py`` and
 ``kernels/normal.py``) and its own convergence: a case whose residual is under its tolerance, or
 that reached the iteration limit, or whose fields are not finite, stops changing (``active`` = 0)
@@ -48,7 +49,7 @@ F_EXACT = wp.constant(1)
 
 @wp.func
 def corner(buffer: wp.array3d(dtype=Any), case: int, cell: int, width: int):
-    """Entry of cell ``cell`` (row-major, ``width`` wide) of case ``case`` in a (B, n, n)
+    """Entry of cell ``cell`` (row-major, ``width`` wide) of case ``case`` in a (B, 2 n, 2 n)
     transform buffer."""
     row = cell // width
     return buffer[case, row, cell - row * width]
@@ -61,14 +62,6 @@ def batch_interference(initial_gap: wp.array2d(dtype=Any), known: wp.array2d(dty
     fixed, the shear's with friction; zero without)."""
     case, i = wp.tid()
     interference[case, i] = parameters[case, P_APPROACH] - initial_gap[case, i] - known[case, i]
-
-
-@wp.kernel
-def batch_pad(field: wp.array2d(dtype=Any), width: int, buffer: wp.array3d(dtype=Any)):
-    """Each case's field into its transform buffer."""
-    case, i = wp.tid()
-    row = i // width
-    buffer[case, row, i - row * width] = field[case, i]
 
 
 @wp.kernel
@@ -358,7 +351,7 @@ def batch_guess_scale(guess_sums: wp.array2d(dtype=Any), shape: wp.array2d(dtype
         pressure[case, i] = wp.min(c * shape[case, i], pressure_cap[case])
 
 
-for _k in (batch_interference, batch_pad, batch_gap, batch_free_gap, batch_free_gap_sum, batch_direction,
+for _k in (batch_interference, batch_gap, batch_free_gap, batch_free_gap_sum, batch_direction,
            batch_step_sums, batch_update, batch_advance, batch_clear_residual, batch_residual, batch_count_positive,
            batch_max_interference, batch_guess_shape, batch_guess_fit_sums, batch_guess_scale):
     register_float_overloads(_k)

@@ -63,10 +63,11 @@ def assert_same(batch, alone, rel=1e-12, z_rel=1e-9):
         assert (b["yielded"], b["yield_strength"]) == (a["yielded"], a["yield_strength"])
 
 
-def test_batched_checks_equal_each_states_own(device):
+def test_batched_checks_equal_each_states_own(device, monkeypatch):
     """Four states of one grid size: with friction and without, one whose deep depths go to the
     half grid (a contact radius of about 40 cells, more than COARSE_STRESS_MIN_RADIUS_CELLS) and
-    one on a rigid flat; one check each, as each state's own check. On CUDA the check leaves no
+    one on a rigid flat; one check each, as each state's own check, made by the batched evaluation
+(not its fallback). On CUDA the check leaves no
     free blocks in CuPy's memory pool (its transforms' work arrays handed back to the device)."""
     cases = [case(128, 3.2e-7, 1.5e-10, 3e-11), case(128, 3.2e-7, 1.0e-10, friction=False),
              case(128, 1.2e-7, 1.5e-10, 2e-11),
@@ -74,7 +75,9 @@ def test_batched_checks_equal_each_states_own(device):
     states = final_states(cases, device)
     half = [yielding._has_half_grid(s.model.grid, yielding._state_totals(s, True, False)[1]) for s in states]
     assert half == [False, False, True, False]
-    batch = yielding.batch_yield_checks(states, friction=True, adhesion=False)
+    with monkeypatch.context() as m:  # the batched evaluation itself, not its fallback to each state's own
+        m.setattr(yielding, "_own_yield_check", lambda *a: pytest.fail("the batched check fell back"))
+        batch = yielding.batch_yield_checks(states, friction=True, adhesion=False)
     if device.startswith("cuda"):
         import cupy
 

@@ -1,16 +1,17 @@
 """The DC-FFT convolutions of B cases of one grid size at once: batched transforms.
 
-Each case's field is an (n, n) slice of a (B, n, n) Warp array the batched kernels write
-(``kernels/normal_batch.py``), zero-padded to (2 n, 2 n): transformed, one spectral product, and
-back, keeping the n rows and n columns of the result, into a second (B, n, n) array the kernels
-read. The library does the batching. On the CPU ``scipy.fft`` (its ``workers`` threads) transforms
-the rows of the n data rows, then the columns, so the zero padding is never transformed (as the
-single-case backends prune it: ``warpcontact.fft``). On CUDA cuFFT's batched 2-D plans of the
-padded grids are called directly (``cupy_backend.BatchedPlans``) on Warp's stream
-(``cupy.cuda.ExternalStream``), CuPy arrays sharing the buffers without a copy (DLPack) for the
-padding, the products and the cropping: on a batch of small grids the host's time per call is what
-a batched step spends, and CuPy's own FFT functions (plan look-up, padded copies) took the most of
-it (docs/performance.md, "Many cases with friction solved together").
+Each case's field is written into the (n, n) corner of its zero-padded (2 n, 2 n) grid (by the
+solvers' kernels, or ``kernels/spectral_batch.py``'s ``batch_pad``), transformed, multiplied by its
+influence spectrum and transformed back, and the result is read from the corner of a second grid:
+buffers made once, kernels launched once for all B cases, nothing allocated in an iteration (one
+pass over the spectra a product, where array expressions make a temporary per operation). The
+library does the batching. On the CPU ``scipy.fft`` (its ``workers`` threads) transforms the rows
+of the n data rows, then the columns, so the zero padding is never transformed (as the single-case
+backends prune it: ``warpcontact.fft``). On CUDA cuFFT's batched 2-D plans of the padded grids are
+called directly (``cupy_backend.BatchedPlans``) on Warp's stream (``cupy.cuda.ExternalStream``), on
+the Warp buffers seen as CuPy arrays without a copy (DLPack): on a batch of small grids the host's
+time per call is what a batched step spends, and CuPy's own FFT functions (plan look-up, padded
+copies) took the most of it (docs/performance.md, "Many cases with friction solved together").
 
 In the model's scaled units (tractions / E*, lengths / the cell size) the normal influence
 coefficients of a square grid depend on n alone (K_zz = (1 - nu_1^2) / E_1 + (1 - nu_2^2) / E_2
@@ -28,7 +29,10 @@ import functools
 import numpy as np
 import warp as wp
 
+from warpcontact.kernels import spectral_batch as sbk
+
 from ..errors import InputError
+from ..numerics.launch import LaunchCache
 
 
 @functools.lru_cache(maxsize=8)
@@ -47,11 +51,21 @@ def normal_influence(n: int) -> tuple[np.ndarray, float]:
 
 class BatchLibrary:
     """The FFT library of batched transforms on one Warp device: ``scipy.fft`` with all its
-    ``workers`` threads on the CPU, CuPy's cuFFT on CUDA (run on Warp's stream there); ``xp`` the
-    array module (numpy or CuPy), ``view`` a Warp array as an ``xp`` array without a copy."""
+    ``workers`` threads on the CPU, cuFFT's batched plans on CUDA (``cupy_backend.BatchedPlans``,
+    run on Warp's stream there); ``xp`` the array module (numpy or CuPy), ``view`` a Warp array as
+    an ``xp`` array without a copy.
+
+    The solves' transforms (``forward``, ``inverse``) go between Warp arrays the caller keeps: a
+    stack of zero-padded (2 n, 2 n) grids, whose (n, n) corner alone is data, and a stack of their
+    (2 n, n + 1) spectra (complex numbers as 2-vectors), so an iteration allocates nothing and its
+    products and padding are Warp kernels (``kernels/spectral_batch.py``) launched through
+    ``launches``."""
 
     def __init__(self, device):
         self.device = wp.get_device(device)
+        #: the products', padding's and cropping's launches, recorded once and replayed
+        self.launches = LaunchCache(self.device)
+        self._views: dict = {}
         if self.device.is_cpu:
             import scipy.fft
 
@@ -73,44 +87,65 @@ class BatchLibrary:
         #: the solves' transforms: cuFFT's 2-D plans of the padded grids, called directly
         self._plans = cupy_backend.BatchedPlans(stream)
 
-    def forward(self, fields):
-        """The spectra (B, 2 n, n + 1) of (B, n, n) ``fields``, each zero-padded to (2 n, 2 n). On
-        the CPU the rows' real transforms of the n data rows, then the columns' (the padding never
-        transformed); on CUDA one batched 2-D transform of the padded grids
-        (``cupy_backend.BatchedPlans``: on a batch of small grids the host's time per call is
-        what counts, and CuPy's functions take about ten times as much)."""
-        n = fields.shape[-1]
+    def forward(self, padded: wp.array, spectra: wp.array):
+        """``spectra`` (rows, 2 n, n + 1) <- the transforms of the zero-padded grids ``padded``
+        (rows, 2 n, 2 n). On the CPU the rows' real transforms of the n data rows, then the
+        columns' (the padding never transformed); on CUDA one batched 2-D transform (on a batch
+        of small grids the host's time per call is what counts, and CuPy's own functions take
+        about ten times as much)."""
+        n = padded.shape[-1] // 2
         if self._plans is None:
             fft, w = self.fft, self.workers
-            rows = fft.rfft(fields, n=2 * n, axis=-1, **w)
-            return fft.fft(rows, n=2 * n, axis=-2, **w)
-        xp = self.xp
-        padded = xp.zeros((fields.shape[0], 2 * n, 2 * n), dtype=fields.dtype)
-        padded[:, :n, :n] = fields
-        spectrum = xp.empty((fields.shape[0], 2 * n, n + 1), dtype=np.result_type(fields.dtype, np.complex64))
-        self._plans.execute(True, padded, spectrum)
-        return spectrum
-
-    def inverse(self, spectrum, out):
-        """``out`` (B, n, n) <- the first n rows and columns of the inverse of ``spectrum``
-        (B, 2 n, n + 1), which it may overwrite."""
-        n = out.shape[-1]
-        if self._plans is None:
-            fft, w = self.fft, self.workers
-            rows = fft.ifft(spectrum, axis=-2, **w)[:, :n]  # the n rows kept
-            out[...] = fft.irfft(rows, n=2 * n, axis=-1, **w)[:, :, :n]
+            rows = fft.rfft(self.view(padded)[:, :n, :n], n=2 * n, axis=-1, **w)
+            self.complex_view(spectra)[...] = fft.fft(rows, n=2 * n, axis=-2, **w)
             return
-        xp = self.xp
-        padded = xp.empty((spectrum.shape[0], 2 * n, 2 * n), dtype=out.dtype)
-        self._plans.execute(False, xp.ascontiguousarray(spectrum), padded)
-        xp.multiply(padded[:, :n, :n], out.dtype.type(1.0 / (4 * n * n)), out=out)
+        self._plans.execute(True, self.view(padded), self.complex_view(spectra))
+
+    def inverse(self, spectra: wp.array, padded: wp.array):
+        """The (n, n) corner of each grid of ``padded`` (rows, 2 n, 2 n) <- the unnormalised inverse
+        transform of ``spectra`` (rows, 2 n, n + 1), which it may overwrite (the 1 / (4 n^2) is the
+        influence spectra's); the rest of ``padded`` is left undefined."""
+        n = padded.shape[-1] // 2
+        if self._plans is None:
+            fft, w = self.fft, self.workers
+            columns = fft.ifft(self.complex_view(spectra), axis=-2, norm="forward", **w)[:, :n]  # the n rows kept
+            self.view(padded)[:, :n, :n] = fft.irfft(columns, n=2 * n, axis=-1, norm="forward", **w)[:, :, :n]
+            return
+        self._plans.execute(False, self.complex_view(spectra), self.view(padded))
 
     def view(self, a: wp.array):
-        """``a`` (on this device) as a numpy or CuPy array sharing its memory."""
+        """``a`` (on this device) as a numpy or CuPy array sharing its memory: the view ``keep``
+        made, or a new one."""
+        view = self._views.get((a.ptr, a.shape, a.dtype))
+        if view is not None:
+            return view
         if self._stream is None:
             return a.numpy()
         with self._cuda_device:
             return self.xp.from_dlpack(wp.to_dlpack(a))
+
+    def keep(self, *arrays: wp.array):
+        """Make the views of buffers that live as long as the library once (a view holds its
+        array: temporaries are viewed at each call, not kept)."""
+        for a in arrays:
+            self._views[(a.ptr, a.shape, a.dtype)] = self.view(a)
+
+    def complex_view(self, spectra: wp.array):
+        """A Warp stack of spectra (..., 2 n, n + 1) of 2-vectors as a complex (rows, 2 n, n + 1)
+        ``xp`` array sharing its memory."""
+        rows, columns = spectra.shape[-2:]
+        v = self.view(spectra)
+        return v.view(np.complex128 if v.dtype == np.float64 else np.complex64).reshape(-1, rows, columns)
+
+    def spectral_launch(self, kernel, rows: int, spectra_shape, inputs, outputs=()):
+        """A product kernel of ``kernels/spectral_batch.py`` over ``rows`` cases' spectra of
+        ``spectra_shape`` (2 n, n + 1): on CUDA one entry a thread, on the CPU a row of spectra a
+        thread (``per``, passed after ``inputs``)."""
+        length, columns = spectra_shape
+        if self.device.is_cpu:
+            self.launches.launch(kernel, (rows, length, 1), [*inputs, columns], outputs)
+        else:
+            self.launches.launch(kernel, (rows, length, columns), [*inputs, 1], outputs)
 
     def release(self):
         """On CUDA: hand the blocks CuPy's memory pool keeps after a batched pass (the transforms'
@@ -131,47 +166,55 @@ class BatchLibrary:
         return stack
 
 
+def spectra_vector(dtype):
+    """The 2-vector type of a stack of spectra of float type ``dtype``."""
+    return wp.vec2d if dtype == wp.float64 else wp.vec2f
+
+
 class BatchConvolution:
     """K_zz (or its circulant inverse, the preconditioner) on the fields of B cases at once.
 
     Args:
         n: cells per side of each case's grid.
         batch: cases B.
-        device: a Warp device (CPU: scipy.fft; CUDA: CuPy's cuFFT, which must be installed).
+        device: a Warp device (CPU: scipy.fft; CUDA: cuFFT through CuPy, which must be installed).
         dtype: ``wp.float32`` or ``wp.float64``.
+
+    The caller writes each case's field into the (n, n) corner of its zero-padded grid in
+    ``source`` (B, 2 n, 2 n) (``kernels/normal_batch.py``'s ``corner``) and reads the result from
+    the corner of ``result``; the rest of ``source`` stays zero.
     """
 
     def __init__(self, n: int, batch: int, device, dtype):
         self.n, self.batch = int(n), int(batch)
         self.device = wp.get_device(device)
         self.dtype = dtype
-        shape = (self.batch, self.n, self.n)
-        #: each case's field (its zero padding is the transforms')
-        self.source = wp.zeros(shape, dtype=dtype, device=self.device)
-        #: each case's normalised result
-        self.result = wp.zeros(shape, dtype=dtype, device=self.device)
+        padded = (self.batch, 2 * self.n, 2 * self.n)
+        #: each case's field in the corner of its zero-padded grid
+        self.source = wp.zeros(padded, dtype=dtype, device=self.device)
+        #: each case's result in the corner of its grid
+        self.result = wp.zeros(padded, dtype=dtype, device=self.device)
+        self.spectra = wp.zeros((self.batch, 2 * self.n, self.n + 1), dtype=spectra_vector(dtype), device=self.device)
         np_real = np.float64 if dtype == wp.float64 else np.float32
         spectrum, norm = normal_influence(self.n)
         #: the 2-norm of one column of K (scaled units)
         self.column_norm = norm
         inverse = np.where(spectrum > 0.0, 1.0 / np.where(spectrum > 0.0, spectrum, 1.0), 0.0)
+        scale = 1.0 / (4 * self.n * self.n)  # the inverse transform's
         self.library = BatchLibrary(self.device)
-        self._input, self._output = self.library.view(self.source), self.library.view(self.result)
-        with self.library.on_device():  # the multipliers on the cases' device
-            xp = self.library.xp
-            self._multipliers = {False: xp.asarray(spectrum.astype(np_real)),
-                                 True: xp.asarray(inverse.astype(np_real))}
+        self.library.keep(self.source, self.result, self.spectra)
+        self._multipliers = {k: wp.array((v * scale).astype(np_real)[None], dtype=dtype, device=self.device)
+                             for k, v in ((False, spectrum), (True, inverse))}
 
     def apply(self, inverse: bool = False):
         """``result`` <- K_zz (``inverse``: its circulant inverse M, 0 where K_zz(k) <= 0) applied
-        to every case's ``source``, each zero-padded to (2 n, 2 n) and the result cropped to (n, n)."""
-        with self.library.on_device():
-            self._apply(inverse)
-
-    def _apply(self, inverse: bool):
-        spectrum = self.library.forward(self._input)
-        spectrum *= self._multipliers[inverse]
-        self.library.inverse(spectrum, self._output)
+        to every case's ``source``, each zero-padded to (2 n, 2 n), in the corner of each grid."""
+        lib = self.library
+        with lib.on_device():
+            lib.forward(self.source, self.spectra)
+            lib.spectral_launch(sbk.batch_spectral_scale, self.batch, self.spectra.shape[1:],
+                                [self._multipliers[inverse], self.spectra])
+            lib.inverse(self.spectra, self.result)
 
 
 @functools.lru_cache(maxsize=8)
@@ -215,8 +258,8 @@ def tangential_inverse_blocks(pair, n: int) -> dict:
 
 class BatchElasticOperator:
     """The tangential block K_tt and the coupling blocks K_tz, K_zt of B cases at once, each case
-    with its own material pair, on (B, n^2) Warp fields (one row a case, row-major cells) viewed
-    as (B, n, n) arrays of the batched transforms (``BatchLibrary``).
+    with its own material pair, on (B, n^2) Warp fields (one row a case, row-major cells),
+    transformed in batches (``BatchLibrary``).
 
     Args:
         n: cells per side.
@@ -225,7 +268,9 @@ class BatchElasticOperator:
         dtype: ``wp.float32`` or ``wp.float64``.
 
     ``set_pairs`` gives each row its pair; rows of one pair share one spectrum (a batch of one
-    pair holds one, broadcast over the rows).
+    pair holds one, read by every row). A pair (x, y) of fields is one (2, B, n^2) array,
+    transformed in one call: padded into ``padded`` (2 B grids), its spectra in ``pair_spectra``
+    (2, B, 2 n, n + 1); a pressure's in ``pressure_spectra`` (B, 2 n, n + 1).
     """
 
     def __init__(self, n: int, batch: int, device, dtype):
@@ -234,8 +279,18 @@ class BatchElasticOperator:
         self.dtype = dtype
         self.library = BatchLibrary(self.device)
         self._real = np.float64 if dtype == wp.float64 else np.float32
-        self._complex = np.complex128 if dtype == wp.float64 else np.complex64
-        self._views: dict = {}
+        rows, length, columns = 2 * self.batch, 2 * self.n, self.n + 1
+        vector = spectra_vector(dtype)
+        #: the fields' zero-padded grids (a pair's 2 B; a pressure's the first B), and the inverse
+        #: transforms' grids
+        self.padded = wp.zeros((rows, length, length), dtype=dtype, device=self.device)
+        self.result = wp.zeros((rows, length, length), dtype=dtype, device=self.device)
+        self.pair_spectra = wp.zeros((2, self.batch, length, columns), dtype=vector, device=self.device)
+        self.pressure_spectra = wp.zeros((self.batch, length, columns), dtype=vector, device=self.device)
+        self._padded_pressure, self._result_pressure = self.padded[: self.batch], self.result[: self.batch]
+        self.library.keep(self.padded, self.result, self.pair_spectra, self.pressure_spectra, self._padded_pressure,
+                          self._result_pressure)
+        self._rows: dict = {}  # a (2, B, n^2) pair of fields as (2 B, n^2) rows, by its address
         self._spectra: dict = {}
         self._inverse: dict = {}
         self._pairs: tuple = ()
@@ -248,76 +303,94 @@ class BatchElasticOperator:
             self._pairs = tuple(pairs)
             distinct = list(dict.fromkeys(pairs))
             rows = pairs[:1] if len(distinct) == 1 else pairs
+            scale = 1.0 / (4 * self.n * self.n)  # the inverse transform's
             spectra = [tangential_influence(p, self.n)[0] for p in rows]
             inverses = [tangential_inverse_blocks(p, self.n) for p in rows]
-            with self.library.on_device():
-                xp = self.library.xp
-                self._spectra = {k: xp.asarray(np.stack([s[k] for s in spectra]).astype(
-                    self._real if k in ("xx", "yy", "xy") else self._complex)) for k in spectra[0]}
-                self._inverse = {k: xp.asarray(np.stack([s[k] for s in inverses]).astype(self._real))
-                                 for k in inverses[0]}
+
+            def stack(values, part):
+                return wp.array((part(np.stack(values)) * scale).astype(self._real), dtype=self.dtype,
+                                device=self.device)
+
+            # the coupling blocks are imaginary: their imaginary parts (``kernels/spectral_batch.py``)
+            self._spectra = {k: stack([s[k] for s in spectra], np.imag if k in ("xz", "yz") else np.real)
+                             for k in spectra[0]}
+            self._inverse = {k: stack([s[k] for s in inverses], np.real) for k in inverses[0]}
         return (np.array([tangential_influence(p, self.n)[1] for p in pairs]),
                 np.array([p.D != 0.0 for p in pairs]))
 
-    def _view(self, a: wp.array):
-        """A (B, n^2) Warp field, or a (2, B, n^2) pair of them (x and y), as a (B, n, n) or
-        (2 B, n, n) numpy or CuPy array sharing its memory (kept)."""
-        key = (a.ptr, a.shape)
-        view = self._views.get(key)
-        if view is None:
-            view = self._views[key] = self.library.view(a).reshape(-1, self.n, self.n)
-        return view
+    def _as_rows(self, vector: wp.array) -> wp.array:
+        """A (2, B, n^2) pair of fields as (2 B, n^2) rows (kept), or a (B, n^2) field as it is."""
+        if vector.ndim == 2:
+            return vector
+        rows = self._rows.get(vector.ptr)
+        if rows is None:
+            rows = self._rows[vector.ptr] = vector.reshape((2 * self.batch, self.n * self.n))
+        return rows
 
-    def _pair_spectra(self, vector):
-        """The spectra (2, B, 2 n, n + 1) of a (2, B, n^2) pair of fields: one batched transform."""
-        return self.library.forward(self._view(vector)).reshape(2, self.batch, 2 * self.n, self.n + 1)
+    def _forward(self, field, pair: bool):
+        """The spectra of a (2, B, n^2) pair of fields (``pair``) or a pressure (B, n^2): padded
+        and transformed in one batched call."""
+        field = self._as_rows(field)
+        padded = self.padded if pair else self._padded_pressure
+        lib = self.library
+        lib.launches.launch(sbk.batch_pad, field.shape, [field, self.n], [padded])
+        lib.forward(padded, self.pair_spectra if pair else self.pressure_spectra)
 
-    def _to_pair(self, spectra, vector):
-        """``vector`` (2, B, n^2) <- the inverse of ``spectra`` (2, B, 2 n, n + 1): one batched transform."""
-        self.library.inverse(spectra.reshape(2 * self.batch, 2 * self.n, self.n + 1), self._view(vector))
+    def _inverse_into(self, field, pair: bool):
+        """``field`` (a (2, B, n^2) pair, or (B, n^2)) <- the inverse of the pair's (or the
+        pressure's) spectra, cropped."""
+        field = self._as_rows(field)
+        result = self.result if pair else self._result_pressure
+        lib = self.library
+        lib.inverse(self.pair_spectra if pair else self.pressure_spectra, result)
+        lib.launches.launch(sbk.batch_crop, field.shape, [result, self.n], [field])
 
-    def _block_product(self, blocks, vector):
-        """The spectra (2, B, 2 n, n + 1) of the symmetric 2x2 ``blocks`` ("xx", "xy", "yy" per
-        wavenumber: K_tt or its inverse) applied to the (2, B, n^2) pair ``vector`` (on the
-        library's device)."""
-        q = self._pair_spectra(vector)
-        u = self.library.xp.empty_like(q)
-        u[0] = blocks["xx"] * q[0] + blocks["xy"] * q[1]
-        u[1] = blocks["xy"] * q[0] + blocks["yy"] * q[1]
-        return u
+    def _product(self, kernel, inputs, outputs=()):
+        self.library.spectral_launch(kernel, self.batch, self.pressure_spectra.shape[1:], inputs, outputs)
+
+    def _block_product(self, blocks, vector, out):
+        """``out`` <- the symmetric 2x2 ``blocks`` ("xx", "xy", "yy" per wavenumber: K_tt or its
+        inverse) applied to the pair ``vector`` (each a (2, B, n^2) pair)."""
+        lib = self.library
+        with lib.on_device():
+            self._forward(vector, pair=True)
+            self._product(sbk.batch_spectral_tangential, [blocks["xx"], blocks["xy"], blocks["yy"], self.pair_spectra])
+            self._inverse_into(out, pair=True)
 
     def tangential(self, shear, disp, pressure=None):
         """``disp`` <- K_tt ``shear`` (each a (2, B, n^2) pair: x, y), plus K_tz ``pressure`` where given."""
-        s, lib = self._spectra, self.library
-        with lib.on_device():
-            u = self._block_product(s, shear)
-            if pressure is not None:
-                p = lib.forward(self._view(pressure))
-                u[0] += s["xz"] * p
-                u[1] += s["yz"] * p
-            self._to_pair(u, disp)
+        if pressure is None:
+            self._block_product(self._spectra, shear, disp)
+            return
+        s = self._spectra
+        with self.library.on_device():
+            self._forward(shear, pair=True)
+            self._forward(pressure, pair=False)
+            self._product(sbk.batch_spectral_tangential_coupled,
+                          [s["xx"], s["xy"], s["yy"], s["xz"], s["yz"], self.pressure_spectra, self.pair_spectra])
+            self._inverse_into(disp, pair=True)
 
     def tangential_inverse(self, gradient, out):
         """``out`` <- M ``gradient`` (each a (2, B, n^2) pair: x, y), M each row's circulant
         inverse of K_tt on the padded grid (``tangential_inverse_blocks``): the batched
         tangential solver's preconditioner, applied to g on the stick cells."""
-        with self.library.on_device():
-            self._to_pair(self._block_product(self._inverse, gradient), out)
+        self._block_product(self._inverse, gradient, out)
 
     def cross_tangential(self, pressure, disp):
         """``disp`` (a (2, B, n^2) pair) <- K_tz p: the pressure's tangential displacement."""
-        s, lib = self._spectra, self.library
-        with lib.on_device():
-            p = lib.forward(self._view(pressure))
-            u = lib.xp.empty((2, *p.shape), dtype=p.dtype)
-            u[0] = s["xz"] * p
-            u[1] = s["yz"] * p
-            self._to_pair(u, disp)
+        s = self._spectra
+        with self.library.on_device():
+            self._forward(pressure, pair=False)
+            self._product(sbk.batch_spectral_cross_tangential, [s["xz"], s["yz"], self.pressure_spectra],
+                          [self.pair_spectra])
+            self._inverse_into(disp, pair=True)
 
     def cross_normal(self, shear, disp_z):
         """disp_z <- K_zt q of ``shear`` (a (2, B, n^2) pair): the shear's normal displacement
         (K_zt = -K_tz in Fourier space: the kernels are odd)."""
-        s, lib = self._spectra, self.library
-        with lib.on_device():
-            q = self._pair_spectra(shear)
-            lib.inverse(-(s["xz"] * q[0] + s["yz"] * q[1]), self._view(disp_z))
+        s = self._spectra
+        with self.library.on_device():
+            self._forward(shear, pair=True)
+            self._product(sbk.batch_spectral_cross_normal, [s["xz"], s["yz"], self.pair_spectra],
+                          [self.pressure_spectra])
+            self._inverse_into(disp_z, pair=False)

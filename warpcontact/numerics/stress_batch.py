@@ -42,7 +42,6 @@ class PlaneStress:
         self.device = wp.get_device(device)
         self.library = BatchLibrary(self.device)
         self.np_dtype = numpy_dtype(dtype)
-        self.complex_dtype = np.complex128 if dtype == wp.float64 else np.complex64
         self.vector = wp.vec2d if dtype == wp.float64 else wp.vec2f
         self.rows, self.cols = 2 * self.n, self.n + 1
         #: planes evaluated together
@@ -65,17 +64,29 @@ class PlaneStress:
         """Bytes a chunk of planes may take (``CHUNK_BYTES``)."""
         return CHUNK_BYTES
 
-    def _complex(self, a):
-        """A Warp stack of spectra (rows, cols) of 2-vectors as a complex (spectra, rows, cols) view."""
-        v = self.library.view(a)
-        return v.view(self.complex_dtype).reshape(-1, self.rows, self.cols)
-
     def _forward(self, fields, spectra):
         """spectra <- the transforms of (k, n, n) ``fields`` zero-padded to (2 n, 2 n) (numpy's
         rfft2 layout, the half axis last)."""
-        fft, w, n = self.library.fft, self.library.workers, self.n
-        rows = fft.rfft(self.library.view(fields), n=2 * n, axis=-1, **w)
-        self._complex(spectra)[...] = fft.fft(rows, n=2 * n, axis=-2, **w)
+        import warp as wp
+
+        from warpcontact.kernels import spectral_batch as sbk
+
+        k, n = fields.shape[0], self.n
+        padded = wp.zeros((k, 2 * n, 2 * n), dtype=self.dtype)
+        wp.launch(sbk.batch_pad, dim=(k, n * n), inputs=[fields.reshape((k, n * n)), n], outputs=[padded])
+        self.library.forward(padded, spectra.reshape((k, self.rows, self.cols)))
+
+    def _inverse(self, spectra, fields):
+        """(k, n, n) ``fields`` <- the inverse transforms of ``spectra`` (overwritten), cropped
+        (unnormalised: the weights of ``plane_stress_spectra`` hold the 1 / (4 n^2))."""
+        import warp as wp
+
+        from warpcontact.kernels import spectral_batch as sbk
+
+        k, n = fields.shape[0], self.n
+        padded = wp.empty((k, 2 * n, 2 * n), dtype=self.dtype)
+        self.library.inverse(spectra.reshape((k, self.rows, self.cols)), padded)
+        wp.launch(sbk.batch_crop, dim=(k, n * n), inputs=[padded, n], outputs=[fields.reshape((k, n * n))])
 
     def maxima(self, pairs: list, tractions: list, planes: list) -> np.ndarray:
         """The largest von Mises stress of each body at each plane: (len(planes), 2, 3) array of
@@ -125,6 +136,7 @@ class PlaneStress:
         n, rows, cols, bodies = self.n, self.rows, self.cols, len(BODIES)
         p_count, q_count = len(planes), len(planes) * bodies
         width = 6 * 3 * nb
+        scale = 1.0 / (4 * n * n)  # the inverse transforms' (``_inverse``)
         terms = np.zeros((q_count * width, 3), dtype=np.int32)
         weights = np.zeros(q_count * width)
         counts = np.zeros(q_count, dtype=np.int32)
@@ -144,7 +156,7 @@ class PlaneStress:
                     q, count = p * bodies + b, len(constant)
                     at = slice(q * width, q * width + count)
                     terms[at, :2], terms[at, 2] = t[:, :2], slot[t[:, 2]]
-                    weights[at] = constant + z * slope
+                    weights[at] = (constant + z * slope) * scale
                     counts[q] = count
         depths = wp.array(np.array([z for _, z in planes], dtype=np.float64), dtype=wp.float64)
         plane_case = wp.array(np.array([c for c, _ in planes], dtype=np.int32), dtype=int)
@@ -167,10 +179,8 @@ class PlaneStress:
                   outputs=[stress_spectra])
         del basis_spectra
         stress = wp.empty((q_count * 6, n, n), dtype=self.dtype)
-        fft, w = self.library.fft, self.library.workers
-        columns = fft.ifft(self._complex(stress_spectra), axis=-2, **w)[:, :n]  # the n rows kept
-        self.library.view(stress)[...] = fft.irfft(columns, n=2 * n, axis=-1, **w)[:, :, :n]
-        del stress_spectra, columns
+        self._inverse(stress_spectra, stress)
+        del stress_spectra
         values = wp.empty((q_count, n), dtype=self.dtype)
         cols_at = wp.empty((q_count, n), dtype=int)
         wp.launch(ks.plane_von_mises_rows, dim=(q_count, n), inputs=[stress], outputs=[values, cols_at])

@@ -27,6 +27,7 @@ import warp as wp
 from warpcontact.kernels import normal as nk
 from warpcontact.kernels import normal_batch as bk
 from warpcontact.kernels import reduce as rk
+from warpcontact.kernels import spectral_batch as sbk
 
 from ..fft.batch import BatchConvolution
 from ..numerics.device import numpy_dtype
@@ -160,7 +161,7 @@ class BatchNormalSolver:
         """The exact gap, displacement and residual sums of every case's pressure."""
         c = self.convolution
         self._cases(bk.batch_clear_residual, [], [self.sums, self.deferred])
-        self._cells(bk.batch_pad, [self.pressure, self.n], [c.source])
+        self._cells(sbk.batch_pad, [self.pressure, self.n], [c.source])
         c.apply()
         self._reduce(bk.batch_gap, [c.result, self.interference, self.pressure, self.pressure_cap, self.n],
                      [self.gap, self.displacement, self.sums])

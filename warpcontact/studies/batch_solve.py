@@ -37,14 +37,14 @@ from .runner import PathRecorder, build_model, friction_law, pressure_cap, run_p
 #: cases a batch holds at most by default: on the CPU a batch saves the per-case overhead of the
 #: launches but not their work; on CUDA it is bounded by the device's free memory
 DEFAULT_BATCH = {"cpu": 8, "cuda": 256}
-#: values a case of a batch takes per cell, at most: seven fields, two transform buffers and the
-#: transforms' temporaries (the padded spectrum, four values a cell, and the row passes' about six),
-#: with room for the library's work areas; times the float type's bytes
+#: values a case of a batch takes per cell, at most: seven fields, the padded grid of the transform
+#: and of its inverse (four values a cell each), their spectrum (about four) and the library's work
+#: area; times the float type's bytes
 BYTES_PER_CELL = 27
 #: the same with friction: the normal solve's, 22 fields of the tangential solve and the turns,
-#: five influence spectra of the case's pair (10 values a cell) and the transforms' temporaries of
-#: two fields and their products (about 24)
-FRICTION_BYTES_PER_CELL = 85
+#: eight influence spectra of the case's pair (16 values a cell), the padded grids and spectra of a
+#: pair of fields and of a pressure (about 28) and the work area
+FRICTION_BYTES_PER_CELL = 100
 #: turns of a batched step with friction; a case whose turns have not settled by then is solved on
 #: its own, where stalled turns are mixed (the Table 2 cells at n = 128 took 2-12 turns a step)
 BATCH_MAX_TURNS = 60
