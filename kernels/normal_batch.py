@@ -225,8 +225,9 @@ def batch_advance(sums: wp.array2d(dtype=Any), parameters: wp.array2d(dtype=Any)
     projections changed since the last exact gap (their L1 norm adds up in ``deferred``), and
     ||K c||_2 <= ``column_norm`` x that; an exact gap when that bound passes ``deferral`` times
     the violation the iteration started from, when a change comes near the tolerance (a case
-    stops on its exact residual), and every ``exact_every`` iterations (rounding). Active cases
-    count in ``flags[F_ACTIVE]``. The other sums are zeroed."""
+    stops on its exact residual), and every ``exact_every`` iterations (rounding). A case that has
+    made its last iteration (its limit) stops there; active cases count in ``flags[F_ACTIVE]``
+    (the device loop's condition: ``BatchNormalSolver.solve``). The other sums are zeroed."""
     case = wp.tid()
     zero = sums[case, S_G] - sums[case, S_G]
     viol = sums[case, S_VIOL]
@@ -245,9 +246,12 @@ def batch_advance(sums: wp.array2d(dtype=Any), parameters: wp.array2d(dtype=Any)
             near = next_viol <= type(zero)(16.0) * tol * tol * next_rhs
             bound = column_norm * missed
             deferred[case] = missed
-            if bound * bound > deferral * deferral * viol or (near and missed > zero) or (it + 1) % exact_every == 0:
-                wp.atomic_add(flags, F_EXACT, 1)
-            wp.atomic_add(flags, F_ACTIVE, 1)
+            if it + 1 >= int(parameters[case, P_MAX_ITER]):
+                active[case] = 0  # its last iteration: its residual is the solve's final exact gap's
+            else:
+                if bound * bound > deferral * deferral * viol or (near and missed > zero) or (it + 1) % exact_every == 0:
+                    wp.atomic_add(flags, F_EXACT, 1)
+                wp.atomic_add(flags, F_ACTIVE, 1)
     for slot in range(N_BATCH_SUMS):
         sums[case, slot] = zero
     sums[case, S_VIOL] = next_viol

@@ -26,7 +26,7 @@ import warp as wp
 from .normal_batch import case_ended
 from .overloads import register_float_overloads
 from .reduce import (
-    Cells, C_DELTA, C_G_OLD, C_ITER, P_TOL, S_G, S_GT, S_RESTART,
+    Cells, C_DELTA, C_G_OLD, C_ITER, P_MAX_ITER, P_TOL, S_G, S_GT, S_RESTART,
     block_add, block_add_vector, cell_index, cg_converged, cg_step_length, conjugacy,
 )
 from .tangential import (
@@ -235,7 +235,8 @@ def batch_tangential_advance(sums: wp.array2d(dtype=Any), parameters: wp.array2d
     (the one the iteration started from) meets its tolerance, reached its iteration limit or is
     not finite stops (``active`` = 0); an active one counts the iteration, carries G_old (0 every
     ``restart_every`` iterations) and delta (0 after a released cell: the conjugacy restarts),
-    and counts in ``flags[F_ACTIVE]`` (zeroed before). Every sum is zeroed: the next iteration
+    and counts in ``flags[F_ACTIVE]`` (zeroed before: the device loop's condition); a case that
+    has made its last iteration (its limit) stops there. Every sum is zeroed: the next iteration
     makes them anew from its exact g."""
     case = wp.tid()
     zero = sums[case, S_G] - sums[case, S_G]
@@ -248,7 +249,10 @@ def batch_tangential_advance(sums: wp.array2d(dtype=Any), parameters: wp.array2d
                                               sums[case, S_G])
             scalars[case, C_DELTA] = wp.where(sums[case, S_RESTART] > zero, zero, type(zero)(1.0))
             scalars[case, C_ITER] = type(zero)(done)
-            wp.atomic_add(flags, F_ACTIVE, 1)
+            if done >= int(parameters[case, P_MAX_ITER]):
+                active[case] = 0  # its last iteration: its residual is the solve's final gradient's
+            else:
+                wp.atomic_add(flags, F_ACTIVE, 1)
     for slot in range(N_SUMS):
         sums[case, slot] = zero
 

@@ -6,7 +6,6 @@ kernels were first launched inside the capture; CUDA error 901). The capture its
 here the bookkeeping that decides it is checked on the CPU, and _launch with a stand-in capture."""
 
 import math
-from collections import OrderedDict
 from types import SimpleNamespace
 
 import warp as wp
@@ -14,6 +13,7 @@ import warp as wp
 from warpcontact.physics.friction import Coulomb
 from warpcontact.physics.geometry import Grid, Sphere
 from warpcontact.physics.materials import COPPER, MaterialPair
+from warpcontact.numerics.launch import CapturedGraphs
 from warpcontact.numerics.model import ContactModel
 from warpcontact.solvers.base import ProjectedCG
 from warpcontact.solvers.contact import ContactSolver
@@ -58,14 +58,13 @@ def test_launch_captures_only_once_every_part_ran(monkeypatch):
             return False
 
     monkeypatch.setattr(wp, "ScopedCapture", FakeCapture)
-    solver = SimpleNamespace(use_graphs=True, _graphs=OrderedDict(), _ran_eagerly=set(), max_graphs=4,
-                             model=SimpleNamespace(device="cuda:0"))
+    solver = SimpleNamespace(graphs=CapturedGraphs("cuda:0", True, "solver", max_graphs=4), _ran_eagerly=set())
     runs = []
     ProjectedCG._launch(solver, "k", lambda: runs.append(1), needs=("body",))
-    assert len(runs) == 1 and not captures and "k" not in solver._graphs  # body never ran: eager only
+    assert len(runs) == 1 and not captures and "k" not in solver.graphs.graphs  # body never ran: eager only
     solver._ran_eagerly.add("body")
     ProjectedCG._launch(solver, "k", lambda: runs.append(1), needs=("body",))
-    assert len(captures) == 1 and "k" in solver._graphs
+    assert len(captures) == 1 and "k" in solver.graphs.graphs
 
 
 def test_a_failed_capture_leaves_the_solve_to_eager_launches(monkeypatch):
@@ -99,7 +98,7 @@ def test_a_failed_capture_leaves_the_solve_to_eager_launches(monkeypatch):
     with pytest.warns(RuntimeWarning, match="graph capture failed") as seen:
         info = solver.solve(state, DZ)
     assert len(seen) == 1
-    assert not solver.use_graphs and not solver._graphs and "901" in solver.capture_failure
+    assert not solver.use_graphs and not solver.graphs.graphs and "901" in solver.capture_failure
     assert info.converged and info.iterations == plain.iterations
     np.testing.assert_array_equal(state.pressure.numpy(), plain_state.pressure.numpy())
 

@@ -68,7 +68,7 @@ def coupled_path(n=48, device="cpu", dtype="float64", fft="auto", use_graphs=Non
     out = state.to_numpy_si()
     out["status"] = state.status.numpy().copy()
     out["summary"] = state_summary(state)
-    out["graphs"] = len(solver.normal._graphs) + solver.tangential.graph_count
+    out["graphs"] = solver.normal.graph_count + solver.tangential.graph_count
     assert np.count_nonzero(out["status"] == STICK) > 0, "the path reached gross slip"
     return out
 

@@ -102,7 +102,9 @@ def test_batched_checks_in_chunks_of_planes(monkeypatch):
     """Chunks of 3 planes (a pass's planes split over several chunks) give the same checks."""
     states = final_states([case(48, 1.6e-7, 1.5e-10, 3e-11), case(48, 1.6e-7, 0.8e-10, 1e-11)], "cpu")
     whole = yielding.batch_yield_checks(states)
-    monkeypatch.setattr(stress_batch, "CHUNK_BYTES", 3 * stress_batch.PlaneStress.plane_bytes(48, states[0].model.dtype))
+    three = 3 * stress_batch.PlaneStress.plane_bytes(48, states[0].model.dtype)
+    monkeypatch.setattr(stress_batch, "CHUNK_BYTES", three)
+    monkeypatch.setattr(stress_batch, "MAX_CHUNK_BYTES", three)
     for b, w in zip(yielding.batch_yield_checks(states), whole):
         assert_same(b, w)
 

@@ -25,6 +25,7 @@ from __future__ import annotations
 
 import contextlib
 import functools
+import sys
 
 import numpy as np
 import warp as wp
@@ -147,13 +148,15 @@ class BatchLibrary:
         else:
             self.launches.launch(kernel, (rows, length, columns), [*inputs, 1], outputs)
 
-    def release(self):
-        """On CUDA: hand the blocks CuPy's memory pool keeps after a batched pass (the transforms'
-        work arrays, up to a chunk's worth: ``stress_batch.CHUNK_BYTES``) back to the device, so
-        that Warp's next allocations (a larger grid's fields) can use them; on the CPU nothing."""
+    def release(self, work: bool = False):
+        """On CUDA: hand the blocks CuPy's memory pool keeps after a batched pass back to the
+        device, so that Warp's next allocations (a larger grid's fields) can use them; ``work``:
+        the transforms' work area too (a library whose transforms no captured graph replays: the
+        yield check's); on the CPU nothing."""
         if self._stream is not None:
-            with self._cuda_device:
-                self.xp.get_default_memory_pool().free_all_blocks()
+            if work:
+                self._plans.release_work()
+            release_transforms(self.device)
 
     def on_device(self):
         """On CUDA: CuPy's current device and stream made this device and Warp's stream there (a
@@ -164,6 +167,18 @@ class BatchLibrary:
         stack.enter_context(self._cuda_device)
         stack.enter_context(self._stream)
         return stack
+
+
+def release_transforms(device):
+    """On a CUDA ``device``: hand the blocks CuPy's memory pool keeps there (the work areas and
+    arrays of batched transforms no longer used) back to the device, so that Warp's next
+    allocations can use them; elsewhere nothing."""
+    device = wp.get_device(device)
+    if device.is_cuda and "cupy" in sys.modules:
+        import cupy
+
+        with cupy.cuda.Device(device.ordinal):
+            cupy.get_default_memory_pool().free_all_blocks()
 
 
 def spectra_vector(dtype):

@@ -314,8 +314,10 @@ class BatchedPlans:
     spectra, and the inverse complex-to-real one (which overwrites the spectra, as cuFFT's
     complex-to-real transforms do), unnormalised. One plan per direction, m, n and float type
     (cufftMakePlanMany, rank 2, contiguous stacks), made when first asked and run through
-    ``ctypes`` on ``stream``, with its work area taken from CuPy's memory pool at each call (the
-    pool orders its reuse on the stream).
+    ``ctypes`` on ``stream``. The plans share one work area, made with the plan that first needs
+    it larger and kept while the plans live (the ones it replaced too): a transform allocates
+    nothing, so a batched solve's iterations can be captured in a CUDA graph, whose transforms
+    keep the work area they were captured with.
 
     CuPy's own ``rfft``/``fft`` look their plans up, pad through copies and allocate their
     outputs at every call: about ten times this host time per transform on a batch of small grids,
@@ -330,6 +332,7 @@ class BatchedPlans:
         self._lib = _cufft_library()
         self._stream = stream
         self._plans: dict = {}  # (direction, m, n, double) -> (plan, work bytes)
+        self._work = []  # the work areas made, the current (largest) last
 
     def _plan(self, forward: bool, m: int, n: int, double: bool) -> tuple[int, int]:
         key = (forward, m, n, double)
@@ -365,13 +368,20 @@ class BatchedPlans:
             raise ValueError(f"fft: batched transforms of {real.shape} {real.dtype} and {spectra.shape} "
                              f"{spectra.dtype}: expected contiguous stacks (m, 2 n, 2 n) and (m, 2 n, n + 1)")
         plan, size = self._plan(forward, m, n, double)
-        work = cupy.empty(max(1, size), dtype=cupy.uint8)
+        if not self._work or self._work[-1].size < size:
+            self._work.append(cupy.empty(max(1, size), dtype=cupy.uint8))
+        work = self._work[-1]
         lib = self._lib
         _check(lib.cufftSetWorkArea(plan, ctypes.c_void_p(work.data.ptr)), "cufftSetWorkArea")
         run = (lib.cufftExecD2Z if forward else lib.cufftExecZ2D) if double else (
             lib.cufftExecR2C if forward else lib.cufftExecC2R)
         _check(run(plan, ctypes.c_void_p(source.data.ptr), ctypes.c_void_p(target.data.ptr)),
                "batched forward transform" if forward else "batched inverse transform")
+
+    def release_work(self):
+        """Let go of the work areas (the next transform makes one anew): only where no captured
+        graph replays these plans."""
+        self._work.clear()
 
     def __del__(self):
         lib = getattr(self, "_lib", None)

@@ -22,8 +22,10 @@ once. What each part saves along whole paths: docs/performance.md, "The launch l
 from __future__ import annotations
 
 import functools
+import gc
 import math
 import os
+import warnings
 from collections import OrderedDict
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
@@ -385,3 +387,78 @@ class BatchLaunches:
     def cases(self, kernel, inputs, outputs=()):
         """A kernel of one thread a case."""
         self.cache.launch(kernel, self.batch, inputs, outputs)
+
+
+def graphs_supported(device) -> bool:
+    """Whether ``device`` runs the solvers' CUDA graphs: a CUDA device with conditional graph
+    nodes (CUDA toolkit and driver 12.4+: ``wp.capture_while``, ``wp.capture_if``)."""
+    return device.is_cuda and wp.is_conditional_graph_supported()
+
+
+class CapturedGraphs:
+    """Device work replayed as CUDA graphs: ``launch(key, work)`` runs ``work()`` eagerly the first
+    time (loading its kernels and FFT plans), captures it (``wp.ScopedCapture``, which does not run
+    it again) and replays the graph when ``key`` (the arrays the work touches and its variant)
+    comes back. The values the work reads (tolerances, limits) live in device arrays, so one graph
+    serves every call.
+
+    A capture that fails (CUDA error 901 from its first operation, with many processes sharing a
+    GPU) leaves the work run eagerly: from then on every launch is eager (``enabled`` False,
+    ``failure`` says why), with one warning.
+
+    Args:
+        device: the Warp device.
+        enabled: capture at all (False: every launch eager, as on the CPU).
+        owner: who launches (named in the warning).
+        max_graphs: graphs kept, the least recently used dropped first.
+    """
+
+    def __init__(self, device, enabled: bool, owner: str, max_graphs: int = 8):
+        self.device = device
+        self.enabled = bool(enabled)
+        self.owner = owner
+        self.max_graphs = int(max_graphs)
+        self.graphs: OrderedDict = OrderedDict()
+        #: why a capture failed, after which every launch is eager (None: none failed)
+        self.failure: str | None = None
+
+    def launch(self, key, work, ready=None):
+        """Run ``work()``: eagerly, or from the graph captured for ``key``. ``ready()``, asked
+        after an eager run: whether every kernel the work may launch has run eagerly by then (a
+        generic kernel's overload made for the first time inside a capture is a module load
+        there, which fails the capture; a loop whose body never ran has not loaded its kernels);
+        until then the work runs eagerly and nothing is captured. None: ready at once."""
+        if not self.enabled:
+            work()
+            return
+        graph = self.graphs.get(key)
+        if graph is not None:
+            self.graphs.move_to_end(key)
+            wp.capture_launch(graph)
+            return
+        work()
+        if ready is not None and not ready():
+            return
+        # no garbage collection while capturing: a collected FFT backend's plans destroyed there
+        # (cufftDestroy frees device memory) invalidate the capture (CUDA error 901): solvers
+        # held in a reference cycle can be collected during a capture.
+        collecting = gc.isenabled()
+        gc.disable()
+        try:
+            with wp.ScopedCapture(device=self.device, force_module_load=False) as capture:
+                work()
+        except RuntimeError as e:
+            if "capture" not in str(e):
+                raise
+            self.enabled = False
+            self.graphs.clear()
+            self.failure = str(e)
+            warnings.warn(f"{self.owner}: a CUDA graph capture failed ({e}); its launches run without graphs "
+                          f"from now on (the same results, more host time)", RuntimeWarning, stacklevel=3)
+            return
+        finally:
+            if collecting:
+                gc.enable()
+        self.graphs[key] = capture.graph
+        while len(self.graphs) > self.max_graphs:
+            self.graphs.popitem(last=False)

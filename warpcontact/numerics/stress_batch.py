@@ -19,8 +19,13 @@ import numpy as np
 
 from .stress import BASIS, BASIS_PARITY, BODIES, affine_terms
 
-#: bytes a chunk of planes may take on a device (its stacks and the library's work arrays)
+#: bytes a chunk of planes may take on a device (its stacks and the library's work arrays): a
+#: plane must fit in this much for a check to be made by planes (``yielding.checks_by_planes``)
 CHUNK_BYTES = 1 << 30
+#: on CUDA a chunk takes up to an eighth of the device's free memory, between CHUNK_BYTES and
+#: this: each chunk costs the host a few ms of launches and a read, so a batch's hundreds of
+#: planes go in few chunks where the memory is there
+MAX_CHUNK_BYTES = 8 << 30
 
 
 class PlaneStress:
@@ -44,8 +49,8 @@ class PlaneStress:
         self.np_dtype = numpy_dtype(dtype)
         self.vector = wp.vec2d if dtype == wp.float64 else wp.vec2f
         self.rows, self.cols = 2 * self.n, self.n + 1
-        #: planes evaluated together
-        self.chunk = max(1, self.chunk_bytes() // self.plane_bytes(n, dtype))
+        #: planes evaluated together (``chunk_budget``)
+        self.chunk = max(1, self.chunk_budget(self.device) // self.plane_bytes(n, dtype))
 
     @staticmethod
     def plane_bytes(n: int, dtype) -> int:
@@ -61,8 +66,16 @@ class PlaneStress:
 
     @staticmethod
     def chunk_bytes() -> int:
-        """Bytes a chunk of planes may take (``CHUNK_BYTES``)."""
+        """Bytes a chunk of planes may take at least (``CHUNK_BYTES``)."""
         return CHUNK_BYTES
+
+    @staticmethod
+    def chunk_budget(device) -> int:
+        """Bytes a chunk of planes may take on ``device``: ``CHUNK_BYTES``, on CUDA up to an eighth
+        of its free memory (at most ``MAX_CHUNK_BYTES``)."""
+        if not device.is_cuda:
+            return CHUNK_BYTES
+        return max(CHUNK_BYTES, min(MAX_CHUNK_BYTES, int(device.free_memory) // 8))
 
     def _forward(self, fields, spectra):
         """spectra <- the transforms of (k, n, n) ``fields`` zero-padded to (2 n, 2 n) (numpy's
@@ -104,7 +117,7 @@ class PlaneStress:
             with self.library.on_device(), wp.ScopedDevice(self.device):
                 self._maxima(tractions, pairs, planes, out)
         finally:
-            self.library.release()
+            self.library.release(work=True)
         return out
 
     def _maxima(self, tractions, pairs, planes, out):

@@ -2,10 +2,7 @@
 
 from __future__ import annotations
 
-import gc
 import math
-import warnings
-from collections import OrderedDict
 
 import numpy as np
 import warp as wp
@@ -15,6 +12,7 @@ from warpcontact.kernels.reduce import (
 )
 
 from .. import interrupts
+from ..numerics.launch import CapturedGraphs, graphs_supported
 from ..numerics.state import SolveInfo
 from .settings import SolverSettings, preconditioner_float32_auto
 
@@ -78,16 +76,15 @@ class ProjectedCG:
         #: the inner loop's flag where iterations may start with a conditional step (``_run``'s
         #: ``prelude``): 1 while the iterations go on without it
         self.inner_loop = wp.zeros(1, dtype=wp.int32, device=model.device)
-        #: replay launches as captured CUDA graphs (``settings.use_graphs``; by default on CUDA
-        #: devices with conditional nodes)
-        supported = model.device.is_cuda and wp.is_conditional_graph_supported()
-        self.use_graphs = supported if settings.use_graphs is None else bool(settings.use_graphs)
-        if self.use_graphs and not supported:
+        # replay launches as captured CUDA graphs (``settings.use_graphs``; by default on CUDA
+        # devices with conditional nodes)
+        supported = graphs_supported(model.device)
+        use_graphs = supported if settings.use_graphs is None else bool(settings.use_graphs)
+        if use_graphs and not supported:
             raise ValueError("settings.use_graphs: the solver's graphs need a CUDA device with conditional graph "
                              "nodes (CUDA toolkit and driver 12.4+)")
-        self._graphs: OrderedDict = OrderedDict()
-        #: why a capture failed, after which the solver launches eagerly (None: none failed)
-        self.capture_failure: str | None = None
+        #: the solves' captured graphs (two per set of arrays: the first launch of a solve and the later ones)
+        self.graphs = CapturedGraphs(model.device, use_graphs, type(self).__name__, self.max_graphs)
         #: the parts of an iteration (the code of a loop body) that have run eagerly: their kernels
         #: are loaded for this float type; a capture waits until they have (see _launch)
         self._ran_eagerly: set = set()
@@ -118,10 +115,27 @@ class ProjectedCG:
         self._stage(P_CHUNK, self.settings.iterations_per_launch)
         self._upload()
 
+    @property
+    def use_graphs(self) -> bool:
+        """Whether launches replay captured CUDA graphs (False after a capture failed)."""
+        return self.graphs.enabled
+
+    @use_graphs.setter
+    def use_graphs(self, on: bool):
+        self.graphs.enabled = bool(on)
+
+    @property
+    def graph_count(self) -> int:
+        """CUDA graphs captured and kept."""
+        return len(self.graphs.graphs)
+
+    @property
+    def capture_failure(self) -> str | None:
+        """Why a capture failed, after which the solver launches eagerly (None: none failed)."""
+        return self.graphs.failure
+
     def _launch(self, key, work, needs=()):
-        """Run ``work()``: eagerly, or from the CUDA graph captured for ``key`` (the arrays it
-        touches and its variant) the first time, when it runs eagerly (loading its kernels and
-        FFT plans) and is then captured, which does not run it again.
+        """Run ``work()``: eagerly, or from the CUDA graph captured for ``key`` (``CapturedGraphs``).
 
         ``needs``: the conditional parts of ``work`` (names in ``_ran_eagerly``) whose kernels must
         be loaded before a capture. A loop that converged at its start (zero iterations) never ran
@@ -129,44 +143,7 @@ class ProjectedCG:
         time inside a capture is a module load there, which fails the capture (CUDA error 901: a
         float32 tangential solve starting from its solution). Until every part has run, ``work``
         runs eagerly and nothing is captured."""
-        if not self.use_graphs:
-            work()
-            return
-        graph = self._graphs.get(key)
-        if graph is not None:
-            self._graphs.move_to_end(key)
-            wp.capture_launch(graph)
-            return
-        work()
-        if not set(needs) <= self._ran_eagerly:
-            return
-        # no garbage collection while capturing: a collected FFT backend's plans destroyed there
-        # (cufftDestroy frees device memory) invalidate the capture (CUDA error 901): solvers
-        # held in a reference cycle can be collected during a capture.
-        collecting = gc.isenabled()
-        gc.disable()
-        try:
-            with wp.ScopedCapture(device=self.model.device, force_module_load=False) as capture:
-                work()
-        except RuntimeError as e:
-            if "capture" not in str(e):
-                raise
-            # the work ran eagerly above, so the solve goes on without the graph (a capture can be
-            # invalidated from its first operation, CUDA error 901, with many worker processes
-            # sharing one GPU): this solver launches eagerly from now on
-            self.use_graphs = False
-            self._graphs.clear()
-            self.capture_failure = str(e)
-            warnings.warn(f"{type(self).__name__}: a CUDA graph capture failed ({e}); this solver runs its "
-                          f"launches without graphs from now on (the same results, more host time)",
-                          RuntimeWarning, stacklevel=2)
-            return
-        finally:
-            if collecting:
-                gc.enable()
-        self._graphs[key] = capture.graph
-        while len(self._graphs) > self.max_graphs:
-            self._graphs.popitem(last=False)
+        self.graphs.launch(key, work, ready=lambda: set(needs) <= self._ran_eagerly)
 
     def _relative_residual(self, viol_slot: int, rhs_slot: int) -> float:
         s = self.sums.numpy().astype(np.float64)

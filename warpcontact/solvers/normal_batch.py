@@ -10,9 +10,11 @@ As the single solver, an iteration carries the gap (g <- g - tau K t: two batche
 pairs, M g and K t) and recomputes it exactly (a third, K p) only where the carried one may be
 wrong: for every case at once, when what any active case's projections changed may matter (the
 single solver's ``deferral`` bound), every ``EXACT_EVERY`` iterations, or when a case's carried
-residual comes near its tolerance (a case stops on its exact residual). What the single solver does besides to spare
-launches (sums in Fourier space, device loops in CUDA graphs) is not done here: one batched
-launch serves many cases, and the host reads two counts an iteration (``flags``). The iterates
+residual comes near its tolerance (a case stops on its exact residual). The iterations loop on
+the device while a case is active, in a CUDA graph captured once where conditional nodes are
+supported (the host waits once a solve); elsewhere the host reads two counts an iteration
+(``flags``). What the single solver does besides to spare launches (sums in Fourier space) is not
+done here: one batched launch serves many cases. The iterates
 differ from the single solver's in rounding and in the path to the solution; the converged
 pressures agree within the tolerance.
 """
@@ -31,7 +33,7 @@ from warpcontact.kernels import spectral_batch as sbk
 
 from ..fft.batch import BatchConvolution
 from ..numerics.device import numpy_dtype
-from ..numerics.launch import BatchLaunches
+from ..numerics.launch import BatchLaunches, CapturedGraphs, graphs_supported
 from ..numerics.state import SolveInfo
 
 #: iterations between exact recomputations of the carried gap (rounding), and the share of the
@@ -96,8 +98,14 @@ class BatchNormalSolver:
         self.flags = wp.zeros(2, dtype=wp.int32, device=self.device)
         #: each case's L1 change by projections since its last exact gap (scaled)
         self.deferred = wp.zeros(self.batch, dtype=dtype, device=self.device)
+        #: the counts as the device loop's conditions
+        self._going, self._exact = self.flags[bk.F_ACTIVE:bk.F_ACTIVE + 1], self.flags[bk.F_EXACT:bk.F_EXACT + 1]
         #: the launches, recorded once and replayed
         self.launches = BatchLaunches(self.batch, self.n_cells, self.device)
+        #: a solve's device work as a CUDA graph (where conditional nodes are supported), captured
+        #: once an iteration has run eagerly (its kernels loaded)
+        self.graphs = CapturedGraphs(self.device, graphs_supported(self.device), type(self).__name__)
+        self._body_ran = False
         self._cells, self._reduce, self._cases = self.launches.cells, self.launches.reduce, self.launches.cases
 
     # -- the solve --------------------------------------------------------------------------
@@ -127,23 +135,24 @@ class BatchNormalSolver:
         caps = np.full(rows, big) if pressure_cap is None else np.minimum(per_row(pressure_cap), big)
         self.pressure_cap.assign(caps.astype(self.np_dtype))
         self.active.assign(active.astype(np.int32))
+        self.graphs.launch("solve", self._iterations, ready=lambda: self._body_ran)
+        return row_infos(self, active, tol)
+
+    def _iterations(self):
+        """The device work of a solve: the start (each case's interference, first guess and exact
+        gap), the iterations while a case is active (a loop on the device, ``wp.capture_while`` on
+        the count of active cases, each iteration followed by the exact gaps where a case asks for
+        them, ``wp.capture_if``; where the launches are not captured the host reads both counts
+        each iteration) and every row's exact gap, displacement and residual."""
         self.scalars.zero_()
         self.sums.zero_()
         self.direction.zero_()
         self._cells(bk.batch_interference, [self.initial_gap, self.known, self.parameters], [self.interference])
         self._guess()
-        limit = int(max_iter[active].max()) if active.any() else 0
         self._exact_gap()
-        for _ in range(limit):
-            self.flags.zero_()
-            self._iteration()
-            going, exact = (int(v) for v in self.flags.numpy())
-            if not going:
-                break
-            if exact:
-                self._exact_gap()
-        self._exact_gap()  # every row's exact gap, displacement and residual
-        return row_infos(self, active, tol)
+        self._going.fill_(1)  # at least one iteration: a case active at its start is judged by ``batch_advance``
+        wp.capture_while(self._going, self._iteration)
+        self._exact_gap()
 
     def _guess(self):
         """The first guess of each case whose pressure is zero (``NormalSolver._guess``)."""
@@ -168,7 +177,15 @@ class BatchNormalSolver:
 
     def _iteration(self):
         """One preconditioned conjugate-gradient iteration of every active case, from the gap and
-        residual sums of its iterate (exact, or carried by the last iteration)."""
+        residual sums of its iterate (exact, or carried by the last iteration); then the exact gaps
+        where a case's next iteration needs its own (``flags[F_EXACT]``)."""
+        self._body_ran = True
+        self.flags.zero_()
+        self._step()
+        wp.capture_if(self._exact, on_true=self._exact_gap)
+
+    def _step(self):
+        """The conjugate-gradient step of every active case and ``batch_advance``'s counts."""
         c = self.convolution
         cap = self.pressure_cap
         self._cells(bk.batch_free_gap, [self.gap, self.pressure, cap, self.n], [c.source])

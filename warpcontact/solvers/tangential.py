@@ -296,7 +296,7 @@ class TangentialSolver(ProjectedCG):
     @property
     def graph_count(self) -> int:
         """CUDA graphs captured and kept, its windows' included."""
-        return len(self._graphs) + sum(w.solver.graph_count for w in self._windows.kept())
+        return super().graph_count + sum(w.solver.graph_count for w in self._windows.kept())
 
     def _window_for(self, shear_limit, pressure=None):
         """The window of the contact (cells where ``shear_limit`` > 0, or ``pressure`` > 0),

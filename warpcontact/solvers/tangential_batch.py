@@ -5,8 +5,9 @@ The bounded conjugate gradients of [`TangentialSolver`][warpcontact.solvers.tang
 every transform ([`BatchElasticOperator`][warpcontact.fft.batch.BatchElasticOperator]) is launched
 once for all B cases, each case with its own material pair, shear limit, target, tolerance,
 iterate, conjugacy and convergence. A converged case stops changing while the others go on; the
-solve ends when every case has ended. Each iteration reads one count back (the cases still
-active).
+solve ends when every case has ended: the iterations loop on the device while a case is active
+(``wp.capture_while``), in a CUDA graph captured once where conditional nodes are supported (the
+host waits once a solve); elsewhere the host reads that count each iteration.
 
 Preconditioned (the default, as the single solver): the direction is built from z = M g on the
 stick cells, M each case's circulant inverse of K_tt (its pair's 2x2 blocks per wavenumber,
@@ -27,7 +28,7 @@ from warpcontact.kernels import tangential_batch as tbk
 
 from ..fft.batch import BatchElasticOperator
 from ..numerics.device import numpy_dtype
-from ..numerics.launch import BatchLaunches
+from ..numerics.launch import BatchLaunches, CapturedGraphs, graphs_supported
 from .normal_batch import row_infos
 
 #: iterations between restarts of the conjugacy (the single solver's ``restart_every``)
@@ -89,6 +90,10 @@ class BatchTangentialSolver:
         self.flags = wp.zeros(1, dtype=wp.int32, device=self.device)
         #: the launches, recorded once and replayed
         self.launches = BatchLaunches(self.batch, self.n_cells, self.device)
+        #: a solve's device work as a CUDA graph (where conditional nodes are supported), captured
+        #: once an iteration has run eagerly (its kernels loaded)
+        self.graphs = CapturedGraphs(self.device, graphs_supported(self.device), type(self).__name__)
+        self._body_ran = False
         self._cells, self._reduce, self._cases = self.launches.cells, self.launches.reduce, self.launches.cases
 
     def set_stiffness(self, stiffness):
@@ -108,29 +113,37 @@ class BatchTangentialSolver:
         parameters[:, rk.P_MAX_ITER] = max_iter
         self.parameters.assign(parameters.astype(self.np_dtype))
         self.active.assign(active.astype(np.int32))
+        self.graphs.launch("solve", self._iterations, ready=lambda: self._body_ran)
+        return row_infos(self, active, tol)
+
+    def _iterations(self):
+        """The device work of a solve: the start, the iterations while a case is active (a loop
+        on the device: ``wp.capture_while`` on ``flags``, which the host reads each iteration
+        where the launches are not captured) and every row's exact g, K_tt q and residual."""
         self.scalars.zero_()
         self.sums.zero_()
         self.direction.zero_()
         self._cells(tbk.batch_tangential_classify, [self.shear_limit, self.active, int(self.preconditioned)],
                     [self.shear_x, self.shear_y, self.status])
-        limit = int(max_iter[active].max()) if active.any() else 0
-        for _ in range(limit + 1):
-            self._gradient()
-            self._direction()
-            self.operator.tangential(self.direction, self.response)
-            self._reduce(tbk.batch_tangential_step_sums,
-                         [self.grad_x, self.grad_y, self.dir_x, self.dir_y, self.resp_x, self.resp_y, self.shear_x,
-                          self.shear_y, self.shear_limit, self.status], [self.sums])
-            self._reduce(tbk.batch_tangential_update,
-                         [self.grad_x, self.grad_y, self.dir_x, self.dir_y, self.shear_limit, self.stiffness,
-                          self.parameters, self.active], [self.shear_x, self.shear_y, self.status, self.sums])
-            self.flags.zero_()
-            self._cases(tbk.batch_tangential_advance, [self.sums, self.parameters, RESTART_EVERY],
-                        [self.scalars, self.active, self.flags])
-            if not int(self.flags.numpy()[tbk.F_ACTIVE]):
-                break
-        self._gradient()  # every row's exact g, K_tt q and residual
-        return row_infos(self, active, tol)
+        self.flags.fill_(1)  # at least one iteration: a case active at its start is judged by ``advance``
+        wp.capture_while(self.flags, self._iteration)
+        self._gradient()
+
+    def _iteration(self):
+        """One iteration of every active case; ``flags`` then counts the cases still active."""
+        self._body_ran = True
+        self._gradient()
+        self._direction()
+        self.operator.tangential(self.direction, self.response)
+        self._reduce(tbk.batch_tangential_step_sums,
+                     [self.grad_x, self.grad_y, self.dir_x, self.dir_y, self.resp_x, self.resp_y, self.shear_x,
+                      self.shear_y, self.shear_limit, self.status], [self.sums])
+        self._reduce(tbk.batch_tangential_update,
+                     [self.grad_x, self.grad_y, self.dir_x, self.dir_y, self.shear_limit, self.stiffness,
+                      self.parameters, self.active], [self.shear_x, self.shear_y, self.status, self.sums])
+        self.flags.zero_()
+        self._cases(tbk.batch_tangential_advance, [self.sums, self.parameters, RESTART_EVERY],
+                    [self.scalars, self.active, self.flags])
 
     def _gradient(self):
         """K_tt q into ``disp``, the exact g and each row's residual sums (zeroed before; slot

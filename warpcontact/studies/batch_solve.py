@@ -30,6 +30,7 @@ from ..errors import InputError
 from ..numerics.device import resolve_device, resolve_dtype
 from ..numerics.state import ContactState, check_contact_fits
 from ..solvers.base import default_tolerance
+from ..fft.batch import release_transforms
 from ..solvers.contact_batch import BatchContactSolver, law_parameters
 from ..solvers.normal_batch import BatchNormalSolver
 from .runner import PathRecorder, build_model, friction_law, pressure_cap, run_path
@@ -168,7 +169,8 @@ def _solve_all(cases: list, fields: str, batch: int | None, on_case) -> list:
                 chunk = indices[start:start + size]
                 for index, result in _solve_chunk(solver, [cases[i] for i in chunk], chunk, fields):
                     done(index, result)
-            _normal(solver).convolution.library.release()  # the transforms' work arrays, for what comes next
+            solver = None  # its buffers and the transforms' work areas, for what comes next
+            release_transforms(device)
         except _CallerError:
             raise
         except (RuntimeError, MemoryError, OSError, InputError) as e:  # the batched solve itself failed (a
@@ -497,7 +499,8 @@ def _search_all(entries: list, batch: int | None, on_case) -> list:
                         alone(index)
                     else:
                         done(index, entry)
-            solver.normal.convolution.library.release()
+            solver = None
+            release_transforms(device)
         except _CallerError:
             raise
         except (RuntimeError, MemoryError, OSError, InputError) as e:  # the batched steps themselves failed
