@@ -78,3 +78,32 @@ def test_mixed_turns_end_on_the_plain_turns_state(plain_and_mixed):
             fa, fb = a["force"][axis], b["force"][axis]
             assert fb == pytest.approx(fa, rel=1e-6), f"state {k}: F_{axis} {fb} mixed against {fa} plain"
         assert abs(b["stick_area"] - a["stick_area"]) <= 1.01 * cell, f"state {k}: stick areas differ"
+
+
+def test_a_stall_the_plain_turns_do_not_leave_is_left_by_the_mixing():
+    """The stall on a grid CI can afford. Its gain grows with k_VM (the limit's slope near S_Y is
+    k_VM p / sqrt(S_Y^2 - p^2)) as with refinement (about sqrt(n): the cells next to the crossover
+    come closer to S_Y), so Figure 2a's heavy path with the hardness cap and k_VM = 2.3 (four
+    times von Mises's 1/sqrt(3)) stalls at n = 128 as the shipped k_VM does from about n = 1024:
+    its first tangential state takes the plain turns past 300 turns unconverged (4,242 inner
+    iterations, measured on 2 CPU cores). There the stall is detected and the mixed turns
+    converge within the 300 (233 turns, 2,359 inner iterations, measured)."""
+    case = heavy_path(128)
+    case["friction"].update(hardness_cap=True, k_vm=2.3)
+    dz, dx = case["load"]["delta_z"], case["load"]["delta_x"]
+    case["load"] = {"path": [[0.0, 0.0, dz * k / 8] for k in range(1, 9)] + [[dx / 8, 0.0, dz]]}
+    case["solver"]["max_turns"] = 300
+    mixed_turns = []
+    original = LaggedTurns._mixed_change
+
+    def counted(self, state, mixing):
+        mixed_turns.append(1)
+        return original(self, state, mixing)
+
+    with pytest.MonkeyPatch.context() as mp, pytest.warns(YieldWarning):
+        mp.setattr(LaggedTurns, "_mixed_change", counted)
+        result = wc.solve(case, fields="none")
+    last = result.states[-1]
+    assert mixed_turns, "no stall was detected"
+    assert last["converged"] and last["outer_iterations"] <= 300, (last["outer_iterations"], last["iterations"])
+    assert all(s["converged"] for s in result.states)
