@@ -325,7 +325,7 @@ def take_line(fields: wp.array3d(dtype=Any), index: int, along_x: int, out: wp.a
 def plane_basis_corners(depths: wp.array(dtype=wp.float64), bases: wp.array(dtype=int),
                         corners: wp.array3d(dtype=wp.float64)):
     """corners[p B + s, i, j] <- ``basis_corners`` of basis ``bases[s]`` at depth ``depths[p]``
-    (cells), B = len(bases): the bases a chunk of planes uses, for every plane."""
+    (cells), B = len(bases): the bases a chunk of planes uses, at each of its distinct depths."""
     k, i, j = wp.tid()
     used = bases.shape[0]
     p = k // used
@@ -350,6 +350,7 @@ def plane_stress_spectra(
     basis_spectra: wp.array2d(dtype=Any),
     traction_spectra: wp.array2d(dtype=Any),
     plane_case: wp.array(dtype=int),
+    plane_depth: wp.array(dtype=int),
     bodies: int,
     used: int,
     terms: wp.array(dtype=wp.vec3i),
@@ -361,14 +362,15 @@ def plane_stress_spectra(
     stress: wp.array2d(dtype=Any),
 ):
     """``stress_spectra`` of every body at every plane: entry q = p ``bodies`` + body (plane p,
-    its case ``plane_case[p]``) combines the plane's ``used`` basis spectra with the case's three
+    its case ``plane_case[p]``, its depth the ``plane_depth[p]``-th of the chunk's distinct ones)
+    combines its depth's ``used`` basis spectra with the case's three
     traction spectra through its ``counts[q]`` terms from q N_COMPONENTS N_LOADS N_BASIS on, into
     the six stress spectra from row 6 q ``rows``. The terms' basis is the slot among the used
     ones, ``parity`` the parity of each slot's basis."""
     q, i, j = wp.tid()
     p = q // bodies
     width = N_COMPONENTS * N_LOADS * N_BASIS
-    combine_spectra(basis_spectra, p * used * rows, traction_spectra, plane_case[p] * N_LOADS * rows, terms,
+    combine_spectra(basis_spectra, plane_depth[p] * used * rows, traction_spectra, plane_case[p] * N_LOADS * rows, terms,
                     weights, q * width, counts[q], parity, half_axis, rows, i, j, stress, q * N_COMPONENTS * rows)
 
 
@@ -408,7 +410,8 @@ for _r, _v in ((wp.float32, wp.vec2f), (wp.float64, wp.vec2d)):
                             "out": wp.array2d(dtype=_r)})
     wp.overload(plane_basis_quadrants, {"corners": wp.array3d(dtype=wp.float64), "out": wp.array3d(dtype=_r)})
     wp.overload(plane_stress_spectra, {"basis_spectra": wp.array2d(dtype=_v), "traction_spectra": wp.array2d(dtype=_v),
-                                       "plane_case": wp.array(dtype=int), "bodies": int, "used": int,
+                                       "plane_case": wp.array(dtype=int), "plane_depth": wp.array(dtype=int),
+                                       "bodies": int, "used": int,
                                        "terms": wp.array(dtype=wp.vec3i), "weights": wp.array(dtype=_r),
                                        "counts": wp.array(dtype=int), "parity": wp.array(dtype=int),
                                        "half_axis": int, "rows": int, "stress": wp.array2d(dtype=_v)})

@@ -98,6 +98,42 @@ def test_batched_checks_in_float32():
         assert_same(b, yielding._own_yield_check(s, True, True), rel=1e-6, z_rel=1e-5)
 
 
+def test_cases_sharing_their_depths_share_the_basis_spectra(monkeypatch):
+    """Two states at one approach and two shifts of elastically similar bodies (a sweep over
+    delta_x: the shear does not move the pressure, so one contact radius and one set of depths):
+    their planes' basis spectra are made once per depth (the first pass's as many as for one of
+    the states alone), and each check equals its own."""
+    similar = {"E": 106e9, "nu": 0.33, "yield_strength": 345e6}
+    states = final_states([case(48, 1.6e-7, 1.5e-10, 1e-11, flat=similar),
+                           case(48, 1.6e-7, 1.5e-10, 3e-11, flat=similar)], "cpu")
+    radii = [yielding._state_totals(s, True, False)[1] for s in states]
+    assert radii[0] == radii[1]
+    forward = stress_batch.PlaneStress._forward
+
+    def transformed(states):
+        """The fields each transform of the checks of ``states`` took: (tractions, bases) a pass."""
+        made = []
+
+        def counted(self, fields, spectra):
+            made.append(fields.shape[0])
+            return forward(self, fields, spectra)
+
+        with monkeypatch.context() as m:
+            m.setattr(stress_batch.PlaneStress, "_forward", counted)
+            m.setattr(yielding, "_own_yield_check", lambda *a: pytest.fail("the batched check fell back"))
+            checks = yielding.batch_yield_checks(states, friction=True, adhesion=False)
+        return checks, made[0::2], made[1::2]
+
+    both, both_tractions, both_bases = transformed(states)
+    _, one_tractions, one_bases = transformed(states[:1])
+    assert both_tractions == [2 * t for t in one_tractions]
+    # the first pass's depths come from the contact radius alone: shared whole; the refinement's
+    # midpoints from each state's maxima: shared where they meet
+    assert both_bases[0] == one_bases[0] > 0 and sum(both_bases) < 2 * sum(one_bases)
+    for s, b in zip(states, both):
+        assert_same(b, yielding._own_yield_check(s, True, False))
+
+
 def test_batched_checks_in_chunks_of_planes(monkeypatch):
     """Chunks of 3 planes (a pass's planes split over several chunks) give the same checks."""
     states = final_states([case(48, 1.6e-7, 1.5e-10, 3e-11), case(48, 1.6e-7, 0.8e-10, 1e-11)], "cpu")

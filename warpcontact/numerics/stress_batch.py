@@ -171,9 +171,12 @@ class PlaneStress:
                     terms[at, :2], terms[at, 2] = t[:, :2], slot[t[:, 2]]
                     weights[at] = (constant + z * slope) * scale
                     counts[q] = count
-        depths = wp.array(np.array([z for _, z in planes], dtype=np.float64), dtype=wp.float64)
+        # the basis spectra depend on the depth alone: once per distinct depth of the chunk (the
+        # cases of a sweep over delta_x share their contact radius, so their depths)
+        distinct, plane_depth = np.unique(np.array([z for _, z in planes], dtype=np.float64), return_inverse=True)
+        depths = wp.array(distinct, dtype=wp.float64)
         plane_case = wp.array(np.array([c for c, _ in planes], dtype=np.int32), dtype=int)
-        k = p_count * len(used)
+        k = len(distinct) * len(used)
         corners = wp.empty((k, n + 1, n + 1), dtype=wp.float64)
         wp.launch(ks.plane_basis_corners, dim=corners.shape,
                   inputs=[depths, wp.array(used.astype(np.int32), dtype=int)], outputs=[corners])
@@ -186,7 +189,8 @@ class PlaneStress:
         parity = wp.array(np.array(BASIS_PARITY, dtype=np.int32)[used], dtype=int)
         stress_spectra = wp.empty((q_count * 6 * rows, cols), dtype=self.vector)
         wp.launch(ks.plane_stress_spectra, dim=(q_count, rows, cols),
-                  inputs=[basis_spectra, traction_spectra, plane_case, bodies, len(used),
+                  inputs=[basis_spectra, traction_spectra, plane_case,
+                          wp.array(plane_depth.astype(np.int32).ravel(), dtype=int), bodies, len(used),
                           wp.array(terms, dtype=wp.vec3i), wp.array(weights.astype(self.np_dtype), dtype=self.dtype),
                           wp.array(counts, dtype=int), parity, 1, rows],
                   outputs=[stress_spectra])
