@@ -17,6 +17,9 @@ Paths (``--paths``, names or "all"; default: the examples and the extras):
 - ``steel``: figure2c's path for steel on steel (E 210 GPa, nu 0.3, S_Y 400 MPa: another pair,
   identical materials, no coupling);
 - ``hardness``: figure2a's path at 4 times its approach with the hardness cap on;
+- ``stall``: ``hardness`` with k_VM = 2.3 (4 times von Mises's 1/sqrt(3)): the turns' gain at the
+  crossover that refinement raises (about sqrt(n)), on grids the CPU affords: the plain turns stall
+  from n = 128 (docs/model.md, "The turns' stall");
 - ``float32``: figure2c's path in float32;
 - ``dugdale`` / ``exponential``: figure2c's path with friction and Dugdale (sigma_0 2 MPa, h_0 5 pm)
   or exponential (w 1.36e-5 J/m^2, rho 5 pm) adhesion;
@@ -53,7 +56,7 @@ ROOT = Path(__file__).resolve().parents[1]
 EXAMPLES = ROOT / "examples"
 EXAMPLE_PATHS = ["figure1a", "figure1b", "figure1c", "figure1d", "figure2a", "figure2b", "figure2c", "figure2d",
                  "table2_k080_dz5e-5"]
-EXTRA_PATHS = ["steel", "hardness", "float32", "dugdale", "exponential", "unload", "rough", "frictionless"]
+EXTRA_PATHS = ["steel", "hardness", "stall", "float32", "dugdale", "exponential", "unload", "rough", "frictionless"]
 #: the ``rough`` path's flat: a self-affine map of ROUGH_PIXELS^2 pixels over figure2d's domain
 #: (H 0.8, rms height 50 pm, wavelengths down to 4 pixels, seed 1), resampled onto every grid
 ROUGH_PIXELS = 256
@@ -96,8 +99,10 @@ def case_dict(name: str) -> dict:
         steel = {"E": 210e9, "nu": 0.3, "yield_strength": 400e6, "hardness": 2.0e9}
         base["sphere"].update(steel)
         base["flat"] = dict(steel)
-    elif name == "hardness":
+    elif name in ("hardness", "stall"):
         base = load_toml(EXAMPLES / "figure2a.toml")
+        if name == "stall":
+            base["friction"]["k_vm"] = 2.3
         base["load"]["delta_z"] *= 4.0
         base["load"]["delta_x"] *= 4.0
         base["grid"]["size"] *= 2.0
