@@ -242,7 +242,8 @@ class BatchContactSolver:
             for row in np.flatnonzero(turning):
                 ni, ti = normal_infos[row], tangential_infos[row]
                 iterations[row] += ni.iterations + ti.iterations
-                change[row] = max(ratio(sums[row, 0], sums[row, 1]), ratio(sums[row, 2], sums[row, 3]))
+                change[row] = max(ratio(sums[row, ck.CHANGE_PRESSURE], sums[row, ck.CHANGE_PRESSURE + 1]),
+                                  ratio(sums[row, ck.CHANGE_SHEAR_X], sums[row, ck.CHANGE_SHEAR_X + 1]))
                 solves_converged[row] = ni.converged and ti.converged
                 if not self.coupled[row] or (change[row] < outer_tol[row] and turn_tol[row] == tol[row]):
                     turns_converged[row] = True
