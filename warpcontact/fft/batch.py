@@ -360,17 +360,23 @@ class BatchElasticOperator:
         lib.inverse(self.pair_spectra if pair else self.pressure_spectra, result)
         lib.launches.launch(sbk.batch_crop, field.shape, [result, self.n], [field])
 
-    def _product(self, kernel, inputs, outputs=()):
-        self.library.spectral_launch(kernel, self.batch, self.pressure_spectra.shape[1:], inputs, outputs)
+    def _apply(self, sources, kernel, inputs, outputs, out, out_pair: bool):
+        """The spectra of ``sources`` ((field, pair) each: a (2, B, n^2) pair of fields or a
+        pressure (B, n^2)), the product ``kernel`` on them (``inputs``, ``outputs``: the
+        influence and spectra arrays it takes), and ``out`` (a pair, ``out_pair``, or a field) <-
+        the inverse of the pair's (or the pressure's) spectra."""
+        lib = self.library
+        with lib.on_device():
+            for field, pair in sources:
+                self._forward(field, pair)
+            lib.spectral_launch(kernel, self.batch, self.pressure_spectra.shape[1:], inputs, outputs)
+            self._inverse_into(out, out_pair)
 
     def _block_product(self, blocks, vector, out):
         """``out`` <- the symmetric 2x2 ``blocks`` ("xx", "xy", "yy" per wavenumber: K_tt or its
         inverse) applied to the pair ``vector`` (each a (2, B, n^2) pair)."""
-        lib = self.library
-        with lib.on_device():
-            self._forward(vector, pair=True)
-            self._product(sbk.batch_spectral_tangential, [blocks["xx"], blocks["xy"], blocks["yy"], self.pair_spectra])
-            self._inverse_into(out, pair=True)
+        self._apply([(vector, True)], sbk.batch_spectral_tangential,
+                    [blocks["xx"], blocks["xy"], blocks["yy"], self.pair_spectra], [], out, True)
 
     def tangential(self, shear, disp, pressure=None):
         """``disp`` <- K_tt ``shear`` (each a (2, B, n^2) pair: x, y), plus K_tz ``pressure`` where given."""
@@ -378,12 +384,9 @@ class BatchElasticOperator:
             self._block_product(self._spectra, shear, disp)
             return
         s = self._spectra
-        with self.library.on_device():
-            self._forward(shear, pair=True)
-            self._forward(pressure, pair=False)
-            self._product(sbk.batch_spectral_tangential_coupled,
-                          [s["xx"], s["xy"], s["yy"], s["xz"], s["yz"], self.pressure_spectra, self.pair_spectra])
-            self._inverse_into(disp, pair=True)
+        self._apply([(shear, True), (pressure, False)], sbk.batch_spectral_tangential_coupled,
+                    [s["xx"], s["xy"], s["yy"], s["xz"], s["yz"], self.pressure_spectra, self.pair_spectra], [],
+                    disp, True)
 
     def tangential_inverse(self, gradient, out):
         """``out`` <- M ``gradient`` (each a (2, B, n^2) pair: x, y), M each row's circulant
@@ -394,18 +397,12 @@ class BatchElasticOperator:
     def cross_tangential(self, pressure, disp):
         """``disp`` (a (2, B, n^2) pair) <- K_tz p: the pressure's tangential displacement."""
         s = self._spectra
-        with self.library.on_device():
-            self._forward(pressure, pair=False)
-            self._product(sbk.batch_spectral_cross_tangential, [s["xz"], s["yz"], self.pressure_spectra],
-                          [self.pair_spectra])
-            self._inverse_into(disp, pair=True)
+        self._apply([(pressure, False)], sbk.batch_spectral_cross_tangential,
+                    [s["xz"], s["yz"], self.pressure_spectra], [self.pair_spectra], disp, True)
 
     def cross_normal(self, shear, disp_z):
         """disp_z <- K_zt q of ``shear`` (a (2, B, n^2) pair): the shear's normal displacement
         (K_zt = -K_tz in Fourier space: the kernels are odd)."""
         s = self._spectra
-        with self.library.on_device():
-            self._forward(shear, pair=True)
-            self._product(sbk.batch_spectral_cross_normal, [s["xz"], s["yz"], self.pair_spectra],
-                          [self.pressure_spectra])
-            self._inverse_into(disp_z, pair=False)
+        self._apply([(shear, True)], sbk.batch_spectral_cross_normal,
+                    [s["xz"], s["yz"], self.pair_spectra], [self.pressure_spectra], disp_z, False)
