@@ -169,7 +169,12 @@ def batched(cases: list, batch: int, own_checks: bool = False, plain_tangential:
     BatchContactSolver.tangential_preconditioned = not plain_tangential
     alone = []
     if own_checks:
-        batch_solve._yield_checks = lambda ended: {}
+        def own(ended, arrays):  # each case's state gets its row, for its own check at its end
+            for m in ended:
+                m.copy_fields(arrays)
+            return {}
+
+        batch_solve._yield_checks = own
 
     def counted(case, **kw):  # a case the batch handed back to be solved on its own
         alone.append(case)

@@ -22,6 +22,15 @@ def restrict_mean(fine: wp.array2d(dtype=Any), scale: Any, coarse: wp.array2d(dt
 
 
 @wp.kernel
+def restrict_mean_stack(fine: wp.array3d(dtype=Any), coarse: wp.array3d(dtype=Any)):
+    """coarse[k, I, J] <- the mean of the four fine cells it covers, layer by layer (``restrict_mean``
+    of a traction, for a stack of fields)."""
+    k, i, j = wp.tid()
+    total = fine[k, 2 * i, 2 * j] + fine[k, 2 * i, 2 * j + 1] + fine[k, 2 * i + 1, 2 * j] + fine[k, 2 * i + 1, 2 * j + 1]
+    coarse[k, i, j] = total / type(total)(4.0)
+
+
+@wp.kernel
 def restrict_status(fine: wp.array2d(dtype=wp.int32), coarse: wp.array2d(dtype=wp.int32)):
     """coarse[I, J] <- the largest status of the four fine cells (slip 2 over stick 1 over out of
     contact 0: a coarse cell slips where any of its cells slips)."""
@@ -168,7 +177,17 @@ def batch_copy_rows(source: wp.array2d(dtype=Any), rows: wp.array(dtype=wp.int32
         dest[case, k] = source[case, k]
 
 
-for _k in (crop, embed, support_box, closing_box, batch_support_box, batch_crop, batch_put_back, batch_copy_rows):
+@wp.kernel
+def gather_rows(source: wp.array2d(dtype=Any), rows: wp.array(dtype=wp.int32), layer: int, layers: int,
+                stack: wp.array2d(dtype=Any)):
+    """stack[layers c + layer] <- source[rows[c]]: case rows of a batch's field into every
+    ``layers``-th layer of a stack (a yield check's tractions, ``yielding.stacked_yield_checks``)."""
+    c, k = wp.tid()
+    stack[layers * c + layer, k] = source[rows[c], k]
+
+
+for _k in (crop, embed, support_box, closing_box, batch_support_box, batch_crop, batch_put_back, batch_copy_rows,
+           restrict_mean_stack, gather_rows):
     register_float_overloads(_k)
 for _k in (crop, embed):
     wp.overload(_k, [wp.array2d(dtype=wp.int32), int, int, wp.array2d(dtype=wp.int32)])

@@ -195,20 +195,40 @@ def test_solve_batch_makes_its_cases_checks_together(monkeypatch):
         warnings.simplefilter("ignore")
         alone = [wc.solve(d, fields="none") for d in cases]
         batches = []
-        together = yielding.batch_yield_checks
+        together = yielding.stacked_yield_checks
         monkeypatch.setattr(yielding, "checks_by_planes", lambda model: True)
-        seen = []  # (radius given, radius counted from the state's pressure)
+        seen = []  # (radius given, radius counted from the pressure the batch gathered)
 
-        def checks(states, friction=True, adhesion=True, radii=None):
-            batches.append(len(states))
-            seen.extend((r, contact_radius({"pressure": s.pressure.numpy()}, s.model.grid.cell_area))
-                        for s, r in zip(states, radii))
-            return together(states, friction, adhesion, radii)
+        def checks(pairs, grids, stack, loaded, radii):
+            batches.append(len(pairs))
+            seen.extend((r, contact_radius({"pressure": stack[3 * c].numpy()}, grids[c].cell_area))
+                        for c, r in enumerate(radii))
+            return together(pairs, grids, stack, loaded, radii)
 
-        monkeypatch.setattr(yielding, "batch_yield_checks", checks)
+        monkeypatch.setattr(yielding, "stacked_yield_checks", checks)
         batched = wc.solve_batch(cases, batch=3)
     assert batches == [1, 2]
     # the radii the batch gives (its summaries' contact_radius) are the pressure's own count
     assert len(seen) == 3 and all(given == counted > 0 for given, counted in seen), seen
     for b, a in zip(batched, alone):
+        assert_same(b.yield_check, a.yield_check, rel=1e-8, z_rel=1e-6)
+
+
+def test_solve_batch_checks_each_case_alone_where_the_evaluation_together_fails(monkeypatch):
+    """solve_batch with its checks by planes (forced on the CPU) whose evaluation together raises:
+    each case's rows are copied into its state at once and its own check made from them, the
+    check solve makes (within the batched fields' tolerance, as above)."""
+    cases = [case(64, 1.6e-7, dz, 2e-11) for dz in (1.5e-10, 1.0e-10)]
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        alone = [wc.solve(d, fields="none") for d in cases]
+        monkeypatch.setattr(yielding, "checks_by_planes", lambda model: True)
+
+        def refuse(*args):
+            raise RuntimeError("refused")
+
+        monkeypatch.setattr(yielding, "stacked_yield_checks", refuse)
+        batched = wc.solve_batch(cases, batch=2)
+    for b, a in zip(batched, alone):
+        assert np.isfinite(b.yield_check["sphere"]["von_mises_max"])
         assert_same(b.yield_check, a.yield_check, rel=1e-8, z_rel=1e-6)

@@ -32,6 +32,10 @@ class SolveInfo:
     history: list = field(default_factory=list)
 
 
+#: a state's fields up to this many bytes together are one allocation (``ContactState``)
+ONE_BLOCK_BYTES = 64 << 20
+
+
 class ContactState:
     """Fields of one state on the model's device, in the model's scaled units.
 
@@ -59,8 +63,16 @@ class ContactState:
         import warp as wp
 
         self.model = model
-        for name in self.FIELDS:
-            setattr(self, name, model.field())
+        layers = len(self.FIELDS)
+        if layers * model.n_cells * np.dtype(model.np_dtype).itemsize <= ONE_BLOCK_BYTES:
+            # one allocation for every field (a batch makes a state for each of hundreds of small
+            # cases): each field a view of its layer, its own contiguous (n, n) array
+            block = wp.zeros((layers, *model.grid.shape), dtype=model.dtype, device=model.device)
+            fields = [block[k] for k in range(layers)]
+        else:  # a large grid's fields each on its own: no single block of many GB to find
+            fields = [model.field() for _ in range(layers)]
+        for name, field in zip(self.FIELDS, fields):
+            setattr(self, name, field)
         #: cell status, int32 (n, n): 0 out of contact, 1 stick, 2 slip (kernels/tangential.py)
         self.status = wp.zeros(model.grid.shape, dtype=wp.int32, device=model.device)
         self.approach = (0.0, 0.0, 0.0)

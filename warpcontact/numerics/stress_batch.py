@@ -101,13 +101,14 @@ class PlaneStress:
         self.library.inverse(spectra.reshape((k, self.rows, self.cols)), padded)
         wp.launch(sbk.batch_crop, dim=(k, n * n), inputs=[padded, n], outputs=[fields.reshape((k, n * n))])
 
-    def maxima(self, pairs: list, tractions: list, planes: list) -> np.ndarray:
+    def maxima(self, pairs: list, stack, loaded: list, planes: list) -> np.ndarray:
         """The largest von Mises stress of each body at each plane: (len(planes), 2, 3) array of
         value [Pa], row and column of the cell (body order ``BODIES``; 0 for a rigid body).
 
-        ``pairs[c]``: case c's materials; ``tractions[c]``: its total (p, q_x, q_y) as (n, n) Warp
-        arrays on this device scaled by its E* (a ``ContactState``'s units), None for a zero one;
-        ``planes``: (case, depth in cells) each."""
+        ``pairs[c]``: case c's materials; ``stack``: the cases' total tractions, a (3 cases, n, n)
+        Warp array on this device, case c's (p, q_x, q_y) scaled by its E* (a ``ContactState``'s
+        units) in layers 3 c .. 3 c + 2; ``loaded[c]``: which of the three are loaded (an unloaded
+        one's layer is zero and takes no terms); ``planes``: (case, depth in cells) each."""
         import warp as wp
 
         out = np.zeros((len(planes), len(BODIES), 3))
@@ -115,29 +116,14 @@ class PlaneStress:
             return out
         try:
             with self.library.on_device(), wp.ScopedDevice(self.device):
-                self._maxima(tractions, pairs, planes, out)
+                traction_spectra = wp.empty((stack.shape[0] * self.rows, self.cols), dtype=self.vector)
+                self._forward(stack, traction_spectra)
+                for first in range(0, len(planes), self.chunk):
+                    part = planes[first:first + self.chunk]
+                    out[first:first + len(part)] = self._chunk(pairs, loaded, traction_spectra, part)
         finally:
             self.library.release(work=True)
         return out
-
-    def _maxima(self, tractions, pairs, planes, out):
-        """``maxima`` into ``out``, on the device and CuPy's stream there."""
-        import warp as wp
-
-        n, cases = self.n, len(tractions)
-        stack = wp.zeros((cases * 3, n, n), dtype=self.dtype)
-        flat = stack.flatten()
-        for c, loads in enumerate(tractions):
-            for k, t in enumerate(loads):
-                if t is not None:
-                    wp.copy(flat, t.flatten(), dest_offset=(3 * c + k) * n * n, count=n * n)
-        traction_spectra = wp.empty((cases * 3 * self.rows, self.cols), dtype=self.vector)
-        self._forward(stack, traction_spectra)
-        del stack, flat
-        loaded = [tuple(t is not None for t in loads) for loads in tractions]
-        for first in range(0, len(planes), self.chunk):
-            part = planes[first:first + self.chunk]
-            out[first:first + len(part)] = self._chunk(pairs, loaded, traction_spectra, part)
 
     def _chunk(self, pairs, loaded, traction_spectra, planes) -> np.ndarray:
         """``maxima`` of one chunk of planes, from the cases' traction spectra."""

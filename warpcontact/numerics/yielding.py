@@ -237,9 +237,10 @@ def _state_yield_check(state, friction: bool, adhesion: bool) -> dict:
     return _yield_check(m.pair, m.grid, totals, radius, m.device, m.dtype_name, m.fft_name)
 
 
-def _state_totals(state, friction: bool, adhesion: bool, radius: float | None = None) -> tuple:
+def _state_totals(state, friction: bool, adhesion: bool, radius: float | None = None, into=None) -> tuple:
     """((p, q_x, q_y) totals of a state on its device, scaled by E*, None for one left out; the
-    contact radius [m]: ``radius`` where given, else counted from the pressure read to the host)."""
+    contact radius [m]: ``radius`` where given, else counted from the pressure read to the host).
+    ``into``: three zeroed (n, n) arrays to make them in (a stack's layers); default: new ones."""
     import warp as wp
 
     from warpcontact.kernels import adhesion as ak
@@ -252,7 +253,7 @@ def _state_totals(state, friction: bool, adhesion: bool, radius: float | None = 
         if not (on or adhesion):
             totals.append(None)
             continue
-        total = m.field()
+        total = m.field() if into is None else into[len(totals)]
         if on:
             wp.copy(total, contact)
         if adhesion:
@@ -340,10 +341,8 @@ def _verdict(pair, depths, maxima) -> dict:
 
 def batch_yield_checks(states: list, friction: bool = True, adhesion: bool = True, radii=None) -> list[dict]:
     """:func:`state_yield_check` of many solved states of one grid size, device and float type,
-    made together: each pass's depths of every state in one evaluation
-    (``stress_batch.PlaneStress``; the half grid's in a second), so a batch of small cases
-    launches a few kernels and transforms where one case at a time launches hundreds. The same
-    depths, half grid and refinement as each state's own check, so the same answers to
+    made together (:func:`stacked_yield_checks` of their total tractions, copied into one stack).
+    The same depths, half grid and refinement as each state's own check, so the same answers to
     round-off. ``radii``: each state's contact radius [m] where known already (its summary's
     ``contact_radius``: the same count of cells with p > 0), so that no pressure is read to the
     host for it. Should the batched evaluation fail (a device's refusal, a library's error), each
@@ -355,57 +354,89 @@ def batch_yield_checks(states: list, friction: bool = True, adhesion: bool = Tru
 
 
 def _batch_yield_checks(states, friction, adhesion, radii) -> list[dict]:
+    import warp as wp
+
+    model = states[0].model
+    n = model.grid.n
+    stack = wp.zeros((3 * len(states), n, n), dtype=model.dtype, device=model.device)
+    loaded, found = [], []
+    for c, state in enumerate(states):
+        if _unchecked(state.model.pair) is not None:  # nothing to evaluate: no copy
+            loaded.append((False,) * 3)
+            found.append(0.0)
+            continue
+        layers = tuple(stack[3 * c + k] for k in range(3))
+        totals, radius = _state_totals(state, friction, adhesion, None if radii is None else radii[c], into=layers)
+        loaded.append(tuple(t is not None for t in totals))
+        found.append(radius)
+    return stacked_yield_checks([s.model.pair for s in states], [s.model.grid for s in states], stack, loaded, found)
+
+
+def stacked_yield_checks(pairs: list, grids: list, stack, loaded: list, radii: list) -> list[dict]:
+    """:func:`state_yield_check` of cases of one grid size from their total tractions on the device,
+    made together: each pass's depths of every case in one evaluation
+    (``stress_batch.PlaneStress``; the half grid's in a second, its tractions restricted from the
+    stack in one launch), so a batch of small cases launches a few kernels and transforms where one
+    case at a time launches hundreds. ``pairs[c]``: case c's materials; ``grids[c]``: its grid
+    (n cells per side, each its own domain); ``stack``: a (3 cases, n,
+    n) Warp array, case c's (p, q_x, q_y) scaled by its E* in layers 3 c .. 3 c + 2 (a batched
+    solve's rows gathered there, or states' tractions copied); ``loaded[c]``: which of the three
+    are loaded; ``radii[c]``: its contact radius [m]. Errors are raised (the callers fall back
+    to each case's own check)."""
+    import warp as wp
+
+    from warpcontact.kernels import grids as gk
+
     from .stress_batch import PlaneStress
 
-    checks: list = [None] * len(states)
-    cases = []  # (index, pair, grid, totals, radius, depths)
-    for i, state in enumerate(states):
-        pair = state.model.pair
-        checks[i] = _unchecked(pair)
-        if checks[i] is None:
-            totals, radius = _state_totals(state, friction, adhesion, None if radii is None else radii[i])
-            cases.append((i, pair, state.model.grid, totals, radius))
+    checks = [_unchecked(pair) for pair in pairs]
+    cases = [c for c, check in enumerate(checks) if check is None]
     if not cases:
         return checks
-    model = states[cases[0][0]].model
-    levels = {}  # grid level (fine, half) -> (PlaneStress, tractions of each case)
+    levels = {}  # grid level (False: fine, True: half) -> (PlaneStress, the cases' tractions)
+    n = grids[cases[0]].n
 
     def level(half: bool):
         if half not in levels:
-            n = model.grid.n // 2 if half else model.grid.n
-            totals = [c[3] if not half else _restricted(c[3]) if _has_half_grid(c[2], c[4]) else (None,) * 3
-                      for c in cases]
-            levels[half] = (PlaneStress(n, model.device, model.dtype), totals)
+            tractions, m = stack, n
+            if half:
+                m = n // 2
+                tractions = wp.empty((stack.shape[0], m, m), dtype=stack.dtype, device=stack.device)
+                wp.launch(gk.restrict_mean_stack, dim=tractions.shape, inputs=[stack], outputs=[tractions],
+                          device=stack.device)
+            levels[half] = (PlaneStress(m, stack.device, stack.dtype), tractions)
         return levels[half]
 
-    def maxima(depth_sets: list) -> list:
-        """Each case's {body: (len(depths), 3) value [Pa], x, y [m]} at its depths."""
-        out = [{name: np.zeros((len(d), 3)) for name in BODIES} for d in depth_sets]
+    def maxima(depth_sets: dict) -> dict:
+        """{case: {body: (len(depths), 3) value [Pa], x, y [m]}} at each case's depths."""
+        out = {c: {name: np.zeros((len(d), 3)) for name in BODIES} for c, d in depth_sets.items()}
         for half in (False, True):
             planes, where = [], []
-            for c, ((_, pair, grid, _, radius), depths) in enumerate(zip(cases, depth_sets)):
-                deep = _deep(depths, grid, _has_half_grid(grid, radius))
+            for c, depths in depth_sets.items():
+                grid = grids[c]
+                deep = _deep(depths, grid, _has_half_grid(grid, radii[c]))
                 g = _half_grid(grid) if half else grid
                 for k in np.flatnonzero(deep if half else ~deep):
                     planes.append((c, depths[k] / g.dx))
                     where.append((c, k, g))
             if not planes:
                 continue
-            stress, totals = level(half)
-            values = stress.maxima([c[1] for c in cases], totals, planes)
+            stress, tractions = level(half)
+            values = stress.maxima(pairs, tractions, loaded, planes)
             for (c, k, g), v in zip(where, values):
                 for b, name in enumerate(BODIES):
                     out[c][name][k] = (v[b, 0], g.x[int(v[b, 2])], g.y[int(v[b, 1])])
-        return [{name: m[name] for name in c[1].elastic} for m, c in zip(out, cases)]
+        return {c: {name: m[name] for name in pairs[c].elastic} for c, m in out.items()}
 
-    depths = [_first_depths(c[2], c[4]) for c in cases]
+    depths = {c: _first_depths(grids[c], radii[c]) for c in cases}
     first = maxima(depths)
-    more = [_midpoints(d, m) for d, m in zip(depths, first)]
+    more = {c: _midpoints(depths[c], first[c]) for c in cases}
     second = maxima(more)
-    for c, d, m, extra, m2 in zip(cases, depths, first, more, second):
-        if len(extra):
-            d, m = _merged(d, m, extra, m2)
-        checks[c[0]] = _verdict(c[1], d, m)
+    for c in cases:
+        d, m = depths[c], first[c]
+        if len(more[c]):
+            d, m = _merged(d, m, more[c], second[c])
+        checks[c] = _verdict(pairs[c], d, m)
     return checks
 
 
