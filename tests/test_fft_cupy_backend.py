@@ -90,3 +90,23 @@ def test_influence_spectra_on_the_device(pruned, dtype, shape):
     err = _rel_err(_backend_convolution(fft, field, kernel),
                    _numpy_dc_fft(field.astype(fft.np_real).astype(np.float64), kernel))
     assert err < _tol(dtype), err
+
+
+def test_batched_plans_past_their_limit_keep_the_latest_and_transform_alike():
+    """BatchedPlans with ``max_plans`` (the yield checks' library): past the limit the least
+    recently used plan is destroyed, and transforms through re-made plans equal numpy's rfft2 to
+    round-off (1e-12 relative in float64: the same transform, another order of sums)."""
+    import cupy
+
+    plans = cupy_backend.BatchedPlans(wp.get_stream("cuda:0").cuda_stream, max_plans=2)
+    rng = np.random.default_rng(3)
+    for m in (1, 2, 3, 1, 2):
+        real = rng.standard_normal((m, 16, 16))
+        spectra = cupy.empty((m, 16, 9), dtype=np.complex128)
+        with cupy.cuda.ExternalStream(wp.get_stream("cuda:0").cuda_stream):
+            plans.execute(True, cupy.asarray(real), spectra)
+        wp.synchronize_device("cuda:0")
+        want = np.fft.rfft2(real)
+        assert np.abs(spectra.get() - want).max() <= 1e-12 * np.abs(want).max()
+        assert len(plans._plans) <= 2
+    assert [key[1] for key in plans._plans] == [1, 2]

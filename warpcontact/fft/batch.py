@@ -60,9 +60,9 @@ class BatchLibrary:
     stack of zero-padded (2 n, 2 n) grids, whose (n, n) corner alone is data, and a stack of their
     (2 n, n + 1) spectra (complex numbers as 2-vectors), so an iteration allocates nothing and its
     products and padding are Warp kernels (``kernels/spectral_batch.py``) launched through
-    ``launches``."""
+    ``launches``. ``max_plans``: the cuFFT plans kept (``BatchedPlans``; None: every one)."""
 
-    def __init__(self, device):
+    def __init__(self, device, max_plans: int | None = None):
         self.device = wp.get_device(device)
         #: the products', padding's and cropping's launches, recorded once and replayed
         self.launches = LaunchCache(self.device)
@@ -86,7 +86,7 @@ class BatchLibrary:
         stream = wp.get_stream(self.device).cuda_stream
         self._stream = cupy.cuda.ExternalStream(stream, self.device.ordinal)
         #: the solves' transforms: cuFFT's 2-D plans of the padded grids, called directly
-        self._plans = cupy_backend.BatchedPlans(stream)
+        self._plans = cupy_backend.BatchedPlans(stream, max_plans)
 
     def forward(self, padded: wp.array, spectra: wp.array):
         """``spectra`` (rows, 2 n, n + 1) <- the transforms of the zero-padded grids ``padded``

@@ -48,6 +48,7 @@ import ctypes
 import ctypes.util
 import functools
 import os
+from collections import OrderedDict
 
 import numpy as np
 import warp as wp
@@ -326,18 +327,24 @@ class BatchedPlans:
 
     Args:
         stream: the CUDA stream (its handle) the transforms run on.
+        max_plans: the plans kept, the least recently used destroyed past it (the stream
+            synchronised first); None: every plan made (a solve's, whose captured graphs replay
+            them).
     """
 
-    def __init__(self, stream: int):
+    def __init__(self, stream: int, max_plans: int | None = None):
         self._lib = _cufft_library()
         self._stream = stream
-        self._plans: dict = {}  # (direction, m, n, double) -> (plan, work bytes)
+        self._max_plans = max_plans
+        self._plans: OrderedDict = OrderedDict()  # (direction, m, n, double) -> (plan, work bytes)
         self._work = []  # the work areas made, the current (largest) last
 
     def _plan(self, forward: bool, m: int, n: int, double: bool) -> tuple[int, int]:
         key = (forward, m, n, double)
         made = self._plans.get(key)
-        if made is None:
+        if made is not None:
+            self._plans.move_to_end(key)
+        else:
             lib = self._lib
             plan, size = ctypes.c_int(0), ctypes.c_size_t(0)
             _check(lib.cufftCreate(ctypes.byref(plan)), "cufftCreate")
@@ -352,6 +359,12 @@ class BatchedPlans:
                 lib.cufftDestroy(plan.value)
                 raise
             made = self._plans[key] = (plan.value, size.value)
+            if self._max_plans is not None and len(self._plans) > self._max_plans:
+                import cupy
+
+                cupy.cuda.runtime.streamSynchronize(self._stream)  # no transform of it still queued
+                while len(self._plans) > self._max_plans:
+                    self._lib.cufftDestroy(self._plans.popitem(last=False)[1][0])
         return made
 
     def execute(self, forward: bool, source, target):

@@ -28,6 +28,26 @@ CHUNK_BYTES = 1 << 30
 MAX_CHUNK_BYTES = 8 << 30
 
 
+#: the cuFFT plans the yield checks' library keeps (one per count of grids a transform takes: a
+#: stack's, a chunk's): a sweep's checks repeat a few counts, so its later checks make none
+CHECK_PLANS = 32
+_LIBRARIES: dict = {}  # (device alias, stream) -> the yield checks' BatchLibrary there
+
+
+def check_library(device):
+    """The batched FFT library the yield checks on ``device`` share (their plans kept across
+    checks, ``CHECK_PLANS`` at most)."""
+    from ..fft.batch import BatchLibrary
+
+    import warp as wp
+
+    key = (device.alias, wp.get_stream(device).cuda_stream if device.is_cuda else None)  # its plans run on it
+    library = _LIBRARIES.get(key)
+    if library is None:
+        library = _LIBRARIES[key] = BatchLibrary(device, max_plans=CHECK_PLANS)
+    return library
+
+
 class PlaneStress:
     """The von Mises maxima of each body at planes (case, depth) of cases on one n x n grid.
 
@@ -40,12 +60,11 @@ class PlaneStress:
     def __init__(self, n: int, device, dtype):
         import warp as wp
 
-        from ..fft.batch import BatchLibrary
         from .device import numpy_dtype
 
         self.n, self.dtype = int(n), dtype
         self.device = wp.get_device(device)
-        self.library = BatchLibrary(self.device)
+        self.library = check_library(self.device)
         self.np_dtype = numpy_dtype(dtype)
         self.vector = wp.vec2d if dtype == wp.float64 else wp.vec2f
         self.rows, self.cols = 2 * self.n, self.n + 1
