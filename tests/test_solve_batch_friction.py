@@ -76,8 +76,8 @@ def test_a_batch_of_friction_cases_gives_each_what_solve_gives(device):
     problem to a relative residual of 1e-10 and end their turns where the tractions change by
     less than 1e-8 a turn (the turns contract: what is left after the last is under that); the
     batch's tangential iteration does not carry its gradient as the single solver's does, so
-    their iterates differ, and the batch's run on windows of the contacts: measured 1.6e-10 at
-    most. On CUDA the cases' yield checks are made
+    their iterates differ, and the batch's run on windows of the contacts (the turns after a
+    step's first wholly on them): measured 1.6e-10 at most. On CUDA the cases' yield checks are made
     together (``batch_yield_checks``), with their shear."""
     from warpcontact.studies import batch_solve
 
@@ -86,7 +86,7 @@ def test_a_batch_of_friction_cases_gives_each_what_solve_gives(device):
 
     def placed(self, turning):
         window = place(self, turning)
-        windows.append(window.n)
+        windows.append(window.m)
         return window
 
     batch_solve.run_path = None  # a case handed back to be solved on its own would fail here
@@ -353,3 +353,29 @@ def test_table2_cells_searched_together_record_what_one_at_a_time_records(tmp_pa
         assert (a["converged"], a["states"], a["delta_x_max_um"]) == (b["converged"], b["states"], b["delta_x_max_um"])
         if a["mu"] is not None:
             assert abs(a["mu"] - b["mu"]) <= 2e-9
+
+
+def test_turns_on_a_window_that_cuts_the_contact_are_judged_on_the_whole_grid(monkeypatch):
+    """The turns after a step's first stay on the window of the first turn's contacts; a contact
+    that passes it is found by the step's normal solve on the whole grid (the pressure moves by
+    more than the turns' tolerance), and the case is solved again on its own. Forced here: a
+    window of 8 cells over a contact about 16 wide (the whole grid's turns are what they were:
+    only the window is forced). Each result is then solve's own (to 1e-9 of |F_z|, as above)."""
+    from warpcontact.solvers import contact_batch
+    from warpcontact.studies import batch_solve
+
+    own = batch_solve.run_path
+    alone = []
+
+    def counted(case, **kw):
+        alone.append(case)
+        return own(case, **kw)
+
+    monkeypatch.setattr(contact_batch, "window_cells", lambda extent, n: 8)
+    monkeypatch.setattr(batch_solve, "run_path", counted)
+    cases = MIXED[:2]
+    batched = quiet(wc.solve_batch, cases, device="cpu", batch=len(cases))
+    assert len(alone) == len(cases)
+    monkeypatch.undo()
+    for c, result in zip(cases, batched):
+        assert_same_path(result, quiet(wc.solve, c, device="cpu", fields="none"), rel=1e-9)

@@ -48,6 +48,12 @@ from .tangential_batch import BatchTangentialSolver
 from .turns import TURN_TOL_RATIO, TURN_TOL_START, ratio
 
 
+#: cells of room the turns' window leaves on every side of the contacts it holds: the contact
+#: of a later turn may pass the first turn's by a cell (the step's judgement on the whole grid
+#: then finds it: the case is solved again on its own)
+WINDOW_ROOM = 1
+
+
 def law_parameters(friction, traction_scale: float) -> tuple:
     """A case's row of ``batch_shear_limit``'s law parameters (``kernels/laws.py``) from its
     shear-limit law (``physics/friction.py``: Coulomb or Tabor-von Mises), strengths scaled by
@@ -55,6 +61,33 @@ def law_parameters(friction, traction_scale: float) -> tuple:
     if hasattr(friction, "mu_b"):
         return (int(lk.LAW_TABOR), friction.mu_b, friction.k_vm, friction.yield_strength / traction_scale)
     return (int(lk.LAW_COULOMB), friction.mu, 0.0, 0.0)
+
+
+class _TurnWindow:
+    """The turns' solvers on a window of ``m`` cells per side (``BatchContactSolver``): the
+    tangential solver with its operator, and a normal solver with the previous copies of the
+    turns' change (the turns after a step's first stay on the window)."""
+
+    def __init__(self, m: int, batch: int, device, dtype, pairs: list, preconditioned: bool):
+        self.m = m
+        self.operator = BatchElasticOperator(m, batch, device, dtype)
+        self.tangential = BatchTangentialSolver(self.operator, self.operator.set_pairs(pairs)[0], preconditioned)
+        self.normal = BatchNormalSolver(m, batch, device, dtype)
+        cells = (batch, m * m)
+        self.previous = [wp.zeros(cells, dtype=dtype, device=self.normal.device) for _ in range(3)]
+        self.change = wp.zeros((batch, 4), dtype=dtype, device=self.normal.device)
+
+    def set_pairs(self, pairs: list):
+        self.tangential.set_stiffness(self.operator.set_pairs(pairs)[0])
+
+
+def change_sums(normal: BatchNormalSolver, shear, previous: list, change) -> np.ndarray:
+    """Each row's change sums (``kernels/coupling.py``, ``batch_change_sums``) of ``normal``'s
+    pressure and ``shear`` (a (2, B, cells) pair) since ``previous`` (its copies: p, q_x, q_y,
+    updated)."""
+    change.zero_()
+    normal._reduce(ck.batch_change_sums, [normal.pressure, shear[0], shear[1]], [*previous, change])
+    return change.numpy().astype(np.float64)
 
 
 class BatchContactSolver:
@@ -108,7 +141,7 @@ class BatchContactSolver:
         self.pressure_cap = np.full(self.batch, np.finfo(np_dtype).max)
         self._np_dtype = np_dtype
         self._pairs: list = []
-        self._windows: OrderedDict = OrderedDict()  # cells per side -> BatchTangentialSolver
+        self._windows: OrderedDict = OrderedDict()  # cells per side -> _TurnWindow
         self._kept = None  # the rows' path state kept by ``keep``, made when first needed
 
     def set_cases(self, pairs: list, laws: list, pressure_caps: list):
@@ -117,7 +150,7 @@ class BatchContactSolver:
         self._pairs = list(pairs)
         _, self.coupled = self.operator.set_pairs(pairs)
         for window in self._windows.values():
-            window.set_stiffness(window.operator.set_pairs(pairs)[0])
+            window.set_pairs(pairs)
         rows = np.zeros((self.batch, lk.N_LAW_PARAMETERS))
         rows[: len(laws)] = laws
         self.laws.assign(rows.astype(self._np_dtype))
@@ -151,46 +184,84 @@ class BatchContactSolver:
         for src, dst in zip(sources, destinations):
             self.normal.launches.cells(gk.batch_copy_rows, [src, self.turning], [dst])
 
-    def _window(self, turning: np.ndarray) -> BatchTangentialSolver:
-        """The tangential solver of the window that holds the contact (shear limit > 0) of every
-        turning row, each row's origin placed over its own (``origins``); the whole grid where the
-        largest contact passes ``WINDOW_MAX_SHARE`` of it. One read of the device: the boxes."""
+    def _window(self, turning: np.ndarray) -> _TurnWindow:
+        """The window that holds the contact (p > 0) of every turning row with ``WINDOW_ROOM``
+        cells of room on every side (of a ``WINDOW_STEPS`` size), each row's origin placed over
+        its own contact (``origins``); the whole grid where the largest contact passes
+        ``WINDOW_MAX_SHARE`` of it. One read of the device: the boxes."""
         n = self.n
         self.boxes.assign(np.tile(np.array([n, -1, n, -1], dtype=np.int32), (self.batch, 1)))
-        self.normal.launches.launch(gk.batch_support_box, (self.batch, n), [self.shear_limit, n], [self.boxes])
+        self.normal.launches.launch(gk.batch_support_box, (self.batch, n), [self.normal.pressure, n], [self.boxes])
         boxes = self.boxes.numpy()
         rows = [r for r in np.flatnonzero(turning) if boxes[r, 1] >= 0]
         extent = max((max(boxes[r, 1] - boxes[r, 0], boxes[r, 3] - boxes[r, 2]) + 1 for r in rows), default=1)
-        cells = window_cells(extent, n) or n
+        cells = window_cells(extent + 2 * WINDOW_ROOM, n) or n
         origins = np.zeros((self.batch, 2), dtype=np.int32)
-        for r in rows:
+        for r in rows if cells < n else ():
             origins[r] = (window_origin(boxes[r, 0], boxes[r, 1], cells, n), window_origin(boxes[r, 2], boxes[r, 3], cells, n))
         self.origins.assign(origins)
+        return self._window_of(cells)
+
+    def _window_of(self, cells: int) -> _TurnWindow:
+        """The turns' window of ``cells`` per side (kept, ``WINDOW_CACHE`` sizes at most)."""
         window = self._windows.get(cells)
         if window is None:
-            operator = BatchElasticOperator(cells, self.batch, self.device, self.dtype)
-            stiffness = operator.set_pairs(self._pairs)[0]
-            window = self._windows[cells] = BatchTangentialSolver(operator, stiffness, self.tangential_preconditioned)
+            window = self._windows[cells] = _TurnWindow(cells, self.batch, self.device, self.dtype, self._pairs,
+                                                        self.tangential_preconditioned)
             while len(self._windows) > WINDOW_CACHE:
                 self._windows.popitem(last=False)
         self._windows.move_to_end(cells)
         return window
 
-    def _transfer(self, window: BatchTangentialSolver, turning: np.ndarray, back: bool = False):
-        """The turn's fields cut out of the whole grid into the ``window``'s (shear, statuses,
-        target, shear limit, known displacement), or (``back``) the window's shear and statuses
-        put back into the turning rows' whole grid."""
-        n, m, launches = self.n, window.n, self.normal.launches
-        pairs = [(self.shear[0], window.shear_x), (self.shear[1], window.shear_y), (self.status, window.status)]
-        if back:
-            self.turning.assign(turning.astype(np.int32))
-            for whole, part in pairs:
-                launches.cells(gk.batch_put_back, [part, m, self.origins, self.turning, n], [whole])
-            return
-        pairs += [(self.target[0], window.target_x), (self.target[1], window.target_y),
-                  (self.known[0], window.known_x), (self.known[1], window.known_y), (self.shear_limit, window.shear_limit)]
+    def _crop(self, pairs, window: _TurnWindow):
+        """Each row's window (at its origin) of the whole-grid fields into the window's: ``pairs``
+        of (whole, part) (B, cells) arrays."""
+        n, m = self.n, window.m
         for whole, part in pairs:
-            launches.launch(gk.batch_crop, (self.batch, m * m), [whole, n, self.origins, m], [part])
+            self.normal.launches.launch(gk.batch_crop, (self.batch, m * m), [whole, n, self.origins, m], [part])
+
+    def _put_back(self, pairs, window: _TurnWindow, rows: np.ndarray):
+        """The ``rows``' (booleans) windows of ``pairs`` of (whole, part) put back into their whole
+        grid, zero outside them."""
+        self.turning.assign(rows.astype(np.int32))
+        for whole, part in pairs:
+            self.normal.launches.cells(gk.batch_put_back, [part, window.m, self.origins, self.turning, self.n], [whole])
+
+    def _tangential_pairs(self, window: _TurnWindow) -> list:
+        """(whole, window) pairs of the turn's shear and statuses."""
+        t = window.tangential
+        return [(self.shear[0], t.shear_x), (self.shear[1], t.shear_y), (self.status, t.status)]
+
+    def _whole_turn(self, approach, turn_tol, max_iter, turning) -> tuple:
+        """A turn of the ``turning`` rows whose normal solve runs on the whole grid, its tangential
+        solve on the window that holds their contacts (``_window``; the whole grid where none
+        does). Returns the rows' normal and tangential ``SolveInfo`` lists, their change sums and
+        the window."""
+        normal = self.normal
+        self.operator.cross_normal(self.shear, normal.known)
+        normal_infos = normal.solve(approach[:, 2], turn_tol, max_iter, pressure_cap=self.pressure_cap, active=turning)
+        self._cells(lk.batch_shear_limit, [normal.pressure, self.laws], [self.shear_limit])
+        self.operator.cross_tangential(normal.pressure, self.known)
+        window = self._window(turning)
+        t = window.tangential
+        self._crop([*self._tangential_pairs(window), (self.target[0], t.target_x), (self.target[1], t.target_y),
+                    (self.known[0], t.known_x), (self.known[1], t.known_y), (self.shear_limit, t.shear_limit)], window)
+        tangential_infos = t.solve(turn_tol, max_iter, turning)
+        self._put_back(self._tangential_pairs(window), window, turning)
+        return normal_infos, tangential_infos, self._change_sums(), window
+
+    def _window_turn(self, window: _TurnWindow, approach, turn_tol, max_iter, turning) -> tuple:
+        """A turn of the ``turning`` rows on the ``window`` alone: K_zt q, the normal solve, the
+        shear limit, K_tz p and the tangential solve of the window's fields (the tractions lie
+        in it, zero outside). Returns the rows' normal and tangential ``SolveInfo`` lists and
+        their change sums."""
+        t, normal = window.tangential, window.normal
+        window.operator.cross_normal(t.shear, normal.known)
+        normal_infos = normal.solve(approach[:, 2], turn_tol, max_iter, pressure_cap=self.pressure_cap, active=turning)
+        normal.launches.cells(lk.batch_shear_limit, [normal.pressure, self.laws], [t.shear_limit])
+        window.operator.cross_tangential(normal.pressure, t.known)
+        tangential_infos = t.solve(turn_tol, max_iter, turning)
+        return normal_infos, tangential_infos, change_sums(normal, t.shear, window.previous, window.change)
 
     def _cells(self, kernel, inputs, outputs):
         self.normal.launches.cells(kernel, inputs, outputs)
@@ -198,10 +269,7 @@ class BatchContactSolver:
     def _change_sums(self) -> np.ndarray:
         """Each row's change sums of the pressure and the shear since the last call (the previous
         copies updated)."""
-        self.change.zero_()
-        self.normal._reduce(ck.batch_change_sums, [self.normal.pressure, self.shear[0], self.shear[1]],
-                            [*self.previous, self.change])
-        return self.change.numpy().astype(np.float64)
+        return change_sums(self.normal, self.shear, self.previous, self.change)
 
     def step(self, approach, tol, outer_tol, max_iter, max_turns: int, active) -> list:
         """Solve the rows where ``active`` at their rigid shifts ``approach`` ((rows, 3): delta_x,
@@ -226,19 +294,18 @@ class BatchContactSolver:
         change = np.full(rows, math.inf)
         turns_converged = np.zeros(rows, dtype=bool)
         solves_converged = np.zeros(rows, dtype=bool)
+        window, staying = None, False  # the turns' window; staying: the turns after the first stay on it
         while turning.any():
             turns[turning] += 1
             turn_tol = np.where(self.coupled, np.maximum(tol, np.minimum(TURN_TOL_START, TURN_TOL_RATIO * change)), tol)
-            self.operator.cross_normal(self.shear, normal.known)
-            normal_infos = normal.solve(approach[:, 2], turn_tol, max_iter, pressure_cap=self.pressure_cap,
-                                        active=turning)
-            self._cells(lk.batch_shear_limit, [normal.pressure, self.laws], [self.shear_limit])
-            self.operator.cross_tangential(normal.pressure, self.known)
-            window = self._window(turning)
-            self._transfer(window, turning)
-            tangential_infos = window.solve(turn_tol, max_iter, turning)
-            self._transfer(window, turning, back=True)
-            sums = self._change_sums()
+            if staying:
+                normal_infos, tangential_infos, sums = self._window_turn(window, approach, turn_tol, max_iter, turning)
+            else:
+                normal_infos, tangential_infos, sums, window = self._whole_turn(approach, turn_tol, max_iter, turning)
+                staying = window.m < self.n
+                if staying:  # the turns go on on the window: its normal solve's fields and the last turn's
+                    self._crop([(normal.initial_gap, window.normal.initial_gap), (normal.pressure, window.normal.pressure),
+                                *zip(self.previous, window.previous)], window)
             for row in np.flatnonzero(turning):
                 ni, ti = normal_infos[row], tangential_infos[row]
                 iterations[row] += ni.iterations + ti.iterations
@@ -250,9 +317,17 @@ class BatchContactSolver:
                     turning[row] = False
                 elif turns[row] >= max_turns:
                     turning[row] = False
+        if staying:  # the window's pressure, shear and statuses back into the whole grid, to be judged there
+            self._put_back([(normal.pressure, window.normal.pressure), *self._tangential_pairs(window)], window, active)
+            self._change_sums()  # the previous copies: the turns' answer
         # each row's gap and u_z against its final shear, then its whole u_t and its slip
         self.operator.cross_normal(self.shear, normal.known)
         final = normal.solve(approach[:, 2], tol, max_iter, pressure_cap=self.pressure_cap, active=active)
+        if staying:  # a contact that grew past the window: its turns are not the whole grid's answer
+            sums = self._change_sums()
+            moved = [ratio(sums[r, ck.CHANGE_PRESSURE], sums[r, ck.CHANGE_PRESSURE + 1]) >= outer_tol[r]
+                     for r in range(rows)]
+            turns_converged &= ~np.array(moved)
         self.operator.tangential(self.shear, self.disp, pressure=normal.pressure)
         self._cells(ck.batch_accumulate_slip, [self.disp[0], self.disp[1], self.shifts], [self.slip[0], self.slip[1]])
         infos = []
