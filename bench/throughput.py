@@ -19,7 +19,10 @@ size runs, side by side in one process:
 kernels and transforms launched once for its B cases; one warm-up batch first); a case whose
 batched step did not converge is solved on its own inside it (counted: ``solved_alone``).
 ``--plain-tangential`` adds, after them, the largest batch with the batched tangential solves'
-plain iteration and again with the preconditioned one (the default), side by side.
+plain iteration and again with the preconditioned one (the default), side by side. ``--parts``:
+the largest batch once more, each part timed with the device synchronised around it (the
+batched steps, the normal and tangential solves inside them, the yield checks), a table of its
+own.
 
 ``--problem gross-slip``: the coupled case's gross-slip search (``find_gross_slip``: 4 normal
 steps, then load and bisection steps, 14-18 states) at delta_z spread over 0.5 ... 1.5 x 1e-10 m:
@@ -196,6 +199,50 @@ def batched(cases: list, batch: int, own_checks: bool = False, plain_tangential:
             "cases": len(cases), "start_s": 0.0, "wall_s": wall, "solved_alone": len(alone)}
 
 
+def batched_parts(cases: list, batch: int) -> dict:
+    """``--parts``: ``solve_batch`` with batches of B cases (after a warm-up batch), each part timed
+    with the device synchronised before and after it: the batched steps (``BatchContactSolver.step``),
+    the normal and tangential solves inside them (every batched solver's ``solve``: the whole
+    grid's and the windows') and the yield checks made together. Seconds of each, and the whole."""
+    import warp as wp
+
+    import warpcontact as wc
+    from warpcontact.solvers import contact_batch, normal_batch, tangential_batch
+    from warpcontact.studies import batch_solve
+
+    seconds = {"steps": 0.0, "normal solves": 0.0, "tangential solves": 0.0, "yield checks": 0.0}
+    wrapped = [(contact_batch.BatchContactSolver, "step", "steps"),
+               (normal_batch.BatchNormalSolver, "solve", "normal solves"),
+               (tangential_batch.BatchTangentialSolver, "solve", "tangential solves"),
+               (batch_solve, "_yield_checks", "yield checks")]
+    originals = [getattr(owner, name) for owner, name, _ in wrapped]
+
+    def timed(f, part):
+        def run(*args, **kwargs):
+            wp.synchronize()
+            t0 = time.perf_counter()
+            try:
+                return f(*args, **kwargs)
+            finally:
+                wp.synchronize()
+                seconds[part] += time.perf_counter() - t0
+        return run
+
+    wc.solve_batch(cases[:batch], batch=batch)  # warm-up: kernels, plans of this batch size
+    for (owner, name, part), f in zip(wrapped, originals):
+        setattr(owner, name, timed(f, part))
+    try:
+        wp.synchronize()
+        t0 = time.perf_counter()
+        wc.solve_batch(cases, batch=batch)
+        wp.synchronize()
+        seconds["whole"] = time.perf_counter() - t0
+    finally:
+        for (owner, name, _), f in zip(wrapped, originals):
+            setattr(owner, name, f)
+    return seconds
+
+
 def slip_cases(n: int, cases: int, device: str, dtype: str) -> list:
     """``--problem gross-slip``: the coupled case's pair and law, the gross-slip search at
     delta_z spread over 0.5 ... 1.5 x DZ (4 normal steps, then the load and bisection steps)."""
@@ -274,6 +321,9 @@ def main(argv=None):
                     help="add run_sweep of the cases, one at a time and batched (--problem normal)")
     ap.add_argument("--plain-tangential", action="store_true",
                     help="coupled: add rows of the largest batch with the batched tangential solves' plain iteration")
+    ap.add_argument("--parts", action="store_true",
+                    help="coupled: the largest batch once more with its parts timed (steps, normal and tangential "
+                         "solves, yield checks; the device synchronised around each)")
     ap.add_argument("--out", default="bench_results/throughput")
     args = ap.parse_args(argv)
     if any(w < 2 for w in args.workers):
@@ -284,7 +334,7 @@ def main(argv=None):
     out_dir = Path(args.out)
     out_dir.mkdir(parents=True, exist_ok=True)
     log = out_dir / f"throughput_{args.device.replace(':', '')}_{time.strftime('%Y%m%d_%H%M%S')}.jsonl"
-    rows = []
+    rows, parts = [], []
     for n in args.sizes:
         if args.problem == "gross-slip":
             cases = slip_cases(n, args.cases, args.device, args.dtype)
@@ -318,6 +368,8 @@ def main(argv=None):
                     runs += [batched(cases, max(args.batches), plain_tangential=True), batched(cases, max(args.batches))]
                 if args.own_checks:
                     runs.append(one_at_a_time(cases, own_checks=True))
+                if args.parts and args.batches:
+                    parts.append((n, max(args.batches), batched_parts(cases, max(args.batches))))
             finally:
                 shutil.rmtree(folder, ignore_errors=True)
         for r in runs:
@@ -333,6 +385,12 @@ def main(argv=None):
     for r in rows:
         print(f"| {r['n']} | {r['placement']} | {r['cases']} | {r['wall_s']:.2f} | {r['start_s']:.1f} | "
               f"{r['cases_per_s']:.1f} | {r['ratio']:.2f}x | {r.get('solved_alone', '-')} |")
+    if parts:
+        names = list(parts[0][2])
+        print("\n| n | batch | " + " | ".join(f"{k} [s]" for k in names) + " |")
+        print("|---|---|" + "---|" * len(names))
+        for n, batch, seconds in parts:
+            print(f"| {n} | {batch} | " + " | ".join(f"{seconds[k]:.2f}" for k in names) + " |")
     print(f"\n({args.device}, {args.dtype}, {args.problem}; one JSON line a row: {log})")
 
 

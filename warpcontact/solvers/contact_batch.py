@@ -14,13 +14,17 @@ one turn at full tolerance. A case that has ended stops changing while the other
 step ends with a normal solve against each case's final shear (its gap and u_z) and its slip
 s = delta - (K_tt q + K_tz p).
 
-The tangential solves run on a window of the grid that holds every turning case's contact (the
-cells where its shear limit is above zero), each case's window placed over its own contact: the
-shear is zero outside the contact, so the problem on the window is the same problem (the single
-solver's ``SolverSettings.window``), and its transforms are of (2 m)^2 entries instead of
-(2 n)^2 (a contact half the domain wide: a quarter). A batch of many cases is bound by the
-device's work, where the window pays (one H200, 256 cases at n = 128: 94 cases/s on windows, 68
-on the whole grid).
+The turns run on a window of the grid that holds every turning case's contact (the cells where
+its pressure is above zero, with ``WINDOW_ROOM`` cells around), each case's window placed over its
+own contact: the tractions are zero outside the contact, so the problem on the window is the same
+problem (the single solver's ``SolverSettings.window`` and ``window_turns``), and its transforms
+are of (2 m)^2 entries instead of (2 n)^2 (a contact half the domain wide: a quarter). A step's
+first turn solves the normal problem on the whole grid and places the window; its tangential
+solve and every later turn run on the window alone; the step's final normal solve, on the whole
+grid, judges the turns: a case whose pressure it moves by ``outer_tol`` or more (a contact that
+grew past the window) is reported as not converged. A batch of many cases is bound by the
+device's work, where the window pays (docs/performance.md, "Many cases with friction solved
+together").
 
 What the single solver adds for hard cases (the Anderson mixing of turns that stall, the
 minimised turns of adhesion, the nested start and the window of large grids) is not here: a case
@@ -325,9 +329,9 @@ class BatchContactSolver:
         final = normal.solve(approach[:, 2], tol, max_iter, pressure_cap=self.pressure_cap, active=active)
         if staying:  # a contact that grew past the window: its turns are not the whole grid's answer
             sums = self._change_sums()
-            moved = [ratio(sums[r, ck.CHANGE_PRESSURE], sums[r, ck.CHANGE_PRESSURE + 1]) >= outer_tol[r]
-                     for r in range(rows)]
-            turns_converged &= ~np.array(moved)
+            for row in np.flatnonzero(active):
+                if ratio(sums[row, ck.CHANGE_PRESSURE], sums[row, ck.CHANGE_PRESSURE + 1]) >= outer_tol[row]:
+                    turns_converged[row] = False
         self.operator.tangential(self.shear, self.disp, pressure=normal.pressure)
         self._cells(ck.batch_accumulate_slip, [self.disp[0], self.disp[1], self.shifts], [self.slip[0], self.slip[1]])
         infos = []
