@@ -504,6 +504,21 @@ def tangential_direction_rest(
             dir_y[cell] = beta - beta
 
 
+@wp.func
+def carried_cell(status: int, q_max: Any, qx: Any, qy: Any, gx: Any, gy: Any, tx: Any, ty: Any, rx: Any, ry: Any,
+                 tau: Any, tau_release: Any, release: bool, stiffness: Any):
+    """One contact cell's step of the preconditioned iteration with g carried
+    (``tangential_carried_update``): ``disk_step``, then g <- g - tau K t (K t: ``rx``, ``ry``),
+    and the new iterate's shares of the sums (``residual_terms``). Returns (q_x, q_y, g_x, g_y),
+    the new status, and (what the projection changed, the shares of S_G, S_VIOL and
+    S_REVERSAL)."""
+    q, new, change = disk_step(status, qx, qy, gx, gy, tx, ty, q_max, tau, tau_release, release)
+    gx_new = gx - tau * rx
+    gy_new = gy - tau * ry
+    dg, dv, dr = residual_terms(gx_new, gy_new, q[0], q[1], q_max, new, stiffness)
+    return wp.vector(q[0], q[1], gx_new, gy_new), new, wp.vector(change, dg, dv, dr)
+
+
 @wp.kernel
 def tangential_carried_update(
     dir_x: wp.array(dtype=Any),
@@ -557,25 +572,25 @@ def tangential_carried_update(
                 rx = resp_x[i]
                 ry = resp_y[i]
                 if not done:
-                    q, new, change = disk_step(st, qx, qy, gx, gy, tx, ty, q_max, tau, tau_release, release)
-                    qx = q[0]
-                    qy = q[1]
-                    corrected += change
-                    gx = gx - tau * rx
-                    gy = gy - tau * ry
-                    shear_x[i] = qx
-                    shear_y[i] = qy
-                    grad_x[i] = gx
-                    grad_y[i] = gy
+                    fields, new, terms = carried_cell(st, q_max, qx, qy, gx, gy, tx, ty, rx, ry, tau, tau_release,
+                                                      release, stiffness)
+                    shear_x[i] = fields[0]
+                    shear_y[i] = fields[1]
+                    grad_x[i] = fields[2]
+                    grad_y[i] = fields[3]
                     if new != st:
                         status[i] = new
                         if new == STICK:
                             released += type(zero)(1.0)
-                        st = new
-                dg, dv, dr = residual_terms(gx, gy, qx, qy, q_max, st, stiffness)
-                s_g += dg
-                s_viol += dv
-                s_reversal += dr
+                    corrected += terms[0]
+                    s_g += terms[1]
+                    s_viol += terms[2]
+                    s_reversal += terms[3]
+                else:
+                    dg, dv, dr = residual_terms(gx, gy, qx, qy, q_max, st, stiffness)
+                    s_g += dg
+                    s_viol += dv
+                    s_reversal += dr
     block_add(sums, S_RELEASED, released)
     # slots S_CORRECTION, S_NEXT_G, S_NEXT_VIOL, S_NEXT_REVERSAL (consecutive)
     block_add_vector(sums, S_CORRECTION, wp.vector(corrected, s_g, s_viol, s_reversal), lane)

@@ -26,18 +26,21 @@ import warp as wp
 from .normal_batch import case_ended
 from .overloads import register_float_overloads
 from .reduce import (
-    Cells, C_DELTA, C_G_OLD, C_ITER, P_MAX_ITER, P_TOL, S_G, S_GT, S_RESTART,
+    Cells, C_DELTA, C_G_OLD, C_ITER, P_MAX_ITER, P_TOL, S_G, S_GT, S_RESTART, S_RHS, S_VIOL,
     block_add, block_add_vector, cell_index, cg_converged, cg_step_length, conjugacy,
 )
 from .tangential import (
-    N_SUMS, OUT, S_STICK, SLIP, STICK, classify_cell, disk_step, gradient_cell, may_release, plain_direction,
+    N_SUMS, N_SUMS_PRECONDITIONED, OUT, S_CORRECTION, S_NEXT_G, S_NEXT_REVERSAL, S_NEXT_VIOL, S_REVERSAL, S_STICK,
+    SLIP, STICK, carried_cell, classify_cell, disk_step, gradient_cell, may_release, plain_direction, residual_terms,
     slip_direction, step_terms,
 )
 
 wp.set_module_options({"enable_backward": False})
 
-#: ``batch_tangential_advance``'s count (``flags``): cases still active
+#: ``batch_tangential_advance``'s counts (``flags``): cases still active, cases whose next
+#: iteration must start from an exact g (``batch_tangential_carried_advance``)
 F_ACTIVE = wp.constant(0)
+F_EXACT = wp.constant(1)
 
 
 @wp.kernel
@@ -257,7 +260,113 @@ def batch_tangential_advance(sums: wp.array2d(dtype=Any), parameters: wp.array2d
         sums[case, slot] = zero
 
 
+@wp.kernel
+def batch_tangential_carried_update(dir_x: wp.array2d(dtype=Any), dir_y: wp.array2d(dtype=Any),
+                                    resp_x: wp.array2d(dtype=Any), resp_y: wp.array2d(dtype=Any),
+                                    shear_limit: wp.array2d(dtype=Any), stiffness: wp.array(dtype=Any),
+                                    parameters: wp.array2d(dtype=Any), active: wp.array(dtype=wp.int32),
+                                    cells: Cells, shear_x: wp.array2d(dtype=Any), shear_y: wp.array2d(dtype=Any),
+                                    status: wp.array2d(dtype=wp.int32), grad_x: wp.array2d(dtype=Any),
+                                    grad_y: wp.array2d(dtype=Any), sums: wp.array2d(dtype=Any)):
+    """The projected step of each active case with g carried (the single solver's
+    ``tangential_carried_update``, ``carried_cell`` a cell): g <- g - tau K t, what the
+    projections changed into S_CORRECTION, the new iterate's S_G, S_VIOL and S_REVERSAL into
+    S_NEXT_G, S_NEXT_VIOL and S_NEXT_REVERSAL, the released cells into S_RESTART. A case whose
+    iterate already meets its tolerance is not stepped (its sums are its iterate's); a case not
+    active is left as it is."""
+    case, block, lane = wp.tid()
+    thread = block * wp.block_dim() + lane
+    row = sums[case]
+    tol = parameters[case, P_TOL]
+    zero = tol - tol
+    if active[case] != 0:
+        k_self = stiffness[case]
+        tau = cg_step_length(row)
+        tau_release = wp.where(tau > zero, tau, type(zero)(1.0) / k_self)
+        done = cg_converged(row, tol)
+        release = may_release(row, tol)
+        released = zero
+        terms = wp.vector(zero, zero, zero, zero)  # S_CORRECTION, S_NEXT_G, S_NEXT_VIOL, S_NEXT_REVERSAL
+        for k in range(cells.per):
+            i = cell_index(thread, cells, k)
+            if i < cells.n:
+                st = status[case, i]
+                if st != OUT:
+                    q_max = shear_limit[case, i]
+                    qx = shear_x[case, i]
+                    qy = shear_y[case, i]
+                    gx = grad_x[case, i]
+                    gy = grad_y[case, i]
+                    if done:
+                        dg, dv, dr = residual_terms(gx, gy, qx, qy, q_max, st, k_self)
+                        terms += wp.vector(zero, dg, dv, dr)
+                    else:
+                        fields, new, cell = carried_cell(st, q_max, qx, qy, gx, gy, dir_x[case, i], dir_y[case, i],
+                                                         resp_x[case, i], resp_y[case, i], tau, tau_release, release,
+                                                         k_self)
+                        shear_x[case, i] = fields[0]
+                        shear_y[case, i] = fields[1]
+                        grad_x[case, i] = fields[2]
+                        grad_y[case, i] = fields[3]
+                        if new != st:
+                            status[case, i] = new
+                            if new == STICK:
+                                released += type(zero)(1.0)
+                        terms += cell
+        block_add(row, S_RESTART, released)
+        block_add_vector(row, S_CORRECTION, terms, lane)
+
+
+@wp.kernel
+def batch_tangential_carried_advance(sums: wp.array2d(dtype=Any), parameters: wp.array2d(dtype=Any),
+                                     restart_every: int, exact_every: int, column_norm: wp.array(dtype=Any),
+                                     deferral: Any, scalars: wp.array2d(dtype=Any), active: wp.array(dtype=wp.int32),
+                                     deferred: wp.array(dtype=Any), flags: wp.array(dtype=wp.int32)):
+    """One thread a case, end of an iteration with g carried: as ``batch_tangential_advance``
+    (a case whose iterate, the one the iteration started from, meets its tolerance, reached its
+    limit or is not finite stops; the conjugacy carried or restarted), then the stepped iterate's
+    sums with the carried g become the next iteration's (S_NEXT_G, S_NEXT_VIOL, S_NEXT_REVERSAL
+    into S_G, S_VIOL, S_REVERSAL; S_RHS kept; the rest zeroed), and an active case counts in
+    ``flags[F_EXACT]`` (zeroed before) where its next iteration must start from an exact g, as
+    the single solver's ``tangential_advance`` decides: after a released cell, every
+    ``exact_every`` iterations, and where ``column_norm`` (the row's bound on ||K c||_2 /
+    ||c||_1) times what the projections changed since the last exact g (``deferred``) passes
+    ``deferral`` times the violation the iteration started from. A case stops on its carried
+    residual; the solver judges it on its exact g (``BatchTangentialSolver.solve``)."""
+    case = wp.tid()
+    zero = sums[case, S_G] - sums[case, S_G]
+    viol = sums[case, S_VIOL]
+    released = sums[case, S_RESTART]
+    missed = deferred[case] + sums[case, S_CORRECTION]
+    next_g = sums[case, S_NEXT_G]
+    next_viol = sums[case, S_NEXT_VIOL]
+    next_reversal = sums[case, S_NEXT_REVERSAL]
+    if active[case] != 0:
+        if case_ended(sums[case], parameters[case], scalars[case]):
+            active[case] = 0
+        else:
+            done = int(scalars[case, C_ITER]) + 1
+            scalars[case, C_G_OLD] = wp.where(restart_every > 0 and done % restart_every == 0, zero, sums[case, S_G])
+            scalars[case, C_DELTA] = wp.where(released > zero, zero, type(zero)(1.0))
+            scalars[case, C_ITER] = type(zero)(done)
+            bound = column_norm[case] * missed
+            deferred[case] = missed
+            if done >= int(parameters[case, P_MAX_ITER]):
+                active[case] = 0  # its last iteration: its residual is the solve's final exact g's
+            else:
+                if released > zero or bound * bound > deferral * deferral * viol or done % exact_every == 0:
+                    wp.atomic_add(flags, F_EXACT, 1)
+                wp.atomic_add(flags, F_ACTIVE, 1)
+    for slot in range(N_SUMS_PRECONDITIONED):
+        if slot != S_RHS:
+            sums[case, slot] = zero
+    sums[case, S_G] = next_g
+    sums[case, S_VIOL] = next_viol
+    sums[case, S_REVERSAL] = next_reversal
+
+
 for _k in (batch_tangential_classify, batch_tangential_residual, batch_tangential_direction,
            batch_stick_gradient, batch_stick_energy, batch_tangential_direction_preconditioned,
-           batch_tangential_step_sums, batch_tangential_update, batch_tangential_advance):
+           batch_tangential_step_sums, batch_tangential_update, batch_tangential_advance,
+           batch_tangential_carried_update, batch_tangential_carried_advance):
     register_float_overloads(_k)

@@ -3,6 +3,7 @@ searches): each case's result is what ``warpcontact.solve`` (its own search) giv
 the batch around it."""
 
 import warnings
+from dataclasses import replace
 
 import numpy as np
 import pytest
@@ -75,8 +76,9 @@ def test_a_batch_of_friction_cases_gives_each_what_solve_gives(device):
     1e-9 of |F_z| of solve's, the contact and stick areas identical. Both solve each inner
     problem to a relative residual of 1e-10 and end their turns where the tractions change by
     less than 1e-8 a turn (the turns contract: what is left after the last is under that); the
-    batch's tangential iteration does not carry its gradient as the single solver's does, so
-    their iterates differ, and the batch's run on windows of the contacts (the turns after a
+    batch's tangential iteration makes its gradient exact at other iterations than the single
+    solver's (every row's at once where any case asks), so their iterates differ, and the batch's
+    run on windows of the contacts (the turns after a
     step's first wholly on them): measured 1.6e-10 at most. On CUDA the cases' yield checks are made
     together (``batch_yield_checks``), with their shear."""
     from warpcontact.studies import batch_solve
@@ -378,4 +380,39 @@ def test_turns_on_a_window_that_cuts_the_contact_are_judged_on_the_whole_grid(mo
     assert len(alone) == len(cases)
     monkeypatch.undo()
     for c, result in zip(cases, batched):
+        assert_same_path(result, quiet(wc.solve, c, device="cpu", fields="none"), rel=1e-9)
+
+
+def test_cases_judged_unconverged_on_their_exact_gradient_go_on_from_it(monkeypatch):
+    """The batched tangential solve carries its gradient; a case stops where the carried one meets
+    its tolerance and is judged on its exact one, going on from it where they disagree. Forced
+    here: the first judgement of every solve says the first row has not converged, so every
+    solve resumes from its exact gradient (one more launch each); the answers are unchanged (to
+    1e-9 of |F_z|, as above) and every solve ends converged."""
+    from warpcontact.solvers import tangential_batch
+
+    judged = tangential_batch.row_infos
+    calls = {"judged": 0, "resumed": 0}
+
+    def once_unconverged(solver, active, tol):
+        infos = judged(solver, active, tol)
+        calls["judged"] += 1
+        if calls["judged"] % 2 == 1 and active[0]:  # a solve's first judgement: row 0 said unconverged
+            infos[0] = replace(infos[0], converged=False)
+        return infos
+
+    resumed = tangential_batch.BatchTangentialSolver._resumed
+
+    def counted(self):
+        calls["resumed"] += 1
+        return resumed(self)
+
+    monkeypatch.setattr(tangential_batch, "row_infos", once_unconverged)
+    monkeypatch.setattr(tangential_batch.BatchTangentialSolver, "_resumed", counted)
+    cases = MIXED[:2]
+    batched = quiet(wc.solve_batch, cases, device="cpu", batch=len(cases))
+    assert calls["resumed"] > 0 and calls["judged"] == 2 * calls["resumed"]
+    monkeypatch.undo()
+    for c, result in zip(cases, batched):
+        assert all(s["converged"] for s in result.states)
         assert_same_path(result, quiet(wc.solve, c, device="cpu", fields="none"), rel=1e-9)

@@ -253,6 +253,18 @@ def tangential_influence(pair, n: int) -> tuple[dict, float]:
 
 
 @functools.lru_cache(maxsize=8)
+def tangential_column_norm(pair, n: int) -> float:
+    """A bound on the 2-norm of the tangential displacements one cell's unit shear (any direction)
+    causes over the padded grid, scaled units (``ElasticOperator.tangential_column_norm`` of the
+    pair on an n x n grid of square cells): sqrt(|K_xx|^2 + 2 |K_xy|^2 + |K_yy|^2)."""
+    from ..physics.influence import influence_coefficients
+
+    c = influence_coefficients(pair, n, n, 1.0, 1.0)
+    norms = {k: float(np.linalg.norm(c[k])) * pair.E_star for k in ("xx", "xy", "yy")}
+    return float(np.sqrt(norms["xx"] ** 2 + 2.0 * norms["xy"] ** 2 + norms["yy"] ** 2))
+
+
+@functools.lru_cache(maxsize=8)
 def tangential_inverse_blocks(pair, n: int) -> dict:
     """The tangential solver's preconditioner of a material pair on an n x n grid: per wavenumber
     of the padded grid the inverse of K_tt's 2x2 block [[xx, xy], [xy, yy]]
@@ -309,6 +321,7 @@ class BatchElasticOperator:
         self._spectra: dict = {}
         self._inverse: dict = {}
         self._pairs: tuple = ()
+        self.column_norms = np.zeros(self.batch)
 
     def set_pairs(self, pairs: list) -> tuple[np.ndarray, np.ndarray]:
         """Give rows 0 .. len(pairs) - 1 the pairs ``pairs`` (the rows after them the last one).
@@ -330,6 +343,8 @@ class BatchElasticOperator:
             self._spectra = {k: stack([s[k] for s in spectra], np.imag if k in ("xz", "yz") else np.real)
                              for k in spectra[0]}
             self._inverse = {k: stack([s[k] for s in inverses], np.real) for k in inverses[0]}
+            #: each row's bound on ||K_tt c||_2 / ||c||_1 (``tangential_column_norm``)
+            self.column_norms = np.array([tangential_column_norm(p, self.n) for p in pairs])
         return (np.array([tangential_influence(p, self.n)[1] for p in pairs]),
                 np.array([p.D != 0.0 for p in pairs]))
 

@@ -12,12 +12,20 @@ host waits once a solve); elsewhere the host reads that count each iteration.
 Preconditioned (the default, as the single solver): the direction is built from z = M g on the
 stick cells, M each case's circulant inverse of K_tt (its pair's 2x2 blocks per wavenumber,
 floored as the single solver floors them), and the Jacobi-scaled tangent part of g on slip
-cells. Unlike the single solver, g is not carried: an iteration makes K q (the exact g), M g and
-K t, three batched transform pairs, where the plain iteration (Chen & Wang's Jacobi scaling,
-``preconditioned=False``) makes two but takes about twice the iterations.
+cells, and g is carried (g <- g - tau K t): an iteration makes M g and K t, two batched transform
+pairs, and K q (the exact g, a third) only where a case asks for it, for every row at once: after
+a released cell, every ``EXACT_EVERY`` iterations and where the bound on what its carried g
+misses passes ``DEFERRAL`` of its violation, as the single solver decides. A case stops where its
+carried g meets its tolerance; after the loop every row's g is made exact and judged, and the
+cases it does not agree with go on from it (``RESUMES`` times at most), as the single solver's
+settled loop does.
+The plain iteration (Chen & Wang's Jacobi scaling, ``preconditioned=False``) makes K q and K t
+from the exact g each iteration and takes about twice the iterations.
 """
 
 from __future__ import annotations
+
+import math
 
 import numpy as np
 import warp as wp
@@ -29,10 +37,14 @@ from warpcontact.kernels import tangential_batch as tbk
 from ..fft.batch import BatchElasticOperator
 from ..numerics.device import numpy_dtype
 from ..numerics.launch import BatchLaunches, CapturedGraphs, graphs_supported
-from .normal_batch import row_infos
+from .normal_batch import DEFERRAL, EXACT_EVERY, row_infos
 
 #: iterations between restarts of the conjugacy (the single solver's ``restart_every``)
 RESTART_EVERY = 100
+#: times a solve goes on from the exact g of cases that stopped on their carried g where the exact
+#: one does not meet the tolerance (the single solver's disagreements); past them such a case is
+#: reported as not converged
+RESUMES = 3
 
 
 class BatchTangentialSolver:
@@ -82,12 +94,19 @@ class BatchTangentialSolver:
         self.target_x, self.target_y, self.shear_limit, self.grad_x, self.grad_y = (field() for _ in range(5))
         self.status = wp.zeros(cells, dtype=wp.int32, device=self.device)
         self.stiffness = wp.array(np.asarray(stiffness, dtype=self.np_dtype), device=self.device)
-        self.sums = wp.zeros((self.batch, tk.N_SUMS), dtype=self.dtype, device=self.device)
+        slots = tk.N_SUMS_PRECONDITIONED if self.preconditioned else tk.N_SUMS
+        self.sums = wp.zeros((self.batch, slots), dtype=self.dtype, device=self.device)
+        #: each row's L1 change by projections since its last exact g (scaled), and its bound on
+        #: ||K_tt c||_2 / ||c||_1 (its pair's: ``BatchElasticOperator.column_norms``)
+        self.deferred = wp.zeros(self.batch, dtype=self.dtype, device=self.device)
+        self.column_norm = wp.array(np.asarray(operator.column_norms, dtype=self.np_dtype), device=self.device)
         self.scalars = wp.zeros((self.batch, rk.N_SCALARS), dtype=self.dtype, device=self.device)
         self.parameters = wp.zeros((self.batch, rk.N_PARAMETERS), dtype=self.dtype, device=self.device)
         self.residual = wp.zeros(self.batch, dtype=self.dtype, device=self.device)
         self.active = wp.zeros(self.batch, dtype=wp.int32, device=self.device)
-        self.flags = wp.zeros(1, dtype=wp.int32, device=self.device)
+        self.flags = wp.zeros(2, dtype=wp.int32, device=self.device)
+        #: the counts as the device loop's conditions
+        self._going, self._exact = self.flags[tbk.F_ACTIVE:tbk.F_ACTIVE + 1], self.flags[tbk.F_EXACT:tbk.F_EXACT + 1]
         #: the launches, recorded once and replayed
         self.launches = BatchLaunches(self.batch, self.n_cells, self.device)
         #: a solve's device work as a CUDA graph (where conditional nodes are supported), captured
@@ -97,8 +116,10 @@ class BatchTangentialSolver:
         self._cells, self._reduce, self._cases = self.launches.cells, self.launches.reduce, self.launches.cases
 
     def set_stiffness(self, stiffness):
-        """Each row's self-influence of K_tt (its pair's: ``BatchElasticOperator.set_pairs``)."""
+        """Each row's self-influence of K_tt (its pair's: ``BatchElasticOperator.set_pairs``), and
+        its column norm (the operator's, set with it)."""
         self.stiffness.assign(np.asarray(stiffness, dtype=self.np_dtype))
+        self.column_norm.assign(np.asarray(self.operator.column_norms, dtype=self.np_dtype))
 
     # -- the solve ------------------------------------------------------------------------------
     def solve(self, tol, max_iter, active) -> list:
@@ -114,7 +135,17 @@ class BatchTangentialSolver:
         self.parameters.assign(parameters.astype(self.np_dtype))
         self.active.assign(active.astype(np.int32))
         self.graphs.launch("solve", self._iterations, ready=lambda: self._body_ran)
-        return row_infos(self, active, tol)
+        infos = row_infos(self, active, tol)
+        for _ in range(RESUMES if self.preconditioned else 0):
+            # a case stopped on its carried g where its exact g does not meet the tolerance: on from it
+            again = np.array([on and not i.converged and math.isfinite(i.residual) and i.iterations < limit
+                              for on, i, limit in zip(active, infos, max_iter)])
+            if not again.any():
+                break
+            self.active.assign(again.astype(np.int32))
+            self.graphs.launch("resume", self._resumed, ready=lambda: self._body_ran)
+            infos = row_infos(self, active, tol)
+        return infos
 
     def _iterations(self):
         """The device work of a solve: the start, the iterations while a case is active (a loop
@@ -125,19 +156,31 @@ class BatchTangentialSolver:
         self.direction.zero_()
         self._cells(tbk.batch_tangential_classify, [self.shear_limit, self.active, int(self.preconditioned)],
                     [self.shear_x, self.shear_y, self.status])
-        self.flags.fill_(1)  # at least one iteration: a case active at its start is judged by ``advance``
-        wp.capture_while(self.flags, self._iteration)
+        if self.preconditioned:
+            self._gradient()
+            self._going.fill_(1)  # at least one iteration: a case active at its start is judged by ``advance``
+            self._exact.zero_()
+            wp.capture_while(self._going, self._carried_iteration)
+        else:
+            self._going.fill_(1)
+            wp.capture_while(self._going, self._iteration)
+        self._gradient()
+
+    def _resumed(self):
+        """The device work of a resumed solve: the active rows' carried iterations from their exact
+        g (the last one's), then every row's exact g again."""
+        self._going.fill_(1)
+        self._exact.zero_()
+        wp.capture_while(self._going, self._carried_iteration)
         self._gradient()
 
     def _iteration(self):
-        """One iteration of every active case; ``flags`` then counts the cases still active."""
+        """One plain iteration of every active case, from its exact g; ``flags`` then counts the
+        cases still active."""
         self._body_ran = True
         self._gradient()
         self._direction()
-        self.operator.tangential(self.direction, self.response)
-        self._reduce(tbk.batch_tangential_step_sums,
-                     [self.grad_x, self.grad_y, self.dir_x, self.dir_y, self.resp_x, self.resp_y, self.shear_x,
-                      self.shear_y, self.shear_limit, self.status], [self.sums])
+        self._step()
         self._reduce(tbk.batch_tangential_update,
                      [self.grad_x, self.grad_y, self.dir_x, self.dir_y, self.shear_limit, self.stiffness,
                       self.parameters, self.active], [self.shear_x, self.shear_y, self.status, self.sums])
@@ -145,10 +188,36 @@ class BatchTangentialSolver:
         self._cases(tbk.batch_tangential_advance, [self.sums, self.parameters, RESTART_EVERY],
                     [self.scalars, self.active, self.flags])
 
+    def _carried_iteration(self):
+        """One preconditioned iteration of every active case with g carried (g <- g - tau K t):
+        first the exact g of every row where a case asked for it (``flags[F_EXACT]``:
+        ``wp.capture_if``); ``flags`` then counts the cases still active and those that ask."""
+        self._body_ran = True
+        wp.capture_if(self._exact, on_true=self._gradient)
+        self._direction()
+        self._step()
+        self._reduce(tbk.batch_tangential_carried_update,
+                     [self.dir_x, self.dir_y, self.resp_x, self.resp_y, self.shear_limit, self.stiffness,
+                      self.parameters, self.active],
+                     [self.shear_x, self.shear_y, self.status, self.grad_x, self.grad_y, self.sums])
+        self.flags.zero_()
+        self._cases(tbk.batch_tangential_carried_advance,
+                    [self.sums, self.parameters, RESTART_EVERY, EXACT_EVERY, self.column_norm, self.dtype(DEFERRAL)],
+                    [self.scalars, self.active, self.deferred, self.flags])
+
+    def _step(self):
+        """K t of the direction into ``response`` and each row's step sums (S_GT, S_RT)."""
+        self.operator.tangential(self.direction, self.response)
+        self._reduce(tbk.batch_tangential_step_sums,
+                     [self.grad_x, self.grad_y, self.dir_x, self.dir_y, self.resp_x, self.resp_y, self.shear_x,
+                      self.shear_y, self.shear_limit, self.status], [self.sums])
+
     def _gradient(self):
-        """K_tt q into ``disp``, the exact g and each row's residual sums (zeroed before; slot
-        S_G without the stick cells' part where preconditioned: ``_direction`` adds it)."""
+        """K_tt q into ``disp``, the exact g and each row's residual sums (zeroed before, with
+        what its carried g missed; slot S_G without the stick cells' part where preconditioned:
+        ``_direction`` adds it)."""
         self.sums.zero_()
+        self.deferred.zero_()
         self.operator.tangential(self.shear, self.disp)
         self._reduce(tbk.batch_tangential_residual,
                      [self.disp_x, self.disp_y, self.known_x, self.known_y, self.target_x, self.target_y,
