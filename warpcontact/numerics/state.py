@@ -71,8 +71,8 @@ class ContactState:
             fields = [block[k] for k in range(layers)]
         else:  # a large grid's fields each on its own: no single block of many GB to find
             fields = [model.field() for _ in range(layers)]
-        for name, field in zip(self.FIELDS, fields):
-            setattr(self, name, field)
+        for name, values in zip(self.FIELDS, fields):
+            setattr(self, name, values)
         #: cell status, int32 (n, n): 0 out of contact, 1 stick, 2 slip (kernels/tangential.py)
         self.status = wp.zeros(model.grid.shape, dtype=wp.int32, device=model.device)
         self.approach = (0.0, 0.0, 0.0)
