@@ -401,14 +401,16 @@ def test_cases_judged_unconverged_on_their_exact_gradient_go_on_from_it(monkeypa
             infos[0] = replace(infos[0], converged=False)
         return infos
 
-    resumed = tangential_batch.BatchTangentialSolver._resumed
+    from warpcontact.numerics.launch import CapturedGraphs
 
-    def counted(self):
-        calls["resumed"] += 1
-        return resumed(self)
+    launch = CapturedGraphs.launch
+
+    def counted(self, key, work, ready=None):
+        calls["resumed"] += key == "resume"
+        return launch(self, key, work, ready)
 
     monkeypatch.setattr(tangential_batch, "row_infos", once_unconverged)
-    monkeypatch.setattr(tangential_batch.BatchTangentialSolver, "_resumed", counted)
+    monkeypatch.setattr(CapturedGraphs, "launch", counted)
     cases = MIXED[:2]
     batched = quiet(wc.solve_batch, cases, device="cpu", batch=len(cases))
     assert calls["resumed"] > 0 and calls["judged"] == 2 * calls["resumed"]

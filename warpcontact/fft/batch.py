@@ -233,13 +233,15 @@ class BatchConvolution:
 
 
 @functools.lru_cache(maxsize=8)
-def tangential_influence(pair, n: int) -> tuple[dict, float]:
+def tangential_influence(pair, n: int) -> tuple[dict, float, float]:
     """The scaled tangential and coupling influence spectra of a material pair on an n x n grid
     of square cells, ``numpy.fft.rfft2``'s layout (2 n, n + 1) on the (2 n, 2 n) padded grid:
     "xx", "yy", "xy" real (even kernels), "xz", "yz" complex (i times the imaginary part: kernels
-    odd in one axis); with the self-influence 1/2 (K_xx + K_yy)(0). In scaled units
-    (tractions / E*, lengths / dx) they depend on the pair's A E*, B E* and D E* alone, not on
-    the cell size: they are computed with dx = 1."""
+    odd in one axis); with the self-influence 1/2 (K_xx + K_yy)(0) and the column norm, a bound on
+    the 2-norm of the tangential displacements one cell's unit shear (any direction) causes,
+    sqrt(|K_xx|^2 + 2 |K_xy|^2 + |K_yy|^2) (``ElasticOperator.tangential_column_norm``). In scaled
+    units (tractions / E*, lengths / dx) they depend on the pair's A E*, B E* and D E* alone, not
+    on the cell size: they are computed with dx = 1."""
     from ..physics.influence import influence_coefficients
 
     coefficients = influence_coefficients(pair, n, n, 1.0, 1.0)
@@ -249,19 +251,9 @@ def tangential_influence(pair, n: int) -> tuple[dict, float]:
         spectrum = np.fft.rfft2(a)
         spectra[k] = spectrum.real.copy() if k in ("xx", "yy", "xy") else 1j * spectrum.imag
     stiffness = 0.5 * (coefficients["xx"][0, 0] + coefficients["yy"][0, 0]) * pair.E_star
-    return spectra, float(stiffness)
-
-
-@functools.lru_cache(maxsize=8)
-def tangential_column_norm(pair, n: int) -> float:
-    """A bound on the 2-norm of the tangential displacements one cell's unit shear (any direction)
-    causes over the padded grid, scaled units (``ElasticOperator.tangential_column_norm`` of the
-    pair on an n x n grid of square cells): sqrt(|K_xx|^2 + 2 |K_xy|^2 + |K_yy|^2)."""
-    from ..physics.influence import influence_coefficients
-
-    c = influence_coefficients(pair, n, n, 1.0, 1.0)
-    norms = {k: float(np.linalg.norm(c[k])) * pair.E_star for k in ("xx", "xy", "yy")}
-    return float(np.sqrt(norms["xx"] ** 2 + 2.0 * norms["xy"] ** 2 + norms["yy"] ** 2))
+    norms = {k: float(np.linalg.norm(coefficients[k])) * pair.E_star for k in ("xx", "xy", "yy")}
+    column_norm = np.sqrt(norms["xx"] ** 2 + 2.0 * norms["xy"] ** 2 + norms["yy"] ** 2)
+    return spectra, float(stiffness), float(column_norm)
 
 
 @functools.lru_cache(maxsize=8)
@@ -271,7 +263,7 @@ def tangential_inverse_blocks(pair, n: int) -> dict:
     (``tangential_influence``'s spectra) with its eigenvalues raised to at least a quarter of
     the self-influence, as ``spectral.tangential_inverse_block`` makes it for one case: "xx",
     "yy", "xy", real, ``numpy.fft.rfft2``'s layout."""
-    spectra, stiffness = tangential_influence(pair, n)
+    spectra, stiffness, _ = tangential_influence(pair, n)
     xx, yy, xy = spectra["xx"], spectra["yy"], spectra["xy"]
     floor = 0.25 * stiffness
     mean, diff = 0.5 * (xx + yy), 0.5 * (xx - yy)
@@ -343,8 +335,8 @@ class BatchElasticOperator:
             self._spectra = {k: stack([s[k] for s in spectra], np.imag if k in ("xz", "yz") else np.real)
                              for k in spectra[0]}
             self._inverse = {k: stack([s[k] for s in inverses], np.real) for k in inverses[0]}
-            #: each row's bound on ||K_tt c||_2 / ||c||_1 (``tangential_column_norm``)
-            self.column_norms = np.array([tangential_column_norm(p, self.n) for p in pairs])
+            #: each row's bound on ||K_tt c||_2 / ||c||_1 (``tangential_influence``'s column norm)
+            self.column_norms = np.array([tangential_influence(p, self.n)[2] for p in pairs])
         return (np.array([tangential_influence(p, self.n)[1] for p in pairs]),
                 np.array([p.D != 0.0 for p in pairs]))
 

@@ -69,17 +69,19 @@ def law_parameters(friction, traction_scale: float) -> tuple:
 
 class _TurnWindow:
     """The turns' solvers on a window of ``m`` cells per side (``BatchContactSolver``): the
-    tangential solver with its operator, and a normal solver with the previous copies of the
-    turns' change (the turns after a step's first stay on the window)."""
+    tangential solver with its operator, and where the turns after a step's first stay on it
+    (``stays``: a window smaller than the grid) a normal solver with the previous copies of the
+    turns' change."""
 
-    def __init__(self, m: int, batch: int, device, dtype, pairs: list, preconditioned: bool):
+    def __init__(self, m: int, batch: int, device, dtype, pairs: list, preconditioned: bool, stays: bool):
         self.m = m
         self.operator = BatchElasticOperator(m, batch, device, dtype)
         self.tangential = BatchTangentialSolver(self.operator, self.operator.set_pairs(pairs)[0], preconditioned)
-        self.normal = BatchNormalSolver(m, batch, device, dtype)
-        cells = (batch, m * m)
-        self.previous = [wp.zeros(cells, dtype=dtype, device=self.normal.device) for _ in range(3)]
-        self.change = wp.zeros((batch, 4), dtype=dtype, device=self.normal.device)
+        self.normal = self.previous = self.change = None
+        if stays:
+            self.normal = BatchNormalSolver(m, batch, device, dtype)
+            self.previous = [wp.zeros((batch, m * m), dtype=dtype, device=self.normal.device) for _ in range(3)]
+            self.change = wp.zeros((batch, 4), dtype=dtype, device=self.normal.device)
 
     def set_pairs(self, pairs: list):
         self.tangential.set_stiffness(self.operator.set_pairs(pairs)[0])
@@ -211,7 +213,7 @@ class BatchContactSolver:
         window = self._windows.get(cells)
         if window is None:
             window = self._windows[cells] = _TurnWindow(cells, self.batch, self.device, self.dtype, self._pairs,
-                                                        self.tangential_preconditioned)
+                                                        self.tangential_preconditioned, stays=cells < self.n)
             while len(self._windows) > WINDOW_CACHE:
                 self._windows.popitem(last=False)
         self._windows.move_to_end(cells)
@@ -306,7 +308,7 @@ class BatchContactSolver:
                 normal_infos, tangential_infos, sums = self._window_turn(window, approach, turn_tol, max_iter, turning)
             else:
                 normal_infos, tangential_infos, sums, window = self._whole_turn(approach, turn_tol, max_iter, turning)
-                staying = window.m < self.n
+                staying = window.normal is not None
                 if staying:  # the turns go on on the window: its normal solve's fields and the last turn's
                     self._crop([(normal.initial_gap, window.normal.initial_gap), (normal.pressure, window.normal.pressure),
                                 *zip(self.previous, window.previous)], window)

@@ -143,7 +143,7 @@ class BatchTangentialSolver:
             if not again.any():
                 break
             self.active.assign(again.astype(np.int32))
-            self.graphs.launch("resume", self._resumed, ready=lambda: self._body_ran)
+            self.graphs.launch("resume", self._carried_loop, ready=lambda: self._body_ran)
             infos = row_infos(self, active, tol)
         return infos
 
@@ -158,18 +158,16 @@ class BatchTangentialSolver:
                     [self.shear_x, self.shear_y, self.status])
         if self.preconditioned:
             self._gradient()
-            self._going.fill_(1)  # at least one iteration: a case active at its start is judged by ``advance``
-            self._exact.zero_()
-            wp.capture_while(self._going, self._carried_iteration)
-        else:
-            self._going.fill_(1)
-            wp.capture_while(self._going, self._iteration)
+            self._carried_loop()
+            return
+        self._going.fill_(1)  # at least one iteration: a case active at its start is judged by ``advance``
+        wp.capture_while(self._going, self._iteration)
         self._gradient()
 
-    def _resumed(self):
-        """The device work of a resumed solve: the active rows' carried iterations from their exact
-        g (the last one's), then every row's exact g again."""
-        self._going.fill_(1)
+    def _carried_loop(self):
+        """The carried iterations of the active rows from their exact g (a solve's start, or the
+        last one's where a case is resumed), then every row's exact g."""
+        self._going.fill_(1)  # at least one iteration: a case active at its start is judged by ``advance``
         self._exact.zero_()
         wp.capture_while(self._going, self._carried_iteration)
         self._gradient()
