@@ -170,3 +170,85 @@ def test_solves_on_two_threads_equal_one():
     for name in ("pressure", "shear_x"):
         norm = np.linalg.norm(f1[name])
         assert norm > 0 and np.linalg.norm(f2[name] - f1[name]) < 10 * outer_tol * norm, name
+
+
+def _counted_splits(monkeypatch):
+    """Count the split launches planned from now on (``LaunchCache._split_plan``), by kernel."""
+    planned = []
+    plan = LaunchCache._split_plan
+
+    def counted(self, kernel, *args, **kwargs):
+        planned.append(kernel.key)
+        return plan(self, kernel, *args, **kwargs)
+
+    monkeypatch.setattr(LaunchCache, "_split_plan", counted)
+    return planned
+
+
+def test_batched_launches_split_over_the_cases_equal_one_thread(monkeypatch):
+    """A batch of three cases with friction (a dissimilar pair's coupled turns, Coulomb on another
+    pair, the hardness cap) solved with its elementwise and reducing launches split over the
+    cases on two threads, against one thread: each case's sums are one thread's sweep over its
+    cells either way, so every state's forces and areas are the same to the last bit."""
+    import warpcontact as wc
+    from test_solve_batch_friction import MIXED
+
+    out = []
+    for threads in (1, 2):
+        monkeypatch.setattr(LaunchCache, "threads", threads)
+        monkeypatch.setattr(LaunchCache, "min_split_entries", 0)
+        planned = _counted_splits(monkeypatch)
+        results = wc.solve_batch(MIXED[:4], batch=4)
+        assert all(not isinstance(r, Exception) and r.converged for r in results)
+        out.append([[(s["force"], s["contact_area"], s["stick_area"]) for s in r.states] for r in results])
+        if threads == 2:  # the batched solvers' kernels were split (their names start batch_)
+            assert {"batch_tangential_carried_update", "batch_update"} <= set(planned)
+    assert out[0] == out[1]
+
+
+def test_a_launch_with_an_array_of_another_length_runs_whole(monkeypatch):
+    """A batched launch given an array whose first axis is not the cases' (here one row longer)
+    runs whole: its kernel would index that array by case in a part's own numbering. The same
+    launch with an array of a row a case is split, and counts each case's cells."""
+    from warpcontact.kernels import normal_batch as bk
+    from warpcontact.numerics.launch import BatchLaunches
+
+    monkeypatch.setattr(LaunchCache, "min_split_entries", 0)
+    planned = _counted_splits(monkeypatch)
+    launches = BatchLaunches(4, 16, wp.get_device("cpu"))
+    launches.cache.workers = 2
+    values = wp.array(np.arange(64, dtype=np.float64).reshape(4, 16) - 20.0, dtype=wp.float64, device="cpu")
+    sums = wp.zeros((4, 8), dtype=wp.float64, device="cpu")
+    longer = wp.zeros((5, 8), dtype=wp.float64, device="cpu")
+    launches.reduce(bk.batch_count_positive, [values], [longer])
+    assert planned == []
+    launches.reduce(bk.batch_count_positive, [values], [sums])
+    assert planned == ["batch_count_positive"]
+    assert np.array_equal(sums.numpy()[:, bk.G_POSITIVE], (values.numpy() > 0).sum(axis=1))
+    assert np.array_equal(longer.numpy()[:4], sums.numpy())
+
+
+def test_the_stress_spectra_split_from_fewer_entries_by_their_terms(monkeypatch):
+    """A yield check's stress spectra (14-44 products an entry) are split over two threads from
+    ``min_split_entries`` / terms entries: at n = 96 (18,624 entries, a pressure and a shear along
+    x: 29 terms in the flat) they are, where a pass of one product an entry would not be, and the
+    largest von Mises stresses equal one thread's to the last bit (each entry is one thread's sum
+    either way)."""
+    from warpcontact.numerics.stress import SubsurfaceStress
+
+    n = 96
+    assert 2 * n * (n + 1) < LaunchCache.min_split_entries
+    grid = Grid(n, 4 * A)
+    x = (np.arange(n) - n / 2 + 0.5) * grid.dx
+    r2 = x[:, None] ** 2 + x[None, :] ** 2
+    pressure = 1e9 * np.sqrt(np.clip(1 - r2 / (A * A), 0, None))
+    shear = 0.3 * pressure
+    out = []
+    for workers in (1, 2):
+        planned = _counted_splits(monkeypatch)
+        stress = SubsurfaceStress(PAPER_PAIR, grid, [0.5 * A], device="cpu")
+        stress.launches.workers = workers
+        out.append(stress.von_mises_maxima(pressure, shear, None, [0.5 * A]))
+        assert ("stress_spectra" in planned) == (workers == 2)
+    for body in out[0]:
+        assert np.array_equal(out[0][body], out[1][body])

@@ -194,11 +194,19 @@ def test_friction_cases_are_batched_by_default_only_where_it_pays(monkeypatch):
     assert made == [] and all(r.converged for r in results)
 
 
-def test_the_batched_operator_is_the_single_operator():
+@pytest.mark.parametrize("library", ["fftw", "scipy"])
+def test_the_batched_operator_is_the_single_operator(library, monkeypatch):
     """The batched tangential and coupling blocks of two pairs, one a row, applied to random
     fields, equal the single ``ElasticOperator``'s of each pair to rounding (1e-12 of the
-    largest displacement: both are FFT products of the same coefficients in float64)."""
+    largest displacement: both are FFT products of the same coefficients in float64), with the
+    batch's CPU transforms by FFTW's plans (pyFFTW installed) and by scipy.fft (without it)."""
+    from warpcontact.fft import fftw_backend
     from warpcontact.fft.batch import BatchElasticOperator
+
+    if library == "fftw":
+        assert fftw_backend.available(), "the tests' install has pyFFTW (pyproject.toml's test extra)"
+    else:
+        monkeypatch.setattr(fftw_backend, "available", lambda: False)
     from warpcontact.numerics.model import ContactModel
     from warpcontact.records.case import case_from_dict
 
@@ -206,6 +214,7 @@ def test_the_batched_operator_is_the_single_operator():
     cases = [case_from_dict(case(grid={"n": n})),
              case_from_dict(case(grid={"n": n}, flat={"E": 120e9, "nu": 0.35}))]
     op = BatchElasticOperator(n, 2, "cpu", wp.float64)
+    assert (op.library._fftw is not None) == (library == "fftw")
     op.set_pairs([c.pair for c in cases])
     rng = np.random.default_rng(3)
     p, qx, qy = (rng.random((2, n * n)) for _ in range(3))

@@ -51,8 +51,9 @@ def normal_influence(n: int) -> tuple[np.ndarray, float]:
 
 
 class BatchLibrary:
-    """The FFT library of batched transforms on one Warp device: ``scipy.fft`` with all its
-    ``workers`` threads on the CPU, cuFFT's batched plans on CUDA (``cupy_backend.BatchedPlans``,
+    """The FFT library of batched transforms on one Warp device: on the CPU FFTW's plans through
+    pyFFTW where it is installed (half scipy.fft's time on a batch: it transforms in place, where
+    scipy.fft returns new arrays), else ``scipy.fft``, with all the CPU's threads; cuFFT's batched plans on CUDA (``cupy_backend.BatchedPlans``,
     run on Warp's stream there); ``xp`` the array module (numpy or CuPy), ``view`` a Warp array as
     an ``xp`` array without a copy.
 
@@ -70,8 +71,12 @@ class BatchLibrary:
         if self.device.is_cpu:
             import scipy.fft
 
+            from . import fftw_backend
+
             self.fft, self.xp, self.workers = scipy.fft, np, {"workers": -1}
             self._stream = self._plans = None
+            #: FFTW's plans of the kept buffers (``keep``), by direction and arrays (None: no pyFFTW)
+            self._fftw = {} if fftw_backend.available() else None
             return
         from . import OPTIONAL, cupy_backend
 
@@ -96,6 +101,10 @@ class BatchLibrary:
         about ten times as much)."""
         n = padded.shape[-1] // 2
         if self._plans is None:
+            plans = self._fftw_plans(padded, spectra, forward=True)
+            if plans is not None:
+                plans.forward()
+                return
             fft, w = self.fft, self.workers
             rows = fft.rfft(self.view(padded)[:, :n, :n], n=2 * n, axis=-1, **w)
             self.complex_view(spectra)[...] = fft.fft(rows, n=2 * n, axis=-2, **w)
@@ -108,11 +117,59 @@ class BatchLibrary:
         influence spectra's); the rest of ``padded`` is left undefined."""
         n = padded.shape[-1] // 2
         if self._plans is None:
+            plans = self._fftw_plans(padded, spectra, forward=False)
+            if plans is not None:
+                plans.inverse()
+                return
             fft, w = self.fft, self.workers
             columns = fft.ifft(self.complex_view(spectra), axis=-2, norm="forward", **w)[:, :n]  # the n rows kept
             self.view(padded)[:, :n, :n] = fft.irfft(columns, n=2 * n, axis=-1, norm="forward", **w)[:, :, :n]
             return
         self._plans.execute(False, self.complex_view(spectra), self.view(padded))
+
+    def pad(self, fields: wp.array, padded: wp.array):
+        """The (n, n) corner of each grid of ``padded`` (rows, 2 n, 2 n) <- the row of ``fields``
+        (rows, n^2, row-major cells); the rest of ``padded`` as it was. On the CPU a NumPy copy
+        (about five times faster there than a Warp kernel of one thread a cell), on CUDA
+        ``batch_pad``."""
+        n = padded.shape[-1] // 2
+        if self._stream is None:
+            self.view(padded)[:, :n, :n] = self.view(fields).reshape(-1, n, n)
+            return
+        self.launches.launch(sbk.batch_pad, fields.shape, [fields, n], [padded])
+
+    def crop(self, padded: wp.array, fields: wp.array):
+        """Each row of ``fields`` (rows, n^2) <- the (n, n) corner of its grid of ``padded``
+        (rows, 2 n, 2 n), as :meth:`pad` copies."""
+        n = padded.shape[-1] // 2
+        if self._stream is None:
+            self.view(fields).reshape(-1, n, n)[...] = self.view(padded)[:, :n, :n]
+            return
+        self.launches.launch(sbk.batch_crop, fields.shape, [padded, n], [fields])
+
+    def _fftw_plans(self, padded: wp.array, spectra: wp.array, forward: bool):
+        """On the CPU with pyFFTW, FFTW's plans of a forward (or inverse) pass between two kept
+        buffers (``keep``), made on first use (measured, their wisdom kept on disk:
+        ``fftw_backend.FFTWPlans.measured``); None for arrays not kept (a temporary's plan would
+        cost more than it saves) or without pyFFTW (then ``scipy.fft``)."""
+        if self._fftw is None:
+            return None
+        key = (forward, padded.ptr, padded.shape, spectra.ptr, spectra.shape)
+        plans = self._fftw.get(key)
+        if plans is None:
+            kept = [self._views.get((a.ptr, a.shape, a.dtype)) for a in (padded, spectra)]
+            if any(v is None for v in kept):
+                return None
+            from .base import cpu_threads
+            from .fftw_backend import FFTWBackend, FFTWPlans
+
+            n = padded.shape[-1] // 2
+            grids = kept[0].reshape(-1, 2 * n, 2 * n)[:, :n, :]  # the data rows of each padded grid
+            spectrum = self.complex_view(spectra)
+            threads = cpu_threads(grids.shape[0] * n * n, FFTWBackend.THREADS_FROM_CELLS)
+            plans = self._fftw[key] = FFTWPlans.measured(grids if forward else None, spectrum,
+                                                         None if forward else grids, threads)
+        return plans
 
     def view(self, a: wp.array):
         """``a`` (on this device) as a numpy or CuPy array sharing its memory: the view ``keep``
@@ -355,7 +412,7 @@ class BatchElasticOperator:
         field = self._as_rows(field)
         padded = self.padded if pair else self._padded_pressure
         lib = self.library
-        lib.launches.launch(sbk.batch_pad, field.shape, [field, self.n], [padded])
+        lib.pad(field, padded)
         lib.forward(padded, self.pair_spectra if pair else self.pressure_spectra)
 
     def _inverse_into(self, field, pair: bool):
@@ -365,7 +422,7 @@ class BatchElasticOperator:
         result = self.result if pair else self._result_pressure
         lib = self.library
         lib.inverse(self.pair_spectra if pair else self.pressure_spectra, result)
-        lib.launches.launch(sbk.batch_crop, field.shape, [result, self.n], [field])
+        lib.crop(result, field)
 
     def _apply(self, sources, kernel, inputs, outputs, out, out_pair: bool):
         """The spectra of ``sources`` ((field, pair) each: a (2, B, n^2) pair of fields or a

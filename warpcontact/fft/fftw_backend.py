@@ -137,23 +137,51 @@ def _save_wisdom():
         pass
 
 
-class FFTWPlans:
-    """The four transforms of one spectrum: rows and columns, forward and inverse, made with the
-    planner ``flags``."""
+def _scratch_like(a: np.ndarray) -> np.ndarray:
+    """An aligned array of ``a``'s shape, type and strides (a view into a buffer of its own), for
+    measuring plans whose wisdom then serves ``a``'s layout."""
+    pyfftw = import_pyfftw()
+    extent = sum((d - 1) * s for d, s in zip(a.shape, a.strides)) // a.itemsize + 1
+    buffer = pyfftw.empty_aligned(extent, a.dtype)
+    return np.lib.stride_tricks.as_strided(buffer, a.shape, a.strides)
 
-    def __init__(self, rows_in: np.ndarray, spectrum: np.ndarray, rows_out: np.ndarray, threads: int, flags=()):
+
+class FFTWPlans:
+    """The transforms of one spectrum (or of a stack of them: every axis before the last two is a
+    batch axis), made with the planner ``flags``: the rows' real-to-complex transform of
+    ``rows_in``'s data rows and the columns' forward transform (None: no forward pair), and the
+    columns' inverse and the rows' complex-to-real transform into ``rows_out`` (None: no inverse
+    pair)."""
+
+    def __init__(self, rows_in: np.ndarray | None, spectrum: np.ndarray, rows_out: np.ndarray | None, threads: int,
+                 flags=()):
         pyfftw = import_pyfftw()
 
-        ny = rows_in.shape[0]
+        ny = spectrum.shape[-2] // 2
         common = dict(flags=tuple(flags) or ("FFTW_ESTIMATE",), threads=threads)
-        self.spectrum = spectrum
-        self.rows_forward = pyfftw.FFTW(rows_in, spectrum[:ny], axes=(1,), direction="FFTW_FORWARD", **common)
-        self.columns_forward = pyfftw.FFTW(spectrum, spectrum, axes=(0,), direction="FFTW_FORWARD", **common)
-        self.columns_inverse = pyfftw.FFTW(spectrum, spectrum, axes=(0,), direction="FFTW_BACKWARD",
-                                           normalise_idft=False, **common)
-        # complex-to-real overwrites its input (the spectrum's top half), which inverse transforms may
-        self.rows_inverse = pyfftw.FFTW(spectrum[:ny], rows_out, axes=(1,), direction="FFTW_BACKWARD",
-                                        normalise_idft=False, **common)
+        self.spectrum, self.ny = spectrum, ny
+        if rows_in is not None:
+            self.rows_forward = pyfftw.FFTW(rows_in, spectrum[..., :ny, :], axes=(-1,), direction="FFTW_FORWARD",
+                                            **common)
+            self.columns_forward = pyfftw.FFTW(spectrum, spectrum, axes=(-2,), direction="FFTW_FORWARD", **common)
+        if rows_out is not None:
+            self.columns_inverse = pyfftw.FFTW(spectrum, spectrum, axes=(-2,), direction="FFTW_BACKWARD",
+                                               normalise_idft=False, **common)
+            # complex-to-real overwrites its input (the spectrum's top half), which inverse transforms may
+            self.rows_inverse = pyfftw.FFTW(spectrum[..., :ny, :], rows_out, axes=(-1,), direction="FFTW_BACKWARD",
+                                            normalise_idft=False, **common)
+
+    def forward(self):
+        """The spectrum <- the transform of ``rows_in``'s rows zero-padded below them (the
+        spectrum's bottom half zeroed between the passes)."""
+        self.rows_forward.execute()
+        self.spectrum[..., self.ny :, :] = 0
+        self.columns_forward.execute()
+
+    def inverse(self):
+        """``rows_out`` <- the unnormalised inverse transform's top rows (the spectrum overwritten)."""
+        self.columns_inverse.execute()
+        self.rows_inverse.execute()
 
     @staticmethod
     def measured(rows_in: np.ndarray, spectrum: np.ndarray, rows_out: np.ndarray, threads: int,
@@ -173,7 +201,7 @@ class FFTWPlans:
             pass
         if not measure_new:
             return FFTWPlans(rows_in, spectrum, rows_out, threads)
-        scratch = [pyfftw.empty_aligned(a.shape, a.dtype) for a in (rows_in, spectrum, rows_out)]
+        scratch = [None if a is None else _scratch_like(a) for a in (rows_in, spectrum, rows_out)]
         FFTWPlans(*scratch, threads, ("FFTW_MEASURE",))
         _save_wisdom()
         try:
@@ -229,15 +257,10 @@ class FFTWBackend(ScipyFFT):
         return plans
 
     def transform_input(self, spectrum):
-        plans = self._plans_for(spectrum)
-        plans.rows_forward.execute()
-        plans.spectrum[self.ny :] = 0
-        plans.columns_forward.execute()
+        self._plans_for(spectrum).forward()
 
     def transform_to_output(self, spectrum):
-        plans = self._plans_for(spectrum)
-        plans.columns_inverse.execute()
-        plans.rows_inverse.execute()
+        self._plans_for(spectrum).inverse()
 
     # padding and cropping kernels around the transforms (scipy's numpy copies assume its layout)
     forward = FFTBackend.forward

@@ -108,6 +108,15 @@ class Rows:
 
 
 @dataclass(frozen=True)
+class Cases(Rows):
+    """An array of a batched solver whose first axis is the case (``BatchLaunches``): each part of
+    a launch split over the cases gets the cases [r0, r1) of it, whatever its other axes."""
+
+    def part(self, r0: int, r1: int, width: int) -> wp.array:
+        return self.array[r0:r1]
+
+
+@dataclass(frozen=True)
 class Sums:
     """The array a reducing launch adds its block sums to (and may read). Each part of a split
     CPU launch adds to a copy of it; the copies' additions are added to it after the parts end
@@ -251,18 +260,20 @@ class LaunchCache:
         else:
             self.launch(kernel, (rows, columns), [*inputs, 1], outputs)
 
-    def split(self, kernel, shape, part_launch, inputs, outputs=(), block_dim=None):
+    def split(self, kernel, shape, part_launch, inputs, outputs=(), block_dim=None, min_entries=None):
         """On the CPU, launch ``kernel`` as parts of the (rows, columns) ``shape`` on the
         ``workers`` threads, each part a block of rows [r0, r1) of every :class:`Rows` argument
         (and a copy of every :class:`Sums` argument, and the part's first row for a
         :class:`FirstRow` argument: a kernel that indexes whole arrays by the absolute row may be
         split by it alone); whole when it has fewer than ``min_split_entries`` entries or no Rows
-        or FirstRow argument. ``part_launch(r0, r1)`` returns the launch dimensions and inputs of
-        the rows [r0, r1) (the Rows arguments as given)."""
+        or FirstRow argument (``min_entries``: another threshold, for a kernel that does more
+        than an elementwise pass's work an entry). ``part_launch(r0, r1)`` returns the launch
+        dimensions and inputs of the rows [r0, r1) (the Rows arguments as given)."""
         rows, columns = shape
         parts = min(self.workers, rows)
         marked = any(isinstance(a, (Rows, FirstRow)) for a in [*inputs, *outputs])
-        if parts < 2 or rows * columns < self.min_split_entries or not marked:
+        least = self.min_split_entries if min_entries is None else min_entries
+        if parts < 2 or rows * columns < least or not marked:
             dim, part_inputs = part_launch(0, rows)
             self.launch(kernel, dim, part_inputs, outputs, block_dim)
             return
@@ -359,6 +370,12 @@ class BatchLaunches:
     elementwise kernels over (B, n_cells), reducing kernels over (B, blocks) tiles of the
     reduction's threads (``kernels/normal_batch.py``), kernels of one thread a case.
 
+    On the CPU, where Warp runs a launch on one thread, the elementwise and reducing launches are
+    split over the cases (:meth:`LaunchCache.split`, its threads and threshold), each part a block
+    of cases: their kernels take the case from the launch's first index and every array they
+    are given has one row a case (each part gets its cases' rows, :class:`Cases`, and adds its
+    sums to its own cases' slots); a launch with any other array runs whole.
+
     Args:
         batch: cases B.
         n_cells: cells of a case.
@@ -376,13 +393,26 @@ class BatchLaunches:
 
     def cells(self, kernel, inputs, outputs=()):
         """An elementwise kernel over (B, n_cells)."""
-        self.cache.launch(kernel, (self.batch, self.n_cells), inputs, outputs)
+        self._by_cases(kernel, (self.batch, self.n_cells), inputs, outputs)
 
     def reduce(self, kernel, inputs, outputs):
         """A reducing kernel over (B, blocks) tiles: ``inputs``, the reduction's ``Cells``, ``outputs``."""
         r = self.reduction
-        self.cache.launch(kernel, (self.batch, r.num_blocks, r.block_dim), [*inputs, *r.args(self.n_cells)], outputs,
-                          block_dim=r.block_dim)
+        self._by_cases(kernel, (self.batch, r.num_blocks, r.block_dim), [*inputs, *r.args(self.n_cells)], outputs,
+                       block_dim=r.block_dim)
+
+    def _by_cases(self, kernel, dim, inputs, outputs, block_dim=None):
+        """A launch over ``dim`` = (B, ...): on the CPU split over the cases where every array
+        argument has one row a case, else whole."""
+        arrays = [a for a in (*inputs, *outputs) if isinstance(a, wp.array)]
+        if not self.cache.device.is_cpu or any(a.shape[0] != self.batch for a in arrays):
+            self.cache.launch(kernel, dim, inputs, outputs, block_dim)
+            return
+        inputs = [Cases(a) if isinstance(a, wp.array) else a for a in inputs]
+        outputs = [Cases(a) if isinstance(a, wp.array) else a for a in outputs]
+        rest = tuple(dim[1:])  # (the split's threshold counts the cells: a reduction on the CPU is a thread a case)
+        self.cache.split(kernel, (self.batch, self.n_cells), lambda r0, r1: ((r1 - r0, *rest), inputs), inputs,
+                         outputs, block_dim)
 
     def cases(self, kernel, inputs, outputs=()):
         """A kernel of one thread a case."""
