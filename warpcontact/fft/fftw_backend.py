@@ -190,9 +190,8 @@ class FFTWPlans:
         :func:`wisdom_path`) when there is some for their layout; else measured first on scratch
         arrays of the same layout (``FFTW_MEASURE`` runs the transforms on the arrays it plans
         for) and the wisdom written back, or with ``measure_new`` False estimated plans (a grid
-        used for a few solves, whose measuring would cost more than it saves)."""
-        pyfftw = import_pyfftw()
-
+        used for a few solves, whose measuring would cost more than it saves). ``rows_in`` or
+        ``rows_out`` None: that direction's pair not made."""
         _load_wisdom()
         wise = ("FFTW_MEASURE", "FFTW_WISDOM_ONLY")
         try:
