@@ -11,6 +11,7 @@ import pytest
 import warp as wp
 
 import warpcontact as wc
+from conftest import NEEDS_FFTW
 from test_solve_batch import DEVICES, quiet
 
 # a small case: 32 cells over about 4 contact radii, steel on aluminium
@@ -194,7 +195,7 @@ def test_friction_cases_are_batched_by_default_only_where_it_pays(monkeypatch):
     assert made == [] and all(r.converged for r in results)
 
 
-@pytest.mark.parametrize("library", ["fftw", "scipy"])
+@pytest.mark.parametrize("library", [pytest.param("fftw", marks=NEEDS_FFTW), "scipy"])
 def test_the_batched_operator_is_the_single_operator(library, monkeypatch):
     """The batched tangential and coupling blocks of two pairs, one a row, applied to random
     fields, equal the single ``ElasticOperator``'s of each pair to rounding (1e-12 of the
@@ -203,9 +204,7 @@ def test_the_batched_operator_is_the_single_operator(library, monkeypatch):
     from warpcontact.fft import fftw_backend
     from warpcontact.fft.batch import BatchElasticOperator
 
-    if library == "fftw":
-        assert fftw_backend.available(), "the tests' install has pyFFTW (pyproject.toml's test extra)"
-    else:
+    if library == "scipy":
         monkeypatch.setattr(fftw_backend, "available", lambda: False)
     from warpcontact.numerics.model import ContactModel
     from warpcontact.records.case import case_from_dict
