@@ -138,8 +138,9 @@ def _parser():
 
     add_batch_options(t, "1", default=1)  # warpcontact.studies.batch
     t.add_argument("--batch", type=int, metavar="B",
-                   help="the cells without adhesion searched B at a time by batched steps, in this process (default: "
-                   "one cell at a time: a column's 12 cells are too few for a batch to pay)")
+                   help="the cells without adhesion searched B at a time by batched steps, in this process; 0: one "
+                   "cell at a time (default: on CUDA in this process, those of grids up to 256 cells per side all "
+                   "together, where they pay; otherwise one at a time)")
     po = _case_command(
         sub, "pull-off", "case file (TOML) with an [adhesion] table",
         help="approach and retract the sphere: force-displacement curve and pull-off force",

@@ -59,6 +59,11 @@ BATCH_MAX_TURNS = 60
 #: against 8.3-8.7 s one at a time). On the CPU, where transforms are the time, never by default
 #: (2 cores, n = 64: 1.9 cases/s batched against 3.5 one at a time).
 FRICTION_MIN_BATCH = 32
+#: fewer gross-slip searches than ``FRICTION_MIN_BATCH`` pay batched on CUDA on small grids: a Table 2
+#: column's 12 cells (``warpcontact table2``'s default, ``few_searches_batched``), one H200, whole
+#: processes, two runs each: n = 128 3.6-3.9 s batched against 5.9-6.3 s one at a time, n = 256
+#: 5.7-6.8 s against 7.0-8.7 s, n = 512 14.1-14.9 s against 9.9 s (docs/performance.md)
+FEW_SEARCHES_MAX_N = 256
 
 
 def friction_batched(count: int, is_cuda: bool, batch: int | None) -> bool:
@@ -67,6 +72,12 @@ def friction_batched(count: int, is_cuda: bool, batch: int | None) -> bool:
     if batch is not None:
         return batch > 0
     return is_cuda and count >= FRICTION_MIN_BATCH
+
+
+def few_searches_batched(n: int, device) -> bool:
+    """Whether a few gross-slip searches (fewer than ``FRICTION_MIN_BATCH``) of n cells per side
+    are batched where nothing asks: on CUDA up to ``FEW_SEARCHES_MAX_N``."""
+    return resolve_device(device).is_cuda and n <= FEW_SEARCHES_MAX_N
 
 
 def batchable(case) -> bool:

@@ -492,13 +492,20 @@ class Table2Run:
             raise
         self.kept = len(self.records)
 
-    def _batched_cells(self, batch) -> list:
-        """The pending cells searched by batched steps (:meth:`run`): with ``batch`` given, those
-        without adhesion."""
-        if not batch:
-            return []
+    def _batched_cells(self, batch, in_process: bool) -> tuple[list, int | None]:
+        """The pending cells searched by batched steps (:meth:`run`) and their batch: with
+        ``batch`` given, those without adhesion; without it, in this process (``in_process``),
+        those of grids that few searches pay batched on (``batch_solve.few_searches_batched``: on
+        CUDA up to 256 cells per side), all at once."""
+        from .batch_solve import few_searches_batched
+
         cells = [(i, c) for i, c in self._pending if not c[3]]
-        return cells if len(cells) > 1 else []
+        if batch is None:
+            cells = [(i, c) for i, c in cells if in_process and few_searches_batched(c[0], self.settings.device)]
+            batch = len(cells)
+        if not batch or len(cells) < 2:
+            return [], batch
+        return cells, batch
 
     def _run_batched(self, cells, batch, progress) -> None:
         """Search ``cells`` ((index, (n, k_tau, delta_z_um, adhesion)) each) by batched steps, each
@@ -557,8 +564,10 @@ class Table2Run:
         (:class:`warpcontact.studies.batch.Placement`; default: this process) and write the tables
         after each (:func:`write_table2`; table2.json's ``complete`` is false until the last write).
         With ``batch`` B, the cells without adhesion are searched together by batched steps
-        (``batch_solve.search_batch``, B cells at a time); by default (None) or 0 one at a time:
-        a column's 12 cells are too few for a batch to pay (``batch_solve.FRICTION_MIN_BATCH``).
+        (``batch_solve.search_batch``, B cells at a time); with 0 one at a time; by default (None)
+        together in this process on CUDA up to 256 cells per side (``_batched_cells``), where a
+        column's 12 cells pay batched, else one at a time (on more workers, the engine spreads
+        them).
         A stop ends the run with ``interrupted`` set; a write that fails, with ``write_error``. Unless
         quiet, a result line per cell goes to ``log`` (stderr), under a progress bar on a terminal.
         Returns self."""
@@ -572,7 +581,7 @@ class Table2Run:
         try:
             with interrupts.deferred():
                 self._write()  # this run's marker (complete: false) replaces the last run's before any cell
-            together = self._batched_cells(batch)
+            together, batch = self._batched_cells(batch, placement.in_process(len(self._pending)))
             if together:
                 self._run_batched(together, batch, progress)
             tasks = []
