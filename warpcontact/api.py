@@ -77,14 +77,14 @@ def solve_batch(cases, device=None, dtype=None, fft=None, fields: str = "none", 
     fields, warnings and yield checks are made as [`solve`][warpcontact.solve] makes them (on CUDA
     the yield checks of the cases that end at a state together, every case's depths evaluated at
     once); the forces agree with it within the solves' tolerance. Measured on one H200 (Tabor
-    friction, a normal and a tangential step): 123, 104 and 33 cases/s at n = 64, 128 and 256,
-    7.9x, 8.4x and 3.1x one at a time (docs/performance.md).
+    friction, a normal and a tangential step, batches of 128): 286 and 111 cases/s at n = 128 and
+    256, 21x and 8.5x one at a time (docs/performance.md).
 
     A case with friction whose batched step does not converge is solved again on its own (with
     what the single solver adds for hard steps): its result is then [`solve`][warpcontact.solve]'s.
     Cases with adhesion are solved one at a time; so are cases with friction unless ``batch`` is
-    given or they run on CUDA, 32 or more of one grid size (fewer, and on the CPU, a batch is
-    slower: ``batch_solve.FRICTION_MIN_BATCH``); so are a batch's cases where the
+    given or they run on CUDA, 32 or more of one grid size (``batch_solve.FRICTION_MIN_BATCH``: on
+    the CPU a batch pays on small grids only, 1.5x at n = 64 and 0.75x at 256 on 2 cores); so are a batch's cases where the
     batched solve itself fails (a device's refusal, a library's error, no CuPy on CUDA: one
     RuntimeWarning says why). A case that fails (a contact past its domain's edge) has the exception in its place and
     the others go on; a mistake in a case's

@@ -50,14 +50,11 @@ FRICTION_BYTES_PER_CELL = 100
 #: its own, where stalled turns are mixed (the Table 2 cells at n = 128 took 2-12 turns a step)
 BATCH_MAX_TURNS = 60
 #: cases with friction of one grid size are batched, where ``batch`` does not ask for it, on CUDA
-#: and from this many on (``friction_batched``). The batched step's plain tangential iteration
-#: makes about twice the iterations of the single solver's preconditioned one, each with a host
-#: round trip, where the single solver runs its iterations in CUDA graphs: the batch pays where
-#: many cases share the device (one H200, a normal and a tangential step: 3.9-5.8x one case at a
-#: time with 64 cases at n = 64-256; gross-slip searches at n = 128: 1.4x with 32, 3.4x with 128),
-#: not with few (the 12 cells of Table 2's column without adhesion at n = 256: 13-15 s batched
-#: against 8.3-8.7 s one at a time). On the CPU, where transforms are the time, never by default
-#: (2 cores, n = 64: 1.9 cases/s batched against 3.5 one at a time).
+#: and from this many on (``friction_batched``): the batch pays where many cases share the device
+#: (one H200, a normal and a tangential step, batches of 128: 21x one case at a time at n = 128,
+#: 8.5x at 256), and few searches only on small grids (``FEW_SEARCHES_MAX_N``). On the CPU never
+#: by default: on 2 cores 16 cases batched took 1.5x one case at a time's rate at n = 64, 0.95x
+#: at 128 and 0.75x at 256 (docs/performance.md, "Many cases with friction solved together")
 FRICTION_MIN_BATCH = 32
 #: fewer gross-slip searches than ``FRICTION_MIN_BATCH`` pay batched on CUDA on small grids: a Table 2
 #: column's 12 cells (``warpcontact table2``'s default, ``few_searches_batched``), one H200, whole
