@@ -164,9 +164,16 @@ def part_kernel(kernel, part: int):
 
 
 def _arg_key(a):
-    a = _plain(a)
+    """A launch argument's part of a :class:`LaunchCache` key: an array's address, shape, strides
+    and type (a marked one's array's), a scalar's type and value (arrays first: most arguments
+    are, and this runs for every argument of every launch)."""
     if isinstance(a, wp.array):
         return (a.ptr, a.shape, a.strides, a.dtype)
+    if isinstance(a, (Rows, Sums)):
+        a = a.array
+        return (a.ptr, a.shape, a.strides, a.dtype)
+    if isinstance(a, FirstRow):
+        return (FirstRow,)
     return (type(a), a.value if hasattr(a, "value") else a)
 
 
@@ -214,7 +221,7 @@ class LaunchCache:
 
     def _key(self, kernel, dim, block_dim, inputs, outputs):
         return (kernel, tuple(dim) if isinstance(dim, (list, tuple)) else dim, block_dim,
-                tuple(_arg_key(a) for a in inputs), tuple(_arg_key(a) for a in outputs))
+                tuple(map(_arg_key, inputs)), tuple(map(_arg_key, outputs)))
 
     def launch(self, kernel, dim, inputs, outputs=(), block_dim=None):
         """``wp.launch(kernel, dim, inputs, outputs, block_dim=block_dim)`` on the cache's device
