@@ -238,8 +238,8 @@ def test_largest_tension_and_domain_edge_equal_numpy(case, dtype, device):
 
 @pytest.mark.parametrize("dtype", ["float64", "float32"])
 def test_host_si_equals_astype_times_scale_and_leaves_the_field(dtype, device):
-    """``state.host_si``: the same values as ``numpy().astype(float64) * scale`` (bit for bit), and
-    the device field unchanged (on the CPU ``numpy()`` is a view of it)."""
+    """``state.host_si``: the same values as ``numpy().astype(float64) * scale`` (bit for bit), a
+    new array each call, and the device field unchanged (on the CPU ``numpy()`` is a view of it)."""
     import warp as wp
 
     from warpcontact.numerics.state import host_si
@@ -251,3 +251,9 @@ def test_host_si_equals_astype_times_scale_and_leaves_the_field(dtype, device):
     assert got.dtype == np.float64
     assert np.array_equal(got, field.astype(np.float64) * scale)
     assert np.array_equal(w.numpy(), field)
+    # a second field of the shape (on CUDA through the same page-locked stage) leaves the first
+    # result as it was, and a strided view gives its own values
+    again = host_si(wp.array(2 * field, device=device), scale)
+    assert np.array_equal(again, 2 * field.astype(np.float64) * scale)
+    assert np.array_equal(got, field.astype(np.float64) * scale)
+    assert np.array_equal(host_si(w[:, 1:3], scale), field[:, 1:3].astype(np.float64) * scale)

@@ -47,8 +47,8 @@ def output_error(path, e: OSError, action: str = "write", needed_bytes: int | No
     return OutputError(path, e.errno, e.strerror or str(e), action, needed_bytes, free)
 
 
-def atomic_write_bytes(path, data: bytes):
-    """Write ``data`` to ``path`` through a temporary file and a rename: readers see all or nothing.
+def atomic_write_bytes(path, data: bytes | memoryview):
+    """Write ``data`` (bytes, or a view of them) to ``path`` through a temporary file and a rename: readers see all or nothing.
 
     A failure (no space left, read-only file system, quota, I/O error, a folder that cannot be
     made) raises :class:`~warpcontact.errors.OutputError` naming ``path``; the file that was at
@@ -92,4 +92,4 @@ def atomic_write_npz(path, arrays: dict, compress: bool | None = None):
         compress = sum(np.asarray(a).nbytes for a in arrays.values()) < NPZ_COMPRESS_BELOW_BYTES
     buf = io.BytesIO()
     (np.savez_compressed if compress else np.savez)(buf, **arrays)
-    atomic_write_bytes(path, buf.getvalue())
+    atomic_write_bytes(path, buf.getbuffer())  # a view of the buffer, not a copy (GBs on large grids)
