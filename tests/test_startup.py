@@ -86,6 +86,39 @@ def test_large_fields_are_written_uncompressed_small_ones_compressed(tmp_path, m
     assert (tmp_path / "forced.npz").stat().st_size < large["p"].nbytes / 4
 
 
+def test_a_large_npz_goes_straight_to_its_file_and_a_full_disk_names_its_size(tmp_path, monkeypatch):
+    """An uncompressed NPZ is written by NumPy straight into the temporary file (no copy of it in
+    memory first): the same arrays come back, the size it is said to need is at least the file's
+    (each entry's headers counted as ``NPZ_ENTRY_BYTES``) and within those headers of it, and a
+    disk that fills during the write leaves the file that was there and no temporary file."""
+    import errno
+    import os
+
+    from warpcontact.errors import OutputError
+
+    monkeypatch.setattr(files, "NPZ_COMPRESS_BELOW_BYTES", 0)
+    arrays = {"p": np.arange(4096.0).reshape(64, 64), "stick": np.arange(4096).reshape(64, 64) % 3 == 0}
+    path = tmp_path / "fields.npz"
+    files.atomic_write_npz(path, arrays)
+    with np.load(path) as f:
+        assert all(np.array_equal(f[k], v) for k, v in arrays.items())
+    size = path.stat().st_size
+    estimate = sum(a.nbytes + files.NPZ_ENTRY_BYTES for a in arrays.values())
+    assert size <= estimate <= size + len(arrays) * files.NPZ_ENTRY_BYTES
+
+    def fills_up(tmp, data):
+        with open(tmp, "wb") as fh:
+            data(fh)
+            fh.truncate(100)
+        raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC))
+
+    monkeypatch.setattr(files, "_write_temporary", fills_up)
+    with pytest.raises(OutputError) as caught:
+        files.atomic_write_npz(path, {"p": np.zeros((64, 64))})
+    assert caught.value.needed_bytes == 64 * 64 * 8 + files.NPZ_ENTRY_BYTES
+    assert path.stat().st_size == size and [q.name for q in tmp_path.iterdir()] == ["fields.npz"]
+
+
 def test_the_command_ends_its_process_with_its_status_after_the_exit_functions():
     """``warpcontact`` ends through ``cli.end_process``: what was printed is flushed, the exit
     functions run (logging's, dask's, ...), and the status is the command's; the interpreter's
