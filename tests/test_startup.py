@@ -97,13 +97,18 @@ def test_a_large_npz_goes_straight_to_its_file_and_a_full_disk_names_its_size(tm
     from warpcontact.errors import OutputError
 
     monkeypatch.setattr(files, "NPZ_COMPRESS_BELOW_BYTES", 0)
-    arrays = {"p": np.arange(4096.0).reshape(64, 64), "stick": np.arange(4096).reshape(64, 64) % 3 == 0}
+    states = [np.arange(4096.0).reshape(64, 64) * k for k in range(3)]
+    arrays = {"p": files.Stack(states), "stick": np.arange(4096).reshape(64, 64) % 3 == 0}
     path = tmp_path / "fields.npz"
     files.atomic_write_npz(path, arrays)
-    with np.load(path) as f:
-        assert all(np.array_equal(f[k], v) for k, v in arrays.items())
+    with np.load(path) as f:  # a Stack as numpy.stack of its arrays
+        assert np.array_equal(f["p"], np.stack(states)) and np.array_equal(f["stick"], arrays["stick"])
+    files.atomic_write_npz(tmp_path / "small.npz", arrays, compress=True)
+    with np.load(tmp_path / "small.npz") as f:
+        assert np.array_equal(f["p"], np.stack(states))
+    (tmp_path / "small.npz").unlink()
     size = path.stat().st_size
-    estimate = sum(a.nbytes + files.NPZ_ENTRY_BYTES for a in arrays.values())
+    estimate = sum(np.stack(a).nbytes + files.NPZ_ENTRY_BYTES for a in arrays.values())
     assert size <= estimate <= size + len(arrays) * files.NPZ_ENTRY_BYTES
 
     def fills_up(tmp, data):

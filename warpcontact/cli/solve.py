@@ -141,7 +141,7 @@ def _write_solve_outputs(result, out: Path, fields: str, atomic_write_json, atom
     fields_error = figure_error = None
     if fields != "none" and result.fields:
         try:
-            atomic_write_npz(fields_path, result.stacked_fields())
+            atomic_write_npz(fields_path, result.stacked_fields(in_memory=False))
         except OutputError as e:
             fields_error = e.with_hint(_fewer_fields_hint(result, e))
     summary = record(result, complete=False)

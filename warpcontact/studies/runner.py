@@ -139,13 +139,21 @@ class PathResult:
             out.update(yield_keys(self.yield_check))
         return out
 
-    def stacked_fields(self) -> dict:
+    def stacked_fields(self, in_memory: bool = True) -> dict:
         """The fields kept stacked along a first axis, plus coordinates: ``state_index`` [-] (the
         index in ``states`` of each entry), ``delta`` [m] (each entry's approach x, y, z), ``x``,
-        ``y`` [m] (cell centres)."""
+        ``y`` [m] (cell centres). ``in_memory`` False: each field a ``files.Stack`` of the states'
+        arrays, which ``files.atomic_write_npz`` writes as stacked without a stacked copy (the
+        solve command's fields.npz: 1.8 GB at n = 1024 for Figure 2's 16 states)."""
         import numpy as np
 
-        out = {k: np.stack([f[k] for f in self.fields]) for k in self.fields[0]} if self.fields else {}
+        from ..files import Stack
+
+        def stacked(k):
+            parts = [f[k] for f in self.fields]
+            return np.stack(parts) if in_memory else Stack(parts)
+
+        out = {k: stacked(k) for k in self.fields[0]} if self.fields else {}
         out["x"] = self.model.grid.x
         out["y"] = self.model.grid.y
         out["state_index"] = np.array(self.field_states, dtype=np.int64)
