@@ -257,3 +257,10 @@ def test_host_si_equals_astype_times_scale_and_leaves_the_field(dtype, device):
     assert np.array_equal(again, 2 * field.astype(np.float64) * scale)
     assert np.array_equal(got, field.astype(np.float64) * scale)
     assert np.array_equal(host_si(w[:, 1:3], scale), field[:, 1:3].astype(np.float64) * scale)
+    other = host_si(wp.array(field.T.copy(), device=device), scale)  # another shape: another stage
+    assert np.array_equal(other, field.T.astype(np.float64) * scale)
+    if str(device).startswith("cuda"):  # the stages kept: the newest two shapes
+        from warpcontact.numerics import state
+
+        assert list(state._PINNED_STAGES)[-2:] == [(str(w.device), s, w.dtype) for s in ((6, 4), (4, 6))]
+        assert len(state._PINNED_STAGES) == state.PINNED_STAGES_KEPT

@@ -84,8 +84,8 @@ def solve_batch(cases, device=None, dtype=None, fft=None, fields: str = "none", 
     what the single solver adds for hard steps): its result is then [`solve`][warpcontact.solve]'s.
     Cases with adhesion are solved one at a time; so are cases with friction unless ``batch`` is
     given or they run on CUDA, 32 or more of one grid size (``batch_solve.FRICTION_MIN_BATCH``: on
-    the CPU a batch pays on small grids only, 1.5x at n = 64 and 0.75x at 256 on 2 cores); so are a batch's cases where the
-    batched solve itself fails (a device's refusal, a library's error, no CuPy on CUDA: one
+    the CPU a batch pays on small grids only, 1.5x at n = 64 and 0.75x at 256 on 2 cores); so are
+    a batch's cases where the batched solve itself fails (a device's refusal, a library's error, no CuPy on CUDA: one
     RuntimeWarning says why). A case that fails (a contact past its domain's edge) has the exception in its place and
     the others go on; a mistake in a case's
     tables raises ``InputError`` before anything is solved. ``cases``: a list of cases as

@@ -125,8 +125,9 @@ def _write_npz(fh, arrays: dict) -> None:
 
 def atomic_write_npz(path, arrays: dict, compress: bool | None = None):
     """Write ``arrays`` (arrays, or :class:`Stack` s of them) to the NPZ file ``path`` atomically
-    (:func:`atomic_write_bytes`); NumPy reads it with ``np.load`` either way. ``compress``: zlib (smaller files); default: only when the arrays
-    hold fewer than :data:`NPZ_COMPRESS_BELOW_BYTES` bytes, so large grids are written at disk speed."""
+    (:func:`atomic_write_bytes`); NumPy reads it with ``np.load`` either way. ``compress``: zlib
+    (smaller files); default: only when the arrays hold fewer than
+    :data:`NPZ_COMPRESS_BELOW_BYTES` bytes, so large grids are written at disk speed."""
     if compress is None:
         compress = sum(_nbytes(a) for a in arrays.values()) < NPZ_COMPRESS_BELOW_BYTES
     if compress:

@@ -53,8 +53,8 @@ def normal_influence(n: int) -> tuple[np.ndarray, float]:
 class BatchLibrary:
     """The FFT library of batched transforms on one Warp device: on the CPU FFTW's plans through
     pyFFTW where it is installed (half scipy.fft's time on a batch: it transforms in place, where
-    scipy.fft returns new arrays), else ``scipy.fft``, with all the CPU's threads; cuFFT's batched plans on CUDA (``cupy_backend.BatchedPlans``,
-    run on Warp's stream there); ``xp`` the array module (numpy or CuPy), ``view`` a Warp array as
+    scipy.fft returns new arrays), else ``scipy.fft``, with all the CPU's threads; cuFFT's
+    batched plans on CUDA (``cupy_backend.BatchedPlans``, run on Warp's stream there); ``xp`` the array module (numpy or CuPy), ``view`` a Warp array as
     an ``xp`` array without a copy.
 
     The solves' transforms (``forward``, ``inverse``) go between Warp arrays the caller keeps: a

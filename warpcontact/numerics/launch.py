@@ -411,8 +411,8 @@ class BatchLaunches:
     def _by_cases(self, kernel, dim, inputs, outputs, block_dim=None):
         """A launch over ``dim`` = (B, ...): on the CPU split over the cases where every array
         argument has one row a case, else whole."""
-        arrays = [a for a in (*inputs, *outputs) if isinstance(a, wp.array)]
-        if not self.cache.device.is_cpu or any(a.shape[0] != self.batch for a in arrays):
+        if self.cache.device.is_cuda or any(isinstance(a, wp.array) and a.shape[0] != self.batch
+                                            for a in (*inputs, *outputs)):
             self.cache.launch(kernel, dim, inputs, outputs, block_dim)
             return
         inputs = [Cases(a) if isinstance(a, wp.array) else a for a in inputs]

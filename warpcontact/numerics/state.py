@@ -96,9 +96,11 @@ class ContactState:
         return out
 
 
-#: a page-locked host array per (device, shape, float type) that ``host_si`` copies CUDA fields
-#: through (made on first use, kept for the process: a path's states have the same fields)
+#: the page-locked host arrays ``host_si`` copies CUDA fields through, by (device, shape, float
+#: type): made on first use and kept (a path's states have fields of one shape), at most
+#: ``PINNED_STAGES_KEPT`` (a sweep over grid sizes lets the older ones go)
 _PINNED_STAGES: dict = {}
+PINNED_STAGES_KEPT = 2
 
 
 def _pinned_stage(field):
@@ -109,6 +111,8 @@ def _pinned_stage(field):
     key = (str(field.device), field.shape, field.dtype)
     stage = _PINNED_STAGES.get(key)
     if stage is None:
+        while len(_PINNED_STAGES) >= PINNED_STAGES_KEPT:
+            del _PINNED_STAGES[next(iter(_PINNED_STAGES))]  # the oldest
         try:
             stage = _PINNED_STAGES[key] = wp.empty(field.shape, dtype=field.dtype, device="cpu", pinned=True)
         except (RuntimeError, MemoryError):
@@ -129,7 +133,7 @@ def host_si(field, scale: float) -> np.ndarray:
         stage = _pinned_stage(field)
         if stage is not None:
             wp.copy(stage, field)
-            wp.synchronize_device(field.device)
+            wp.synchronize_stream(wp.get_stream(field.device))  # the copy to page-locked memory is asynchronous
             return np.multiply(stage.numpy(), scale, dtype=np.float64)
     values = field.numpy()
     if field.device.is_cuda and values.dtype == np.float64:

@@ -474,7 +474,7 @@ class SubsurfaceStress:
         ``work``: the kernel's work an entry in elementwise passes' (``stress_spectra``: its terms,
         14-44 products an entry), which lowers the entries from which it is split in proportion
         (at n = 128 a body's stress spectra took 9.8 ms on one thread, 33,000 entries)."""
-        from .launch import FirstRow, LaunchCache
+        from .launch import FirstRow
 
         if self.device.is_cuda:
             self._launch(kernel, shape, [*inputs, 0], outputs)
@@ -482,7 +482,7 @@ class SubsurfaceStress:
         columns = shape[1]
         args = [*inputs, FirstRow()]
         self.launches.split(kernel, shape, lambda r0, r1: ((r1 - r0, columns), args), args, outputs,
-                            min_entries=-(-LaunchCache.min_split_entries // max(1, int(work))))
+                            min_entries=-(-self.launches.min_split_entries // max(1, int(work))))
 
     def _tables(self, z_cells: float) -> dict:
         """Each body's stress table at depth ``z_cells`` (``body_tables``)."""
