@@ -230,11 +230,12 @@ def test_figure_of_a_case_stopped_during_its_solve(tmp_path):
 
 # --- sweep ------------------------------------------------------------------------------------------
 
-#: two solve cases: a short path (2 normal + 2 tangential states), then a long one (16 states, about
-#: 3 s): the stop lands in the second
+#: two solve cases: a short path (2 normal + 2 tangential states), then a long one (48 states, about
+#: 4 s on 2 CPU cores; 16 states took 1.3 s there, and a stop sent once the first case was written
+#: could land after the second had ended): the stop lands in the second
 SWEEP = """base = "case.toml"
 [sweep]
-"load.steps" = [2, 8]
+"load.steps" = [2, 24]
 [run]
 task = "solve"
 """
