@@ -70,6 +70,7 @@ CHOICES = {
     "both-off": {"nested": False, "window": False},
     "precond32-on": {"preconditioner_float32": True},
     "precond32-off": {"preconditioner_float32": False},
+    "precond-padded": {"preconditioner_grid": "padded"},
 }
 #: choices of the launch layer (numerics/launch.py, ``LaunchCache``'s class defaults), the solver's
 #: choices "auto": on the CPU, launches not split over its threads; and not replayed either

@@ -2,7 +2,7 @@
 
 Each round starts a fresh interpreter (the kernel cache warm, as on a second run) that imports
 numpy, Warp (with ``wp.init()``) and the package's modules a solve loads, then runs the command
-line's ``solve`` on examples/hertz.toml with n cells per side, the runner's parts timed where they
+line's ``solve`` on examples/hertz.toml (or ``--example NAME``: examples/NAME.toml) with n cells per side, the runner's parts timed where they
 are called (the device synchronised at each clock reading): ``model`` (``runner.build``: model,
 solvers, state), ``solve`` (the contact solver's steps), ``yield check``
 (``yielding.state_yield_check``) and the rest of the command (the case read and checked, the
@@ -11,6 +11,7 @@ what it measured inside: the interpreter's start and the process's end (``cli.en
 
     python bench/process_parts.py --n 512                       # the CPU
     python bench/process_parts.py --n 1024 --device cuda --rounds 5
+    python bench/process_parts.py --n 1024 --device cuda --rounds 5 --example figure2c
 """
 
 from __future__ import annotations
@@ -68,10 +69,11 @@ def main():
     ap.add_argument("--n", type=int, default=512)
     ap.add_argument("--device", default="cpu")
     ap.add_argument("--rounds", type=int, default=3)
+    ap.add_argument("--example", default="hertz", help="the case: examples/EXAMPLE.toml with --n and --device")
     a = ap.parse_args()
     rows = []
     with tempfile.TemporaryDirectory() as folder:
-        case = case_file(a.n, a.device, folder)
+        case = case_file(a.n, a.device, folder, a.example)
         code = CHILD.replace("DEVICE", repr(a.device)).replace("CASE", repr(case)).replace(
             "OUT", repr(os.path.join(folder, "out"))).replace("HERE", repr(HERE))
         for k in range(a.rounds + 1):  # the first round, not counted, fills the kernel cache
@@ -89,7 +91,8 @@ def main():
                 rows.append(parts)
             print(f"round {k}{' (not counted)' if not k else ''}: {wall:.2f} s", file=sys.stderr, flush=True)
     med = {p: statistics.median(r[p] for r in rows) for p in (*PARTS, "whole process")}
-    print(f"<!-- python bench/process_parts.py --n {a.n} --device {a.device} --rounds {a.rounds}: medians -->")
+    print(f"<!-- python bench/process_parts.py --n {a.n} --device {a.device} --rounds {a.rounds} --example {a.example}: "
+          "medians -->")
     print("| n | whole process [s] | " + " | ".join(f"{p} [s]" for p in PARTS) + " |")
     print("|---|---|" + "---|" * len(PARTS))
     print(f"| {a.n} | {med['whole process']:.2f} | " + " | ".join(f"{med[p]:.2f}" for p in PARTS) + " |")

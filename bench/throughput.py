@@ -19,7 +19,9 @@ size runs, side by side in one process:
 kernels and transforms launched once for its B cases; one warm-up batch first); a case whose
 batched step did not converge is solved on its own inside it (counted: ``solved_alone``).
 ``--plain-tangential`` adds, after them, the largest batch with the batched tangential solves'
-plain iteration and again with the preconditioned one (the default), side by side. ``--parts``:
+plain iteration and again with the preconditioned one (the default), side by side;
+``--padded-preconditioner`` likewise the largest batch with the preconditioners' circulants on
+the padded grids and again on the grids themselves (the default, ``preconditioner_grid``). ``--parts``:
 the largest batch once more, each part timed with the device synchronised around it (the
 batched steps, the normal and tangential solves inside them, the yield checks), a table of its
 own.
@@ -159,17 +161,21 @@ def swept(path: Path, batch: int) -> dict:
             "cases": len(report.records), "start_s": 0.0, "wall_s": wall}
 
 
-def batched(cases: list, batch: int, own_checks: bool = False, plain_tangential: bool = False) -> dict:
+def batched(cases: list, batch: int, own_checks: bool = False, plain_tangential: bool = False,
+            padded: bool = False) -> dict:
     """``batch B``: ``solve_batch`` with batches of B cases; ``own_checks``: each case's yield
     check made on its own (as on the CPU), not the batch's together; ``plain_tangential``: the
     batched tangential solves' plain iteration (``BatchContactSolver.tangential_preconditioned``
-    False) instead of the preconditioned one."""
+    False) instead of the preconditioned one; ``padded``: the batched preconditioners on the
+    padded grids (``periodic_preconditioner`` False), not the grids themselves."""
     import warpcontact as wc
+    from warpcontact.fft.batch import BatchConvolution, BatchElasticOperator
     from warpcontact.solvers.contact_batch import BatchContactSolver
     from warpcontact.studies import batch_solve
 
     made_together, own_solve = batch_solve._yield_checks, batch_solve.run_path
     BatchContactSolver.tangential_preconditioned = not plain_tangential
+    BatchConvolution.periodic_preconditioner = BatchElasticOperator.periodic_preconditioner = not padded
     alone = []
     if own_checks:
         def own(ended, arrays):  # each case's state gets its row, for its own check at its end
@@ -193,9 +199,11 @@ def batched(cases: list, batch: int, own_checks: bool = False, plain_tangential:
     finally:
         batch_solve._yield_checks, batch_solve.run_path = made_together, own_solve
         BatchContactSolver.tangential_preconditioned = True
+        BatchConvolution.periodic_preconditioner = BatchElasticOperator.periodic_preconditioner = True
     assert all(not isinstance(r, Exception) and r.converged for r in results), "a case did not converge"
     return {"placement": f"batch {batch}" + (", own checks" if own_checks else "")
-            + (", plain tangential" if plain_tangential else ""), "workers": 1,
+            + (", plain tangential" if plain_tangential else "")
+            + (", padded preconditioners" if padded else ""), "workers": 1,
             "cases": len(cases), "start_s": 0.0, "wall_s": wall, "solved_alone": len(alone)}
 
 
@@ -321,6 +329,9 @@ def main(argv=None):
                     help="add run_sweep of the cases, one at a time and batched (--problem normal)")
     ap.add_argument("--plain-tangential", action="store_true",
                     help="coupled: add rows of the largest batch with the batched tangential solves' plain iteration")
+    ap.add_argument("--padded-preconditioner", action="store_true",
+                    help="add rows of the largest batch with the preconditioners' circulants on the padded grids, "
+                         "then on the grids themselves (the default)")
     ap.add_argument("--parts", action="store_true",
                     help="coupled: the largest batch once more with its parts timed (steps, normal and tangential "
                          "solves, yield checks; the device synchronised around each)")
@@ -366,6 +377,8 @@ def main(argv=None):
                 runs = [base] + [with_workers(path, w) for w in args.workers] + [batched(cases, b) for b in args.batches]
                 if args.plain_tangential and args.batches:
                     runs += [batched(cases, max(args.batches), plain_tangential=True), batched(cases, max(args.batches))]
+                if args.padded_preconditioner and args.batches:
+                    runs += [batched(cases, max(args.batches), padded=True), batched(cases, max(args.batches))]
                 if args.own_checks:
                     runs.append(one_at_a_time(cases, own_checks=True))
                 if args.parts and args.batches:

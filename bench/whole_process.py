@@ -31,8 +31,9 @@ HERE = os.path.dirname(os.path.abspath(__file__))
 ROOT = os.path.dirname(HERE)
 
 
-def case_file(n: int, device: str, folder: str) -> str:
-    text = open(os.path.join(ROOT, "examples", "hertz.toml")).read()
+def case_file(n: int, device: str, folder: str, example: str = "hertz") -> str:
+    """examples/EXAMPLE.toml with ``n`` cells per side on ``device``, written into ``folder``."""
+    text = open(os.path.join(ROOT, "examples", f"{example}.toml")).read()
     lines = []
     for line in text.splitlines():
         if line.startswith("n = "):
@@ -40,7 +41,7 @@ def case_file(n: int, device: str, folder: str) -> str:
         elif line.startswith("device = "):
             line = f'device = "{device}"'
         lines.append(line)
-    path = os.path.join(folder, f"hertz{n}.toml")
+    path = os.path.join(folder, f"{example}{n}.toml")
     with open(path, "w") as f:
         f.write("\n".join(lines) + "\n")
     return path

@@ -164,3 +164,20 @@ def boussinesq_cerruti_cells(a: wp.array2d(dtype=wp.float64), b: wp.array2d(dtyp
     if pick_1 >= 0:
         v = v + coefficient_1 * cell_difference(pick_1, a, b, row, col)
     out[i, j] = v * scale
+
+
+@wp.kernel
+def chan_circulant(padded: wp.array2d(dtype=wp.float64), circulant: wp.array2d(dtype=wp.float64)):
+    """T. Chan's optimal circulant of a kernel on the (ny, nx) grid, from its DC-FFT coefficients
+    (``padded``: (2 ny, 2 nx), wrap-around order): the entry of offset (i, j), 0 <= i < ny,
+    0 <= j < nx, is its four images (i - a ny, j - b nx), a, b in {0, 1}, weighted by the share
+    of the grid's cell pairs each offset has: (ny - i) / ny for a = 0, i / ny for a = 1 (and
+    likewise along x). Launched over the (ny, nx) grid."""
+    i, j = wp.tid()
+    ny = circulant.shape[0]
+    nx = circulant.shape[1]
+    one = wp.float64(1.0)
+    wy = wp.float64(ny - i) / wp.float64(ny)
+    wx = wp.float64(nx - j) / wp.float64(nx)
+    circulant[i, j] = (wy * (wx * padded[i, j] + (one - wx) * padded[i, j + nx])
+                       + (one - wy) * (wx * padded[i + ny, j] + (one - wx) * padded[i + ny, j + nx]))

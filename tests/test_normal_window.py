@@ -38,8 +38,10 @@ def test_a_path_on_windows_is_the_path_on_the_whole_grid(device):
     the whole grid's path within 1e-8 of their largest: both solves stop at a relative residual
     of 1e-10 of the gap's misfit, and a pressure error is that misfit times K's inverse, whose
     conditioning on a contact some 60 cells wide is of order 100 (measured 3e-9 for the pressure,
-    2e-11 for the gap). The contact cells are the same, and the warm-started steps take as many
-    iterations within 3."""
+    2e-11 for the gap). The contact cells are the same, and the warm-started steps on windows take
+    at most 3 iterations more than on the whole grid: the problem is the same, and the window's
+    preconditioner (its own circulant) is no worse a one (measured 16, 17, 14 on the window
+    against 16, 19, 18 with T. Chan's circulants, 18, 19, 14 against 17, 19, 14 padded)."""
     whole, infos_whole, windows_whole, _ = path(False, device)
     on, infos_on, windows_on, _ = path(True, device)
     assert windows_whole == [None] * 4
@@ -50,7 +52,7 @@ def test_a_path_on_windows_is_the_path_on_the_whole_grid(device):
         assert np.abs(on[key] - whole[key]).max() < 1e-8 * scale, (key, np.abs(on[key] - whole[key]).max() / scale)
     assert np.array_equal(on["pressure"] > 0, whole["pressure"] > 0)
     for a, b in zip(infos_on[1:], infos_whole[1:]):
-        assert abs(a.iterations - b.iterations) <= 3, ([i.iterations for i in infos_on], [i.iterations for i in infos_whole])
+        assert a.iterations <= b.iterations + 3, ([i.iterations for i in infos_on], [i.iterations for i in infos_whole])
 
 
 def test_a_contact_grown_past_its_window_is_finished_on_the_whole_grid(device, monkeypatch, small_normal_windows):

@@ -68,7 +68,7 @@ def build(n, dtype="float64", fft="scipy", friction=True, adhesion=False, **choi
         solver.tangential.make_whole_grid_fields()
         assert solver.tangential.no_displacement is not None  # (made when first needed)
     if solver.normal.float32_preconditioner:  # and the float32 preconditioners' arrays a solve makes
-        model.operator.inverse_transforms(True)
+        solver.normal.preconditioner_transforms()
     return model, ContactState(model), solver
 
 

@@ -231,6 +231,13 @@ def test_a_float32_preconditioner_reaches_the_same_shear(case, device):
         assert info_b.converged and info_b.iterations <= 1.2 * info_a.iterations + 2, (info_a, info_b)
     else:
         a, b = (coupled_step(device, "float64", True, preconditioner_float32=f) for f in (False, True))
+    assert_same_shear(a, b, tol)
+
+
+def assert_same_shear(a, b, tol: float):
+    """Two states of solves that met ``tol`` with different preconditioners: the shear within 1000
+    tolerances of its largest cell, F_x and F_z within 10, the same stick and slip cells (the
+    bounds of ``test_preconditioned_and_plain_reach_the_same_shear``)."""
     q0 = np.stack([a.shear_x.numpy(), a.shear_y.numpy()])
     q1 = np.stack([b.shear_x.numpy(), b.shear_y.numpy()])
     assert np.abs(q1 - q0).max() < 1000 * tol * np.abs(q0).max()

@@ -228,7 +228,9 @@ def test_adhesive_coupled_steps_on_the_window(turns, outer_tol):
     point's last step is largest: stopped at the default 1e-8 the two runs' lagged adhesive
     pressures differ there by 1.2e-5 of the largest, hence the lagged turns run to 1e-10 here
     (measured 8.8e-7); the minimised turns at the default 1e-8 (measured 9.4e-7 for the adhesive
-    shear)."""
+    shear). Both runs precondition on the padded grid: the periodic circulants of a 32- and a
+    60-cell grid (``preconditioner_grid``'s default) take paths different by more than rounding,
+    and the lagged fixed point's edge cells keep their path (test_preconditioner_grid.py)."""
     from warpcontact.studies import table2 as t2
 
     settings = t2.Table2Settings(n=48)
@@ -237,7 +239,8 @@ def test_adhesive_coupled_steps_on_the_window(turns, outer_tol):
     out = {}
     for window in (False, True):
         model = ContactModel(PAPER_PAIR, Sphere(t2.RADIUS), t2.cell_grid(dz, settings, law))
-        solver = ContactSolver(model, LAW, adhesion=law, turns=turns, window=window, outer_tol=outer_tol)
+        solver = ContactSolver(model, LAW, adhesion=law, turns=turns, window=window, outer_tol=outer_tol,
+                               preconditioner_grid="padded")
         state = ContactState(model)
         for approach in ((0.0, 0.0, dz), (DX, 0.0, dz)):
             info = solver.step(state, approach)

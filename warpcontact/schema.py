@@ -85,6 +85,7 @@ VALUES = {
     "solver.nested": {"enum": [True, False, "auto"]},
     "solver.window": {"enum": [True, False, "auto"]},
     "solver.preconditioner_float32": {"enum": [True, False, "auto"]},
+    "solver.preconditioner_grid": _enum(C.PRECONDITIONER_GRIDS),
     "friction.law": _enum(C.FRICTION_KEYS),
     "friction.mu": {"type": "number", "minimum": 0},
     "friction.k_tau": {"type": "number", "exclusiveMinimum": 0, "exclusiveMaximum": 1},

@@ -72,6 +72,30 @@ def make_fft(name: str, ny: int, nx: int, device, dtype) -> FFTBackend:
     return WarpTileFFT(ny, nx, device, dtype)
 
 
+def make_periodic_fft(name: str, ny: int, nx: int, device, dtype) -> "FFTBackend | None":
+    """The transforms of the (ny, nx) grid itself, periodic, with no zero padding
+    (``FFTBackend.periodic``), of the backend ``name`` (a backend made by :func:`make_fft`: its
+    ``name``), on which the preconditioners' circulants run (``ElasticOperator.inverse_transforms``);
+    None for a backend without them (the ``warp`` backend, whose tile transforms are of the padded
+    lengths)."""
+    import warp as wp
+
+    device = wp.get_device(device)
+    if name == "fftw":
+        from .fftw_backend import PeriodicFFTW
+
+        return PeriodicFFTW(ny, nx, device, dtype)
+    if name == "scipy":
+        from .scipy_backend import PeriodicScipyFFT
+
+        return PeriodicScipyFFT(ny, nx, device, dtype)
+    if name == "cupy":
+        from .cupy_backend import CupyFFT
+
+        return CupyFFT(ny, nx, device, dtype, periodic=True)
+    return None
+
+
 def __getattr__(name: str):
     """``FFTBackend`` on first use (PEP 562): the backend names (.names) load without Warp."""
     if name == "FFTBackend":

@@ -50,14 +50,23 @@ class FFTBackend:
         self.np_complex = np.complex128 if dtype == wp.float64 else np.complex64
         self.launches = LaunchCache(self.device)
 
+    #: whether the transforms are of the (ny, nx) grid itself, periodic, with no zero padding (the
+    #: preconditioners' circulants: ``make_periodic_fft``); False: of the DC-FFT's padded grid
+    periodic = False
+
     @property
     def padded_shape(self) -> tuple[int, int]:
-        return (2 * self.ny, 2 * self.nx)
+        """The grid transformed: (2 ny, 2 nx), or (ny, nx) where ``periodic``."""
+        return (self.ny, self.nx) if self.periodic else (2 * self.ny, 2 * self.nx)
 
     @property
     def spectral_shape(self) -> tuple[int, int]:
         """Shape of one spectrum (complex entries)."""
         raise NotImplementedError
+
+    def _complex_view(self, spectrum: wp.array2d) -> np.ndarray:
+        """A CPU spectrum as a complex numpy view (no copy)."""
+        return spectrum.numpy().view(self.np_complex).reshape(spectrum.shape)
 
     def alloc_spectra(self, count: int) -> wp.array:
         """``count`` spectra in one array of shape (count, *spectral_shape), zero-filled."""

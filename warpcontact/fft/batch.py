@@ -37,17 +37,20 @@ from ..numerics.launch import LaunchCache
 
 
 @functools.lru_cache(maxsize=8)
-def normal_influence(n: int) -> tuple[np.ndarray, float]:
+def normal_influence(n: int) -> tuple[np.ndarray, float, np.ndarray]:
     """The scaled normal influence coefficients of an n x n grid of square cells: their real
     spectrum (2 n, n + 1) on the (2 n, 2 n) padded grid, ``numpy.fft.rfft2``'s layout, float64
-    (K_zz is even: its spectrum is real), and the 2-norm of one column of K (the bound
-    ||K c||_2 <= norm ||c||_1 of ``ElasticOperator.column_norm``)."""
-    from ..physics.influence import influence_coefficients
+    (K_zz is even: its spectrum is real), the 2-norm of one column of K (the bound
+    ||K c||_2 <= norm ||c||_1 of ``ElasticOperator.column_norm``), and the real spectrum (n,
+    n // 2 + 1) of T. Chan's circulant of K_zz on the grid itself (``chan_circulant``: the
+    preconditioner's, periodic)."""
+    from ..physics.influence import chan_circulant, influence_coefficients
     from ..physics.materials import Material, MaterialPair
 
     unit = Material(E=2.0, nu=0.0)  # two of them: E* = 1, so with dx = 1 the coefficients are scaled ones
     coefficients = influence_coefficients(MaterialPair(unit, unit), n, n, 1.0, 1.0)["zz"]
-    return np.fft.rfft2(coefficients).real, float(np.linalg.norm(coefficients))
+    return (np.fft.rfft2(coefficients).real, float(np.linalg.norm(coefficients)),
+            np.fft.rfft2(chan_circulant(coefficients)).real)
 
 
 class BatchLibrary:
@@ -126,6 +129,54 @@ class BatchLibrary:
             self.view(padded)[:, :n, :n] = fft.irfft(columns, n=2 * n, axis=-1, norm="forward", **w)[:, :, :n]
             return
         self._plans.execute(False, self.complex_view(spectra), self.view(padded))
+
+    def periodic_forward(self, fields: wp.array, n: int, spectra: wp.array):
+        """``spectra`` (..., n, n // 2 + 1) <- the transforms of the (n, n) grids themselves,
+        periodic, no padding (the preconditioners' circulants: ``fft.make_periodic_fft``), of
+        ``fields`` (a contiguous stack of rows of n^2 row-major cells, or of (n, n) grids)."""
+        if self._plans is None:
+            plans = self._periodic_fftw(fields, n, spectra, forward=True)
+            if plans is not None:
+                plans.forward()
+                return
+            self.complex_view(spectra)[...] = self.fft.rfft2(self._grids(fields, n), axes=(-2, -1), **self.workers)
+            return
+        self._plans.execute(True, self._grids(fields, n), self.complex_view(spectra))
+
+    def periodic_inverse(self, spectra: wp.array, n: int, fields: wp.array):
+        """``fields`` (as :meth:`periodic_forward` takes them) <- the unnormalised inverse transforms
+        of ``spectra`` (..., n, n // 2 + 1), which it may overwrite."""
+        if self._plans is None:
+            plans = self._periodic_fftw(fields, n, spectra, forward=False)
+            if plans is not None:
+                plans.inverse()
+                return
+            self._grids(fields, n)[...] = self.fft.irfft2(self.complex_view(spectra), s=(n, n), axes=(-2, -1),
+                                                          norm="forward", **self.workers)
+            return
+        self._plans.execute(False, self.complex_view(spectra), self._grids(fields, n))
+
+    def _grids(self, fields: wp.array, n: int):
+        """A contiguous stack of fields as an ``xp`` array of (n, n) grids sharing its memory."""
+        return self.view(fields).reshape(-1, n, n)
+
+    def _periodic_fftw(self, fields: wp.array, n: int, spectra: wp.array, forward: bool):
+        """On the CPU with pyFFTW, FFTW's plans of a periodic pass between ``fields`` and ``spectra``
+        (the solvers' buffers: made once, measured or from wisdom,
+        ``fftw_backend.PeriodicFFTWPlans.measured``); None without pyFFTW (then ``scipy.fft``)."""
+        if self._fftw is None:
+            return None
+        key = ("periodic", forward, fields.ptr, fields.shape, spectra.ptr, spectra.shape)
+        plans = self._fftw.get(key)
+        if plans is None:
+            from .base import cpu_threads
+            from .fftw_backend import FFTWBackend, PeriodicFFTWPlans
+
+            grids, spectrum = self._grids(fields, n), self.complex_view(spectra)
+            threads = cpu_threads(grids.shape[0] * n * n // 4, FFTWBackend.THREADS_FROM_CELLS)
+            plans = self._fftw[key] = PeriodicFFTWPlans.measured(grids if forward else None, spectrum,
+                                                                 None if forward else grids, threads)
+        return plans
 
     def pad(self, fields: wp.array, padded: wp.array):
         """The (n, n) corner of each grid of ``padded`` (rows, 2 n, 2 n) <- the row of ``fields``
@@ -254,8 +305,14 @@ class BatchConvolution:
 
     The caller writes each case's field into the (n, n) corner of its zero-padded grid in
     ``source`` (B, 2 n, 2 n) (``kernels/normal_batch.py``'s ``corner``) and reads the result from
-    the corner of ``result``; the rest of ``source`` stays zero.
+    the corner of ``result``; the rest of ``source`` stays zero. The preconditioner runs, where
+    ``periodic_preconditioner``, on the (n, n) grids themselves (``inverse_source`` and
+    ``inverse_result``, (B, n, n)): T. Chan's circulant of K_zz, transforms of a quarter of the
+    entries (``SolverSettings.preconditioner_grid``); else on the padded ones.
     """
+
+    #: the preconditioner on the grids themselves (T. Chan's circulant), else on the padded grids
+    periodic_preconditioner = True
 
     def __init__(self, n: int, batch: int, device, dtype):
         self.n, self.batch = int(n), int(batch)
@@ -268,25 +325,49 @@ class BatchConvolution:
         self.result = wp.zeros(padded, dtype=dtype, device=self.device)
         self.spectra = wp.zeros((self.batch, 2 * self.n, self.n + 1), dtype=spectra_vector(dtype), device=self.device)
         np_real = np.float64 if dtype == wp.float64 else np.float32
-        spectrum, norm = normal_influence(self.n)
+        spectrum, norm, circulant = normal_influence(self.n)
         #: the 2-norm of one column of K (scaled units)
         self.column_norm = norm
-        inverse = np.where(spectrum > 0.0, 1.0 / np.where(spectrum > 0.0, spectrum, 1.0), 0.0)
+        self.periodic = bool(self.periodic_preconditioner)
+        if self.periodic:  # the preconditioner's grids and spectra: (B, n, n), (B, n, n // 2 + 1)
+            grids = (self.batch, self.n, self.n)
+            self.inverse_source = wp.zeros(grids, dtype=dtype, device=self.device)
+            self.inverse_result = wp.zeros(grids, dtype=dtype, device=self.device)
+            self._inverse_spectra = wp.zeros((self.batch, self.n, self.n // 2 + 1), dtype=spectra_vector(dtype),
+                                             device=self.device)
+            inverse = np.where(circulant > 0.0, 1.0 / np.where(circulant > 0.0, circulant, 1.0), 0.0)
+            inverse_scale = 1.0 / (self.n * self.n)
+        else:
+            self.inverse_source, self.inverse_result, self._inverse_spectra = self.source, self.result, self.spectra
+            inverse = np.where(spectrum > 0.0, 1.0 / np.where(spectrum > 0.0, spectrum, 1.0), 0.0)
+            inverse_scale = 1.0 / (4 * self.n * self.n)
         scale = 1.0 / (4 * self.n * self.n)  # the inverse transform's
         self.library = BatchLibrary(self.device)
         self.library.keep(self.source, self.result, self.spectra)
-        self._multipliers = {k: wp.array((v * scale).astype(np_real)[None], dtype=dtype, device=self.device)
-                             for k, v in ((False, spectrum), (True, inverse))}
+        if self.periodic:
+            self.library.keep(self.inverse_source, self.inverse_result, self._inverse_spectra)
+        self._multipliers = {False: wp.array((spectrum * scale).astype(np_real)[None], dtype=dtype, device=self.device),
+                             True: wp.array((inverse * inverse_scale).astype(np_real)[None], dtype=dtype,
+                                            device=self.device)}
 
     def apply(self, inverse: bool = False):
-        """``result`` <- K_zz (``inverse``: its circulant inverse M, 0 where K_zz(k) <= 0) applied
-        to every case's ``source``, each zero-padded to (2 n, 2 n), in the corner of each grid."""
+        """``result`` <- K_zz applied to every case's ``source``, each zero-padded to (2 n, 2 n),
+        in the corner of each grid; ``inverse``: ``inverse_result`` <- the preconditioner M (the
+        circulant inverse, of T. Chan's circulant on the grid itself where ``periodic``, else of
+        the padded grid's, 0 where K_zz(k) <= 0) applied to ``inverse_source``."""
         lib = self.library
         with lib.on_device():
-            lib.forward(self.source, self.spectra)
-            lib.spectral_launch(sbk.batch_spectral_scale, self.batch, self.spectra.shape[1:],
-                                [self._multipliers[inverse], self.spectra])
-            lib.inverse(self.spectra, self.result)
+            if inverse and self.periodic:
+                lib.periodic_forward(self.inverse_source, self.n, self._inverse_spectra)
+            else:
+                lib.forward(self.source, self.spectra)
+            spectra = self._inverse_spectra if inverse else self.spectra
+            lib.spectral_launch(sbk.batch_spectral_scale, self.batch, spectra.shape[1:],
+                                [self._multipliers[inverse], spectra])
+            if inverse and self.periodic:
+                lib.periodic_inverse(self._inverse_spectra, self.n, self.inverse_result)
+            else:
+                lib.inverse(self.spectra, self.result)
 
 
 @functools.lru_cache(maxsize=8)
@@ -314,13 +395,19 @@ def tangential_influence(pair, n: int) -> tuple[dict, float, float]:
 
 
 @functools.lru_cache(maxsize=8)
-def tangential_inverse_blocks(pair, n: int) -> dict:
+def tangential_inverse_blocks(pair, n: int, periodic: bool = False) -> dict:
     """The tangential solver's preconditioner of a material pair on an n x n grid: per wavenumber
-    of the padded grid the inverse of K_tt's 2x2 block [[xx, xy], [xy, yy]]
-    (``tangential_influence``'s spectra) with its eigenvalues raised to at least a quarter of
-    the self-influence, as ``spectral.tangential_inverse_block`` makes it for one case: "xx",
-    "yy", "xy", real, ``numpy.fft.rfft2``'s layout."""
+    of the padded grid (``periodic``: of the grid itself, T. Chan's circulants of K_xx, K_yy and
+    K_xy, ``chan_circulant``) the inverse of K_tt's 2x2 block [[xx, xy], [xy, yy]] with its
+    eigenvalues raised to at least a quarter of the self-influence, as
+    ``spectral.tangential_inverse_block`` makes it for one case: "xx", "yy", "xy", real,
+    ``numpy.fft.rfft2``'s layout."""
     spectra, stiffness, _ = tangential_influence(pair, n)
+    if periodic:
+        from ..physics.influence import chan_circulant, influence_coefficients
+
+        coefficients = influence_coefficients(pair, n, n, 1.0, 1.0)
+        spectra = {k: np.fft.rfft2(chan_circulant(coefficients[k] * pair.E_star)).real for k in ("xx", "yy", "xy")}
     xx, yy, xy = spectra["xx"], spectra["yy"], spectra["xy"]
     floor = 0.25 * stiffness
     mean, diff = 0.5 * (xx + yy), 0.5 * (xx - yy)
@@ -346,8 +433,13 @@ class BatchElasticOperator:
     ``set_pairs`` gives each row its pair; rows of one pair share one spectrum (a batch of one
     pair holds one, read by every row). A pair (x, y) of fields is one (2, B, n^2) array,
     transformed in one call: padded into ``padded`` (2 B grids), its spectra in ``pair_spectra``
-    (2, B, 2 n, n + 1); a pressure's in ``pressure_spectra`` (B, 2 n, n + 1).
+    (2, B, 2 n, n + 1); a pressure's in ``pressure_spectra`` (B, 2 n, n + 1). The preconditioner
+    (``tangential_inverse``) runs, where ``periodic_preconditioner``, on the (n, n) grids
+    themselves (T. Chan's circulants, spectra (2, B, n, n // 2 + 1)), else on the padded ones.
     """
+
+    #: the preconditioner on the grids themselves (T. Chan's circulants), else on the padded grids
+    periodic_preconditioner = True
 
     def __init__(self, n: int, batch: int, device, dtype):
         self.n, self.batch = int(n), int(batch)
@@ -366,6 +458,11 @@ class BatchElasticOperator:
         self._padded_pressure, self._result_pressure = self.padded[: self.batch], self.result[: self.batch]
         self.library.keep(self.padded, self.result, self.pair_spectra, self.pressure_spectra, self._padded_pressure,
                           self._result_pressure)
+        self.periodic = bool(self.periodic_preconditioner)
+        if self.periodic:  # the preconditioner's spectra of the grids themselves
+            self.inverse_spectra = wp.zeros((2, self.batch, self.n, self.n // 2 + 1), dtype=vector, device=self.device)
+            self.library.keep(self.inverse_spectra)
+        self._inverse_fields: set = set()  # the fields tangential_inverse was given (their views kept)
         self._rows: dict = {}  # a (2, B, n^2) pair of fields as (2 B, n^2) rows, by its address
         self._spectra: dict = {}
         self._inverse: dict = {}
@@ -382,16 +479,17 @@ class BatchElasticOperator:
             rows = pairs[:1] if len(distinct) == 1 else pairs
             scale = 1.0 / (4 * self.n * self.n)  # the inverse transform's
             spectra = [tangential_influence(p, self.n)[0] for p in rows]
-            inverses = [tangential_inverse_blocks(p, self.n) for p in rows]
+            inverses = [tangential_inverse_blocks(p, self.n, self.periodic) for p in rows]
 
-            def stack(values, part):
+            def stack(values, part, scale=scale):
                 return wp.array((part(np.stack(values)) * scale).astype(self._real), dtype=self.dtype,
                                 device=self.device)
 
             # the coupling blocks are imaginary: their imaginary parts (``kernels/spectral_batch.py``)
             self._spectra = {k: stack([s[k] for s in spectra], np.imag if k in ("xz", "yz") else np.real)
                              for k in spectra[0]}
-            self._inverse = {k: stack([s[k] for s in inverses], np.real) for k in inverses[0]}
+            inverse_scale = 1.0 / (self.n * self.n) if self.periodic else scale
+            self._inverse = {k: stack([s[k] for s in inverses], np.real, inverse_scale) for k in inverses[0]}
             #: each row's bound on ||K_tt c||_2 / ||c||_1 (``tangential_influence``'s column norm)
             self.column_norms = np.array([tangential_influence(p, self.n)[2] for p in pairs])
         return (np.array([tangential_influence(p, self.n)[1] for p in pairs]),
@@ -454,9 +552,23 @@ class BatchElasticOperator:
 
     def tangential_inverse(self, gradient, out):
         """``out`` <- M ``gradient`` (each a (2, B, n^2) pair: x, y), M each row's circulant
-        inverse of K_tt on the padded grid (``tangential_inverse_blocks``): the batched
-        tangential solver's preconditioner, applied to g on the stick cells."""
-        self._block_product(self._inverse, gradient, out)
+        inverse of K_tt (``tangential_inverse_blocks``: of T. Chan's circulants on the grid itself
+        where ``periodic``, else on the padded grid): the batched tangential solver's
+        preconditioner, applied to g on the stick cells."""
+        if not self.periodic:
+            self._block_product(self._inverse, gradient, out)
+            return
+        lib = self.library
+        for field in (gradient, out):  # the solver's own buffers: their views made once
+            if field.ptr not in self._inverse_fields:
+                self._inverse_fields.add(field.ptr)
+                lib.keep(field)
+        b = self._inverse
+        with lib.on_device():
+            lib.periodic_forward(gradient, self.n, self.inverse_spectra)
+            lib.spectral_launch(sbk.batch_spectral_tangential, self.batch, self.inverse_spectra.shape[2:],
+                                [b["xx"], b["xy"], b["yy"], self.inverse_spectra])
+            lib.periodic_inverse(self.inverse_spectra, self.n, out)
 
     def cross_tangential(self, pressure, disp):
         """``disp`` (a (2, B, n^2) pair) <- K_tz p: the pressure's tangential displacement."""

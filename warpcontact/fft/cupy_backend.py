@@ -36,6 +36,9 @@ Unpruned (``pruned=False``, one 2-D plan each way): forward D2Z (R2C in float32)
 ``numpy.fft.rfft2`` of the padded field; inverse Z2D (C2R) of the spectrum (overwritten, as
 cuFFT's complex-to-real transforms do) into a second (2 ny, 2 nx) buffer.
 
+Periodic (``periodic=True``, ``make_periodic_fft``): one 2-D plan each way of the (ny, nx) grid
+itself, no padding, the spectrum (ny, nx // 2 + 1): the preconditioners' circulants.
+
 Memory: pruned, two (ny, 2 nx) real row buffers (one spectrum's worth); 2-D, two (2 ny, 2 nx)
 real padded buffers (two spectra's worth); and one work area shared by the plans: at most one
 spectrum, or 4-6.5 where cuFFT uses Bluestein's algorithm (transform lengths with a large prime
@@ -156,23 +159,27 @@ class CupyFFT(FFTBackend):
     Args:
         pruned: skip the transforms of the zero padding (row stages on ny rows, not 2 ny);
             False: one 2-D plan each way; None: :func:`prune_by_default`.
+        periodic: transforms of the (ny, nx) grid itself, no padding (``FFTBackend.periodic``:
+            the preconditioners' circulants), one 2-D plan each way; the spectrum (ny, nx // 2 + 1).
     """
 
     name = "cupy"
 
-    def __init__(self, ny, nx, device, dtype, pruned: bool | None = None):
+    def __init__(self, ny, nx, device, dtype, pruned: bool | None = None, periodic: bool = False):
         super().__init__(ny, nx, device, dtype)
         if not self.device.is_cuda:
             raise ValueError(f"fft: the cupy backend runs on CUDA devices only, not on {self.device}")
         self._lib = lib = _cufft_library()
-        self.pruned = prune_by_default(ny, nx, dtype) if pruned is None else bool(pruned)
+        self.periodic = bool(periodic)
+        self.pruned = False if periodic else prune_by_default(ny, nx, dtype) if pruned is None else bool(pruned)
         double = dtype == wp.float64
         self._real_to_complex = lib.cufftExecD2Z if double else lib.cufftExecR2C
         self._complex_to_real = lib.cufftExecZ2D if double else lib.cufftExecC2R
         self._complex_to_complex = lib.cufftExecZ2Z if double else lib.cufftExecC2C
         r2c, c2r, c2c = (_D2Z, _Z2D, _Z2Z) if double else (_R2C, _C2R, _C2C)
-        self.output_scale = dtype(1.0 / (4.0 * self.nx * self.ny))  # typed: a kernel argument
-        self._set_parseval(1, 2 * self.nx, 4 * self.nx * self.ny)
+        points = self.padded_shape[0] * self.padded_shape[1]
+        self.output_scale = dtype(1.0 / points)  # typed: a kernel argument
+        self._set_parseval(1, self.padded_shape[1], points)
         ny2, nx2, nxh = 2 * self.ny, 2 * self.nx, self.nx + 1
         self._plans = []
         sizes = []
@@ -210,7 +217,7 @@ class CupyFFT(FFTBackend):
 
     def _plan_2d(self, sizes: list, kind: int) -> int:
         plan, size = self._new_plan(), ctypes.c_size_t(0)
-        _check(self._lib.cufftMakePlan2d(plan, 2 * self.ny, 2 * self.nx, kind, ctypes.byref(size)), "cufftMakePlan2d")
+        _check(self._lib.cufftMakePlan2d(plan, *self.padded_shape, kind, ctypes.byref(size)), "cufftMakePlan2d")
         sizes.append(size.value)
         return plan
 
@@ -234,7 +241,8 @@ class CupyFFT(FFTBackend):
 
     @property
     def spectral_shape(self):
-        return (2 * self.ny, self.nx + 1)
+        rows, columns = self.padded_shape
+        return (rows, columns // 2 + 1)
 
     def spectrum_of_padded(self, padded):
         import scipy.fft
@@ -336,11 +344,12 @@ class BatchedPlans:
         self._lib = _cufft_library()
         self._stream = stream
         self._max_plans = max_plans
-        self._plans: OrderedDict = OrderedDict()  # (direction, m, n, double) -> (plan, work bytes)
+        self._plans: OrderedDict = OrderedDict()  # (direction, m, grid side, double) -> (plan, work bytes)
         self._work = []  # the work areas made, the current (largest) last
 
-    def _plan(self, forward: bool, m: int, n: int, double: bool) -> tuple[int, int]:
-        key = (forward, m, n, double)
+    def _plan(self, forward: bool, m: int, side: int, double: bool) -> tuple[int, int]:
+        """The plan of m real (side, side) grids (a padded 2 n, or a periodic n)."""
+        key = (forward, m, side, double)
         made = self._plans.get(key)
         if made is not None:
             self._plans.move_to_end(key)
@@ -351,7 +360,7 @@ class BatchedPlans:
             try:
                 _check(lib.cufftSetAutoAllocation(plan.value, 0), "cufftSetAutoAllocation")
                 kind = (_D2Z if forward else _Z2D) if double else (_R2C if forward else _C2R)
-                shape = (ctypes.c_int * 2)(2 * n, 2 * n)
+                shape = (ctypes.c_int * 2)(side, side)
                 _check(lib.cufftMakePlanMany(plan.value, 2, shape, None, 1, 0, None, 1, 0, kind, m, ctypes.byref(size)),
                        "cufftMakePlanMany")
                 _check(lib.cufftSetStream(plan.value, ctypes.c_void_p(self._stream)), "cufftSetStream")
@@ -369,18 +378,19 @@ class BatchedPlans:
 
     def execute(self, forward: bool, source, target):
         """``target`` <- the transform of ``source`` (C-contiguous CuPy stacks on the plans' device:
-        forward (m, 2 n, 2 n) real to (m, 2 n, n + 1) complex, or the reverse)."""
+        forward (m, L, L) real to (m, L, L // 2 + 1) complex, or the reverse; L = 2 n for padded
+        grids, n for periodic ones)."""
         import cupy
 
         real, spectra = (source, target) if forward else (target, source)
-        m, n = real.shape[0], real.shape[-1] // 2
+        m, side = real.shape[0], real.shape[-1]
         double = real.dtype == np.float64
         complex_type = np.complex128 if double else np.complex64
-        if (real.shape != (m, 2 * n, 2 * n) or spectra.shape != (m, 2 * n, n + 1) or spectra.dtype != complex_type
+        if (real.shape != (m, side, side) or spectra.shape != (m, side, side // 2 + 1) or spectra.dtype != complex_type
                 or real.dtype not in (np.float64, np.float32) or not (real.flags.c_contiguous and spectra.flags.c_contiguous)):
             raise ValueError(f"fft: batched transforms of {real.shape} {real.dtype} and {spectra.shape} "
-                             f"{spectra.dtype}: expected contiguous stacks (m, 2 n, 2 n) and (m, 2 n, n + 1)")
-        plan, size = self._plan(forward, m, n, double)
+                             f"{spectra.dtype}: expected contiguous stacks (m, L, L) and (m, L, L // 2 + 1)")
+        plan, size = self._plan(forward, m, side, double)
         if not self._work or self._work[-1].size < size:
             self._work.append(cupy.empty(max(1, size), dtype=cupy.uint8))
         work = self._work[-1]

@@ -35,8 +35,8 @@ os.environ.setdefault("OMP_WAIT_POLICY", "PASSIVE")
 import numpy as np  # noqa: E402
 import warp as wp  # noqa: E402
 
-from .base import FFTBackend  # noqa: E402
-from .scipy_backend import ScipyFFT  # noqa: E402
+from .base import FFTBackend, cpu_threads  # noqa: E402
+from .scipy_backend import PeriodicScipyFFT, ScipyFFT  # noqa: E402
 
 
 #: what pyFFTW's package imports for its ``interfaces`` to other libraries (pyfftw/interfaces/
@@ -183,8 +183,8 @@ class FFTWPlans:
         self.columns_inverse.execute()
         self.rows_inverse.execute()
 
-    @staticmethod
-    def measured(rows_in: np.ndarray, spectrum: np.ndarray, rows_out: np.ndarray, threads: int,
+    @classmethod
+    def measured(cls, rows_in: np.ndarray, spectrum: np.ndarray, rows_out: np.ndarray, threads: int,
                  measure_new: bool = True) -> "FFTWPlans":
         """Measured plans for these arrays, without touching them: from wisdom (kept on disk,
         :func:`wisdom_path`) when there is some for their layout; else measured first on scratch
@@ -195,21 +195,82 @@ class FFTWPlans:
         _load_wisdom()
         wise = ("FFTW_MEASURE", "FFTW_WISDOM_ONLY")
         try:
-            return FFTWPlans(rows_in, spectrum, rows_out, threads, wise)
+            return cls(rows_in, spectrum, rows_out, threads, wise)
         except RuntimeError:  # no wisdom for this layout yet
             pass
         if not measure_new:
-            return FFTWPlans(rows_in, spectrum, rows_out, threads)
+            return cls(rows_in, spectrum, rows_out, threads)
         scratch = [None if a is None else _scratch_like(a) for a in (rows_in, spectrum, rows_out)]
-        FFTWPlans(*scratch, threads, ("FFTW_MEASURE",))
+        cls(*scratch, threads, ("FFTW_MEASURE",))
         _save_wisdom()
         try:
-            return FFTWPlans(rows_in, spectrum, rows_out, threads, wise)
+            return cls(rows_in, spectrum, rows_out, threads, wise)
         except RuntimeError:  # an alignment the scratch arrays did not have: estimate
-            return FFTWPlans(rows_in, spectrum, rows_out, threads)
+            return cls(rows_in, spectrum, rows_out, threads)
 
 
-class FFTWBackend(ScipyFFT):
+class PeriodicFFTWPlans(FFTWPlans):
+    """The 2-D transforms of one spectrum (or a stack: leading batch axes) of periodic grids
+    (``PeriodicFFTW``, ``BatchLibrary.periodic_forward``): real-to-complex from ``field_in`` and the
+    unnormalised complex-to-real inverse into ``field_out`` (which may overwrite the spectrum),
+    with the planner ``flags``; ``field_in`` or ``field_out`` None: that direction not made."""
+
+    def __init__(self, field_in: np.ndarray | None, spectrum: np.ndarray, field_out: np.ndarray | None, threads: int,
+                 flags=()):
+        pyfftw = import_pyfftw()
+
+        common = dict(axes=(-2, -1), flags=tuple(flags) or ("FFTW_ESTIMATE",), threads=threads)
+        self.spectrum = spectrum
+        if field_in is not None:
+            self._forward = pyfftw.FFTW(field_in, spectrum, direction="FFTW_FORWARD", **common)
+        if field_out is not None:
+            self._inverse = pyfftw.FFTW(spectrum, field_out, direction="FFTW_BACKWARD", normalise_idft=False,
+                                        **common)
+
+    def forward(self):
+        """The spectrum <- the transform of ``field_in``."""
+        self._forward.execute()
+
+    def inverse(self):
+        """``field_out`` <- the unnormalised inverse transform (the spectrum overwritten)."""
+        self._inverse.execute()
+
+
+class _Planned:
+    """What the FFTW backends share: their plans made on first use per spectrum array and kept
+    (``plan_type``, of the arrays ``_plan_arrays`` gives), measured where ``measure`` (from
+    wisdom, or measured anew unless ``transient``), else estimated."""
+
+    plan_type = FFTWPlans
+
+    def _plan_arrays(self, spectrum: wp.array2d) -> tuple:
+        raise NotImplementedError
+
+    def transient(self):
+        """This backend's grid serves a few solves (a tangential solve's window, whose size
+        follows the contact from state to state): plans from the machine's wisdom where it has
+        some, else estimated, not measured. A path at n = 512 on a machine without wisdom met 19
+        layouts, and measuring them took 14 s of its solve."""
+        super().transient()
+        self.measure_new = False
+
+    def _plans_for(self, spectrum: wp.array2d) -> FFTWPlans:
+        plans = self._plans.get(spectrum.ptr)
+        if plans is None or plans.spectrum.shape != spectrum.shape:
+            arrays = (*self._plan_arrays(spectrum), self.workers)
+            kind = self.plan_type
+            plans = kind.measured(*arrays, measure_new=self.measure_new) if self.measure else kind(*arrays)
+            self._plans[spectrum.ptr] = plans
+        return plans
+
+    def transform_input(self, spectrum):
+        self._plans_for(spectrum).forward()
+
+    def transform_to_output(self, spectrum):
+        self._plans_for(spectrum).inverse()
+
+
+class FFTWBackend(_Planned, ScipyFFT):
     name = "fftw"
     #: FFTW's threads from this many cells on (``base.cpu_threads``): below it a transform is faster
     #: on one thread than on two (docs/performance.md, "Many cases: the batch engine")
@@ -228,14 +289,6 @@ class FFTWBackend(ScipyFFT):
         self.measure_new = True
         self._plans: dict[int, FFTWPlans] = {}
 
-    def transient(self):
-        """This backend's grid serves a few solves (a tangential solve's window, whose size
-        follows the contact from state to state): plans from the machine's wisdom where it has
-        some, else estimated, not measured. A path at n = 512 on a machine without wisdom met 19
-        layouts, and measuring them took 14 s of its solve."""
-        super().transient()
-        self.measure_new = False
-
     def spectrum_of_padded(self, padded):
         """The scipy backend's spectrum (layout (2 ny, nx + 1)), made by FFTW with an estimated
         plan (once per influence array: measuring would cost more than it saves), from the array
@@ -247,20 +300,29 @@ class FFTWBackend(ScipyFFT):
                     flags=("FFTW_ESTIMATE", "FFTW_UNALIGNED"))()
         return spectrum
 
-    def _plans_for(self, spectrum: wp.array2d) -> FFTWPlans:
-        plans = self._plans.get(spectrum.ptr)
-        if plans is None or plans.spectrum.shape != spectrum.shape:
-            arrays = (self._rows, self._complex_view(spectrum), self._output, self.workers)
-            plans = FFTWPlans.measured(*arrays, measure_new=self.measure_new) if self.measure else FFTWPlans(*arrays)
-            self._plans[spectrum.ptr] = plans
-        return plans
-
-    def transform_input(self, spectrum):
-        self._plans_for(spectrum).forward()
-
-    def transform_to_output(self, spectrum):
-        self._plans_for(spectrum).inverse()
+    def _plan_arrays(self, spectrum):
+        return self._rows, self._complex_view(spectrum), self._output
 
     # padding and cropping kernels around the transforms (scipy's numpy copies assume its layout)
     forward = FFTBackend.forward
     inverse = FFTBackend.inverse
+
+
+class PeriodicFFTW(_Planned, PeriodicScipyFFT):
+    """FFTW's 2-D transforms of the (ny, nx) grid itself, periodic (``FFTBackend.periodic``): the
+    preconditioners' circulants (``make_periodic_fft``) beside an ``FFTWBackend``. Plans as
+    ``FFTWBackend``'s: made on first use per spectrum, measured from wisdom (or estimated where a
+    ``transient`` grid's layout has none); the inverse unnormalised (``output_scale`` 1 / (ny nx))."""
+
+    name = "fftw"
+    plan_type = PeriodicFFTWPlans
+
+    def __init__(self, ny, nx, device, dtype, workers: int | None = None):
+        super().__init__(ny, nx, device, dtype, workers or cpu_threads(ny * nx // 4, FFTWBackend.THREADS_FROM_CELLS))
+        self.output_scale = dtype(1.0 / (ny * nx))
+        self.measure = ny * nx >= MEASURE_FROM_CELLS
+        self.measure_new = True
+        self._plans: dict[int, PeriodicFFTWPlans] = {}
+
+    def _plan_arrays(self, spectrum):
+        return self._input, self._complex_view(spectrum), self._output

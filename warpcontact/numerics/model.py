@@ -88,7 +88,7 @@ class ContactModel:
                 if need > resources.memory_limit(self.device)[0]:
                     return None
             model = self._windows[cells] = self.on_grid(Grid(cells, cells * self.grid.dx))
-            model.operator.fft.transient()  # its size follows the contact: plans not worth measuring
+            model.operator.transient()  # its size follows the contact: plans not worth measuring
             while len(self._windows) > WINDOW_MODELS:
                 self._windows.popitem(last=False)
         self._windows.move_to_end(cells)

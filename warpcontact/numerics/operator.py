@@ -14,23 +14,35 @@ import warp as wp
 from warpcontact.kernels import spectral
 
 from ..errors import InputError
-from ..fft import make_fft
+from ..fft import make_fft, make_periodic_fft
 from .launch import FirstRow, LaunchCache, ReductionLaunch, Rows, Sums
-from ..physics.influence import KERNELS, SPECTRUM_PARTS, device_coefficients, influence_coefficients
+from ..physics.influence import (KERNELS, SPECTRUM_PARTS, chan_circulant, device_coefficients,
+                                 influence_coefficients)
 
 #: where the influence coefficients are computed (``ElasticOperator``'s ``influence``)
 INFLUENCE_PATHS = ("auto", "host", "device")
 
 
+#: the kernels whose circulant inverses precondition the solves (K_zz, and K_tt's block), in the
+#: spectral kernels' order (``kernels/spectral.py``: ZZ, XX, YY, XY)
+PRECONDITIONER_KERNELS = KERNELS[:4]
+
+
 class InverseTransforms(NamedTuple):
-    """Where the preconditioners run (``ElasticOperator.inverse_transforms``): an FFT
-    backend of the operator's padded grid, two of its spectral buffers (x and y) and the
-    influence spectra (at least K_zz, K_xx, K_yy, K_xy, in the spectral kernels' order), all in
-    the backend's float type."""
+    """Where the preconditioners run (``ElasticOperator.inverse_transforms``): an FFT backend (of
+    the operator's padded grid, or of the grid itself where ``fft.periodic``), two of its spectral
+    buffers (x and y) and the circulants' spectra (at least K_zz, K_xx, K_yy, K_xy, in the spectral
+    kernels' order), all in the backend's float type; and what the spectral sums over them take:
+    the spectrum's entries, their reduction's launch, the Parseval scale in the operator's float
+    type, and K_zz's mirrored read (``ElasticOperator.normal_product``; 0: none)."""
 
     fft: object
     buffers: list
     influence: wp.array
+    entries: int
+    reduction: ReductionLaunch
+    energy_scale: object
+    mirror: int
 
 
 class ElasticOperator:
@@ -49,7 +61,10 @@ class ElasticOperator:
 
     The spectra of the six influence kernels are computed once and kept on the device, each as
     its one non-zero part, real or imaginary (by the FFT backend: float64 on the host, then cast;
-    cuFFT on the device with the cupy backend); three spectral buffers are allocated once. The
+    cuFFT on the device with the cupy backend); three spectral buffers are allocated once. Beside
+    them, where the backend has transforms of the grid itself (``make_periodic_fft``), the spectra
+    of T. Chan's optimal circulants of K_zz, K_xx, K_yy and K_xy on the (n, n) grid
+    (``chan_circulant``), which the preconditioners may run on (``inverse_transforms``). The
     coefficients are float64 whatever ``dtype``; on the device path the cupy backend transforms
     them where they are (cast on the device as the host path casts on the host), the others get
     a host copy (the warp backend on CUDA, whose spectra are made on the host).
@@ -61,12 +76,9 @@ class ElasticOperator:
         self.shape = grid.shape
         self.fft = make_fft(fft, grid.n, grid.n, device, dtype)
         self.launches = LaunchCache(self.fft.device)
-        sy, sx = self.fft.spectral_shape
-        self._spectral_entries = sy * sx
-        self._spectral_reduction = ReductionLaunch.for_cells(self._spectral_entries, self.fft.device)
         # K_zz is even: on CUDA the energy product reads its spectrum up to the middle of the full
         # axis and mirrors past it, half of K_zz's bytes (``spectral_normal_energy``'s ``mirror``)
-        self._mirror = self.fft.spectral_shape[1 - self.fft.half_axis] if self.fft.device.is_cuda else 0
+        mirror = self.fft.spectral_shape[1 - self.fft.half_axis] if self.fft.device.is_cuda else 0
         self.coupled = pair.D != 0.0
         scale = pair.E_star / grid.dx  # scaled displacement per scaled traction
         if influence not in INFLUENCE_PATHS:
@@ -85,6 +97,7 @@ class ElasticOperator:
                 for k in KERNELS:
                     a = coeffs.pop(k)
                     a *= scale
+                    periodic_spectrum(k, a)
                     yield a
         else:
             self._self_coefficients, self._column_norms = {}, {}
@@ -94,8 +107,28 @@ class ElasticOperator:
                 for k, a in device_coefficients(pair, grid.n, grid.n, grid.dx, grid.dy, self.fft.device, scale=scale):
                     self._self_coefficients[k] = float(a.flatten()[:1].numpy()[0])  # offset (0, 0)
                     self._column_norms[k] = float(np.sqrt(wp.utils.array_inner(a, a)))
+                    periodic_spectrum(k, a)
                     yield a if on_device else a.numpy()
                     del a  # (one array at a time: let go before the next is made)
+
+        # the preconditioners' circulants on the grid itself, each transformed as its kernel's
+        # coefficients pass (``periodic_spectrum``): none where the backend has no such transforms
+        periodic = make_periodic_fft(self.fft.name, grid.n, grid.n, self.fft.device, dtype)
+        if periodic is not None:
+            periodic_influence = periodic.alloc_influence(len(PRECONDITIONER_KERNELS))
+            periodic_buffers = [wp.zeros(periodic.spectral_shape, dtype=periodic.complex_dtype, device=periodic.device)
+                                for _ in range(2)]
+
+        def periodic_spectrum(kernel: str, coefficients):
+            """The circulant's spectrum of a preconditioner's kernel from its (scaled) coefficients."""
+            if periodic is None or kernel not in PRECONDITIONER_KERNELS:
+                return
+            circulant = chan_circulant(coefficients)
+            if isinstance(circulant, wp.array) and not getattr(periodic, "takes_device_coefficients", False):
+                circulant = circulant.numpy()
+            k = PRECONDITIONER_KERNELS.index(kernel)
+            periodic.influence_spectra([circulant], [SPECTRUM_PARTS[kernel]], periodic_influence[k:k + 1],
+                                       periodic_buffers[0])
 
         # three buffers, one array each: a stacked (3, ...) array's first stride (one spectrum)
         # would pass Warp's 32-bit strides at n = 8192 in float64 (resources.index_limit)
@@ -104,7 +137,10 @@ class ElasticOperator:
         #: the six influence spectra, each real or imaginary: only that part (SPECTRUM_PARTS)
         self.influence = self.fft.alloc_influence(len(KERNELS))
         self.fft.influence_spectra(scaled(), [SPECTRUM_PARTS[k] for k in KERNELS], self.influence, self._buf[0])
-        self._inverse32 = None  # (inverse_transforms(float32=True), made when first asked)
+        self._padded_inverse = self._inverse(self.fft, self._buf[1:3], self.influence, mirror)
+        self._periodic_inverse = None if periodic is None else self._inverse(periodic, periodic_buffers,
+                                                                             periodic_influence)
+        self._inverse32 = {}  # periodic -> inverse_transforms(float32=True, periodic), made when first asked
 
     def self_coefficient(self, kernel: str) -> float:
         """Displacement of a cell under its own unit traction, scaled units (kernel in KERNELS)."""
@@ -129,25 +165,25 @@ class ElasticOperator:
         self.fft.inverse(self._buf[0], displacement)
 
     def normal_product(self, spectrum: wp.array2d, energy: wp.array | None = None, slot: int = 0,
-                       inverse: bool = False, influence: wp.array | None = None):
+                       inverse: bool = False, transforms: "InverseTransforms | None" = None):
         """The spectral product of K_zz on ``spectrum``, in place; with ``energy``, also
         ``energy[slot] += (K_zz t) . t`` for the field t whose spectrum it is, summed in Fourier
         space (Parseval; ``spectral.spectral_normal_energy``: no pass over the grid of its own;
         in ``energy``'s float type). ``inverse``: the product of the circulant inverse 1 / K_zz
         instead, with its sum t . (K_zz^-1 t) (``energy`` required), the normal solver's
-        preconditioner. ``influence``: the spectra in ``spectrum``'s float type (default: the
-        operator's; ``inverse_transforms``)."""
+        preconditioner. ``transforms``: the spectrum is of these (``inverse_transforms``; default:
+        the operator's own)."""
         if energy is None:
             if inverse:
                 raise ValueError("normal_product: the inverse product is launched with its sum (pass energy)")
             self.spectral_product(spectral.spectral_normal, [spectrum])
             return
-        fft = self.fft
+        t = transforms or self._padded_inverse
         self.launches.launch_reduce(
-            spectral.spectral_normal_energy, self._spectral_reduction, self._spectral_entries,
-            [Rows(self.influence if influence is None else influence, axis=1), Rows(spectrum), fft.half_axis,
-             fft.half_length, fft.energy_scale, int(inverse), int(slot), FirstRow(), self._mirror],
-            [Sums(energy)], rows=fft.spectral_shape)
+            spectral.spectral_normal_energy, t.reduction, t.entries,
+            [Rows(t.influence, axis=1), Rows(spectrum), t.fft.half_axis, t.fft.half_length, t.energy_scale,
+             int(inverse), int(slot), FirstRow(), t.mirror],
+            [Sums(energy)], rows=t.fft.spectral_shape)
 
     def normal_padded(self, energy: wp.array | None = None, slot: int = 0, inverse: bool = False,
                       transforms: "InverseTransforms | None" = None):
@@ -156,10 +192,9 @@ class ElasticOperator:
         kernels that pad and crop as part of their own passes). ``energy``, ``slot``,
         ``inverse``: as :meth:`normal_product`. ``transforms``: run on these
         (:meth:`inverse_transforms`; ``fft`` above is theirs; default: the operator's own)."""
-        fft, spectrum, influence = (self.fft, self._buf[0], None) if transforms is None else (
-            transforms.fft, transforms.buffers[0], transforms.influence)
+        fft, spectrum = (self.fft, self._buf[0]) if transforms is None else (transforms.fft, transforms.buffers[0])
         fft.transform_input(spectrum)
-        self.normal_product(spectrum, energy, slot, inverse, influence)
+        self.normal_product(spectrum, energy, slot, inverse, transforms)
         fft.transform_to_output(spectrum)
 
     def tangential(self, shear_x, shear_y, disp_x, disp_y):
@@ -196,26 +231,51 @@ class ElasticOperator:
 
     # --- the circulant inverse of the tangential block: the tangential solver's preconditioner ---
 
-    def inverse_transforms(self, float32: bool = False) -> "InverseTransforms":
-        """The FFT backend, two spectral buffers and the influence spectra that the preconditioners
-        (the circulant inverses) run on: the operator's own, or with ``float32`` in a float64 operator
-        float32 ones of the same padded grid (``SolverSettings.preconditioner_float32``), made
-        when first asked: a float32 backend of the same kind, two float32 spectral buffers and
-        the spectra K_zz, K_xx, K_yy, K_xy rounded to float32 (six padded grids' worth of float32
-        at most, against the float64 operator's twelve)."""
+    def _inverse(self, fft, buffers: list, influence: wp.array, mirror: int = 0) -> InverseTransforms:
+        """``InverseTransforms`` of a backend, its buffers and spectra, with its spectral sums' launch."""
+        sy, sx = fft.spectral_shape
+        return InverseTransforms(fft, buffers, influence, sy * sx, ReductionLaunch.for_cells(sy * sx, fft.device),
+                                 self.dtype(float(fft.energy_scale)), mirror)
+
+    @property
+    def has_periodic_preconditioner(self) -> bool:
+        """Whether the preconditioners may run on the grid itself (``inverse_transforms``)."""
+        return self._periodic_inverse is not None
+
+    def transient(self):
+        """This operator's grid serves a few solves (a window): its backends' plans made cheaply
+        (``FFTBackend.transient``)."""
+        for t in (self._padded_inverse, self._periodic_inverse, *self._inverse32.values()):
+            if t is not None:
+                t.fft.transient()
+
+    def inverse_transforms(self, float32: bool = False, periodic: bool = False) -> "InverseTransforms":
+        """The FFT backend, two spectral buffers and the circulants' spectra that the
+        preconditioners (the circulant inverses) run on:
+
+        - ``periodic``: on the grid itself, T. Chan's circulants (transforms of n^2 entries, not
+          4 n^2; ``SolverSettings.preconditioner_grid``), where the backend has such transforms
+          (``has_periodic_preconditioner``), else as without it;
+        - else the operator's own padded grid and influence spectra (the DC-FFT's circulant);
+        - ``float32`` in a float64 operator: float32 ones of the same grid
+          (``SolverSettings.preconditioner_float32``), made when first asked: a float32 backend of
+          the same kind, two float32 spectral buffers and the four spectra rounded to float32."""
+        periodic = bool(periodic and self._periodic_inverse is not None)
+        base = self._periodic_inverse if periodic else self._padded_inverse
         if not float32 or self.dtype == wp.float32:
-            return InverseTransforms(self.fft, self._buf[1:3], self.influence)
-        if self._inverse32 is None:
-            fft = make_fft(self.fft.name, self.grid.n, self.grid.n, self.fft.device, wp.float32)
-            if self.fft.is_transient:
+            return base
+        if periodic not in self._inverse32:
+            n, device = self.grid.n, base.fft.device
+            fft = (make_periodic_fft if periodic else make_fft)(base.fft.name, n, n, device, wp.float32)
+            if base.fft.is_transient:
                 fft.transient()
-            kept = len(KERNELS[:4])  # zz, xx, yy, xy: the spectral kernels' indices ZZ .. XY
-            influence = wp.empty((kept, *fft.spectral_shape), dtype=wp.float32, device=fft.device)
-            wp.launch(spectral.float32_copy, dim=influence.shape, inputs=[self.influence[:kept]], outputs=[influence],
-                      device=fft.device)
-            buffers = [wp.zeros(fft.spectral_shape, dtype=fft.complex_dtype, device=fft.device) for _ in range(2)]
-            self._inverse32 = InverseTransforms(fft, buffers, influence)
-        return self._inverse32
+            kept = len(PRECONDITIONER_KERNELS)
+            influence = wp.empty((kept, *fft.spectral_shape), dtype=wp.float32, device=device)
+            wp.launch(spectral.float32_copy, dim=influence.shape, inputs=[base.influence[:kept]], outputs=[influence],
+                      device=device)
+            buffers = [wp.zeros(fft.spectral_shape, dtype=fft.complex_dtype, device=device) for _ in range(2)]
+            self._inverse32[periodic] = self._inverse(fft, buffers, influence, base.mirror)
+        return self._inverse32[periodic]
 
     def tangential_column_norm(self) -> float:
         """Bound on the 2-norm of the displacements one cell's unit shear (of any direction)
@@ -234,9 +294,9 @@ class ElasticOperator:
         inverse = inverse or self.inverse_transforms()
         fft = inverse.fft
         self.launches.launch_reduce(
-            spectral.spectral_tangential_inverse_energy, self._spectral_reduction, self._spectral_entries,
+            spectral.spectral_tangential_inverse_energy, inverse.reduction, inverse.entries,
             [Rows(inverse.influence, axis=1), *(Rows(b) for b in inverse.buffers), fft.half_axis, fft.half_length,
-             self.fft.energy_scale, fft.dtype(eigen_floor), int(slot), FirstRow()],
+             inverse.energy_scale, fft.dtype(eigen_floor), int(slot), FirstRow()],
             [Sums(energy)], rows=fft.spectral_shape)
 
     def tangential_inverse_padded(self, fill_x, fill_y, use_x, use_y, energy: wp.array, slot: int,

@@ -231,13 +231,18 @@ def spectral_entries(n: int, fft: str) -> int:
 
 def breakdown(n: int, dtype="float64", device_kind="cpu", friction: bool = True, fft: str = "auto", *,
               states: int = 1, max_iter: int = 2000, adhesion: bool = False,
-              preconditioner_float32: bool | str = "auto") -> dict:
+              preconditioner_float32: bool | str = "auto", preconditioner_grid: str = "periodic") -> dict:
     """Bytes per part of a ContactModel + ``states`` ContactStates + a ContactSolver, on the device.
 
+    The operator's periodic transforms (every backend but ``warp``: ``ElasticOperator``, the
+    preconditioners' circulants on the grid itself): 4 spectra of (n, n // 2 + 1) entries, 2
+    spectral buffers and their (n, n) input and output grids (and on CUDA cuFFT's work area).
     ``preconditioner_float32`` (``SolverSettings.preconditioner_float32``; "auto": as it chooses
     for n on the device kind): in float64, the preconditioners' float32 transforms
-    (``ElasticOperator.inverse_transforms``): 4 influence spectra and 2 spectral buffers in
-    float32, and a float32 backend's work buffers and temporaries.
+    (``ElasticOperator.inverse_transforms``) of the grid ``preconditioner_grid``
+    (``SolverSettings.preconditioner_grid``; "padded" where the backend has no periodic ones): 4
+    influence spectra and 2 spectral buffers in float32, and a float32 backend's work buffers and
+    temporaries.
 
     Keys: ``spectra`` (influence and buffers), ``fft_work`` (the FFT backend's work buffers),
     ``fields`` ((n, n) arrays of the model, states and solvers), ``scalars`` (reductions and
@@ -294,10 +299,24 @@ def breakdown(n: int, dtype="float64", device_kind="cpu", friction: bool = True,
         fft_temporaries = int(math.ceil(allowance * spectrum))
     if fft == "warp" and kind == "cuda":
         fft_temporaries = cells * real
+    periodic = fft != "warp"  # the circulants' transforms of the grid itself (``make_periodic_fft``)
+    if periodic:
+        entries = n * (n // 2 + 1)
+        periodic_spectra = 4 * entries * real + 2 * entries * cplx
+        periodic_work = 2 * cells * real
+        periodic_temporaries = int(math.ceil(cufft_work_spectra(n) * entries * cplx)) if fft == "cupy" else 0
+        spectra += periodic_spectra
+        fft_work += periodic_work
+        fft_temporaries += periodic_temporaries
     if _float32_preconditioner(n, dtype, kind, preconditioner_float32):  # a float32 backend: half of each part
-        spectra += (4 * spectral_entries(n, fft) * real + 2 * spectrum) // 2
-        fft_work += fft_work // 2
-        fft_temporaries += fft_temporaries // 2
+        if periodic and preconditioner_grid == "periodic":
+            spectra += periodic_spectra // 2
+            fft_work += periodic_work // 2
+            fft_temporaries += periodic_temporaries // 2
+        else:
+            spectra += (4 * spectral_entries(n, fft) * real + 2 * spectrum) // 2
+            fft_work += fft_work // 2
+            fft_temporaries += fft_temporaries // 2
     arrays = spectra + fft_work + fields + scalars
     if adhesion:
         fft_temporaries += ADHESIVE_TEMPORARY_SPECTRA * 2 * n * (n + 1) * cplx + ADHESIVE_TEMPORARY_FIELDS * cells * real
@@ -460,10 +479,16 @@ def _bluestein_extra(n: int, dtype, fft: str, kind: str = "cpu") -> int:
     n."""
     if fft != "cupy":
         return 0
-    spectrum = spectral_entries(n, fft) * 2 * np.dtype(_np_name(resolve_dtype(dtype))).itemsize
-    extra = int(math.ceil(cufft_work_spectra(n) * spectrum)) - int(math.ceil(spectrum))
+    cplx = 2 * np.dtype(_np_name(resolve_dtype(dtype))).itemsize
+    factor = cufft_work_spectra(n)
+
+    def beyond(spectrum):  # the allowance beyond one spectrum
+        return int(math.ceil(factor * spectrum)) - int(math.ceil(spectrum))
+
+    periodic = beyond(n * (n // 2 + 1) * cplx)  # the periodic transforms' (breakdown)
+    extra = beyond(spectral_entries(n, fft) * cplx) + periodic
     if _float32_preconditioner(n, dtype, kind, "auto"):
-        extra += extra // 2 + 1  # (breakdown adds half of each allowance, rounded down)
+        extra += periodic // 2 + 1  # (breakdown adds half of the periodic allowance, rounded down)
     return extra
 
 

@@ -215,6 +215,26 @@ def device_coefficients(pair: MaterialPair, ny: int, nx: int, dx: float, dy: flo
         del out  # the consumer's copy is the only one while the next is made
 
 
+def chan_circulant(padded):
+    """T. Chan's optimal circulant (``kernels/influence.py``, ``chan_circulant``) of a kernel on the
+    (ny, nx) grid from its DC-FFT coefficients ``padded``, a (2 ny, 2 nx) float64 array in
+    wrap-around order: a numpy array (then computed on the CPU, returned as numpy) or a Warp array
+    (computed on its device, returned as a Warp array there). Its circulant is the one of least
+    Frobenius distance from the kernel's Toeplitz matrix on the grid (T. F. Chan, "An optimal
+    circulant preconditioner for Toeplitz systems", SIAM J. Sci. Stat. Comput. 9, 1988): the
+    preconditioners' approximate inverse on transforms of ny nx entries, not 4 ny nx."""
+    import warp as wp
+
+    from warpcontact.kernels import influence as kernels
+
+    host = not isinstance(padded, wp.array)
+    source = wp.array(np.ascontiguousarray(padded, dtype=np.float64), dtype=wp.float64, device="cpu") if host else padded
+    ny, nx = source.shape[0] // 2, source.shape[1] // 2
+    out = wp.empty((ny, nx), dtype=wp.float64, device=source.device)
+    wp.launch(kernels.chan_circulant, dim=out.shape, inputs=[source], outputs=[out], device=source.device)
+    return out.numpy() if host else out
+
+
 def influence_coefficients_device(pair: MaterialPair, ny: int, nx: int, dx: float, dy: float, device,
                                   padded: bool = True, scale: float = 1.0) -> dict:
     """``influence_coefficients`` on ``device``: a dict KERNELS -> float64 ``wp.array2d`` (all six

@@ -54,7 +54,10 @@ TABLES = ("sphere", "flat", "grid", "load", "solver", "friction", "adhesion")
 REQUIRED_TABLES = ("sphere", "flat", "grid", "load")
 
 GRID_KEYS = ("n", "size")
-SOLVER_KEYS = ("device", "dtype", "tol", "max_iter", "max_turns", "fft", "nested", "window", "preconditioner_float32")
+SOLVER_KEYS = ("device", "dtype", "tol", "max_iter", "max_turns", "fft", "nested", "window", "preconditioner_float32",
+               "preconditioner_grid")
+#: the grids the preconditioners' circulants may live on (``SolverSettings.preconditioner_grid``)
+PRECONDITIONER_GRIDS = ("periodic", "padded")
 FRICTION_KEYS = {"coulomb": ("law", "mu"), "tabor": ("law", "k_tau", "k_vm", "hardness_cap")}
 ADHESION_KEYS = {"smc": ("law", "sigma_max", "tau_max", "delta_n", "delta_t", "contact_shear"),
                  "dugdale": ("law", "sigma_0", "h_0", "smoothing", "ramps"),
@@ -135,6 +138,10 @@ class SolverSpec:
             float32 (``SolverSettings.preconditioner_float32``): the same answer to the
             tolerance, cheaper iterations. true, false or "auto" (the default: from 2048 cells per
             side of a solve's grid or window on CUDA, 512 on the CPU).
+        preconditioner_grid: the grid of the preconditioners' circulants
+            (``SolverSettings.preconditioner_grid``): "periodic" (the default: T. Chan's circulants
+            on the solve's own grid or window, a quarter of the padded grid's transform size) or
+            "padded" (the DC-FFT's circulant on the padded grid).
         tol_default: True when ``tol`` came from the dtype's default; such a tol follows a dtype
             override (see :meth:`with_overrides`). Not compared, not written by ``to_dict``.
     """
@@ -148,6 +155,7 @@ class SolverSpec:
     nested: bool | str = "auto"
     window: bool | str = "auto"
     preconditioner_float32: bool | str = "auto"
+    preconditioner_grid: str = "periodic"
     tol_default: bool = field(default=False, compare=False, repr=False)
 
     def __post_init__(self):
@@ -166,6 +174,7 @@ class SolverSpec:
         _set(self, "max_iter", _integer("solver.max_iter", self.max_iter, 1))
         _set(self, "max_turns", _integer("solver.max_turns", self.max_turns, 1))
         _choice("solver.fft", self.fft, FFT_BACKENDS)
+        _choice("solver.preconditioner_grid", self.preconditioner_grid, PRECONDITIONER_GRIDS)
         for key in ("nested", "window", "preconditioner_float32"):
             value = getattr(self, key)
             if not (_is_bool(value) or value == "auto"):
@@ -195,7 +204,7 @@ class SolverSpec:
         """All settings, the tol in effect included (so a record pins the run down)."""
         return {"device": self.device, "dtype": self.dtype, "tol": self.tol, "max_iter": self.max_iter,
                 "max_turns": self.max_turns, "fft": self.fft, "nested": self.nested, "window": self.window,
-                "preconditioner_float32": self.preconditioner_float32}
+                "preconditioner_float32": self.preconditioner_float32, "preconditioner_grid": self.preconditioner_grid}
 
 
 @dataclass(frozen=True)

@@ -98,6 +98,15 @@ class ProjectedCG:
             choice = preconditioner_float32_auto(self.model.grid.n, self.model.device.is_cuda)
         return bool(choice) and self.model.dtype == wp.float64
 
+    def preconditioner_transforms(self, preconditioned: bool = True):
+        """Where the preconditioner's circulant inverse runs (``ElasticOperator.inverse_transforms``):
+        on the grid itself or the padded grid (``settings.preconditioner_grid``), in float32 where
+        ``float32_preconditioner``; the operator's own padded transforms where not ``preconditioned``
+        (nothing made)."""
+        return self.model.operator.inverse_transforms(
+            self.float32_preconditioner and preconditioned,
+            periodic=preconditioned and self.settings.preconditioner_grid == "periodic")
+
     def _stage(self, slot: int, value: float):
         """parameters[slot] <- value on the host; ``_upload`` sends them."""
         self._parameters[slot] = value

@@ -194,7 +194,7 @@ class NormalSolver(ProjectedCG):
         preconditioned = self.settings.normal_preconditioner
         # the preconditioner's transforms (float32 where settings.preconditioner_float32; none made
         # when the solve is not preconditioned)
-        inverse = m.operator.inverse_transforms(self.float32_preconditioner and preconditioned)
+        inverse = self.preconditioner_transforms(preconditioned)
         inverse_output = [Rows(inverse.fft.padded_output), inverse.fft.output_scale]
 
         def displacement():  # state.disp_z <- K p
@@ -263,7 +263,7 @@ class NormalSolver(ProjectedCG):
             raise_non_finite("normal solve", state, ("pressure", "gap", "disp_z"), it)
 
         key = (state.pressure.ptr, state.gap.ptr, state.disp_z.ptr, known.ptr, preconditioned, displacement_current,
-               self.float32_preconditioner)
+               self.float32_preconditioner, self.settings.preconditioner_grid)
         return self._run(key, start, exact, body, on_non_finite, on_disagreement, start_exact=exact_from_displacement,
                          prelude=(self.recompute, recompute))
 

@@ -188,10 +188,11 @@ class BatchNormalSolver:
         """The conjugate-gradient step of every active case and ``batch_advance``'s counts."""
         c = self.convolution
         cap = self.pressure_cap
-        self._cells(bk.batch_free_gap, [self.gap, self.pressure, cap, self.n], [c.source])
+        self._cells(bk.batch_free_gap, [self.gap, self.pressure, cap, self.n], [c.inverse_source])
         c.apply(inverse=True)
-        self._reduce(bk.batch_free_gap_sum, [self.gap, self.pressure, cap, c.result, self.n], [self.sums])
-        self._cells(bk.batch_direction, [self.gap, self.pressure, cap, c.result, self.sums, self.scalars, self.n],
+        self._reduce(bk.batch_free_gap_sum, [self.gap, self.pressure, cap, c.inverse_result, self.n], [self.sums])
+        self._cells(bk.batch_direction,
+                    [self.gap, self.pressure, cap, c.inverse_result, self.sums, self.scalars, self.n],
                     [self.direction, c.source])
         c.apply()
         self._reduce(bk.batch_step_sums, [self.gap, self.direction, c.result, self.n], [self.sums])

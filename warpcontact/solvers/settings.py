@@ -20,6 +20,8 @@ TurnTolerance = Literal["residual", "change", "exact"]
 Turns = Literal["auto", "lagged", "minimised"]
 #: a speed-up chosen by the grid and the device (``"auto"``) or forced on or off
 Choice = Literal["auto", True, False]
+#: where the preconditioners' circulants live (``SolverSettings.preconditioner_grid``)
+PreconditionerGrid = Literal["periodic", "padded"]
 #: ``preconditioner_float32 = "auto"`` (the default): the preconditioners' transforms in float32
 #: from these cells per side of a solver's grid (a window's own) on, by device kind; None: never
 #: (docs/performance.md, "The preconditioners in float32": on an H200 Figure 2c and 2d at n = 2048
@@ -73,6 +75,11 @@ class SolverSettings:
             their transforms' bytes, the iterations' sums and updates still float64; "auto":
             from 2048 cells per side of the solver's grid or window on CUDA, 512 on the CPU
             (``PRECONDITIONER_FLOAT32_AUTO``). No effect in a float32 model.
+        preconditioner_grid: the grid of the preconditioners' circulants: "periodic" (T. Chan's
+            optimal circulants of K_zz and K_tt on the solver's own grid or window, transforms of
+            n^2 entries), or "padded" (the DC-FFT's circulant on the padded grid, 4 n^2: the
+            operator's own spectra inverted). The FFT backend ``warp`` has no periodic transforms
+            and runs "padded" either way.
         window_turns: with the pressure solved on windows (``window``), a step with friction and
             without adhesion solves its later turns' pressure on its first turn's window alone,
             with the shear's normal displacement made there, and judges it on the whole grid once,
@@ -101,6 +108,7 @@ class SolverSettings:
     nested: Choice = "auto"
     window: Choice = "auto"
     preconditioner_float32: Choice = "auto"
+    preconditioner_grid: PreconditionerGrid = "periodic"
     window_turns: bool = True
     use_graphs: bool | None = None
 
@@ -125,7 +133,7 @@ class SolverSettings:
             if not (getattr(self, name) is None or isinstance(getattr(self, name), bool)):
                 raise ValueError(f"settings.{name}: must be True, False or None (by device), got {getattr(self, name)!r}")
         for name, kind in (("turn_tolerance", TurnTolerance), ("turns", Turns), ("nested", Choice), ("window", Choice),
-                           ("preconditioner_float32", Choice)):
+                           ("preconditioner_float32", Choice), ("preconditioner_grid", PreconditionerGrid)):
             value = getattr(self, name)
             choices = get_args(kind)
             if not any(value is c if isinstance(c, bool) else (isinstance(value, str) and value == c) for c in choices):

@@ -323,9 +323,9 @@ class TangentialSolver(ProjectedCG):
             target_y, shear_limit, self.grad_x, self.grad_y, self.dir_x, self.dir_y, self.resp_x, self.resp_y))
 
     def _key(self, state, target_x, target_y, shear_limit, known_x, known_y):
-        return (self.settings.tangential_preconditioner, self.float32_preconditioner, *(a.ptr for a in (state.shear_x, state.shear_y, state.status, state.disp_x,
-                                                       state.disp_y, known_x, known_y, target_x, target_y,
-                                                       shear_limit)))
+        return (self.settings.tangential_preconditioner, self.float32_preconditioner, self.settings.preconditioner_grid,
+                *(a.ptr for a in (state.shear_x, state.shear_y, state.status, state.disp_x, state.disp_y, known_x,
+                                  known_y, target_x, target_y, shear_limit)))
 
     def _on_non_finite(self, state):
         def on_non_finite(it):
@@ -335,7 +335,7 @@ class TangentialSolver(ProjectedCG):
 
     def _solve_preconditioned(self, state, target_x, target_y, shear_limit, known_x, known_y, tol) -> SolveInfo:
         m = self.model
-        inverse = m.operator.inverse_transforms(self.float32_preconditioner)
+        inverse = self.preconditioner_transforms()
         fft = inverse.fft  # the preconditioner's transforms (float32 where settings.preconditioner_float32)
         qx, qy, st, ux, uy, kx, ky, tgx, tgy, limit, gx, gy, tx, ty, rx, ry = self._fields(
             state, target_x, target_y, shear_limit, known_x, known_y)
