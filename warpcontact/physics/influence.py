@@ -228,7 +228,9 @@ def chan_circulant(padded):
     from warpcontact.kernels import influence as kernels
 
     host = not isinstance(padded, wp.array)
-    source = wp.array(np.ascontiguousarray(padded, dtype=np.float64), dtype=wp.float64, device="cpu") if host else padded
+    # (a contiguous float64 host array is read where it is: no copy of the 4 ny nx coefficients)
+    source = wp.array(np.ascontiguousarray(padded, dtype=np.float64), dtype=wp.float64, device="cpu",
+                      copy=False) if host else padded
     ny, nx = source.shape[0] // 2, source.shape[1] // 2
     out = wp.empty((ny, nx), dtype=wp.float64, device=source.device)
     wp.launch(kernels.chan_circulant, dim=out.shape, inputs=[source], outputs=[out], device=source.device)
