@@ -294,6 +294,11 @@ def spectra_vector(dtype):
     return wp.vec2d if dtype == wp.float64 else wp.vec2f
 
 
+def _positive_inverse(spectrum: np.ndarray) -> np.ndarray:
+    """1 / spectrum where it is positive, 0 elsewhere (a circulant inverse's multipliers)."""
+    return np.where(spectrum > 0.0, 1.0 / np.where(spectrum > 0.0, spectrum, 1.0), 0.0)
+
+
 class BatchConvolution:
     """K_zz (or its circulant inverse, the preconditioner) on the fields of B cases at once.
 
@@ -335,11 +340,11 @@ class BatchConvolution:
             self.inverse_result = wp.zeros(grids, dtype=dtype, device=self.device)
             self._inverse_spectra = wp.zeros((self.batch, self.n, self.n // 2 + 1), dtype=spectra_vector(dtype),
                                              device=self.device)
-            inverse = np.where(circulant > 0.0, 1.0 / np.where(circulant > 0.0, circulant, 1.0), 0.0)
+            inverse = _positive_inverse(circulant)
             inverse_scale = 1.0 / (self.n * self.n)
         else:
             self.inverse_source, self.inverse_result, self._inverse_spectra = self.source, self.result, self.spectra
-            inverse = np.where(spectrum > 0.0, 1.0 / np.where(spectrum > 0.0, spectrum, 1.0), 0.0)
+            inverse = _positive_inverse(spectrum)
             inverse_scale = 1.0 / (4 * self.n * self.n)
         scale = 1.0 / (4 * self.n * self.n)  # the inverse transform's
         self.library = BatchLibrary(self.device)
