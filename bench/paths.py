@@ -71,6 +71,8 @@ CHOICES = {
     "precond32-on": {"preconditioner_float32": True},
     "precond32-off": {"preconditioner_float32": False},
     "precond-padded": {"preconditioner_grid": "padded"},
+    "response32-on": {"response_float32": True},
+    "response32-off": {"response_float32": False},
 }
 #: choices of the launch layer (numerics/launch.py, ``LaunchCache``'s class defaults), the solver's
 #: choices "auto": on the CPU, launches not split over its threads; and not replayed either
@@ -208,7 +210,7 @@ def run_one(name: str, n: int, choice: str, device: str, timeout: float) -> dict
     d["grid"]["n"] = int(n)
     solver = d.setdefault("solver", {})
     solver.update({"device": device, "nested": "auto", "window": "auto", "preconditioner_float32": "auto",
-                   **CHOICES.get(choice, CHOICES["auto"])})
+                   "response_float32": "auto", **CHOICES.get(choice, CHOICES["auto"])})
     if choice in LAUNCH_CHOICES:
         d["launches"] = LAUNCH_CHOICES[choice]
     row = {"path": name, "n": n, "choice": choice, "device": device, "dtype": solver.get("dtype", "float64")}

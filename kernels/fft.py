@@ -122,27 +122,31 @@ def row_fft_kernels(length: int, dtype) -> dict:
 
 from typing import Any  # noqa: E402
 
-from .overloads import register_float_overloads  # noqa: E402
+from .overloads import mixed_float_overloads, register_float_overloads  # noqa: E402
 
 
 @wp.kernel
 def pad_field(field: wp.array2d(dtype=Any), per: int, padded: wp.array2d(dtype=Any)):
     """padded[i, j] <- field[i, j] on the (ny, nx) corner of a backend's ``padded_input``, whose
-    other entries are zero and never written. Launched over (rows, chunks)
-    (``LaunchCache.launch_rows``: on the CPU a row per thread, split over the threads)."""
+    other entries are zero and never written; rounded to the backend's float type (a float32
+    backend beside float64 fields: ``SolverSettings.response_float32``). Launched over (rows,
+    chunks) (``LaunchCache.launch_rows``: on the CPU a row per thread, split over the threads)."""
     i, c = wp.tid()
     for j in range(c * per, wp.min((c + 1) * per, field.shape[1])):
-        padded[i, j] = field[i, j]
+        padded[i, j] = padded.dtype(field[i, j])
 
 
 @wp.kernel
 def crop_field(padded: wp.array2d(dtype=Any), scale: Any, per: int, field: wp.array2d(dtype=Any)):
     """field[i, j] <- scale * padded[i, j]: the kept (ny, nx) corner of an unnormalised inverse
-    transform, with its 1 / (4 nx ny). Launched as ``pad_field``."""
+    transform, with its 1 / (4 nx ny), in the field's float type. Launched as ``pad_field``."""
     i, c = wp.tid()
     for j in range(c * per, wp.min((c + 1) * per, field.shape[1])):
-        field[i, j] = padded[i, j] * scale
+        field[i, j] = field.dtype(padded[i, j] * scale)
 
 
 for _k in (pad_field, crop_field):
     register_float_overloads(_k)
+# a float32 backend's buffers beside float64 fields (``SolverSettings.response_float32``)
+mixed_float_overloads(pad_field, ("padded",))
+mixed_float_overloads(crop_field, ("padded", "scale"))

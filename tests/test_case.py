@@ -124,7 +124,7 @@ def test_full_case_round_trips():
     d["sphere"]["profile"] = "paraboloid"
     del d["flat"]["yield_strength"]  # -> inf, written as "inf"
     d["load"] = {"path": [[0, 0, 2e-11], [0.0, 0.0, 5e-11], [1e-11, -1e-11, 5e-11]]}
-    d["solver"] = {"device": "cuda:1", "dtype": "float32", "max_iter": 500, "fft": "cupy"}
+    d["solver"] = {"device": "cuda:1", "dtype": "float32", "max_iter": 500, "fft": "cupy", "response_float32": True}
     d["friction"] = {"law": "tabor", "k_tau": 0.8, "hardness_cap": True}
     d["adhesion"] = {"law": "smc", "sigma_max": 1e8, "tau_max": 5e7, "delta_n": 1e-9, "delta_t": 2e-9}
     case = case_from_dict(d)
@@ -333,6 +333,7 @@ BAD_CASES = [
     ("max_iter-zero", _set("solver.max_iter", 0), "solver.max_iter"),
     ("max_turns-zero", _set("solver.max_turns", 0), "solver.max_turns"),
     ("max_turns-float", _set("solver.max_turns", 10.0), "solver.max_turns"),
+    ("response_float32-string", _set("solver.response_float32", "sometimes"), "solver.response_float32"),
     # friction
     ("friction-law-unknown", _set("friction", {"law": "amontons", "mu": 0.3}), "friction.law"),
     ("friction-law-missing", _set("friction", {"mu": 0.3}), "friction.law"),

@@ -32,7 +32,7 @@ def model(n: int = 32) -> ContactModel:
     ("tol", 0.0), ("tol", 1.5), ("outer_tol", -1e-8), ("max_iter", -1), ("max_iter", 2.5), ("max_turns", 0),
     ("exact_every", 0), ("iterations_per_launch", True), ("deferral", 1.5), ("relax", 0.0),
     ("normal_preconditioner", "yes"), ("fourier_step_sums", 1), ("turn_tolerance", "loose"), ("turns", "mixed"),
-    ("nested", "sometimes"), ("window", 1), ("use_graphs", "auto"),
+    ("nested", "sometimes"), ("window", 1), ("use_graphs", "auto"), ("response_float32", "sometimes"),
 ])
 def test_a_bad_value_is_refused_naming_its_setting(name, value):
     with pytest.raises(ValueError, match=rf"^settings\.{name}: "):

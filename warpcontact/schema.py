@@ -86,6 +86,7 @@ VALUES = {
     "solver.window": {"enum": [True, False, "auto"]},
     "solver.preconditioner_float32": {"enum": [True, False, "auto"]},
     "solver.preconditioner_grid": _enum(C.PRECONDITIONER_GRIDS),
+    "solver.response_float32": {"enum": [True, False, "auto"]},
     "friction.law": _enum(C.FRICTION_KEYS),
     "friction.mu": {"type": "number", "minimum": 0},
     "friction.k_tau": {"type": "number", "exclusiveMinimum": 0, "exclusiveMaximum": 1},

@@ -11,6 +11,7 @@ from typing import NamedTuple
 import numpy as np
 import warp as wp
 
+from warpcontact.kernels import fft as fft_kernels
 from warpcontact.kernels import spectral
 
 from ..errors import InputError
@@ -151,12 +152,13 @@ class ElasticOperator:
         units: ||K e_j||_2 <= this for every cell j, so ||K c||_2 <= this * ||c||_1."""
         return self._column_norms[kernel]
 
-    def spectral_product(self, kernel, spectra):
+    def spectral_product(self, kernel, spectra, transforms: "InverseTransforms | None" = None):
         """Launch the product ``kernel`` (kernels/spectral.py) on ``spectra``, in place: one entry
         per thread on CUDA, one row per thread on the CPU (``LaunchCache.launch_rows``), the rows
-        split over the CPU's threads."""
-        self.launches.launch_rows(kernel, self.fft.spectral_shape,
-                                  [Rows(self.influence, axis=1), *(Rows(s) for s in spectra)])
+        split over the CPU's threads. ``transforms``: the spectra are of these, with their
+        influence spectra (:meth:`inverse_transforms`; default: the operator's own)."""
+        fft, influence = (self.fft, self.influence) if transforms is None else (transforms.fft, transforms.influence)
+        self.launches.launch_rows(kernel, fft.spectral_shape, [Rows(influence, axis=1), *(Rows(s) for s in spectra)])
 
     def normal(self, pressure: wp.array2d, displacement: wp.array2d):
         """displacement <- K_zz pressure (no coupling)."""
@@ -197,13 +199,28 @@ class ElasticOperator:
         self.normal_product(spectrum, energy, slot, inverse, transforms)
         fft.transform_to_output(spectrum)
 
-    def tangential(self, shear_x, shear_y, disp_x, disp_y):
-        """(disp_x, disp_y) <- K_tt (shear_x, shear_y) (no coupling)."""
-        self.fft.forward(shear_x, self._buf[1])
-        self.fft.forward(shear_y, self._buf[2])
-        self.spectral_product(spectral.spectral_tangential, self._buf[1:])
-        self.fft.inverse(self._buf[1], disp_x)
-        self.fft.inverse(self._buf[2], disp_y)
+    def tangential(self, shear_x, shear_y, disp_x, disp_y, transforms: "InverseTransforms | None" = None):
+        """(disp_x, disp_y) <- K_tt (shear_x, shear_y) (no coupling). ``transforms``: on these
+        padded transforms and their spectra (:meth:`response_transforms`: float32 beside float64
+        fields), else the operator's own."""
+        if transforms is None:
+            self.fft.forward(shear_x, self._buf[1])
+            self.fft.forward(shear_y, self._buf[2])
+            self.spectral_product(spectral.spectral_tangential, self._buf[1:])
+            self.fft.inverse(self._buf[1], disp_x)
+            self.fft.inverse(self._buf[2], disp_y)
+            return
+        # through the padded buffers: the padding and cropping kernels round between the float types
+        fft, buffers = transforms.fft, transforms.buffers
+        rows = self.shape
+        for field, spectrum in zip((shear_x, shear_y), buffers):
+            self.launches.launch_rows(fft_kernels.pad_field, rows, [Rows(field)], [Rows(fft.padded_input)])
+            fft.transform_input(spectrum)
+        self.spectral_product(spectral.spectral_tangential, buffers, transforms)
+        for spectrum, field in zip(buffers, (disp_x, disp_y)):
+            fft.transform_to_output(spectrum)
+            self.launches.launch_rows(fft_kernels.crop_field, rows, [Rows(fft.padded_output), fft.output_scale],
+                                      [Rows(field)])
 
     def coupled_apply(self, pressure, shear_x, shear_y, disp_z, disp_x, disp_y):
         """(disp_z, disp_x, disp_y) <- the full 3x3 operator applied to (pressure, shear_x, shear_y)."""
@@ -276,6 +293,13 @@ class ElasticOperator:
             buffers = [wp.zeros(fft.spectral_shape, dtype=fft.complex_dtype, device=device) for _ in range(2)]
             self._inverse32[periodic] = self._inverse(fft, buffers, influence, base.mirror)
         return self._inverse32[periodic]
+
+    def response_transforms(self) -> "InverseTransforms":
+        """The float32 transforms of the padded grid with the influence spectra of K_zz and K_tt
+        rounded to float32 (those of ``inverse_transforms(float32=True)``, made when first asked;
+        the operator's own in a float32 operator): where a float64 solve makes the response of
+        its conjugate direction in float32 (``SolverSettings.response_float32``)."""
+        return self.inverse_transforms(float32=True, periodic=False)
 
     def tangential_column_norm(self) -> float:
         """Bound on the 2-norm of the displacements one cell's unit shear (of any direction)

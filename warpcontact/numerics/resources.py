@@ -231,7 +231,8 @@ def spectral_entries(n: int, fft: str) -> int:
 
 def breakdown(n: int, dtype="float64", device_kind="cpu", friction: bool = True, fft: str = "auto", *,
               states: int = 1, max_iter: int = 2000, adhesion: bool = False,
-              preconditioner_float32: bool | str = "auto", preconditioner_grid: str = "periodic") -> dict:
+              preconditioner_float32: bool | str = "auto", preconditioner_grid: str = "periodic",
+              response_float32: bool | str = "auto") -> dict:
     """Bytes per part of a ContactModel + ``states`` ContactStates + a ContactSolver, on the device.
 
     The operator's periodic transforms (every backend but ``warp``: ``ElasticOperator``, the
@@ -242,7 +243,9 @@ def breakdown(n: int, dtype="float64", device_kind="cpu", friction: bool = True,
     (``ElasticOperator.inverse_transforms``) of the grid ``preconditioner_grid``
     (``SolverSettings.preconditioner_grid``; "padded" where the backend has no periodic ones): 4
     influence spectra and 2 spectral buffers in float32, and a float32 backend's work buffers and
-    temporaries.
+    temporaries. ``response_float32`` (``SolverSettings.response_float32``; "auto" likewise), with
+    friction: the float32 transforms of the padded grid that the tangential solves' responses
+    take, where the preconditioners' are not those already.
 
     Keys: ``spectra`` (influence and buffers), ``fft_work`` (the FFT backend's work buffers),
     ``fields`` ((n, n) arrays of the model, states and solvers), ``scalars`` (reductions and
@@ -299,6 +302,8 @@ def breakdown(n: int, dtype="float64", device_kind="cpu", friction: bool = True,
         fft_temporaries = int(math.ceil(allowance * spectrum))
     if fft == "warp" and kind == "cuda":
         fft_temporaries = cells * real
+    padded_spectra, padded_work, padded_temporaries = 4 * spectral_entries(n, fft) * real + 2 * spectrum, fft_work, \
+        fft_temporaries
     periodic = fft != "warp"  # the circulants' transforms of the grid itself (``make_periodic_fft``)
     if periodic:
         entries = n * (n // 2 + 1)
@@ -308,6 +313,7 @@ def breakdown(n: int, dtype="float64", device_kind="cpu", friction: bool = True,
         spectra += periodic_spectra
         fft_work += periodic_work
         fft_temporaries += periodic_temporaries
+    padded32 = False  # the float32 transforms of the padded grid counted
     if _float32_preconditioner(n, dtype, kind, preconditioner_float32):  # a float32 backend: half of each part
         if periodic and preconditioner_grid == "periodic":
             spectra += periodic_spectra // 2
@@ -317,6 +323,11 @@ def breakdown(n: int, dtype="float64", device_kind="cpu", friction: bool = True,
             spectra += (4 * spectral_entries(n, fft) * real + 2 * spectrum) // 2
             fft_work += fft_work // 2
             fft_temporaries += fft_temporaries // 2
+            padded32 = True
+    if friction and not padded32 and _float32_response(n, dtype, kind, response_float32):
+        spectra += padded_spectra // 2
+        fft_work += padded_work // 2
+        fft_temporaries += padded_temporaries // 2
     arrays = spectra + fft_work + fields + scalars
     if adhesion:
         fft_temporaries += ADHESIVE_TEMPORARY_SPECTRA * 2 * n * (n + 1) * cplx + ADHESIVE_TEMPORARY_FIELDS * cells * real
@@ -472,9 +483,9 @@ def _required(n, dtype, kind, friction, fft, states, adhesion=False) -> int:
     return max(est, setup_device_bytes(n, dtype, fft))
 
 
-def _bluestein_extra(n: int, dtype, fft: str, kind: str = "cpu") -> int:
+def _bluestein_extra(n: int, dtype, fft: str, kind: str = "cpu", friction: bool = True) -> int:
     """Bytes of the cuFFT work allowance beyond one spectrum (``cufft_work_spectra``; half again
-    where ``breakdown`` counts the float32 preconditioner's backend): 0 unless the cupy
+    where ``breakdown`` counts the float32 preconditioner's or responses' backend): 0 unless the cupy
     backend's transform length 2n has a prime factor above 127. Without it the need grows with
     n."""
     if fft != "cupy":
@@ -489,7 +500,19 @@ def _bluestein_extra(n: int, dtype, fft: str, kind: str = "cpu") -> int:
     extra = beyond(spectral_entries(n, fft) * cplx) + periodic
     if _float32_preconditioner(n, dtype, kind, "auto"):
         extra += periodic // 2 + 1  # (breakdown adds half of the periodic allowance, rounded down)
+    if friction and _float32_response(n, dtype, kind, "auto"):
+        extra += beyond(spectral_entries(n, fft) * cplx) // 2 + 1  # (half of the padded allowance, rounded down)
     return extra
+
+
+def _float32_response(n: int, dtype, kind: str, choice) -> bool:
+    """Whether ``breakdown`` counts the float32 responses' transforms: in float64, where
+    ``choice`` (``SolverSettings.response_float32``) or its "auto" says so."""
+    if choice == "auto":
+        from ..solvers.settings import response_float32_auto
+
+        choice = response_float32_auto(n, kind == "cuda")
+    return bool(choice) and resolve_dtype(dtype) == wp.float64
 
 
 def _float32_preconditioner(n: int, dtype, kind: str, choice) -> bool:
@@ -513,7 +536,7 @@ def _fit_tests(dtype, memory_bytes: int, friction: bool, kind: str, fft: str, st
 
     def may_fit(n):
         need = _required(n, dtype, kind, friction, fft, states, adhesion)
-        return n <= cap and need - _bluestein_extra(n, dtype, fft, kind) <= memory_bytes
+        return n <= cap and need - _bluestein_extra(n, dtype, fft, kind, friction) <= memory_bytes
 
     def fits(n):
         return n <= cap and _required(n, dtype, kind, friction, fft, states, adhesion) <= memory_bytes

@@ -55,7 +55,7 @@ REQUIRED_TABLES = ("sphere", "flat", "grid", "load")
 
 GRID_KEYS = ("n", "size")
 SOLVER_KEYS = ("device", "dtype", "tol", "max_iter", "max_turns", "fft", "nested", "window", "preconditioner_float32",
-               "preconditioner_grid")
+               "preconditioner_grid", "response_float32")
 #: the grids the preconditioners' circulants may live on (``SolverSettings.preconditioner_grid``)
 PRECONDITIONER_GRIDS = ("periodic", "padded")
 FRICTION_KEYS = {"coulomb": ("law", "mu"), "tabor": ("law", "k_tau", "k_vm", "hardness_cap")}
@@ -142,6 +142,10 @@ class SolverSpec:
             (``SolverSettings.preconditioner_grid``): "periodic" (the default: T. Chan's circulants
             on the solve's own grid or window, a quarter of the padded grid's transform size) or
             "padded" (the DC-FFT's circulant on the padded grid).
+        response_float32: in float64, the tangential solves' product of the operator with their
+            conjugate direction transforms in float32 (``SolverSettings.response_float32``), the
+            solves judged on the exact float64 residual: the same answer to the tolerance. true,
+            false or "auto" (the default: where it was measured to pay).
         tol_default: True when ``tol`` came from the dtype's default; such a tol follows a dtype
             override (see :meth:`with_overrides`). Not compared, not written by ``to_dict``.
     """
@@ -156,6 +160,7 @@ class SolverSpec:
     window: bool | str = "auto"
     preconditioner_float32: bool | str = "auto"
     preconditioner_grid: str = "periodic"
+    response_float32: bool | str = "auto"
     tol_default: bool = field(default=False, compare=False, repr=False)
 
     def __post_init__(self):
@@ -175,7 +180,7 @@ class SolverSpec:
         _set(self, "max_turns", _integer("solver.max_turns", self.max_turns, 1))
         _choice("solver.fft", self.fft, FFT_BACKENDS)
         _choice("solver.preconditioner_grid", self.preconditioner_grid, PRECONDITIONER_GRIDS)
-        for key in ("nested", "window", "preconditioner_float32"):
+        for key in ("nested", "window", "preconditioner_float32", "response_float32"):
             value = getattr(self, key)
             if not (_is_bool(value) or value == "auto"):
                 raise InputError(f"solver.{key}", f"must be true, false or \"auto\", {_got(value)}")
@@ -204,7 +209,8 @@ class SolverSpec:
         """All settings, the tol in effect included (so a record pins the run down)."""
         return {"device": self.device, "dtype": self.dtype, "tol": self.tol, "max_iter": self.max_iter,
                 "max_turns": self.max_turns, "fft": self.fft, "nested": self.nested, "window": self.window,
-                "preconditioner_float32": self.preconditioner_float32, "preconditioner_grid": self.preconditioner_grid}
+                "preconditioner_float32": self.preconditioner_float32, "preconditioner_grid": self.preconditioner_grid,
+                "response_float32": self.response_float32}
 
 
 @dataclass(frozen=True)

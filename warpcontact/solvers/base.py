@@ -14,7 +14,7 @@ from warpcontact.kernels.reduce import (
 from .. import interrupts
 from ..numerics.launch import CapturedGraphs, graphs_supported
 from ..numerics.state import SolveInfo
-from .settings import SolverSettings, preconditioner_float32_auto
+from .settings import SolverSettings, preconditioner_float32_auto, response_float32_auto
 
 
 def default_tolerance(dtype) -> float:
@@ -96,6 +96,15 @@ class ProjectedCG:
         choice = self.settings.preconditioner_float32
         if choice == "auto":
             choice = preconditioner_float32_auto(self.model.grid.n, self.model.device.is_cuda)
+        return bool(choice) and self.model.dtype == wp.float64
+
+    @property
+    def float32_response(self) -> bool:
+        """Whether the conjugate direction's response K t transforms in float32 beside float64
+        fields (``settings.response_float32``; "auto": ``response_float32_auto``)."""
+        choice = self.settings.response_float32
+        if choice == "auto":
+            choice = response_float32_auto(self.model.grid.n, self.model.device.is_cuda)
         return bool(choice) and self.model.dtype == wp.float64
 
     def preconditioner_transforms(self, preconditioned: bool = True):

@@ -29,6 +29,13 @@ PreconditionerGrid = Literal["periodic", "padded"]
 #: CPU cores Figure 2c at n = 1024 (windows of 512-640) 12 % faster, at 256 and 512 within the
 #: runs' spread)
 PRECONDITIONER_FLOAT32_AUTO = {"cpu": 512, "cuda": 2048}
+#: ``response_float32 = "auto"`` (the default): the tangential solves' responses K t in float32
+#: from these cells per side of a solver's grid or window on, by device kind; None: never
+#: (docs/performance.md, "The tangential responses in float32": on an H200 Figure 2c and 2d at
+#: n = 4096 (windows of 2560) 0.90-0.94 of the time, at 2048 (windows of 1024-1280) 0.89-0.96, at
+#: 1024 (windows of 512-640) within the runs' spread; on 2 CPU cores Figure 2c at n = 512 (windows
+#: of 256-320) 0.96)
+RESPONSE_FLOAT32_AUTO = {"cpu": 512, "cuda": 1024}
 
 
 @dataclass(frozen=True)
@@ -75,6 +82,13 @@ class SolverSettings:
             their transforms' bytes, the iterations' sums and updates still float64; "auto":
             from 2048 cells per side of the solver's grid or window on CUDA, 512 on the CPU
             (``PRECONDITIONER_FLOAT32_AUTO``). No effect in a float32 model.
+        response_float32: in a float64 model, the tangential solves' product of the operator
+            with the conjugate direction (its response K t, which the step length and the carried
+            gradient take) transforms in float32 on the padded grid; the gradient made exact
+            (K q in float64) every ``exact_every`` iterations and where the loop settles, and the
+            solve judged on it: the same tolerance met, in float64. "auto": from
+            ``RESPONSE_FLOAT32_AUTO`` cells per side of the solver's grid or window on. No effect
+            in a float32 model.
         preconditioner_grid: the grid of the preconditioners' circulants: "periodic" (T. Chan's
             optimal circulants of K_zz and K_tt on the solver's own grid or window, transforms of
             n^2 entries), or "padded" (the DC-FFT's circulant on the padded grid, 4 n^2: the
@@ -109,6 +123,7 @@ class SolverSettings:
     window: Choice = "auto"
     preconditioner_float32: Choice = "auto"
     preconditioner_grid: PreconditionerGrid = "periodic"
+    response_float32: Choice = "auto"
     window_turns: bool = True
     use_graphs: bool | None = None
 
@@ -133,7 +148,8 @@ class SolverSettings:
             if not (getattr(self, name) is None or isinstance(getattr(self, name), bool)):
                 raise ValueError(f"settings.{name}: must be True, False or None (by device), got {getattr(self, name)!r}")
         for name, kind in (("turn_tolerance", TurnTolerance), ("turns", Turns), ("nested", Choice), ("window", Choice),
-                           ("preconditioner_float32", Choice), ("preconditioner_grid", PreconditionerGrid)):
+                           ("preconditioner_float32", Choice), ("preconditioner_grid", PreconditionerGrid),
+                           ("response_float32", Choice)):
             value = getattr(self, name)
             choices = get_args(kind)
             if not any(value is c if isinstance(c, bool) else (isinstance(value, str) and value == c) for c in choices):
@@ -159,6 +175,13 @@ def preconditioner_float32_auto(n: int, cuda: bool) -> bool:
     """What ``preconditioner_float32 = "auto"`` chooses for a solver's grid of n cells per side
     (``PRECONDITIONER_FLOAT32_AUTO``)."""
     start = PRECONDITIONER_FLOAT32_AUTO["cuda" if cuda else "cpu"]
+    return start is not None and n >= start
+
+
+def response_float32_auto(n: int, cuda: bool) -> bool:
+    """What ``response_float32 = "auto"`` chooses for a solver's grid of n cells per side
+    (``RESPONSE_FLOAT32_AUTO``)."""
+    start = RESPONSE_FLOAT32_AUTO["cuda" if cuda else "cpu"]
     return start is not None and n >= start
 
 

@@ -324,6 +324,7 @@ class TangentialSolver(ProjectedCG):
 
     def _key(self, state, target_x, target_y, shear_limit, known_x, known_y):
         return (self.settings.tangential_preconditioner, self.float32_preconditioner, self.settings.preconditioner_grid,
+                self.float32_response,
                 *(a.ptr for a in (state.shear_x, state.shear_y, state.status, state.disp_x, state.disp_y, known_x,
                                   known_y, target_x, target_y, shear_limit)))
 
@@ -337,6 +338,8 @@ class TangentialSolver(ProjectedCG):
         m = self.model
         inverse = self.preconditioner_transforms()
         fft = inverse.fft  # the preconditioner's transforms (float32 where settings.preconditioner_float32)
+        # the response K t's transforms (float32 where settings.response_float32; else the operator's own)
+        response = m.operator.response_transforms() if self.float32_response else None
         qx, qy, st, ux, uy, kx, ky, tgx, tgy, limit, gx, gy, tx, ty, rx, ry = self._fields(
             state, target_x, target_y, shear_limit, known_x, known_y)
         sums = Sums(self.sums)
@@ -387,7 +390,7 @@ class TangentialSolver(ProjectedCG):
             m.operator.tangential_inverse_padded(stick_gradient(self.grad_x), stick_gradient(self.grad_y),
                                                  direction_x, direction_rest, self.sums, tk.S_G, self.eigen_floor,
                                                  inverse)
-            m.operator.tangential(self.dir_x, self.dir_y, self.resp_x, self.resp_y)
+            m.operator.tangential(self.dir_x, self.dir_y, self.resp_x, self.resp_y, response)
             m.launch_reduce(tk.tangential_step_sums, [gx, gy, tx, ty, rx, ry, qx, qy, limit, st], [sums])
             m.launch_reduce(tk.tangential_carried_update,
                             [tx, ty, rx, ry, limit, self.slip_step, self.stiffness, self.parameters],

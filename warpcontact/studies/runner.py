@@ -71,7 +71,8 @@ def build(case, model=None, **choices):
     cap = pressure_cap(case)
     settings = SolverSettings(tol=s.tol, max_iter=s.max_iter, max_turns=s.max_turns, nested=s.nested, window=s.window,
                               preconditioner_float32=s.preconditioner_float32,
-                              preconditioner_grid=s.preconditioner_grid, **choices)
+                              preconditioner_grid=s.preconditioner_grid, response_float32=s.response_float32,
+                              **choices)
     # a long step's turns on the progress line open now (solve, gross-slip, pull-off)
     solver = ContactSolver(model, friction_law(case), adhesion_law(case), pressure_cap=cap, settings=settings,
                            on_turn=show_turn)
