@@ -35,6 +35,8 @@ Paths (``--paths``, names or "all"; default: the examples and the extras):
 
 ``--choices one-thread plain-launches``: the launch layer's alternatives beside ``auto`` (on the
 CPU, launches not split over its threads; and every launch a plain ``wp.launch``).
+``--choices slip-separate``: with adhesion, a turn's slip and the shear's normal displacement from
+separate products (``ContactSolver.shared_transforms`` False).
 
 Usage (the ratios between choices matter, not the seconds: run them in one call):
 
@@ -79,6 +81,11 @@ CHOICES = {
 LAUNCH_CHOICES = {
     "one-thread": {"threads": 1},
     "plain-launches": {"threads": 1, "replay": False},
+}
+#: choices of the contact solver's class defaults, the solver's choices "auto": a turn's slip and
+#: the shear's normal displacement from separate products (``ContactSolver.shared_transforms``)
+SOLVER_CLASS_CHOICES = {
+    "slip-separate": {"shared_transforms": False},
 }
 
 
@@ -189,6 +196,10 @@ def child(args) -> None:
 
     for name, value in d.pop("launches", {}).items():
         setattr(LaunchCache, name, value)
+    from warpcontact.solvers.contact import ContactSolver
+
+    for name, value in d.pop("contact_solver", {}).items():
+        setattr(ContactSolver, name, value)
 
     t0 = time.perf_counter()
     result = wc.solve(d, fields="none")
@@ -213,6 +224,8 @@ def run_one(name: str, n: int, choice: str, device: str, timeout: float) -> dict
                    "response_float32": "auto", **CHOICES.get(choice, CHOICES["auto"])})
     if choice in LAUNCH_CHOICES:
         d["launches"] = LAUNCH_CHOICES[choice]
+    if choice in SOLVER_CLASS_CHOICES:
+        d["contact_solver"] = SOLVER_CLASS_CHOICES[choice]
     row = {"path": name, "n": n, "choice": choice, "device": device, "dtype": solver.get("dtype", "float64")}
     t0 = time.perf_counter()
     try:
@@ -254,7 +267,7 @@ def main(argv=None):
     p.add_argument("--paths", nargs="+", default=["all"])
     p.add_argument("--table2", action="store_true", help="add Table 2's 24 cells")
     p.add_argument("--choices", nargs="+", default=["auto"],
-                   help=f"of {list(CHOICES)} or 'all' (the solver's), or of {list(LAUNCH_CHOICES)} (the launch layer's)")
+                   help=f"of {list(CHOICES)} or 'all' (the solver's), or of {list(LAUNCH_CHOICES)} (the launch layer's) or {list(SOLVER_CLASS_CHOICES)}")
     p.add_argument("--timeout", type=float, default=300.0, help="seconds a path may take (its whole process)")
     p.add_argument("--out", default=str(ROOT / "bench_results" / "paths"))
     p.add_argument("--child", help=argparse.SUPPRESS)
@@ -266,8 +279,9 @@ def main(argv=None):
         names = names + table2_names()
     choices = list(CHOICES) if args.choices == ["all"] else args.choices
     for c in choices:
-        if c not in CHOICES and c not in LAUNCH_CHOICES:
-            raise SystemExit(f"paths.py: --choices takes {list(CHOICES) + list(LAUNCH_CHOICES)} or all, not {c!r}")
+        if c not in CHOICES and c not in LAUNCH_CHOICES and c not in SOLVER_CLASS_CHOICES:
+            raise SystemExit(f"paths.py: --choices takes {list(CHOICES) + list(LAUNCH_CHOICES) + list(SOLVER_CLASS_CHOICES)}"
+                             f" or all, not {c!r}")
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
     log = out / f"paths_{args.device.replace(':', '')}_{time.strftime('%Y%m%d_%H%M%S')}.jsonl"

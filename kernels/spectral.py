@@ -174,6 +174,31 @@ def spectral_coupled(
 
 
 @wp.kernel
+def spectral_coupled_shear(
+    influence: wp.array3d(dtype=Any),
+    spectrum_z: wp.array2d(dtype=Any),
+    spectrum_x: wp.array2d(dtype=Any),
+    spectrum_y: wp.array2d(dtype=Any),
+    per: int,
+):
+    """The tangential displacement of pressure and shear (u_x, u_y) = K_tp p + K_tt q, and the
+    shear's normal displacement u_z = K_zt q (the pressure's own K_zz p left out), in place: the
+    full operator of :func:`spectral_coupled` without its ZZ block."""
+    i, c = wp.tid()
+    for j in range(c * per, wp.min((c + 1) * per, spectrum_z.shape[1])):
+        p = spectrum_z[i, j]
+        qx = spectrum_x[i, j]
+        qy = spectrum_y[i, j]
+        kxy = influence[XY, i, j]
+        kxz = influence[XZ, i, j]
+        kyz = influence[YZ, i, j]
+        spectrum_z[i, j] = -times_i(kxz * qx + kyz * qy)
+        ip = times_i(p)
+        spectrum_x[i, j] = kxz * ip + influence[XX, i, j] * qx + kxy * qy
+        spectrum_y[i, j] = kyz * ip + kxy * qx + influence[YY, i, j] * qy
+
+
+@wp.kernel
 def spectral_cross_normal(
     influence: wp.array3d(dtype=Any),
     spectrum_z: wp.array2d(dtype=Any),
@@ -226,7 +251,7 @@ for _r, _v in ((wp.float32, wp.vec2f), (wp.float64, wp.vec2d)):
         {"influence": wp.array3d(dtype=_r), "spectrum_x": wp.array2d(dtype=_v), "spectrum_y": wp.array2d(dtype=_v),
          "per": int},
     )
-    for _k in (spectral_coupled, spectral_cross_normal, spectral_cross_tangential):
+    for _k in (spectral_coupled, spectral_coupled_shear, spectral_cross_normal, spectral_cross_tangential):
         wp.overload(
             _k,
             {

@@ -171,7 +171,8 @@ def test_sign_of_coupling():
 @pytest.mark.parametrize("n", [8, 9, 13])
 def test_dcfft_matches_direct_summation(n, device):
     """DC-FFT (zero padding, wrap-around kernels) equals direct summation, no periodic images: the
-    3x3 operator, and its coupling terms alone (``cross_normal``, ``cross_tangential``)."""
+    3x3 operator, its coupling terms alone (``cross_normal``, ``cross_tangential``), and the
+    operator without its ZZ block (``coupled_shear``: K_tp p + K_tt q and K_zt q)."""
     import warp as wp
 
     dx = 1.3e-9
@@ -211,6 +212,10 @@ def test_dcfft_matches_direct_summation(n, device):
     op.cross_tangential(src[0], dst[1], dst[2])
     check("K_tp p", "x", dst[1], part[("x", 0)])
     check("K_tp p", "y", dst[2], part[("y", 0)])
+    op.coupled_shear(*src, *dst)
+    check("K_zt q", "z", dst[0], part[("z", 1)] + part[("z", 2)])
+    check("K_tp p + K_tt q", "x", dst[1], ref["x"])
+    check("K_tp p + K_tt q", "y", dst[2], ref["y"])
 
 
 def test_kernel_table_is_complete():

@@ -253,6 +253,49 @@ def test_adhesive_coupled_steps_on_the_window(turns, outer_tol):
         assert np.abs(out[True][k] - out[False][k]).max() < tol * scale, (k, np.abs(out[True][k] - out[False][k]).max() / scale)
 
 
+def test_a_turns_slip_and_shear_displacement_from_shared_transforms(monkeypatch):
+    """The lagged adhesive turns of the test above on the window, their slip and the shear's
+    normal displacement made from one forward transform of each traction
+    (``ContactSolver.shared_transforms``, ``ElasticOperator.coupled_shear``) and from the separate
+    products: the same problem and products equal to rounding, so the same turns and inner
+    iterations (measured 33 and 102 either way) and states within 1e-8 of each field's largest
+    (measured 5e-11 at most: rounding carried through the solves' stopping tests); the shared
+    products replace the next normal solve's ``cross_normal`` at every turn but a step's first
+    (measured 2 calls against 35)."""
+    from warpcontact.studies import table2 as t2
+
+    settings = t2.Table2Settings(n=48)
+    law = settings.adhesion_law()
+    dz = 1e-4 * t2.UM
+    out, calls = {}, {}
+    for shared in (False, True):
+        monkeypatch.setattr(ContactSolver, "shared_transforms", shared)
+        model = ContactModel(PAPER_PAIR, Sphere(t2.RADIUS), t2.cell_grid(dz, settings, law))
+        op = model.operator
+        count = {"cross_normal": 0, "coupled_shear": 0}
+        for name in count:
+            def counted(*a, _name=name, _f=getattr(op, name), **k):
+                count[_name] += 1
+                return _f(*a, **k)
+            monkeypatch.setattr(op, name, counted)
+        solver = ContactSolver(model, LAW, adhesion=law, turns="lagged", window=True, outer_tol=1e-10,
+                               preconditioner_grid="padded")
+        state = ContactState(model)
+        turns = 0
+        for approach in ((0.0, 0.0, dz), (DX, 0.0, dz)):
+            info = solver.step(state, approach)
+            assert info.converged, (shared, approach, info)
+            turns += info.outer_iterations
+        out[shared], calls[shared] = state.to_numpy_si(), (dict(count), turns)
+    (separate, turns_separate), (together, turns_together) = calls[False], calls[True]
+    assert separate["coupled_shear"] == 0 and together["coupled_shear"] >= turns_together - 2, calls
+    assert together["cross_normal"] <= 4, calls  # each step's first turn and its final normal solve at most
+    assert separate["cross_normal"] >= turns_separate, calls
+    for k in ("pressure", "shear_x", "shear_y", "slip_x", "gap", "adhesive_pressure", "adhesive_shear_x"):
+        scale = np.abs(out[False][k]).max()
+        assert np.abs(out[True][k] - out[False][k]).max() < 1e-8 * scale, (k, np.abs(out[True][k] - out[False][k]).max() / scale)
+
+
 def test_a_non_finite_value_in_a_window_names_the_whole_grids_cell():
     """A NaN in the shear a solve starts from, at a contact cell: the solve on the window stops
     with NonFiniteError naming the field and the cell by its row and column on the whole grid (the

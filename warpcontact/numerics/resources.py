@@ -76,9 +76,10 @@ N_SPECTRAL_BUFFERS = 3
 #: (n, n) fields of the solvers (counted in solvers/normal.py, contact.py, tangential.py)
 NORMAL_SOLVER_FIELDS = 4
 CONTACT_SOLVER_FIELDS = 6  # known_z/x/y, previous x 3
-#: with adhesion: ContactSolver's adhesive_z/x/y, and with friction too its scratch_x/y
+#: with adhesion: ContactSolver's adhesive_z/x/y, and with friction too its scratch_x/y and
+#: shear_normal
 ADHESION_FIELDS = 3
-ADHESION_FRICTION_FIELDS = 2
+ADHESION_FRICTION_FIELDS = 3
 #: components of ContactSolver's AndersonMixing with friction: 4 for the SMC law's minimised turns
 #: (the shears and adhesive shears), 3 otherwise; counted as 4 (the larger)
 MIXING_COMPONENTS_FRICTION = 4

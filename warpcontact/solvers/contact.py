@@ -6,6 +6,7 @@ import math
 from collections.abc import Callable
 
 import numpy as np
+import warp as wp
 
 from warpcontact.kernels import adhesion as ak
 from warpcontact.kernels import coupling as ck
@@ -65,6 +66,13 @@ class ContactSolver:
         **choices: settings replaced by name (``ContactSolver(model, law, max_turns=50)``).
     """
 
+    #: with adhesion, a turn's slip after a tangential solve on a window, and the shear's normal
+    #: displacement that the next turn's normal solve holds fixed, from one forward transform of
+    #: pressure and shear (``ElasticOperator.coupled_shear``: six transforms of the whole grid where
+    #: the separate products make ten); False: the separate products (``bench/paths.py --choices
+    #: slip-separate`` compares them)
+    shared_transforms = True
+
     def __init__(self, model, friction=None, adhesion=None, *, pressure_cap: float = math.inf,
                  settings: SolverSettings | None = None, on_turn: Callable[[int, float], None] | None = None,
                  **choices):
@@ -116,6 +124,11 @@ class ContactSolver:
             self.shear_limit = f()
             if adhesion is not None:
                 self.scratch_x, self.scratch_y = f(), f()
+                #: the shear's normal displacement K_zt q made with a turn's slip (``update_slip``),
+                #: which the next normal solve holds fixed where the shear has not changed since
+                #: (``shear_normal_current``)
+                self.shear_normal = f()
+        self.shear_normal_current = False
         #: how a step is solved: tried in order, each from the last one's iterate, until one converges
         self.strategies = self._strategies()
 
@@ -218,11 +231,14 @@ class ContactSolver:
         m = self.model
         if normal:
             self.known_z.zero_()
-            if self.coupled:
+            if self.coupled and self.shear_normal_current:  # made with the last turn's slip, of this shear
+                wp.copy(self.known_z, self.shear_normal)
+            elif self.coupled:
                 m.operator.cross_normal(state.shear_x, state.shear_y, self.known_z)
             if self.adhesion is not None:
                 m.launch(ak.add_to, dim=m.n_cells, inputs=[self.adhesive_z.flatten()], outputs=[self.known_z.flatten()])
         if tangential:  # (the pressure's coupling K_tp p: the tangential solve adds it, on its window)
+            self.shear_normal_current = False  # (a tangential solve follows: the shear changes)
             self.known_x.zero_()
             self.known_y.zero_()
             if self.adhesion is not None and self.friction is not None:
@@ -235,13 +251,26 @@ class ContactSolver:
         (during the turns state.disp_x/y must stay K_tt q)."""
         m = self.model
         L = m.length_scale
-        self.tangential.whole_displacement(state)  # where the last solve left them on its window
         known_x = self.known_x if self.iterative else self.tangential.no_displacement
         known_y = self.known_y if self.iterative else self.tangential.no_displacement
+        pressure = None
+        if not final and self.adhesion is not None and self.shared_transforms:
+            pressure = self.tangential.pending_pressure(state)
+        if pressure is not None:
+            # a turn's slip where the last tangential solve ran on a window: K_tt q + K_tp p from one
+            # transform of each traction, with the shear's K_zt q for the next turn's normal solve
+            # (``known_displacements``); state.disp_x/y are made by the step's final slip
+            m.operator.coupled_shear(pressure, state.shear_x, state.shear_y, self.shear_normal, self.scratch_x,
+                                     self.scratch_y)
+            self.shear_normal_current = True
+            disp_x, disp_y = self.scratch_x, self.scratch_y
+        else:
+            self.tangential.whole_displacement(state)  # where the last solve left them on its window
+            disp_x, disp_y = state.disp_x, state.disp_y
         m.launch(
             ck.accumulate_slip,
             dim=m.n_cells,
-            inputs=[state.disp_x.flatten(), state.disp_y.flatten(), known_x.flatten(), known_y.flatten(),
+            inputs=[disp_x.flatten(), disp_y.flatten(), known_x.flatten(), known_y.flatten(),
                     m.scalar(dx / L), m.scalar(dy / L)],
             outputs=[state.slip_x.flatten(), state.slip_y.flatten(),
                      (state.disp_x if final else self.scratch_x).flatten(), (state.disp_y if final else self.scratch_y).flatten()],

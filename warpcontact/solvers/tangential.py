@@ -264,6 +264,14 @@ class TangentialSolver(ProjectedCG):
             self._add_coupling(state, pressure, known_x, known_y)
         self.model.operator.tangential(state.shear_x, state.shear_y, state.disp_x, state.disp_y)
 
+    def pending_pressure(self, state):
+        """The pressure whose K_tp p the last solve, on a window for ``state`` with ``whole``
+        False, left to add on the whole grid (``whole_displacement``); None where there is none
+        (nothing pending, or a solve without ``pressure``)."""
+        if self._pending is None or self._pending[0] is not state:
+            return None
+        return self._pending[1]
+
     def _add_coupling(self, state, pressure, known_x, known_y):
         """known_x/y += K_tp p on the whole grid, made in ``state.disp_x/y`` (free: K_tt q is made
         there next)."""

@@ -167,6 +167,7 @@ class LaggedTurns:
         normal_info = tangential_info = None
         for prev, cur in zip(s.previous, (state.pressure, state.shear_x, state.shear_y)):
             wp.copy(prev, cur)
+        s.shear_normal_current = False  # (the shear of another step, or zeroed for a retry)
         change = math.inf
         coupled = math.inf  # the coupled residual (below)
         turn_tol = math.inf
@@ -229,6 +230,7 @@ class LaggedTurns:
             if mixing is not None:  # not converged: the next turn from the mixed shear
                 wp.copy(state.shear_x, s.previous[1])
                 wp.copy(state.shear_y, s.previous[2])
+                s.shear_normal_current = False
             elif changes is not None and s.friction is not None:
                 changes.append(change)
                 if stalled(changes):  # one try per step: no room for the mixing leaves the turns plain
