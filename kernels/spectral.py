@@ -149,6 +149,29 @@ def spectral_tangential(
         spectrum_y[i, j] = kxy * qx + influence[YY, i, j] * qy
 
 
+@wp.func
+def shear_products(
+    influence: wp.array3d(dtype=Any),
+    spectrum_z: wp.array2d(dtype=Any),
+    spectrum_x: wp.array2d(dtype=Any),
+    spectrum_y: wp.array2d(dtype=Any),
+    i: int,
+    j: int,
+):
+    """At entry (i, j): (u_x, u_y) = K_tp p + K_tt q into ``spectrum_x``, ``spectrum_y``, and
+    returns the shear's normal displacement K_zt q (``spectrum_z`` holds p, left as it is)."""
+    p = spectrum_z[i, j]
+    qx = spectrum_x[i, j]
+    qy = spectrum_y[i, j]
+    kxy = influence[XY, i, j]
+    kxz = influence[XZ, i, j]
+    kyz = influence[YZ, i, j]
+    ip = times_i(p)
+    spectrum_x[i, j] = kxz * ip + influence[XX, i, j] * qx + kxy * qy
+    spectrum_y[i, j] = kyz * ip + kxy * qx + influence[YY, i, j] * qy
+    return -times_i(kxz * qx + kyz * qy)
+
+
 @wp.kernel
 def spectral_coupled(
     influence: wp.array3d(dtype=Any),
@@ -162,15 +185,7 @@ def spectral_coupled(
     i, c = wp.tid()
     for j in range(c * per, wp.min((c + 1) * per, spectrum_z.shape[1])):
         p = spectrum_z[i, j]
-        qx = spectrum_x[i, j]
-        qy = spectrum_y[i, j]
-        kxy = influence[XY, i, j]
-        kxz = influence[XZ, i, j]
-        kyz = influence[YZ, i, j]
-        spectrum_z[i, j] = influence[ZZ, i, j] * p - times_i(kxz * qx + kyz * qy)
-        ip = times_i(p)
-        spectrum_x[i, j] = kxz * ip + influence[XX, i, j] * qx + kxy * qy
-        spectrum_y[i, j] = kyz * ip + kxy * qx + influence[YY, i, j] * qy
+        spectrum_z[i, j] = influence[ZZ, i, j] * p + shear_products(influence, spectrum_z, spectrum_x, spectrum_y, i, j)
 
 
 @wp.kernel
@@ -186,16 +201,7 @@ def spectral_coupled_shear(
     full operator of :func:`spectral_coupled` without its ZZ block."""
     i, c = wp.tid()
     for j in range(c * per, wp.min((c + 1) * per, spectrum_z.shape[1])):
-        p = spectrum_z[i, j]
-        qx = spectrum_x[i, j]
-        qy = spectrum_y[i, j]
-        kxy = influence[XY, i, j]
-        kxz = influence[XZ, i, j]
-        kyz = influence[YZ, i, j]
-        spectrum_z[i, j] = -times_i(kxz * qx + kyz * qy)
-        ip = times_i(p)
-        spectrum_x[i, j] = kxz * ip + influence[XX, i, j] * qx + kxy * qy
-        spectrum_y[i, j] = kyz * ip + kxy * qx + influence[YY, i, j] * qy
+        spectrum_z[i, j] = shear_products(influence, spectrum_z, spectrum_x, spectrum_y, i, j)
 
 
 @wp.kernel
