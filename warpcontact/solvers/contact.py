@@ -248,7 +248,8 @@ class ContactSolver:
     def update_slip(self, state, dx, dy, final: bool = False):
         """state.slip <- delta - u_t for the current tractions, u_t = K_tt q (state.disp_x/y)
         plus the known displacements. The total u_t goes to state.disp_x/y only when ``final``
-        (during the turns state.disp_x/y must stay K_tt q)."""
+        (during the turns state.disp_x/y hold K_tt q, or, after a turn's slip from shared
+        transforms (``shared_transforms``), nothing a turn reads: the final slip makes them)."""
         m = self.model
         L = m.length_scale
         known_x = self.known_x if self.iterative else self.tangential.no_displacement
