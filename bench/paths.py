@@ -267,7 +267,8 @@ def main(argv=None):
     p.add_argument("--paths", nargs="+", default=["all"])
     p.add_argument("--table2", action="store_true", help="add Table 2's 24 cells")
     p.add_argument("--choices", nargs="+", default=["auto"],
-                   help=f"of {list(CHOICES)} or 'all' (the solver's), or of {list(LAUNCH_CHOICES)} (the launch layer's) or {list(SOLVER_CLASS_CHOICES)}")
+                   help=f"of {list(CHOICES)} or 'all' (the solver's), or of {list(LAUNCH_CHOICES)} (the launch "
+                        f"layer's) or {list(SOLVER_CLASS_CHOICES)} (the contact solver's class defaults)")
     p.add_argument("--timeout", type=float, default=300.0, help="seconds a path may take (its whole process)")
     p.add_argument("--out", default=str(ROOT / "bench_results" / "paths"))
     p.add_argument("--child", help=argparse.SUPPRESS)

@@ -152,15 +152,14 @@ def spectral_tangential(
 @wp.func
 def shear_products(
     influence: wp.array3d(dtype=Any),
-    spectrum_z: wp.array2d(dtype=Any),
+    p: Any,
     spectrum_x: wp.array2d(dtype=Any),
     spectrum_y: wp.array2d(dtype=Any),
     i: int,
     j: int,
 ):
-    """At entry (i, j): (u_x, u_y) = K_tp p + K_tt q into ``spectrum_x``, ``spectrum_y``, and
-    returns the shear's normal displacement K_zt q (``spectrum_z`` holds p, left as it is)."""
-    p = spectrum_z[i, j]
+    """At entry (i, j), p the pressure's spectrum there: (u_x, u_y) = K_tp p + K_tt q into
+    ``spectrum_x``, ``spectrum_y``; returns the shear's normal displacement K_zt q."""
     qx = spectrum_x[i, j]
     qy = spectrum_y[i, j]
     kxy = influence[XY, i, j]
@@ -185,7 +184,7 @@ def spectral_coupled(
     i, c = wp.tid()
     for j in range(c * per, wp.min((c + 1) * per, spectrum_z.shape[1])):
         p = spectrum_z[i, j]
-        spectrum_z[i, j] = influence[ZZ, i, j] * p + shear_products(influence, spectrum_z, spectrum_x, spectrum_y, i, j)
+        spectrum_z[i, j] = influence[ZZ, i, j] * p + shear_products(influence, p, spectrum_x, spectrum_y, i, j)
 
 
 @wp.kernel
@@ -201,7 +200,7 @@ def spectral_coupled_shear(
     full operator of :func:`spectral_coupled` without its ZZ block."""
     i, c = wp.tid()
     for j in range(c * per, wp.min((c + 1) * per, spectrum_z.shape[1])):
-        spectrum_z[i, j] = shear_products(influence, spectrum_z, spectrum_x, spectrum_y, i, j)
+        spectrum_z[i, j] = shear_products(influence, spectrum_z[i, j], spectrum_x, spectrum_y, i, j)
 
 
 @wp.kernel

@@ -10,7 +10,7 @@ import pytest
 from warpcontact.physics.geometry import Grid, Sphere
 from warpcontact.physics.materials import PAPER_PAIR
 from warpcontact.numerics.model import ContactModel
-from warpcontact.solvers.settings import response_float32_auto
+from warpcontact.solvers.settings import RESPONSE_FLOAT32_AUTO, float32_chosen
 
 from test_tangential_precond import A, R, assert_same_shear, coupled_step, mindlin_step
 
@@ -83,5 +83,9 @@ def test_a_whole_path_with_a_float32_response(path):
 
 
 def test_auto_chooses_by_grid_and_device():
-    """"auto" follows ``RESPONSE_FLOAT32_AUTO``: never on the small grids of either device."""
-    assert not response_float32_auto(256, cuda=True) and not response_float32_auto(256, cuda=False)
+    """"auto" follows ``RESPONSE_FLOAT32_AUTO``: off on the small grids of either device, on on
+    the large ones, never beside float32 fields."""
+    for cuda in (True, False):
+        assert not float32_chosen("auto", RESPONSE_FLOAT32_AUTO, 256, cuda, True)
+        assert float32_chosen("auto", RESPONSE_FLOAT32_AUTO, 4096, cuda, True)
+        assert not float32_chosen("auto", RESPONSE_FLOAT32_AUTO, 4096, cuda, False)  # (float32 fields)

@@ -303,8 +303,9 @@ def breakdown(n: int, dtype="float64", device_kind="cpu", friction: bool = True,
         fft_temporaries = int(math.ceil(allowance * spectrum))
     if fft == "warp" and kind == "cuda":
         fft_temporaries = cells * real
-    padded_spectra, padded_work, padded_temporaries = 4 * spectral_entries(n, fft) * real + 2 * spectrum, fft_work, \
-        fft_temporaries
+    # the padded grid's transforms, before the periodic ones join (their float32 copy: half of each)
+    padded_spectra = 4 * spectral_entries(n, fft) * real + 2 * spectrum
+    padded_work, padded_temporaries = fft_work, fft_temporaries
     periodic = fft != "warp"  # the circulants' transforms of the grid itself (``make_periodic_fft``)
     if periodic:
         entries = n * (n // 2 + 1)
@@ -315,17 +316,17 @@ def breakdown(n: int, dtype="float64", device_kind="cpu", friction: bool = True,
         fft_work += periodic_work
         fft_temporaries += periodic_temporaries
     padded32 = False  # the float32 transforms of the padded grid counted
-    if _float32_preconditioner(n, dtype, kind, preconditioner_float32):  # a float32 backend: half of each part
+    if _float32(n, dtype, kind, preconditioner_float32, "preconditioner"):  # a float32 backend: half of each part
         if periodic and preconditioner_grid == "periodic":
             spectra += periodic_spectra // 2
             fft_work += periodic_work // 2
             fft_temporaries += periodic_temporaries // 2
         else:
-            spectra += (4 * spectral_entries(n, fft) * real + 2 * spectrum) // 2
+            spectra += padded_spectra // 2
             fft_work += fft_work // 2
             fft_temporaries += fft_temporaries // 2
             padded32 = True
-    if friction and not padded32 and _float32_response(n, dtype, kind, response_float32):
+    if friction and not padded32 and _float32(n, dtype, kind, response_float32, "response"):
         spectra += padded_spectra // 2
         fft_work += padded_work // 2
         fft_temporaries += padded_temporaries // 2
@@ -499,31 +500,21 @@ def _bluestein_extra(n: int, dtype, fft: str, kind: str = "cpu", friction: bool 
 
     periodic = beyond(n * (n // 2 + 1) * cplx)  # the periodic transforms' (breakdown)
     extra = beyond(spectral_entries(n, fft) * cplx) + periodic
-    if _float32_preconditioner(n, dtype, kind, "auto"):
+    if _float32(n, dtype, kind, "auto", "preconditioner"):
         extra += periodic // 2 + 1  # (breakdown adds half of the periodic allowance, rounded down)
-    if friction and _float32_response(n, dtype, kind, "auto"):
+    if friction and _float32(n, dtype, kind, "auto", "response"):
         extra += beyond(spectral_entries(n, fft) * cplx) // 2 + 1  # (half of the padded allowance, rounded down)
     return extra
 
 
-def _float32_response(n: int, dtype, kind: str, choice) -> bool:
-    """Whether ``breakdown`` counts the float32 responses' transforms: in float64, where
-    ``choice`` (``SolverSettings.response_float32``) or its "auto" says so."""
-    if choice == "auto":
-        from ..solvers.settings import response_float32_auto
+def _float32(n: int, dtype, kind: str, choice, part: str) -> bool:
+    """Whether ``breakdown`` counts the float32 transforms of ``part``, "preconditioner" or
+    "response" (``SolverSettings.preconditioner_float32``, ``response_float32``: ``choice``, or
+    what its "auto" chooses for n on the device kind)."""
+    from ..solvers.settings import PRECONDITIONER_FLOAT32_AUTO, RESPONSE_FLOAT32_AUTO, float32_chosen
 
-        choice = response_float32_auto(n, kind == "cuda")
-    return bool(choice) and resolve_dtype(dtype) == wp.float64
-
-
-def _float32_preconditioner(n: int, dtype, kind: str, choice) -> bool:
-    """Whether ``breakdown`` counts the float32 preconditioners' arrays: in float64, where
-    ``choice`` (``SolverSettings.preconditioner_float32``) or its "auto" says so."""
-    if choice == "auto":
-        from ..solvers.settings import preconditioner_float32_auto
-
-        choice = preconditioner_float32_auto(n, kind == "cuda")
-    return bool(choice) and resolve_dtype(dtype) == wp.float64
+    auto_from = PRECONDITIONER_FLOAT32_AUTO if part == "preconditioner" else RESPONSE_FLOAT32_AUTO
+    return float32_chosen(choice, auto_from, n, kind == "cuda", resolve_dtype(dtype) == wp.float64)
 
 
 def _fit_tests(dtype, memory_bytes: int, friction: bool, kind: str, fft: str, states: int, adhesion: bool):

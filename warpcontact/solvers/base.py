@@ -14,7 +14,7 @@ from warpcontact.kernels.reduce import (
 from .. import interrupts
 from ..numerics.launch import CapturedGraphs, graphs_supported
 from ..numerics.state import SolveInfo
-from .settings import SolverSettings, preconditioner_float32_auto, response_float32_auto
+from .settings import PRECONDITIONER_FLOAT32_AUTO, RESPONSE_FLOAT32_AUTO, SolverSettings, float32_chosen
 
 
 def default_tolerance(dtype) -> float:
@@ -92,20 +92,18 @@ class ProjectedCG:
     @property
     def float32_preconditioner(self) -> bool:
         """Whether the preconditioner transforms in float32 beside float64 fields
-        (``settings.preconditioner_float32``; "auto": ``preconditioner_float32_auto``)."""
-        choice = self.settings.preconditioner_float32
-        if choice == "auto":
-            choice = preconditioner_float32_auto(self.model.grid.n, self.model.device.is_cuda)
-        return bool(choice) and self.model.dtype == wp.float64
+        (``settings.preconditioner_float32``; "auto": ``PRECONDITIONER_FLOAT32_AUTO``)."""
+        return self._float32(self.settings.preconditioner_float32, PRECONDITIONER_FLOAT32_AUTO)
 
     @property
     def float32_response(self) -> bool:
         """Whether the conjugate direction's response K t transforms in float32 beside float64
-        fields (``settings.response_float32``; "auto": ``response_float32_auto``)."""
-        choice = self.settings.response_float32
-        if choice == "auto":
-            choice = response_float32_auto(self.model.grid.n, self.model.device.is_cuda)
-        return bool(choice) and self.model.dtype == wp.float64
+        fields (``settings.response_float32``; "auto": ``RESPONSE_FLOAT32_AUTO``)."""
+        return self._float32(self.settings.response_float32, RESPONSE_FLOAT32_AUTO)
+
+    def _float32(self, choice, auto_from: dict) -> bool:
+        m = self.model
+        return float32_chosen(choice, auto_from, m.grid.n, m.device.is_cuda, m.dtype == wp.float64)
 
     def preconditioner_transforms(self, preconditioned: bool = True):
         """Where the preconditioner's circulant inverse runs (``ElasticOperator.inverse_transforms``):

@@ -171,18 +171,15 @@ class SolverSettings:
         return replace(base, **choices) if choices else base
 
 
-def preconditioner_float32_auto(n: int, cuda: bool) -> bool:
-    """What ``preconditioner_float32 = "auto"`` chooses for a solver's grid of n cells per side
-    (``PRECONDITIONER_FLOAT32_AUTO``)."""
-    start = PRECONDITIONER_FLOAT32_AUTO["cuda" if cuda else "cpu"]
-    return start is not None and n >= start
-
-
-def response_float32_auto(n: int, cuda: bool) -> bool:
-    """What ``response_float32 = "auto"`` chooses for a solver's grid of n cells per side
-    (``RESPONSE_FLOAT32_AUTO``)."""
-    start = RESPONSE_FLOAT32_AUTO["cuda" if cuda else "cpu"]
-    return start is not None and n >= start
+def float32_chosen(choice, auto_from: dict, n: int, cuda: bool, float64: bool) -> bool:
+    """Whether a float32 choice (``preconditioner_float32``, ``response_float32``: True, False or
+    "auto") holds for a solver's grid of n cells per side: only beside float64 fields; "auto":
+    from ``auto_from``'s cells per side by device kind on (``PRECONDITIONER_FLOAT32_AUTO``,
+    ``RESPONSE_FLOAT32_AUTO``; None: never)."""
+    if choice == "auto":
+        start = auto_from["cuda" if cuda else "cpu"]
+        choice = start is not None and n >= start
+    return bool(choice) and float64
 
 
 def _real(value) -> bool:
