@@ -26,6 +26,9 @@ the largest batch once more, each part timed with the device synchronised around
 batched steps, the normal and tangential solves inside them, the yield checks), a table of its
 own.
 
+``--problem adhesive``: the coupled case with Table 2's SMC law (``[adhesion]``, the defaults of
+``warpcontact table2``): the batched steps' lagged turns carry each case's adhesive tractions.
+
 ``--problem gross-slip``: the coupled case's gross-slip search (``find_gross_slip``: 4 normal
 steps, then load and bisection steps, 14-18 states) at delta_z spread over 0.5 ... 1.5 x 1e-10 m:
 ``api`` one case after another (``tasks.gross_slip_summary``, the model reused) against ``batch
@@ -62,25 +65,30 @@ R, DZ = 10e-6, 1.0e-10
 A = math.sqrt(R * DZ)
 
 
-def base_case(n: int, device: str, dtype: str) -> str:
-    """The case as TOML text (the paper's pair, Tabor k_tau 0.8)."""
+def base_case(n: int, device: str, dtype: str, adhesion: bool = False) -> str:
+    """The case as TOML text (the paper's pair, Tabor k_tau 0.8; ``adhesion``: with Table 2's
+    SMC law)."""
     from warpcontact.physics.materials import PAPER_PAIR
+    from warpcontact.studies.table2 import Table2Settings
 
     def material(m):
         return f"E = {m.E!r}\nnu = {m.nu!r}\nyield_strength = {m.yield_strength!r}\nhardness = {m.hardness!r}\n"
 
+    law = Table2Settings()
+    smc = (f"[adhesion]\nlaw = \"smc\"\nsigma_max = {law.sigma_max!r}\ntau_max = {law.tau_max!r}\n"
+           f"delta_n = {law.delta_n!r}\ndelta_t = {law.delta_t!r}\n\n")
     return (f"[sphere]\nradius = {R!r}\n{material(PAPER_PAIR.sphere)}\n[flat]\n{material(PAPER_PAIR.flat)}\n"
             f"[grid]\nn = {n}\nsize = {4 * A!r}\n\n[load]\ndelta_z = {DZ!r}\ndelta_x = 2e-11\nsteps = 1\n\n"
-            f"[friction]\nlaw = \"tabor\"\nk_tau = 0.8\n\n"
-            f"[solver]\ndevice = \"{device}\"\ndtype = \"{dtype}\"\n")
+            f"[friction]\nlaw = \"tabor\"\nk_tau = 0.8\n\n" + (smc if adhesion else "")
+            + f"[solver]\ndevice = \"{device}\"\ndtype = \"{dtype}\"\n")
 
 
 def slips(cases: int) -> list[float]:
     return [1.0e-11 + 2.0e-11 * i / max(1, cases - 1) for i in range(cases)]
 
 
-def sweep_file(folder: Path, n: int, cases: int, device: str, dtype: str) -> Path:
-    (folder / "base.toml").write_text(base_case(n, device, dtype))
+def sweep_file(folder: Path, n: int, cases: int, device: str, dtype: str, adhesion: bool = False) -> Path:
+    (folder / "base.toml").write_text(base_case(n, device, dtype, adhesion))
     values = ", ".join(f"{v:.6e}" for v in slips(cases))
     path = folder / "sweep.toml"
     path.write_text(f'base = "base.toml"\n[sweep]\n"load.delta_x" = [{values}]\n[run]\ntask = "solve"\n')
@@ -252,7 +260,10 @@ def batched_parts(cases: list, batch: int) -> dict:
 
 
 def slip_cases(n: int, cases: int, device: str, dtype: str) -> list:
-    """``--problem gross-slip``: the coupled case's pair and law, the gross-slip search at
+    """``--problem adhesive``: the coupled case with Table 2's SMC law (``[adhesion]``, the defaults of
+``warpcontact table2``): the batched steps' lagged turns carry each case's adhesive tractions.
+
+``--problem gross-slip``: the coupled case's pair and law, the gross-slip search at
     delta_z spread over 0.5 ... 1.5 x DZ (4 normal steps, then the load and bisection steps)."""
     from warpcontact.studies.sweep_spec import load_sweep
     from warpcontact.studies.tasks import prepare
@@ -317,9 +328,9 @@ def main(argv=None):
     ap.add_argument("--cases", type=int, default=24)
     ap.add_argument("--workers", type=int, nargs="*", default=[2],
                     help="worker counts of the local clusters (besides the one-at-a-time row; none: that row alone)")
-    ap.add_argument("--problem", default="coupled", choices=["coupled", "normal", "gross-slip"],
-                    help="coupled: Tabor friction, a normal and a tangential step; normal: no friction, one step; "
-                         "gross-slip: the coupled case's gross-slip search")
+    ap.add_argument("--problem", default="coupled", choices=["coupled", "adhesive", "normal", "gross-slip"],
+                    help="coupled: Tabor friction, a normal and a tangential step; adhesive: the same with Table 2's "
+                         "SMC law; normal: no friction, one step; gross-slip: the coupled case's gross-slip search")
     ap.add_argument("--batches", type=int, nargs="*", default=[16, 64],
                     help="batch sizes of the batched rows (none: no batched row)")
     ap.add_argument("--own-checks", action="store_true",
@@ -371,7 +382,7 @@ def main(argv=None):
             try:
                 from warpcontact.studies.sweep_spec import load_sweep
 
-                path = sweep_file(folder, n, args.cases, args.device, args.dtype)
+                path = sweep_file(folder, n, args.cases, args.device, args.dtype, args.problem == "adhesive")
                 cases = [sc.case for sc in load_sweep(path).cases]
                 base = one_at_a_time(cases)
                 runs = [base] + [with_workers(path, w) for w in args.workers] + [batched(cases, b) for b in args.batches]

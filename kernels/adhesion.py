@@ -74,6 +74,37 @@ def touching_segment(t: Any, g: Any):
     return wp.clamp(t / g, zero, type(g)(1.0)) * g
 
 
+@wp.func
+def smc_cell(gap: Any, slip_x: Any, slip_y: Any, contact_pressure: Any, adhesive_pressure: Any, adhesive_shear_x: Any,
+             adhesive_shear_y: Any, sigma_max: Any, tau_max: Any, delta_n: Any, delta_t: Any, touching: Any,
+             added_in_contact: int):
+    """One cell's SMC tractions (p, q_x, q_y) of its gap and slip (``smc_tractions``)."""
+    zero = sigma_max - sigma_max
+    p = zero
+    qx = zero
+    qy = zero
+    if contact_pressure <= zero:
+        s = wp.sqrt(slip_x * slip_x + slip_y * slip_y)
+        p, q = smc_law(gap, s, sigma_max, tau_max, delta_n, delta_t)
+        if s > zero:
+            qx = q * slip_x / s
+            qy = q * slip_y / s
+        if gap <= touching:
+            p = touching_segment(adhesive_pressure, p)
+            qq = qx * qx + qy * qy
+            if qq > zero:
+                lam = wp.clamp((adhesive_shear_x * qx + adhesive_shear_y * qy) / qq, zero, type(qq)(1.0))
+                qx = lam * qx
+                qy = lam * qy
+    elif added_in_contact != 0:
+        s = wp.sqrt(slip_x * slip_x + slip_y * slip_y)
+        if s > zero:
+            p_h0, q = smc_law(zero, s, sigma_max, tau_max, delta_n, delta_t)
+            qx = q * slip_x / s
+            qy = q * slip_y / s
+    return p, qx, qy
+
+
 @wp.kernel
 def smc_tractions(
     gap: wp.array(dtype=Any),
@@ -101,36 +132,53 @@ def smc_tractions(
     current traction (``adhesive_*``) is kept where it lies on that segment and projected onto it
     otherwise."""
     i = wp.tid()
-    zero = sigma_max - sigma_max
-    p = zero
-    qx = zero
-    qy = zero
-    if contact_pressure[i] <= zero:
-        sx = slip_x[i]
-        sy = slip_y[i]
-        s = wp.sqrt(sx * sx + sy * sy)
-        p, q = smc_law(gap[i], s, sigma_max, tau_max, delta_n, delta_t)
-        if s > zero:
-            qx = q * sx / s
-            qy = q * sy / s
-        if gap[i] <= touching:
-            p = touching_segment(adhesive_pressure[i], p)
-            qq = qx * qx + qy * qy
-            if qq > zero:
-                lam = wp.clamp((adhesive_shear_x[i] * qx + adhesive_shear_y[i] * qy) / qq, zero, type(qq)(1.0))
-                qx = lam * qx
-                qy = lam * qy
-    elif added_in_contact != 0:
-        sx = slip_x[i]
-        sy = slip_y[i]
-        s = wp.sqrt(sx * sx + sy * sy)
-        if s > zero:
-            p_h0, q = smc_law(zero, s, sigma_max, tau_max, delta_n, delta_t)
-            qx = q * sx / s
-            qy = q * sy / s
+    p, qx, qy = smc_cell(gap[i], slip_x[i], slip_y[i], contact_pressure[i], adhesive_pressure[i], adhesive_shear_x[i],
+                         adhesive_shear_y[i], sigma_max, tau_max, delta_n, delta_t, touching, added_in_contact)
     law_pressure[i] = p
     law_shear_x[i] = qx
     law_shear_y[i] = qy
+
+
+#: a batch row's SMC law (``batch_smc_tractions``' ``laws``, scaled: tractions / E*, lengths / dx):
+#: its slots; a row whose delta_n is 0 has no adhesion
+SMC_SIGMA_MAX = wp.constant(0)
+SMC_TAU_MAX = wp.constant(1)
+SMC_DELTA_N = wp.constant(2)
+SMC_DELTA_T = wp.constant(3)
+SMC_TOUCHING = wp.constant(4)
+N_SMC_PARAMETERS = 5
+
+
+@wp.kernel
+def batch_smc_tractions(
+    gap: wp.array2d(dtype=Any),
+    slip_x: wp.array2d(dtype=Any),
+    slip_y: wp.array2d(dtype=Any),
+    contact_pressure: wp.array2d(dtype=Any),
+    adhesive_pressure: wp.array2d(dtype=Any),
+    adhesive_shear_x: wp.array2d(dtype=Any),
+    adhesive_shear_y: wp.array2d(dtype=Any),
+    laws: wp.array2d(dtype=Any),
+    law_pressure: wp.array2d(dtype=Any),
+    law_shear_x: wp.array2d(dtype=Any),
+    law_shear_y: wp.array2d(dtype=Any),
+):
+    """``smc_tractions`` of B cases (the contact shear "bounded"), each with its own law
+    (``laws[case]``, slots SMC_*); zero on the rows without adhesion."""
+    case, i = wp.tid()
+    delta_n = laws[case, SMC_DELTA_N]
+    zero = delta_n - delta_n
+    p = zero
+    qx = zero
+    qy = zero
+    if delta_n > zero:
+        p, qx, qy = smc_cell(gap[case, i], slip_x[case, i], slip_y[case, i], contact_pressure[case, i],
+                             adhesive_pressure[case, i], adhesive_shear_x[case, i], adhesive_shear_y[case, i],
+                             laws[case, SMC_SIGMA_MAX], laws[case, SMC_TAU_MAX], delta_n, laws[case, SMC_DELTA_T],
+                             laws[case, SMC_TOUCHING], 0)
+    law_pressure[case, i] = p
+    law_shear_x[case, i] = qx
+    law_shear_y[case, i] = qy
 
 
 @wp.kernel
@@ -168,5 +216,12 @@ def add_to(source: wp.array(dtype=Any), target: wp.array(dtype=Any)):
     target[i] = target[i] + source[i]
 
 
-for _k in (smc_tractions, dugdale_tractions, add_to):
+@wp.kernel
+def batch_add_to(source: wp.array2d(dtype=Any), target: wp.array2d(dtype=Any)):
+    """target += source, (rows, cells)."""
+    r, i = wp.tid()
+    target[r, i] = target[r, i] + source[r, i]
+
+
+for _k in (smc_tractions, dugdale_tractions, add_to, batch_smc_tractions, batch_add_to):
     register_float_overloads(_k)

@@ -13,7 +13,7 @@ from typing import Any
 import warp as wp
 
 from .overloads import register_float_overloads
-from .reduce import Cells, block_add, cell_index
+from .reduce import Cells, block_add, block_add_vector, cell_index
 
 # no adjoints: nothing differentiates these kernels, and compiling them doubles the build
 wp.set_module_options({"enable_backward": False})
@@ -82,7 +82,98 @@ def anderson_update(
     iterate[i] = x
 
 
-for _k in (anderson_residual, anderson_update):
+@wp.kernel
+def batch_anderson_residual(
+    iterate: wp.array3d(dtype=Any),
+    columns: wp.array(dtype=wp.int32),
+    turning: wp.array(dtype=wp.int32),
+    cells: Cells,
+    residual: wp.array3d(dtype=Any),
+    previous_residual: wp.array3d(dtype=Any),
+    previous_iterate: wp.array3d(dtype=Any),
+    residual_diff: wp.array4d(dtype=Any),
+    iterate_diff: wp.array4d(dtype=Any),
+    sums: wp.array2d(dtype=Any),
+):
+    """``anderson_residual`` of B fixed points at once, each ``turning`` case's vector of
+    components (component, case, cell): f = G(x) - x into ``residual`` (G(x) on entry), with
+    ``columns[case]`` >= 0 its history column (component, case) gets dF, dX; its |f|^2 and
+    |G(x)|^2 into ``sums[case]`` (slots S_RESIDUAL, S_IMAGE). Other cases are left as they are."""
+    case, block, lane = wp.tid()
+    thread = block * wp.block_dim() + lane
+    zero = sums[case, 0] - sums[case, 0]
+    terms = wp.vector(zero, zero)
+    column = columns[case]
+    if turning[case] != 0:
+        for k in range(cells.per):
+            i = cell_index(thread, cells, k)
+            if i < cells.n:
+                for c in range(iterate.shape[0]):
+                    g = residual[c, case, i]
+                    x = iterate[c, case, i]
+                    f = g - x
+                    residual[c, case, i] = f
+                    terms += wp.vector(f * f, g * g)
+                    if column >= 0:
+                        residual_diff[column, c, case, i] = f - previous_residual[c, case, i]
+                        iterate_diff[column, c, case, i] = x - previous_iterate[c, case, i]
+                    previous_residual[c, case, i] = f
+                    previous_iterate[c, case, i] = x
+    block_add_vector(sums[case], S_RESIDUAL, terms, lane)
+
+
+@wp.kernel
+def batch_anderson_products(
+    residual: wp.array3d(dtype=Any),
+    residual_diff: wp.array4d(dtype=Any),
+    columns: wp.array(dtype=wp.int32),
+    used: wp.array2d(dtype=wp.int32),
+    cells: Cells,
+    sums: wp.array2d(dtype=Any),
+):
+    """Each case's dot products of its newest history column (``columns[case]``, >= 0) with each
+    column j it uses (``used[case, j]`` != 0), dF_new . dF_j, and of dF_j with f, into
+    ``sums[case]``'s slots GRAM_SLOTS + 2 j and GRAM_SLOTS + 2 j + 1."""
+    case, block, lane = wp.tid()
+    thread = block * wp.block_dim() + lane
+    zero = sums[case, 0] - sums[case, 0]
+    column = columns[case]
+    for j in range(used.shape[1]):
+        terms = wp.vector(zero, zero)
+        if column >= 0 and used[case, j] != 0:
+            for k in range(cells.per):
+                i = cell_index(thread, cells, k)
+                if i < cells.n:
+                    for c in range(residual.shape[0]):
+                        d = residual_diff[j, c, case, i]
+                        terms += wp.vector(residual_diff[column, c, case, i] * d, d * residual[c, case, i])
+        block_add_vector(sums[case], GRAM_SLOTS + 2 * j, terms, lane)
+
+
+@wp.kernel
+def batch_anderson_update(
+    residual: wp.array3d(dtype=Any),
+    residual_diff: wp.array4d(dtype=Any),
+    iterate_diff: wp.array4d(dtype=Any),
+    gamma: wp.array2d(dtype=Any),
+    beta: Any,
+    turning: wp.array(dtype=wp.int32),
+    iterate: wp.array3d(dtype=Any),
+):
+    """``anderson_update`` of each ``turning`` case with its own ``gamma[case]`` (0 for the
+    columns it does not use)."""
+    case, i = wp.tid()
+    if turning[case] == 0:
+        return
+    for c in range(iterate.shape[0]):
+        x = iterate[c, case, i] + beta * residual[c, case, i]
+        for j in range(gamma.shape[1]):
+            x = x - gamma[case, j] * (iterate_diff[j, c, case, i] + beta * residual_diff[j, c, case, i])
+        iterate[c, case, i] = x
+
+
+for _k in (anderson_residual, anderson_update, batch_anderson_residual, batch_anderson_products,
+           batch_anderson_update):
     register_float_overloads(_k)
 
 

@@ -138,37 +138,65 @@ def batch_summary_sums(
     shear_y: wp.array2d(dtype=Any),
     gap: wp.array2d(dtype=Any),
     status: wp.array2d(dtype=wp.int32),
+    adhesive_pressure: wp.array2d(dtype=Any),
+    adhesive_shear_x: wp.array2d(dtype=Any),
+    adhesive_shear_y: wp.array2d(dtype=Any),
+    length_scale: wp.array(dtype=wp.float64),
+    adhesive_range: wp.array(dtype=wp.float64),
     friction: int,
+    adhesion: int,
     columns: int,
     rows: int,
     cells: Cells,
     sums: wp.array2d(dtype=wp.float64),
 ):
-    """Adds each case's summary to its row of ``sums`` (slots S_*): the fields of a batch without
-    adhesion, (B, cells) arrays of (rows, columns) grids flattened row-major; ``friction`` = 0: no
-    shear and every cell's status OUT (``shear_*`` and ``status`` not read). S_MAX_TENSION is left
-    as it was set."""
+    """Adds each case's summary to its row of ``sums`` (slots S_*): the fields of a batch, (B,
+    cells) arrays of (rows, columns) grids flattened row-major; ``friction`` = 0: no shear and
+    every cell's status OUT (``shear_*`` and ``status`` not read); ``adhesion`` = 0: no adhesive
+    tractions (``adhesive_*``, ``length_scale`` and ``adhesive_range`` not read), else each case's
+    adhesive cells as ``cell_summary``'s, with its cell size ``length_scale[case]`` [m] and its
+    law's range ``adhesive_range[case]`` [m] (0: a case without adhesion). S_MAX_TENSION is left
+    as it was set where there is no adhesion."""
     case, block, lane = wp.tid()
     thread = block * wp.block_dim() + lane
     zero = wp.float64(0.0)
     terms = summed()
     largest = wp.float64(-wp.inf)
+    largest_tension = wp.float64(-wp.inf)
+    scale = wp.float64(1.0)
+    reach = zero
+    adhesive = int(0)
+    if adhesion != 0:
+        scale = length_scale[case]
+        reach = adhesive_range[case]
+        if reach > zero:
+            adhesive = 1
     for k in range(cells.per):
         i = cell_index(thread, cells, k)
         if i < cells.n:
             p = wp.float64(pressure[case, i])
             qx = zero
             qy = zero
+            adhesive_p = zero
+            adhesive_qx = zero
+            adhesive_qy = zero
             cell_status = int(OUT)
             if friction != 0:
                 qx = wp.float64(shear_x[case, i])
                 qy = wp.float64(shear_y[case, i])
                 cell_status = status[case, i]
-            terms += cell_summary(p, zero, qx, zero, qy, zero, wp.float64(gap[case, i]), cell_status, i % columns,
-                                  i // columns, columns, rows, wp.float64(1.0), zero, 0)
+            if adhesive != 0:
+                adhesive_p = wp.float64(adhesive_pressure[case, i])
+                adhesive_qx = wp.float64(adhesive_shear_x[case, i])
+                adhesive_qy = wp.float64(adhesive_shear_y[case, i])
+            terms += cell_summary(p, adhesive_p, qx, adhesive_qx, qy, adhesive_qy, wp.float64(gap[case, i]),
+                                  cell_status, i % columns, i // columns, columns, rows, scale, reach, adhesive)
             largest = wp.max(largest, p)
+            largest_tension = wp.max(largest_tension, -adhesive_p)
     block_add_vector(sums[case], S_FORCE_Z, terms, lane)
     block_max(sums[case], S_MAX_PRESSURE, largest, lane)
+    if adhesion != 0:
+        block_max(sums[case], S_MAX_TENSION, largest_tension, lane)
 
 
 @wp.kernel
@@ -194,5 +222,6 @@ for _fields in (wp.float32, wp.float64):
         **{name: wp.array(dtype=_fields) for name in (
             "pressure", "adhesive_pressure", "shear_x", "adhesive_shear_x", "shear_y", "adhesive_shear_y", "gap")},
     })
-    wp.overload(batch_summary_sums, {name: wp.array2d(dtype=_fields) for name in ("pressure", "shear_x", "shear_y", "gap")})
+    wp.overload(batch_summary_sums, {name: wp.array2d(dtype=_fields) for name in (
+        "pressure", "shear_x", "shear_y", "gap", "adhesive_pressure", "adhesive_shear_x", "adhesive_shear_y")})
     wp.overload(domain_edge, {"field": wp.array2d(dtype=_fields), "edge": wp.array(dtype=_fields)})

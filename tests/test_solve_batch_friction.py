@@ -429,10 +429,10 @@ def test_cases_judged_unconverged_on_their_exact_gradient_go_on_from_it(monkeypa
 
 
 def test_table2_batches_its_cells_by_default_only_on_cuda_grids_where_it_pays(tmp_path, monkeypatch):
-    """Without ``--batch``, ``warpcontact table2`` searches the cells without adhesion together
-    on CUDA in its own process for grids up to ``FEW_SEARCHES_MAX_N`` cells per side (where a
-    column's 12 searches pay batched), one at a time on larger grids, on the CPU, on several
-    workers and for adhesive cells; ``batch`` given, as asked."""
+    """Without ``--batch``, ``warpcontact table2`` searches its cells, those with adhesion too,
+    together on CUDA in its own process for grids up to ``FEW_SEARCHES_MAX_N`` cells per side
+    (where a column's 12 searches pay batched), one at a time on larger grids, on the CPU and on
+    several workers; ``batch`` given, as asked."""
     from types import SimpleNamespace
 
     from warpcontact.studies import batch_solve
@@ -442,9 +442,10 @@ def test_table2_batches_its_cells_by_default_only_on_cuda_grids_where_it_pays(tm
     assert run._batched_cells(None, in_process=True) == ([], 0)  # the CPU
     monkeypatch.setattr(batch_solve, "resolve_device", lambda device: SimpleNamespace(is_cuda=True))
     cells, batch = run._batched_cells(None, in_process=True)
-    assert [c for _, c in cells] == [(128, 0.8, 1e-4, False), (256, 0.8, 1e-4, False)] and batch == 2
+    assert [c for _, c in cells] == [(128, 0.8, 1e-4, False), (256, 0.8, 1e-4, False), (128, 0.8, 1e-4, True),
+                                     (256, 0.8, 1e-4, True)] and batch == 4
     assert batch_solve.FEW_SEARCHES_MAX_N == 256
     assert run._batched_cells(None, in_process=False) == ([], 0)
     assert run._batched_cells(0, in_process=True) == ([], 0)
     cells, batch = run._batched_cells(3, in_process=False)
-    assert len(cells) == 3 and batch == 3
+    assert len(cells) == 6 and batch == 3

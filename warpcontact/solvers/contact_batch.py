@@ -1,35 +1,41 @@
 """A load step with friction of B cases of one grid size, solved together: the lagged turns of
-[`ContactSolver`][warpcontact.solvers.contact.ContactSolver] (MODEL.md 4) with a case axis.
+[`ContactSolver`][warpcontact.solvers.contact.ContactSolver] (MODEL.md 4 and 6) with a case axis.
 
 Each turn is one batched normal solve
 ([`BatchNormalSolver`][warpcontact.solvers.normal_batch.BatchNormalSolver]) with each case's
 shear's normal displacement K_zt q held fixed, each case's shear limit from its pressure (its own
 law: ``kernels/laws.py``, ``batch_shear_limit``), and one batched tangential solve
 ([`BatchTangentialSolver`][warpcontact.solvers.tangential_batch.BatchTangentialSolver]) with its
-pressure's tangential displacement K_tz p held fixed. A case's turns end as the single solver's
-do: where its pressure and shear change by less than ``outer_tol`` (relative, 2-norm) in a turn
-solved at full tolerance; early turns solve at 1/100 of the last turn's change, at most 1e-3
-(``SolverSettings.turn_tolerance = "change"``). A case of identical materials (D = 0) decouples:
-one turn at full tolerance. A case that has ended stops changing while the others turn on. The
-step ends with a normal solve against each case's final shear (its gap and u_z) and its slip
-s = delta - (K_tt q + K_tz p).
+pressure's tangential displacement K_tz p held fixed. With adhesion (the SMC law, its contact
+shear "bounded": ``set_cases``), each turn first moves the case's adhesive tractions towards the
+law's of its last gap and slip (each case's own Anderson mixing, ``_AdhesiveRows``), and their
+displacements are held fixed in both solves, as the single solver's lagged turns do. A case's
+turns end as the single solver's do: where its pressure, shear and adhesive tractions change by
+less than ``outer_tol`` (relative, 2-norm) in a turn solved at full tolerance; early turns solve
+at 1/100 of the coupled residual, at most 1e-3 and never looser than the turn before
+(``SolverSettings.turn_tolerance = "residual"``). A case of identical materials without
+adhesion (D = 0) decouples: one turn at full tolerance. A case that has ended stops changing
+while the others turn on. The step ends with a normal solve against each case's final shear (its
+gap and u_z) and its slip s = delta - u_t.
 
-The turns run on a window of the grid that holds every turning case's contact (the cells where
-its pressure is above zero, with ``WINDOW_ROOM`` cells around), each case's window placed over its
-own contact: the tractions are zero outside the contact, so the problem on the window is the same
-problem (the single solver's ``SolverSettings.window`` and ``window_turns``), and its transforms
-are of (2 m)^2 entries instead of (2 n)^2 (a contact half the domain wide: a quarter). A step's
-first turn solves the normal problem on the whole grid and places the window; its tangential
-solve and every later turn run on the window alone; the step's final normal solve, on the whole
-grid, judges the turns: a case whose pressure it moves by ``outer_tol`` or more (a contact that
-grew past the window) is reported as not converged. A batch of many cases is bound by the
-device's work, where the window pays (docs/performance.md, "Many cases with friction solved
-together").
+The tangential solves run on a window of the grid that holds every turning case's contact (the
+cells where its pressure is above zero, with ``WINDOW_ROOM`` cells around), each case's window
+placed over its own contact: the shear is zero outside the contact, so the problem on the window
+is the same problem (the single solver's ``SolverSettings.window``), and its transforms are of
+(2 m)^2 entries instead of (2 n)^2 (a contact half the domain wide: a quarter). Without adhesion
+the turns after a step's first stay on the window (``window_turns``): a step's first turn solves
+the normal problem on the whole grid and places the window; the step's final normal solve, on
+the whole grid, judges the turns: a case whose pressure it moves by ``outer_tol`` or more (a
+contact that grew past the window) is reported as not converged. With adhesion the normal
+solves stay on the whole grid (the adhesive tractions reach past the contact). A batch of many
+cases is bound by the device's work, where the window pays (docs/performance.md, "Many cases
+with friction solved together").
 
 What the single solver adds for hard cases (the Anderson mixing of turns that stall, the
-minimised turns of adhesion, the nested start and the window of large grids) is not here: a case
-whose turns do not converge within ``max_turns`` is reported as not converged, and the caller
-solves it on its own (``studies/batch_solve.py``).
+minimised turns of adhesion, the retry of adhesive turns from zero tractions, the nested start
+and the window of large grids) is not here: a case whose turns do not converge within
+``max_turns`` is reported as not converged, and the caller solves it on its own
+(``studies/batch_solve.py``).
 """
 
 from __future__ import annotations
@@ -40,16 +46,20 @@ from collections import OrderedDict
 import numpy as np
 import warp as wp
 
+from warpcontact.kernels import adhesion as ak
 from warpcontact.kernels import coupling as ck
 from warpcontact.kernels import grids as gk
 from warpcontact.kernels import laws as lk
+from warpcontact.kernels import spectral_batch as sbk
 
 from ..fft.batch import BatchElasticOperator
 from ..numerics.state import SolveInfo
+from .fixed_point import BatchAndersonMixing
 from .normal_batch import BatchNormalSolver
+from .settings import SolverSettings
 from .tangential import WINDOW_CACHE, window_cells, window_origin
 from .tangential_batch import BatchTangentialSolver
-from .turns import TURN_TOL_RATIO, TURN_TOL_START, ratio
+from .turns import TURN_TOL_RATIO, TURN_TOL_START, ratio, starting_residual
 
 
 #: cells of room the turns' window leaves on every side of the contacts it holds: the contact
@@ -65,6 +75,19 @@ def law_parameters(friction, traction_scale: float) -> tuple:
     if hasattr(friction, "mu_b"):
         return (int(lk.LAW_TABOR), friction.mu_b, friction.k_vm, friction.yield_strength / traction_scale)
     return (int(lk.LAW_COULOMB), friction.mu, 0.0, 0.0)
+
+
+def adhesion_parameters(adhesion, model) -> tuple | None:
+    """A case's row of ``batch_smc_tractions``' law parameters (``kernels/adhesion.py``, slots
+    SMC_*) from its SMC law, scaled by its ``model`` (tractions / E*, lengths / dx); None without
+    adhesion."""
+    from ..physics.adhesion import TOUCHING
+
+    if adhesion is None:
+        return None
+    E, L = model.traction_scale, model.length_scale
+    return (adhesion.sigma_max / E, adhesion.tau_max / E, adhesion.delta_n / L, adhesion.delta_t / L,
+            TOUCHING * adhesion.delta_n / L)
 
 
 class _TurnWindow:
@@ -97,8 +120,9 @@ def change_sums(normal: BatchNormalSolver, shear, previous: list, change) -> np.
 
 
 class BatchContactSolver:
-    """Steps with friction (no adhesion) of up to ``batch`` cases of an n x n grid, in scaled
-    units (tractions / E*, lengths / dx, each case its own).
+    """Steps with friction (and the SMC law's adhesion where ``set_cases`` gives it) of up to
+    ``batch`` cases of an n x n grid, in scaled units (tractions / E*, lengths / dx, each case
+    its own).
 
     Args:
         n: cells per side.
@@ -144,17 +168,34 @@ class BatchContactSolver:
         self.origins = wp.zeros((self.batch, 2), dtype=wp.int32, device=self.device)
         self.turning = wp.zeros(self.batch, dtype=wp.int32, device=self.device)
         self.coupled = np.zeros(self.batch, dtype=bool)
+        #: the rows whose case has adhesion (``set_cases``), and their buffers, made when first needed
+        self.adhesive = np.zeros(self.batch, dtype=bool)
+        self.adhesion = None
         self.pressure_cap = np.full(self.batch, np.finfo(np_dtype).max)
         self._np_dtype = np_dtype
         self._pairs: list = []
         self._windows: OrderedDict = OrderedDict()  # cells per side -> _TurnWindow
         self._kept = None  # the rows' path state kept by ``keep``, made when first needed
 
-    def set_cases(self, pairs: list, laws: list, pressure_caps: list):
+    def set_cases(self, pairs: list, laws: list, pressure_caps: list, adhesions: list | None = None):
         """Rows 0 .. len(pairs) - 1: each case's material pair, its shear-limit law's parameters
-        (``law_parameters``) and its pressure cap / E* (inf for none)."""
+        (``law_parameters``), its pressure cap / E* (inf for none) and its SMC law's parameters
+        (``adhesion_parameters``; None, or a list without, for none)."""
         self._pairs = list(pairs)
         _, self.coupled = self.operator.set_pairs(pairs)
+        adhesions = list(adhesions or [])
+        self.adhesive[:] = False
+        self.adhesive[: len(adhesions)] = [a is not None for a in adhesions]
+        if self.adhesive.any():
+            if self.adhesion is None:
+                self.adhesion = _AdhesiveRows(self)
+            rows = np.zeros((self.batch, ak.N_SMC_PARAMETERS))
+            for row, a in enumerate(adhesions):
+                if a is not None:
+                    rows[row] = a
+            self.adhesion.laws.assign(rows.astype(self._np_dtype))
+        elif self.adhesion is not None:
+            self.adhesion.laws.zero_()
         for window in self._windows.values():
             window.set_pairs(pairs)
         rows = np.zeros((self.batch, lk.N_LAW_PARAMETERS))
@@ -166,18 +207,23 @@ class BatchContactSolver:
 
     def clear(self):
         """Every row's tractions, statuses and slip history zeroed (a path's start)."""
-        for a in (self.normal.pressure, self.shear, self.status, self.slip):
+        for a in self._state_fields():
             a.zero_()
 
     def _state_fields(self) -> list:
         """The arrays that carry a row's path from one step to the next: its pressure, shear,
-        statuses and slip (2-D, one row a case)."""
-        return [self.normal.pressure, self.shear[0], self.shear[1], self.status, self.slip[0], self.slip[1]]
+        statuses and slip (2-D, one row a case); with adhesion its adhesive tractions and its gap
+        too (the law's first turn of a step reads the last gap)."""
+        fields = [self.normal.pressure, self.shear[0], self.shear[1], self.status, self.slip[0], self.slip[1]]
+        if self.adhesion is not None:
+            a = self.adhesion
+            fields += [a.pressure, a.shear[0], a.shear[1], self.normal.gap]
+        return fields
 
     def keep(self, rows):
         """Keep the path state of the ``rows`` (booleans, one per row) for a later ``restore``
         (a gross-slip search's last stick state)."""
-        if self._kept is None:
+        if self._kept is None or len(self._kept) != len(self._state_fields()):
             self._kept = [wp.zeros_like(a) for a in self._state_fields()]
         self._copy_rows(rows, self._state_fields(), self._kept)
 
@@ -244,17 +290,36 @@ class BatchContactSolver:
         does). Returns the rows' normal and tangential ``SolveInfo`` lists, their change sums and
         the window."""
         normal = self.normal
-        self.operator.cross_normal(self.shear, normal.known)
+        self._normal_known()
         normal_infos = normal.solve(approach[:, 2], turn_tol, max_iter, pressure_cap=self.pressure_cap, active=turning)
         self._cells(lk.batch_shear_limit, [normal.pressure, self.laws], [self.shear_limit])
         self.operator.cross_tangential(normal.pressure, self.known)
+        if self.adhesion is not None:  # the adhesive tractions' tangential displacement, held fixed
+            self.adhesion.add(self.adhesion.disp, self.known)
         window = self._window(turning)
         t = window.tangential
         self._crop([*self._tangential_pairs(window), (self.target[0], t.target_x), (self.target[1], t.target_y),
                     (self.known[0], t.known_x), (self.known[1], t.known_y), (self.shear_limit, t.shear_limit)], window)
         tangential_infos = t.solve(turn_tol, max_iter, turning)
         self._put_back(self._tangential_pairs(window), window, turning)
+        if self.adhesion is not None:  # the slip the next turn's adhesive shear follows
+            self._slip()
         return normal_infos, tangential_infos, self._change_sums(), window
+
+    def _normal_known(self):
+        """Each row's normal displacement held fixed in a normal solve: its shear's K_zt q, plus
+        its adhesive tractions' (with adhesion)."""
+        self.operator.cross_normal(self.shear, self.normal.known)
+        if self.adhesion is not None:
+            self.adhesion.add(self.adhesion.disp_z, self.normal.known)
+
+    def _slip(self):
+        """Each row's slip s = delta - u_t of its current tractions (``disp``: u_t = K_tt q + K_tz
+        p, plus the adhesive tractions' with adhesion)."""
+        self.operator.tangential(self.shear, self.disp, pressure=self.normal.pressure)
+        if self.adhesion is not None:
+            self.adhesion.add(self.adhesion.disp, self.disp)
+        self._cells(ck.batch_accumulate_slip, [self.disp[0], self.disp[1], self.shifts], [self.slip[0], self.slip[1]])
 
     def _window_turn(self, window: _TurnWindow, approach, turn_tol, max_iter, turning) -> tuple:
         """A turn of the ``turning`` rows on the ``window`` alone: K_zt q, the normal solve, the
@@ -294,21 +359,30 @@ class BatchContactSolver:
         self._cells(ck.batch_stick_target, [self.slip[0], self.slip[1], self.shifts], [self.target[0], self.target[1]])
         self._change_sums()  # the previous copies: the tractions the step starts from
         rows = self.batch
+        iterative = self.coupled | self.adhesive  # rows whose step needs turns
+        adhesive = bool((self.adhesive & active).any())  # (the turns then stay on the whole grid)
         turning = active.copy()
         turns = np.zeros(rows, dtype=np.int64)
         iterations = np.zeros(rows, dtype=np.int64)
         change = np.full(rows, math.inf)
+        coupled = np.full(rows, math.inf)  # each row's coupled residual (the turns' schedule, below)
+        turn_tol = np.full(rows, math.inf)
         turns_converged = np.zeros(rows, dtype=bool)
         solves_converged = np.zeros(rows, dtype=bool)
         window, staying = None, False  # the turns' window; staying: the turns after the first stay on it
         while turning.any():
             turns[turning] += 1
-            turn_tol = np.where(self.coupled, np.maximum(tol, np.minimum(TURN_TOL_START, TURN_TOL_RATIO * change)), tol)
+            # 1/100 of the coupled residual, never looser than the last turn's (the single solver's
+            # "residual" schedule, ``SolverSettings.turn_tolerance``)
+            turn_tol = np.where(iterative, np.maximum(tol, np.minimum(np.minimum(TURN_TOL_START, turn_tol),
+                                                                      TURN_TOL_RATIO * coupled)), tol)
+            adhesive_change = (self.adhesion.update(turning & self.adhesive, first=turns.max() == 1) if adhesive
+                               else np.zeros(rows))
             if staying:
                 normal_infos, tangential_infos, sums = self._window_turn(window, approach, turn_tol, max_iter, turning)
             else:
                 normal_infos, tangential_infos, sums, window = self._whole_turn(approach, turn_tol, max_iter, turning)
-                staying = window.normal is not None
+                staying = window.normal is not None and not adhesive
                 if staying:  # the turns go on on the window: its normal solve's fields and the last turn's
                     self._crop([(normal.initial_gap, window.normal.initial_gap), (normal.pressure, window.normal.pressure),
                                 *zip(self.previous, window.previous)], window)
@@ -316,9 +390,13 @@ class BatchContactSolver:
                 ni, ti = normal_infos[row], tangential_infos[row]
                 iterations[row] += ni.iterations + ti.iterations
                 change[row] = max(ratio(sums[row, ck.CHANGE_PRESSURE], sums[row, ck.CHANGE_PRESSURE + 1]),
-                                  ratio(sums[row, ck.CHANGE_SHEAR_X], sums[row, ck.CHANGE_SHEAR_X + 1]))
+                                  ratio(sums[row, ck.CHANGE_SHEAR_X], sums[row, ck.CHANGE_SHEAR_X + 1]),
+                                  adhesive_change[row])
                 solves_converged[row] = ni.converged and ti.converged
-                if not self.coupled[row] or (change[row] < outer_tol[row] and turn_tol[row] == tol[row]):
+                # where the normal solve started (how far the last tangential update moved its problem),
+                # and where the tangential one did, as far as the turn's change confirms it
+                coupled[row] = max(starting_residual(ni), min(change[row], starting_residual(ti)))
+                if not iterative[row] or (change[row] < outer_tol[row] and turn_tol[row] == tol[row]):
                     turns_converged[row] = True
                     turning[row] = False
                 elif turns[row] >= max_turns:
@@ -327,15 +405,14 @@ class BatchContactSolver:
             self._put_back([(normal.pressure, window.normal.pressure), *self._tangential_pairs(window)], window, active)
             self._change_sums()  # the previous copies: the turns' answer
         # each row's gap and u_z against its final shear, then its whole u_t and its slip
-        self.operator.cross_normal(self.shear, normal.known)
+        self._normal_known()
         final = normal.solve(approach[:, 2], tol, max_iter, pressure_cap=self.pressure_cap, active=active)
         if staying:  # a contact that grew past the window: its turns are not the whole grid's answer
             sums = self._change_sums()
             for row in np.flatnonzero(active):
                 if ratio(sums[row, ck.CHANGE_PRESSURE], sums[row, ck.CHANGE_PRESSURE + 1]) >= outer_tol[row]:
                     turns_converged[row] = False
-        self.operator.tangential(self.shear, self.disp, pressure=normal.pressure)
-        self._cells(ck.batch_accumulate_slip, [self.disp[0], self.disp[1], self.shifts], [self.slip[0], self.slip[1]])
+        self._slip()
         infos = []
         for row in range(rows):
             if not active[row]:
@@ -346,3 +423,55 @@ class BatchContactSolver:
             infos.append(SolveInfo(converged=converged, iterations=int(iterations[row] + f.iterations),
                                    residual=f.residual, outer_iterations=int(turns[row]), history=[]))
         return infos
+
+
+class _AdhesiveRows:
+    """The adhesive tractions of a ``BatchContactSolver``'s rows with adhesion (the SMC law, the
+    contact shear "bounded"; ``set_cases``), a fixed point of their own in the lagged turns, as
+    the single solver's (``ContactSolver.update_adhesion``): each turn takes the law's tractions
+    of the last gap and slip as G(t) and moves t by each row's Anderson mixing
+    (``BatchAndersonMixing``, beta ``SolverSettings.relax``); their displacements then enter both
+    solves of the turn as known ones. A row's change is |G(t) - t| / |G(t)| before the move."""
+
+    def __init__(self, solver: BatchContactSolver):
+        self.solver = solver
+        cells = (solver.batch, solver.n_cells)
+        dtype, device = solver.dtype, solver.device
+        #: the adhesive tractions / E*: p_adh, q_adh x, y, one (3, B, cells) array (the mixing's
+        #: vector), and its views
+        self.traction = wp.zeros((3, *cells), dtype=dtype, device=device)
+        self.pressure, self.shear = self.traction[0], self.traction[1:3]
+        #: their displacements / dx: normal, and the tangential pair
+        self.disp_z, self.scratch_z = wp.zeros(cells, dtype=dtype, device=device), wp.zeros(cells, dtype=dtype, device=device)
+        self.disp = wp.zeros((2, *cells), dtype=dtype, device=device)
+        #: each row's law (``kernels/adhesion.py``, slots SMC_*; zeros: no adhesion)
+        self.laws = wp.zeros((solver.batch, ak.N_SMC_PARAMETERS), dtype=dtype, device=device)
+        self.mixing = BatchAndersonMixing(solver.normal.launches, self.traction.shape, device, dtype,
+                                          beta=SolverSettings.relax)
+
+    def add(self, source, target):
+        """target += source (fields or pairs of the batch)."""
+        rows = lambda a: a.reshape((-1, self.solver.n_cells))  # noqa: E731 - a pair as 2 B rows
+        self.solver.normal.launches.launch(ak.batch_add_to, rows(target).shape, [rows(source)], [rows(target)])
+
+    def update(self, rows: np.ndarray, first: bool) -> np.ndarray:
+        """One mixed step of the ``rows``' (booleans) adhesive tractions (their mixing's history
+        forgotten on the ``first`` turn of a step) and their displacements; returns each row's
+        change |G(t) - t| / |G(t)| before the step (0 elsewhere)."""
+        s = self.solver
+        normal = s.normal
+        law = self.mixing.residual
+        if first:
+            self.mixing.reset(rows)
+        s._cells(ak.batch_smc_tractions, [normal.gap, s.slip[0], s.slip[1], normal.pressure, self.pressure,
+                                          self.shear[0], self.shear[1], self.laws], [law[0], law[1], law[2]])
+        change = self.mixing.step(self.traction, rows)
+        # the displacements: K_zz p_adh + K_zt q_adh, and K_tt q_adh + K_tz p_adh
+        c = normal.convolution
+        s._cells(sbk.batch_pad, [self.pressure, s.n], [c.source])
+        c.apply()
+        s._cells(sbk.batch_crop, [c.result, s.n], [self.disp_z])
+        s.operator.cross_normal(self.shear, self.scratch_z)
+        self.add(self.scratch_z, self.disp_z)
+        s.operator.tangential(self.shear, self.disp, pressure=self.pressure)
+        return change

@@ -39,6 +39,63 @@ MAX_CONDITION = 1e10
 RESTART_GROWTH = 10.0
 
 
+class MixingHistory:
+    """The host's side of the Anderson mixing of one fixed point: the history columns in use
+    (oldest first), their Gram matrix, the load step's smallest residual, and the least-squares
+    coefficients of a step (``AndersonMixing``, one per case of ``BatchAndersonMixing``)."""
+
+    def __init__(self, depth: int):
+        self.depth = int(depth)
+        self.reset()
+
+    def reset(self):
+        """Forget the history (a new load step)."""
+        self.forget()
+        self.best = math.inf  # smallest residual of this load step
+
+    def forget(self):
+        self.columns: list[int] = []  # used history columns, oldest first
+        self.gram = np.zeros((self.depth, self.depth))
+        self.has_previous = False
+        self.next = 0
+
+    def record(self) -> int:
+        """The column this step's dF, dX go to (made the newest used column where there is a
+        previous step: ``has_previous``)."""
+        column = self.next
+        if self.has_previous:
+            if column in self.columns:
+                self.columns.remove(column)
+            self.columns.append(column)
+            self.next = (column + 1) % self.depth
+        return column
+
+    def coefficients(self, column: int, products, rhs) -> np.ndarray:
+        """gamma = argmin |f - dF gamma| over the used columns through the normal equations (the
+        newest ``column``'s row of the Gram matrix ``products[j]`` = dF_column . dF_j, ``rhs[j]``
+        = dF_j . f), dropping the oldest columns while the Gram matrix is ill-conditioned."""
+        for j in self.columns:
+            self.gram[column, j] = self.gram[j, column] = products[j]
+        gamma = np.zeros(self.depth)
+        while self.columns:
+            idx = np.array(self.columns)
+            g = self.gram[np.ix_(idx, idx)]
+            if np.all(np.isfinite(g)) and np.linalg.cond(g) < MAX_CONDITION:
+                gamma[idx] = np.linalg.solve(g, np.asarray(rhs)[idx])
+                return gamma
+            self.columns.pop(0)
+        return gamma
+
+    def judged(self, residual: float):
+        """After a step of ``residual``: a residual this many times the step's smallest
+        (``RESTART_GROWTH``) restarts the mixing from here (the history forgotten)."""
+        self.has_previous = True
+        self.best = min(self.best, residual)
+        if residual > RESTART_GROWTH * self.best:  # the mixing has gone astray: start it again from here
+            self.forget()
+            self.best = residual
+
+
 class AndersonMixing:
     """Anderson mixing for a vector of ``len(iterates)`` (n, n) fields held by the caller.
 
@@ -64,18 +121,11 @@ class AndersonMixing:
         self.gamma = z(self.depth)
         #: |G(x) - x|^2 and |G(x)|^2 of the last step, summed over its components
         self.norms = (0.0, 0.0)
-        self.reset()
+        self.history = MixingHistory(self.depth)
 
     def reset(self):
         """Forget the history (a new load step)."""
-        self._forget()
-        self.best = math.inf  # smallest residual of this load step
-
-    def _forget(self):
-        self.columns: list[int] = []  # used history columns, oldest first
-        self.gram = np.zeros((self.depth, self.depth))
-        self._has_previous = False
-        self._next = 0
+        self.history.reset()
 
     def step(self, iterates, beta: float | None = None) -> float:
         """x <- the next iterate, from ``self.residual`` = G(x) filled by the caller (its first
@@ -85,39 +135,32 @@ class AndersonMixing:
         beta = self.beta if beta is None else float(beta)
         column = self._record(iterates)
         sums = self._combine(iterates, column, beta)
-        self._has_previous = True
         self.norms = (float(sums[fk.S_RESIDUAL]), float(sums[fk.S_IMAGE]))
         residual = math.sqrt(sums[fk.S_RESIDUAL] / sums[fk.S_IMAGE]) if sums[fk.S_IMAGE] > 0 else 0.0
-        self.best = min(self.best, residual)
-        if residual > RESTART_GROWTH * self.best:  # the mixing has gone astray: start it again from here
-            self._forget()
-            self.best = residual
+        self.history.judged(residual)
         return residual
 
     def _record(self, iterates) -> int:
         """f = G(x) - x into ``residual``, the norms' sums, and (after a first step) the history
         column of dF and dX, made the newest used column; returns that column."""
         m = self.model
-        column = self._next
+        h = self.history
+        column = h.next
         self.sums.zero_()
         for k, x in enumerate(iterates):
             m.launch_reduce(
-                fk.anderson_residual, [x.flatten(), column, int(self._has_previous), self.depth],
+                fk.anderson_residual, [x.flatten(), column, int(h.has_previous), self.depth],
                 [self.residual[k], self.previous_residual[k], self.previous_iterate[k],
                  self.residual_diff[k], self.iterate_diff[k], self.sums],
             )
-        if self._has_previous:
-            if column in self.columns:
-                self.columns.remove(column)
-            self.columns.append(column)
-            self._next = (column + 1) % self.depth
-        return column
+        return h.record()
 
     def _combine(self, iterates, column: int, beta: float) -> np.ndarray:
         """x <- x + beta f - sum_j gamma_j (dX_j + beta dF_j), gamma the least-squares
         coefficients of the whole field; returns the sums read back."""
         m = self.model
-        for j in self.columns:
+        h = self.history
+        for j in h.columns:
             for k in range(len(iterates)):
                 # dF_column . dF_j into the Gram matrix's slot j, dF_j . f into the right side's
                 diff = self.residual_diff[k]
@@ -127,11 +170,8 @@ class AndersonMixing:
                                 [self.sums])
         s = self.sums.numpy().astype(np.float64)
         gamma = np.zeros(self.depth)
-        if self.columns:
-            for j in self.columns:
-                self.gram[column, j] = self.gram[j, column] = s[fk.GRAM_SLOTS + j]
-            rhs = s[fk.GRAM_SLOTS + self.depth:]
-            gamma = self._least_squares(rhs)
+        if h.columns:
+            gamma = h.coefficients(column, s[fk.GRAM_SLOTS:fk.GRAM_SLOTS + self.depth], s[fk.GRAM_SLOTS + self.depth:])
         self.gamma.assign(gamma.astype(m.np_dtype))
         for k, x in enumerate(iterates):
             m.launch(fk.anderson_update, dim=m.n_cells,
@@ -140,18 +180,83 @@ class AndersonMixing:
                      outputs=[x.flatten()])
         return s
 
-    def _least_squares(self, rhs):
-        """gamma = argmin |f - dF gamma| over the used columns through the normal equations,
-        dropping the oldest columns while the Gram matrix is ill-conditioned."""
-        gamma = np.zeros(self.depth)
-        while self.columns:
-            idx = np.array(self.columns)
-            g = self.gram[np.ix_(idx, idx)]
-            if np.all(np.isfinite(g)) and np.linalg.cond(g) < MAX_CONDITION:
-                gamma[idx] = np.linalg.solve(g, rhs[idx])
-                return gamma
-            self.columns.pop(0)
-        return gamma
+
+class BatchAndersonMixing:
+    """``AndersonMixing`` of B fixed points at once, each case's vector a (components, B, cells)
+    array's column (``iterate``, held by the caller), each case with its own history, coefficients
+    and restarts (``MixingHistory``); the device's work of a step is three launches for every
+    case, the host's one read and each case's small least-squares problem.
+
+    Args:
+        launches: the batch's launches (``numerics.launch.BatchLaunches``).
+        shape: (components, B, cells) of the iterates.
+        device, dtype: the batch's.
+        beta: mixing of the residual.
+        depth: history columns.
+    """
+
+    def __init__(self, launches, shape: tuple, device, dtype, beta: float = 0.5, depth: int = DEPTH):
+        self.launches = launches
+        self.beta, self.depth = dtype(beta), int(depth)
+        self.np_dtype = np.float64 if dtype == wp.float64 else np.float32
+        components, batch, cells = shape
+        z = lambda *s: wp.zeros(s, dtype=dtype, device=device)  # noqa: E731
+        #: G(x) of each case, filled by the caller before ``step``; then f = G(x) - x
+        self.residual = z(*shape)
+        self.previous_residual, self.previous_iterate = z(*shape), z(*shape)
+        self.residual_diff, self.iterate_diff = z(self.depth, *shape), z(self.depth, *shape)
+        self.sums = z(batch, fk.GRAM_SLOTS + 2 * self.depth)
+        self.gamma = z(batch, self.depth)
+        self.columns = wp.zeros(batch, dtype=wp.int32, device=device)
+        self.used = wp.zeros((batch, self.depth), dtype=wp.int32, device=device)
+        self.turning = wp.zeros(batch, dtype=wp.int32, device=device)
+        self.histories = [MixingHistory(self.depth) for _ in range(batch)]
+
+    def reset(self, rows):
+        """Forget the history of the ``rows`` (booleans, one per case: a new load step)."""
+        for history, on in zip(self.histories, rows):
+            if on:
+                history.reset()
+
+    def step(self, iterate, rows) -> np.ndarray:
+        """Each case of ``rows`` (booleans) x <- its next iterate, from ``residual`` = G(x); the
+        other cases are left as they are. Returns each case's |G(x) - x| / |G(x)| before the step
+        (0 where G(x) = 0 or not in ``rows``)."""
+        rows = np.asarray(rows, dtype=bool)
+        histories = self.histories
+        columns = np.array([h.next if h.has_previous else -1 for h in histories], dtype=np.int32)
+        for h, on in zip(histories, rows):
+            if on:
+                h.record()
+        used = np.zeros((len(histories), self.depth), dtype=np.int32)
+        for r, h in enumerate(histories):
+            used[r, h.columns] = 1
+        columns[~rows] = -1
+        self.turning.assign(rows.astype(np.int32))
+        self.columns.assign(columns)
+        self.used.assign(used)
+        self.sums.zero_()
+        launches = self.launches
+        launches.reduce(fk.batch_anderson_residual, [iterate, self.columns, self.turning],
+                        [self.residual, self.previous_residual, self.previous_iterate, self.residual_diff,
+                         self.iterate_diff, self.sums])
+        launches.reduce(fk.batch_anderson_products, [self.residual, self.residual_diff, self.columns, self.used],
+                        [self.sums])
+        s = self.sums.numpy().astype(np.float64)
+        gamma = np.zeros((len(histories), self.depth))
+        residuals = np.zeros(len(histories))
+        for r in np.flatnonzero(rows):
+            h = histories[r]
+            if columns[r] >= 0 and h.columns:
+                pairs = s[r, fk.GRAM_SLOTS:].reshape(self.depth, 2)
+                gamma[r] = h.coefficients(int(columns[r]), pairs[:, 0], pairs[:, 1])
+            residuals[r] = math.sqrt(s[r, fk.S_RESIDUAL] / s[r, fk.S_IMAGE]) if s[r, fk.S_IMAGE] > 0 else 0.0
+        self.gamma.assign(gamma.astype(self.np_dtype))
+        launches.cells(fk.batch_anderson_update, [self.residual, self.residual_diff, self.iterate_diff, self.gamma,
+                                                  self.beta, self.turning], [iterate])
+        for r in np.flatnonzero(rows):
+            histories[r].judged(residuals[r])
+        return residuals
 
 
 #: the local mixing's history columns (``local_anderson_update`` holds three) and the radius of
@@ -188,7 +293,7 @@ class LocalAndersonMixing(AndersonMixing):
     def _combine(self, iterates, column: int, beta: float) -> np.ndarray:
         m = self.model
         use = np.zeros(self.depth)
-        use[self.columns] = 1.0
+        use[self.history.columns] = 1.0
         self.use.assign(use.astype(m.np_dtype))
         n = m.grid.n
         m.launch(fk.local_anderson_update, (n, n),

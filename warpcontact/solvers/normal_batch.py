@@ -43,15 +43,16 @@ DEFERRAL = 0.1
 
 
 def row_infos(solver, active, tol) -> list:
-    """One ``SolveInfo`` per row of a batched ``solver`` (its ``launches``, ``sums``, ``residual``
-    and ``scalars``), from each row's residual sums and iterations; a row not ``active``: not
-    converged, no iteration."""
+    """One ``SolveInfo`` per row of a batched ``solver`` (its ``launches``, ``sums``, ``residual``,
+    ``start_residual`` and ``scalars``), from each row's residual sums and iterations, its
+    ``history`` the residual it started from; a row not ``active``: not converged, no iteration."""
     solver.launches.cases(bk.batch_residual, [solver.sums], [solver.residual])
     residual = solver.residual.numpy().astype(np.float64)
+    start = solver.start_residual.numpy().astype(np.float64)
     iterations = solver.scalars.numpy()[:, rk.C_ITER].astype(np.int64)
     return [SolveInfo(converged=bool(on and math.isfinite(r) and r < t), iterations=int(k) if on else 0,
-                      residual=float(r) if on else math.nan)
-            for on, r, k, t in zip(active, residual, iterations, tol)]
+                      residual=float(r) if on else math.nan, history=[float(r0)] if on else [])
+            for on, r, r0, k, t in zip(active, residual, start, iterations, tol)]
 
 
 class BatchNormalSolver:
@@ -93,6 +94,8 @@ class BatchNormalSolver:
         self.guess_sums = wp.zeros((self.batch, nk.N_GUESS_SUMS), dtype=dtype, device=self.device)
         self.pressure_cap = wp.zeros(self.batch, dtype=dtype, device=self.device)
         self.residual = wp.zeros(self.batch, dtype=dtype, device=self.device)
+        #: each case's relative residual at the start of the last solve (the turns' schedule)
+        self.start_residual = wp.zeros(self.batch, dtype=dtype, device=self.device)
         self.active = wp.zeros(self.batch, dtype=wp.int32, device=self.device)
         #: ``batch_advance``'s counts: active cases, cases whose next iteration needs an exact gap
         self.flags = wp.zeros(2, dtype=wp.int32, device=self.device)
@@ -150,6 +153,7 @@ class BatchNormalSolver:
         self._cells(bk.batch_interference, [self.initial_gap, self.known, self.parameters], [self.interference])
         self._guess()
         self._exact_gap()
+        self._cases(bk.batch_residual, [self.sums], [self.start_residual])
         self._going.fill_(1)  # at least one iteration: a case active at its start is judged by ``batch_advance``
         wp.capture_while(self._going, self._iteration)
         self._exact_gap()

@@ -30,6 +30,7 @@ import math
 import numpy as np
 import warp as wp
 
+from warpcontact.kernels import normal_batch as bk
 from warpcontact.kernels import reduce as rk
 from warpcontact.kernels import tangential as tk
 from warpcontact.kernels import tangential_batch as tbk
@@ -103,6 +104,9 @@ class BatchTangentialSolver:
         self.scalars = wp.zeros((self.batch, rk.N_SCALARS), dtype=self.dtype, device=self.device)
         self.parameters = wp.zeros((self.batch, rk.N_PARAMETERS), dtype=self.dtype, device=self.device)
         self.residual = wp.zeros(self.batch, dtype=self.dtype, device=self.device)
+        #: each case's relative residual at the start of the last solve (the turns' schedule; inf
+        #: for the plain iteration, which makes its exact g inside its iterations)
+        self.start_residual = wp.zeros(self.batch, dtype=self.dtype, device=self.device)
         self.active = wp.zeros(self.batch, dtype=wp.int32, device=self.device)
         self.flags = wp.zeros(2, dtype=wp.int32, device=self.device)
         #: the counts as the device loop's conditions
@@ -158,8 +162,10 @@ class BatchTangentialSolver:
                     [self.shear_x, self.shear_y, self.status])
         if self.preconditioned:
             self._gradient()
+            self._cases(bk.batch_residual, [self.sums], [self.start_residual])
             self._carried_loop()
             return
+        self.start_residual.fill_(math.inf)
         self._going.fill_(1)  # at least one iteration: a case active at its start is judged by ``advance``
         wp.capture_while(self._going, self._iteration)
         self._gradient()

@@ -1,8 +1,9 @@
 """Many cases solved together: the batched solves behind ``warpcontact.solve_batch``.
 
-Cases without adhesion of one grid size, device and float type are solved in batches of B:
-normal contact by [`BatchNormalSolver`][warpcontact.solvers.normal_batch.BatchNormalSolver], contact
-with friction (Coulomb or Tabor-von Mises, with or without the hardness cap) by
+Cases of one grid size, device and float type are solved in batches of B: normal contact by
+[`BatchNormalSolver`][warpcontact.solvers.normal_batch.BatchNormalSolver], contact with friction
+(Coulomb or Tabor-von Mises, with or without the hardness cap), and with friction and the SMC
+law where the single solver's turns are lagged (``batchable``), by
 [`BatchContactSolver`][warpcontact.solvers.contact_batch.BatchContactSolver]. Their load paths
 walk in step, state k of every case solved by one batched step (warm-started from each case's
 state k - 1, as a path is), each case stopping when its own path ends. Each solved state then
@@ -12,12 +13,14 @@ on a state of the case's own model, so a case's result is what ``warpcontact.sol
 it, up to the solves' tolerance. A case with friction whose batched step does not converge (its
 turns did not settle within ``BATCH_MAX_TURNS``, or an inner solve within its limit) is solved
 again on its own (``run_path``), with what the single solver adds for hard steps (mixed turns,
-the nested start): its result is then its own solve's. Cases with adhesion are solved one at a
-time (``run_path``): their turns are not batched.
+the nested start, the minimised turns of adhesion): its result is then its own solve's. Cases
+with other adhesion (adhesion without friction, other laws, the SMC law past the DMT side or
+with its shear added in the contact) are solved one at a time (``run_path``).
 """
 
 from __future__ import annotations
 
+import math
 import time
 import warnings
 from collections import OrderedDict
@@ -31,9 +34,9 @@ from ..numerics.device import resolve_device, resolve_dtype
 from ..numerics.state import ContactState, check_contact_fits
 from ..solvers.base import default_tolerance
 from ..fft.batch import release_transforms
-from ..solvers.contact_batch import BatchContactSolver, law_parameters
+from ..solvers.contact_batch import BatchContactSolver, adhesion_parameters, law_parameters
 from ..solvers.normal_batch import BatchNormalSolver
-from .runner import PathRecorder, build_model, friction_law, pressure_cap, run_path
+from .runner import PathRecorder, adhesion_law, build_model, friction_law, pressure_cap, run_path
 
 #: cases a batch holds at most by default: on the CPU a batch saves the per-case overhead of the
 #: launches but not their work; on CUDA it is bounded by the device's free memory
@@ -46,6 +49,10 @@ BYTES_PER_CELL = 27
 #: eight influence spectra of the case's pair (16 values a cell), the padded grids and spectra of a
 #: pair of fields and of a pressure (about 28) and the work area
 FRICTION_BYTES_PER_CELL = 100
+#: what adhesion adds to it: the adhesive tractions, their displacements and a scratch field (7
+#: fields), their mixing's residual, last residual and iterate (9) and its history of 5
+#: differences of both (30)
+ADHESION_BYTES_PER_CELL = 46
 #: turns of a batched step with friction; a case whose turns have not settled by then is solved on
 #: its own, where stalled turns are mixed (the Table 2 cells at n = 128 took 2-12 turns a step)
 BATCH_MAX_TURNS = 60
@@ -78,21 +85,33 @@ def few_searches_batched(n: int, device) -> bool:
 
 
 def batchable(case) -> bool:
-    """Whether a case's states are solved by a batched solve: normal contact, or contact with
-    friction, without adhesion."""
-    return case.adhesion is None
+    """Whether a case's states are solved by a batched solve: normal contact, contact with
+    friction, and contact with friction and the SMC law (its contact shear "bounded") where the
+    single solver's turns are lagged (``ContactSolver.turns``: the DMT side of the law's Maugis
+    parameter, or a hardness cap)."""
+    if case.adhesion is None:
+        return True
+    if case.friction is None or case.adhesion.law != "smc" or (case.adhesion.contact_shear or "bounded") != "bounded":
+        return False
+    if math.isfinite(pressure_cap(case)):
+        return True
+    from ..physics.adhesion import maugis_parameter
+    from ..solvers.contact import LAGGED_TURNS_MAX_MAUGIS
+
+    return maugis_parameter(adhesion_law(case), case.sphere.radius, case.pair.E_star) < LAGGED_TURNS_MAX_MAUGIS
 
 
-def batch_size(n: int, device, dtype, cases: int, batch: int | None = None, friction: bool = False) -> int:
+def batch_size(n: int, device, dtype, cases: int, batch: int | None = None, friction: bool = False,
+               adhesion: bool = False) -> int:
     """B for ``cases`` cases of an n x n grid: ``batch`` if given, else the device's default
     (``DEFAULT_BATCH``), on CUDA at most what half its free memory holds (``friction``: cases
-    with friction, which hold more a cell)."""
+    with friction, ``adhesion``: with adhesion too, which hold more a cell)."""
     if batch is not None:
         return max(1, min(int(batch), cases))
     device = wp.get_device(device)
     size = DEFAULT_BATCH["cpu" if device.is_cpu else "cuda"]
     if device.is_cuda:
-        per_cell = FRICTION_BYTES_PER_CELL if friction else BYTES_PER_CELL
+        per_cell = (FRICTION_BYTES_PER_CELL + ADHESION_BYTES_PER_CELL * adhesion) if friction else BYTES_PER_CELL
         per_case = per_cell * n * n * (8 if dtype == wp.float64 else 4)
         size = min(size, max(1, int(0.5 * device.free_memory // per_case)))
     return max(1, min(size, cases))
@@ -162,15 +181,15 @@ def _solve_all(cases: list, fields: str, batch: int | None, on_case) -> list:
         if not batchable(case):
             alone(index)
             continue
-        key = (case.grid.n, str(resolve_device(s.device)), s.dtype, case.friction is not None)
+        key = (case.grid.n, str(resolve_device(s.device)), s.dtype, case.friction is not None, case.adhesion is not None)
         groups.setdefault(key, []).append(index)
-    for (n, device, dtype, friction), indices in groups.items():
+    for (n, device, dtype, friction, adhesion), indices in groups.items():
         if friction and not friction_batched(len(indices), wp.get_device(device).is_cuda, batch):
             for index in indices:
                 alone(index)
             continue
         try:
-            size = batch_size(n, device, resolve_dtype(dtype), len(indices), batch, friction)
+            size = batch_size(n, device, resolve_dtype(dtype), len(indices), batch, friction, adhesion)
             kind = BatchContactSolver if friction else BatchNormalSolver
             solver = kind(n, size, device, resolve_dtype(dtype))
             for start in range(0, len(indices), size):
@@ -205,6 +224,9 @@ def _rows_fields(solver) -> dict:
         s = solver
         out.update(shear_x=s.shear[0], shear_y=s.shear[1], status=s.status, disp_x=s.disp[0], disp_y=s.disp[1],
                    slip_x=s.slip[0], slip_y=s.slip[1])
+        if s.adhesion is not None:
+            a = s.adhesion
+            out.update(adhesive_pressure=a.pressure, adhesive_shear_x=a.shear[0], adhesive_shear_y=a.shear[1])
     return out
 
 
@@ -213,7 +235,7 @@ class _RowSummaries:
     launch (``batch_summary_sums``) and one read a step, where each case's own summary and edge
     check would launch and read for each row."""
 
-    def __init__(self, solver):
+    def __init__(self, solver, members: list):
         from warpcontact.kernels import summary as sk
 
         from ..records.results import summary_buffers
@@ -225,7 +247,16 @@ class _RowSummaries:
             shear, status = (normal.pressure, normal.pressure), wp.zeros((1, 1), dtype=wp.int32, device=normal.device)
         else:
             shear, status = (solver.shear[0], solver.shear[1]), solver.status
-        self.inputs = [normal.pressure, *shear, normal.gap, status, int(normal is not solver), normal.n, normal.n]
+        adhesion = getattr(solver, "adhesion", None)
+        scale, reach = np.zeros(normal.batch), np.zeros(normal.batch)  # each row's dx [m] and law's range [m]
+        for m in members:
+            if m.adhesion is not None:
+                scale[m.row], reach[m.row] = m.model.length_scale, m.adhesion.range
+        adhesive = (adhesion.pressure, adhesion.shear[0], adhesion.shear[1]) if adhesion is not None else (normal.pressure,) * 3
+        self.inputs = [normal.pressure, *shear, normal.gap, status, *adhesive,
+                       wp.array(scale, dtype=wp.float64, device=normal.device),
+                       wp.array(reach, dtype=wp.float64, device=normal.device), int(normal is not solver),
+                       int(adhesion is not None), normal.n, normal.n]
 
     def __call__(self) -> np.ndarray:
         """(B, N_SUMMARY) float64 on the host: each row's sums, as ``results.summary_sums``'s."""
@@ -249,7 +280,7 @@ def _solve_chunk(solver, cases: list, indices: list, fields: str):
     friction = _normal(solver) is not solver
     rows = len(members)
     tol, max_iter, max_turns = _load_rows(solver, members)
-    arrays, summaries = _rows_fields(solver), _RowSummaries(solver)
+    arrays, summaries = _rows_fields(solver), _RowSummaries(solver, members)
     for k in range(max(len(m.path) for m in members)):
         running = [m for m in members if m.error is None and not m.alone and k < len(m.path)]
         if not running:
@@ -295,9 +326,10 @@ def _load_rows(solver, members) -> tuple:
     for m in members:
         wp.copy(normal.initial_gap, m.model.initial_gap.flatten(), dest_offset=m.row * normal.n_cells)
     if normal is not solver:
-        solver.clear()
         solver.set_cases([m.model.pair for m in members],
-                         [law_parameters(m.law, m.model.traction_scale) for m in members], [m.cap for m in members])
+                         [law_parameters(m.law, m.model.traction_scale) for m in members], [m.cap for m in members],
+                         [adhesion_parameters(m.adhesion, m.model) for m in members])
+        solver.clear()
     tol = np.array([m.tol or default_tolerance(normal.dtype) for m in members])
     max_iter = np.array([m.max_iter for m in members])
     return tol, max_iter, min(BATCH_MAX_TURNS, *(m.max_turns for m in members))
@@ -313,16 +345,18 @@ def _copy_row(arrays: dict, row: int, state) -> None:
 def _yield_checks(ended: list, arrays: dict) -> dict:
     """{row: yield check} of the cases whose paths ended at this state, made together where
     ``yielding.checks_by_planes`` says (CUDA, a plane that fits a chunk: a few launches for them
-    all, where each case's own check launches hundreds), from their rows of the batch's
+    all, where each case's own check launches hundreds) and the case has no adhesion (its own
+    check takes its adhesive tractions too: ``_Member.checked_together``), from their rows of the batch's
     ``arrays`` (``_rows_fields``) gathered on the device; elsewhere none: each case checks its own
     state at ``finish`` (on 2 CPU cores 3 cases at n = 256 took 2.4 s one at a time, 4.6 s
     batched). Should the evaluation together fail, the rows are copied into the cases' states
     for their own checks."""
     from warpcontact.kernels import grids as gk
 
-    from ..numerics.yielding import checks_by_planes, stacked_yield_checks
+    from ..numerics.yielding import stacked_yield_checks
 
-    if not ended or not checks_by_planes(ended[0].model):
+    ended = [m for m in ended if m.checked_together]  # (``checks_by_planes``, no adhesion)
+    if not ended:
         return {}
     model = ended[0].model
     friction = ended[0].case.friction is not None  # (a batch's cases all have friction, or none has)
@@ -367,17 +401,19 @@ class _Member:
         self.row, self.index, self.case, self.model = row, index, case, model
         self.path = case.load.path()
         self.state = ContactState(model)
-        #: its shear-limit law (None without friction), its pressure cap / E* and its solves' settings
-        self.law, self.cap = friction_law(case), pressure_cap(case) / model.traction_scale
+        #: its shear-limit law (None without friction), its adhesion law (or None), its pressure cap
+        #: / E* and its solves' settings
+        self.law, self.adhesion = friction_law(case), adhesion_law(case)
+        self.cap = pressure_cap(case) / model.traction_scale
         self.tol, self.max_iter, self.max_turns = case.solver.tol, case.solver.max_iter, case.solver.max_turns
-        self.recorder = PathRecorder(case, model, fields, friction=self.law)
+        self.recorder = PathRecorder(case, model, fields, adhesion=self.adhesion, friction=self.law)
         self.error: Exception | None = None
         #: its batched step did not converge: the case is solved again on its own
         self.alone = False
         self.warnings: list[str] = []  # the messages of the warnings its checks gave
         #: its last state's yield check is made with the other cases', from the batch's rows
-        #: (``_yield_checks``): the rows need not be copied into its state for it
-        self.checked_together = checks_by_planes(model)
+        #: (``_yield_checks``: without adhesion): the rows need not be copied into its state for it
+        self.checked_together = checks_by_planes(model) and self.adhesion is None
 
     def copy_fields(self, arrays: dict):
         """This case's row of the batch's ``arrays`` (name -> the batch's array, ``_rows_fields``)
@@ -399,7 +435,7 @@ class _Member:
         from warpcontact.kernels.summary import S_EDGE_CONTACT
 
         state = self.state
-        if (self.recorder.fields != "none" or not self.model.sphere.hertzian
+        if (self.recorder.fields != "none" or not self.model.sphere.hertzian or self.adhesion is not None
                 or (k == len(self.path) - 1 and not self.checked_together)):
             self.copy_fields(arrays)
         state.approach = tuple(float(a) for a in self.path[k])
@@ -442,7 +478,7 @@ def gross_slip_batch(cases: list, rel_tol: float = 0.01, batch: int | None = Non
     entries = []
     for index, case in enumerate(cases):
         s = case.solver
-        if case.friction is None or case.adhesion is not None:
+        if case.friction is None or not batchable(case):
             entries.append(SearchEntry(alone=lambda c=case: gross_slip_summary(c, rel_tol=rel_tol)))
             continue
         try:
@@ -453,12 +489,13 @@ def gross_slip_batch(cases: list, rel_tol: float = 0.01, batch: int | None = Non
 
         def start(model, case=case):
             law = friction_law(case)
-            search, finish = gross_slip_search(case, model, law, None, rel_tol)
+            search, finish = gross_slip_search(case, model, law, adhesion_law(case), rel_tol)
             return search, finish, law, pressure_cap(case) / model.traction_scale
 
         entries.append(SearchEntry(alone=lambda c=case: gross_slip_summary(c, rel_tol=rel_tol), start=start,
                                    model_key=_model_key(case, index), build=lambda c=case: build_model(c),
-                                   tol=s.tol, max_iter=s.max_iter, max_turns=s.max_turns))
+                                   tol=s.tol, max_iter=s.max_iter, max_turns=s.max_turns,
+                                   adhesive=case.adhesion is not None))
     return search_batch(entries, batch, on_case)
 
 
@@ -472,13 +509,16 @@ class SearchEntry:
             on the search's model: ``finish(result)`` makes its summary; None: not batched.
         model_key: what makes two searches' models the same (they share one); build: makes it.
         tol, max_iter, max_turns: its solves' settings (tol None: the float type's default).
+        adhesive: whether its search has adhesion (its batch holds more a case).
     """
 
-    def __init__(self, alone, start=None, model_key=None, build=None, tol=None, max_iter=None, max_turns=None):
+    def __init__(self, alone, start=None, model_key=None, build=None, tol=None, max_iter=None, max_turns=None,
+                 adhesive: bool = False):
         from ..solvers.settings import SolverSettings
 
         defaults = SolverSettings()
         self.alone, self.start, self.model_key, self.build = alone, start, model_key, build
+        self.adhesive = bool(adhesive)
         self.tol = tol
         self.max_iter = defaults.max_iter if max_iter is None else max_iter
         self.max_turns = defaults.max_turns if max_turns is None else max_turns
@@ -521,14 +561,14 @@ def _search_all(entries: list, batch: int | None, on_case) -> list:
         except Exception as e:  # noqa: BLE001 (the case's failure is its result)
             done(index, e)
             continue
-        groups.setdefault((model.grid.n, str(model.device), model.dtype_name), []).append((index, model))
-    for (n, device, dtype), members in groups.items():
+        groups.setdefault((model.grid.n, str(model.device), model.dtype_name, entry.adhesive), []).append((index, model))
+    for (n, device, dtype, adhesive), members in groups.items():
         if not friction_batched(len(members), wp.get_device(device).is_cuda, batch):
             for index, _ in members:
                 alone(index)
             continue
         try:
-            size = batch_size(n, device, resolve_dtype(dtype), len(members), batch, friction=True)
+            size = batch_size(n, device, resolve_dtype(dtype), len(members), batch, friction=True, adhesion=adhesive)
             solver = BatchContactSolver(n, size, device, resolve_dtype(dtype))
             for first in range(0, len(members), size):
                 chunk = members[first:first + size]
@@ -564,6 +604,7 @@ class _Search:
         self.warnings: list = []
         self.state, self.last_stick = ContactState(model), ContactState(model)
         self.search, self.finish, self.law, self.cap = self.checked(lambda: entry.start(model))
+        self.adhesion = self.search.adhesion
         self.tol, self.max_iter, self.max_turns = entry.tol, entry.max_iter, entry.max_turns
 
     def checked(self, work):

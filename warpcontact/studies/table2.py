@@ -494,12 +494,12 @@ class Table2Run:
 
     def _batched_cells(self, batch, in_process: bool) -> tuple[list, int | None]:
         """The pending cells searched by batched steps (:meth:`run`) and their batch: with
-        ``batch`` given, those without adhesion; without it, in this process (``in_process``),
+        ``batch`` given, all of them; without it, in this process (``in_process``),
         those of grids that few searches pay batched on (``batch_solve.few_searches_batched``: on
         CUDA up to 256 cells per side), all at once."""
         from .batch_solve import few_searches_batched
 
-        cells = [(i, c) for i, c in self._pending if not c[3]]
+        cells = list(self._pending)
         if batch is None:
             cells = [(i, c) for i, c in cells if in_process and few_searches_batched(c[0], self.settings.device)]
             batch = len(cells)
@@ -519,14 +519,15 @@ class Table2Run:
         for i, (n, k, dz, adh) in cells:
             settings = dataclasses.replace(self.settings, n=n)
 
-            def start(model, k=k, dz=dz, settings=settings):
-                search, finish, law = cell_search(k, dz, settings, False, model)
+            def start(model, k=k, dz=dz, settings=settings, adh=adh):
+                search, finish, law = cell_search(k, dz, settings, adh, model)
                 return search, finish, law, math.inf
 
-            entries.append(SearchEntry(alone=lambda k=k, dz=dz, settings=settings: run_cell(k, dz, settings, False),
-                                       start=start, model_key=cell_model_key(dz, settings, False),
-                                       build=lambda dz=dz, settings=settings: cell_model(dz, settings, False)))
-            labels.append(f"n {n} k_tau {k:.2f} delta_z {dz:.1e} um adhesionless")
+            entries.append(SearchEntry(alone=lambda k=k, dz=dz, settings=settings, adh=adh: run_cell(k, dz, settings, adh),
+                                       start=start, model_key=cell_model_key(dz, settings, adh),
+                                       build=lambda dz=dz, settings=settings, adh=adh: cell_model(dz, settings, adh),
+                                       adhesive=adh))
+            labels.append(f"n {n} k_tau {k:.2f} delta_z {dz:.1e} um {'adhesive' if adh else 'adhesionless'}")
             settings_of.append(settings)
 
         def on_case(j, entry):
@@ -537,7 +538,7 @@ class Table2Run:
                 warnings.warn(message, stacklevel=2)
             self._finish(cells[j][0], labels[j], record, settings_of[j], progress)
 
-        progress.status(self.finished, extra=f"{len(cells)} cells without adhesion, batched")
+        progress.status(self.finished, extra=f"{len(cells)} cells, batched")
         search_batch(entries, batch, on_case)
 
     def _finish(self, i, cell, rec, settings, progress) -> bool:
