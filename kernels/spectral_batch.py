@@ -97,6 +97,32 @@ def batch_spectral_cross_normal(xz: wp.array3d(dtype=Any), yz: wp.array3d(dtype=
 
 
 @wp.kernel
+def batch_spectral_coupled(xx: wp.array3d(dtype=Any), xy: wp.array3d(dtype=Any), yy: wp.array3d(dtype=Any),
+                           xz: wp.array3d(dtype=Any), yz: wp.array3d(dtype=Any), zz: wp.array3d(dtype=Any),
+                           normal_block: int, pressure: wp.array3d(dtype=Any), pair: wp.array4d(dtype=Any),
+                           per: int):
+    """The coupled product of each case's tractions, in place on their spectra: (u_x, u_y) = K_tt
+    (q_x, q_y) + K_tz p into ``pair``, u_z = K_zt q into ``pressure``, plus K_zz p where
+    ``normal_block`` (``zz``: K_zz's spectrum, of every pair in scaled units; else not read)."""
+    b, i, c = wp.tid()
+    k = influence_row(xx, b)
+    for j in range(c * per, wp.min((c + 1) * per, pair.shape[3])):
+        qx = pair[0, b, i, j]
+        qy = pair[1, b, i, j]
+        p = pressure[b, i, j]
+        ip = times_i(p)
+        kxz = xz[k, i, j]
+        kyz = yz[k, i, j]
+        kxy = xy[k, i, j]
+        pair[0, b, i, j] = xx[k, i, j] * qx + kxy * qy + kxz * ip
+        pair[1, b, i, j] = kxy * qx + yy[k, i, j] * qy + kyz * ip
+        uz = -times_i(kxz * qx + kyz * qy)
+        if normal_block != 0:
+            uz = uz + zz[0, i, j] * p
+        pressure[b, i, j] = uz
+
+
+@wp.kernel
 def batch_pad(field: wp.array2d(dtype=Any), width: int, padded: wp.array3d(dtype=Any)):
     """Each row's field (row-major cells, ``width`` wide) into the (n, n) corner of its padded
     grid (whose other entries stay zero)."""
@@ -116,5 +142,5 @@ def batch_crop(padded: wp.array3d(dtype=Any), width: int, field: wp.array2d(dtyp
 register_float_overloads(batch_pad)
 register_float_overloads(batch_crop)
 for _kernel in (batch_spectral_scale, batch_spectral_tangential, batch_spectral_tangential_coupled,
-                batch_spectral_cross_tangential, batch_spectral_cross_normal):
+                batch_spectral_cross_tangential, batch_spectral_cross_normal, batch_spectral_coupled):
     register_complex_overloads(_kernel, ("spectra", "pair", "pressure", "normal"))

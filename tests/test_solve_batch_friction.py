@@ -200,7 +200,9 @@ def test_the_batched_operator_is_the_single_operator(library, monkeypatch):
     """The batched tangential and coupling blocks of two pairs, one a row, applied to random
     fields, equal the single ``ElasticOperator``'s of each pair to rounding (1e-12 of the
     largest displacement: both are FFT products of the same coefficients in float64), with the
-    batch's CPU transforms by FFTW's plans (pyFFTW installed) and by scipy.fft (without it)."""
+    batch's CPU transforms by FFTW's plans (pyFFTW installed) and by scipy.fft (without it): the
+    separate products and the whole operator from one transform of each traction (``coupled``,
+    with and without its K_zz block)."""
     from warpcontact.fft import fftw_backend
     from warpcontact.fft.batch import BatchElasticOperator
 
@@ -225,6 +227,11 @@ def test_the_batched_operator_is_the_single_operator(library, monkeypatch):
     op.tangential(batch_field(np.stack([qx, qy])), u, pressure=batch_field(p))
     op.cross_normal(batch_field(np.stack([qx, qy])), uz)
     ux, uy = u[0], u[1]
+    whole, whole_z = batch_field(np.zeros((2, 2, n * n))), batch_field(np.zeros((2, n * n)))
+    op.coupled(batch_field(p), batch_field(np.stack([qx, qy])), whole_z, whole)
+    shear_z = batch_field(np.zeros((2, n * n)))
+    op.coupled(batch_field(p), batch_field(np.stack([qx, qy])), shear_z, batch_field(np.zeros((2, 2, n * n))),
+               normal_block=False)
     for row, c in enumerate(cases):
         m = ContactModel(c.pair, c.sphere, c.grid, device="cpu", dtype="float64")
 
@@ -235,7 +242,8 @@ def test_the_batched_operator_is_the_single_operator(library, monkeypatch):
         m.operator.coupled_apply(field(p), field(qx), field(qy), sz, sx, sy)
         zz = m.field()
         m.operator.cross_normal(field(qx), field(qy), zz)  # K_zt q alone
-        for batched, single in ((ux, sx), (uy, sy), (uz, zz)):
+        for batched, single in ((ux, sx), (uy, sy), (uz, zz), (whole[0], sx), (whole[1], sy), (whole_z, sz),
+                                (shear_z, zz)):
             expected = single.numpy().ravel()
             assert np.abs(batched.numpy()[row] - expected).max() < 1e-12 * np.abs(expected).max()
 

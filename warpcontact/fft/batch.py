@@ -472,6 +472,7 @@ class BatchElasticOperator:
         self._spectra: dict = {}
         self._inverse: dict = {}
         self._pairs: tuple = ()
+        self._normal = None  # K_zz's spectrum (``coupled``), made when first needed
         self.column_norms = np.zeros(self.batch)
 
     def set_pairs(self, pairs: list) -> tuple[np.ndarray, np.ndarray]:
@@ -580,6 +581,25 @@ class BatchElasticOperator:
         s = self._spectra
         self._apply([(pressure, False)], sbk.batch_spectral_cross_tangential,
                     [s["xz"], s["yz"], self.pressure_spectra], [self.pair_spectra], disp, True)
+
+    def coupled(self, pressure, shear, disp_z, disp, normal_block: bool = True):
+        """``disp`` (a (2, B, n^2) pair) <- K_tt ``shear`` + K_tz ``pressure``, and ``disp_z`` <-
+        K_zt ``shear`` (+ K_zz ``pressure`` where ``normal_block``): every block of the operator
+        from one forward transform of each traction (three transform pairs where the separate
+        products make five)."""
+        s = self._spectra
+        lib = self.library
+        if self._normal is None:  # K_zz's spectrum, the same for every pair in scaled units
+            spectrum = normal_influence(self.n)[0] / (4 * self.n * self.n)
+            self._normal = wp.array(spectrum[None].astype(self._real), dtype=self.dtype, device=self.device)
+        with lib.on_device():
+            self._forward(shear, True)
+            self._forward(pressure, False)
+            lib.spectral_launch(sbk.batch_spectral_coupled, self.batch, self.pressure_spectra.shape[1:],
+                                [s["xx"], s["xy"], s["yy"], s["xz"], s["yz"], self._normal, int(normal_block),
+                                 self.pressure_spectra, self.pair_spectra])
+            self._inverse_into(disp, True)
+            self._inverse_into(disp_z, False)
 
     def cross_normal(self, shear, disp_z):
         """disp_z <- K_zt q of ``shear`` (a (2, B, n^2) pair): the shear's normal displacement

@@ -50,7 +50,6 @@ from warpcontact.kernels import adhesion as ak
 from warpcontact.kernels import coupling as ck
 from warpcontact.kernels import grids as gk
 from warpcontact.kernels import laws as lk
-from warpcontact.kernels import spectral_batch as sbk
 
 from ..fft.batch import BatchElasticOperator
 from ..numerics.state import SolveInfo
@@ -171,6 +170,7 @@ class BatchContactSolver:
         #: the rows whose case has adhesion (``set_cases``), and their buffers, made when first needed
         self.adhesive = np.zeros(self.batch, dtype=bool)
         self.adhesion = None
+        self._adhesive_step = False  # a row of the step has adhesion: the turns carry the adhesive tractions
         self.pressure_cap = np.full(self.batch, np.finfo(np_dtype).max)
         self._np_dtype = np_dtype
         self._pairs: list = []
@@ -294,7 +294,7 @@ class BatchContactSolver:
         normal_infos = normal.solve(approach[:, 2], turn_tol, max_iter, pressure_cap=self.pressure_cap, active=turning)
         self._cells(lk.batch_shear_limit, [normal.pressure, self.laws], [self.shear_limit])
         self.operator.cross_tangential(normal.pressure, self.known)
-        if self.adhesion is not None:  # the adhesive tractions' tangential displacement, held fixed
+        if self._adhesive_step:  # the adhesive tractions' tangential displacement, held fixed
             self.adhesion.add(self.adhesion.disp, self.known)
         window = self._window(turning)
         t = window.tangential
@@ -302,23 +302,35 @@ class BatchContactSolver:
                     (self.known[0], t.known_x), (self.known[1], t.known_y), (self.shear_limit, t.shear_limit)], window)
         tangential_infos = t.solve(turn_tol, max_iter, turning)
         self._put_back(self._tangential_pairs(window), window, turning)
-        if self.adhesion is not None:  # the slip the next turn's adhesive shear follows
-            self._slip()
+        if self._adhesive_step:  # the slip the next turn's adhesive shear follows
+            self._slip(turn=True)
         return normal_infos, tangential_infos, self._change_sums(), window
 
     def _normal_known(self):
-        """Each row's normal displacement held fixed in a normal solve: its shear's K_zt q, plus
-        its adhesive tractions' (with adhesion)."""
-        self.operator.cross_normal(self.shear, self.normal.known)
-        if self.adhesion is not None:
-            self.adhesion.add(self.adhesion.disp_z, self.normal.known)
+        """Each row's normal displacement held fixed in a normal solve: its shear's K_zt q (made
+        with the turn's slip where the shear has not changed since: ``_slip``), plus its
+        adhesive tractions' (with adhesion)."""
+        a = self.adhesion if self._adhesive_step else None
+        if a is not None and a.shear_normal_current:
+            wp.copy(self.normal.known, a.shear_normal)
+        else:
+            self.operator.cross_normal(self.shear, self.normal.known)
+        if a is not None:
+            a.shear_normal_current = False  # (a tangential solve follows: the shear changes)
+            a.add(a.disp_z, self.normal.known)
 
-    def _slip(self):
+    def _slip(self, turn: bool = False):
         """Each row's slip s = delta - u_t of its current tractions (``disp``: u_t = K_tt q + K_tz
-        p, plus the adhesive tractions' with adhesion)."""
-        self.operator.tangential(self.shear, self.disp, pressure=self.normal.pressure)
-        if self.adhesion is not None:
-            self.adhesion.add(self.adhesion.disp, self.disp)
+        p, plus the adhesive tractions' with adhesion). A ``turn``'s slip (with adhesion) makes
+        the shear's K_zt q for the next normal solve from the same transforms."""
+        a = self.adhesion if self._adhesive_step else None
+        if turn:
+            self.operator.coupled(self.normal.pressure, self.shear, a.shear_normal, self.disp, normal_block=False)
+            a.shear_normal_current = True
+        else:
+            self.operator.tangential(self.shear, self.disp, pressure=self.normal.pressure)
+        if a is not None:
+            a.add(a.disp, self.disp)
         self._cells(ck.batch_accumulate_slip, [self.disp[0], self.disp[1], self.shifts], [self.slip[0], self.slip[1]])
 
     def _window_turn(self, window: _TurnWindow, approach, turn_tol, max_iter, turning) -> tuple:
@@ -361,6 +373,9 @@ class BatchContactSolver:
         rows = self.batch
         iterative = self.coupled | self.adhesive  # rows whose step needs turns
         adhesive = bool((self.adhesive & active).any())  # (the turns then stay on the whole grid)
+        self._adhesive_step = adhesive
+        if adhesive:
+            self.adhesion.shear_normal_current = False  # (another step's shear, or restored rows')
         turning = active.copy()
         turns = np.zeros(rows, dtype=np.int64)
         iterations = np.zeros(rows, dtype=np.int64)
@@ -442,8 +457,12 @@ class _AdhesiveRows:
         self.traction = wp.zeros((3, *cells), dtype=dtype, device=device)
         self.pressure, self.shear = self.traction[0], self.traction[1:3]
         #: their displacements / dx: normal, and the tangential pair
-        self.disp_z, self.scratch_z = wp.zeros(cells, dtype=dtype, device=device), wp.zeros(cells, dtype=dtype, device=device)
+        self.disp_z = wp.zeros(cells, dtype=dtype, device=device)
         self.disp = wp.zeros((2, *cells), dtype=dtype, device=device)
+        #: the contact shear's K_zt q made with a turn's slip (``BatchContactSolver._slip``), which
+        #: the next normal solve holds fixed while ``shear_normal_current``
+        self.shear_normal = wp.zeros(cells, dtype=dtype, device=device)
+        self.shear_normal_current = False
         #: each row's law (``kernels/adhesion.py``, slots SMC_*; zeros: no adhesion)
         self.laws = wp.zeros((solver.batch, ak.N_SMC_PARAMETERS), dtype=dtype, device=device)
         self.mixing = BatchAndersonMixing(solver.normal.launches, self.traction.shape, device, dtype,
@@ -467,11 +486,5 @@ class _AdhesiveRows:
                                           self.shear[0], self.shear[1], self.laws], [law[0], law[1], law[2]])
         change = self.mixing.step(self.traction, rows)
         # the displacements: K_zz p_adh + K_zt q_adh, and K_tt q_adh + K_tz p_adh
-        c = normal.convolution
-        s._cells(sbk.batch_pad, [self.pressure, s.n], [c.source])
-        c.apply()
-        s._cells(sbk.batch_crop, [c.result, s.n], [self.disp_z])
-        s.operator.cross_normal(self.shear, self.scratch_z)
-        self.add(self.scratch_z, self.disp_z)
-        s.operator.tangential(self.shear, self.disp, pressure=self.pressure)
+        s.operator.coupled(self.pressure, self.shear, self.disp_z, self.disp)
         return change
