@@ -94,3 +94,18 @@ def test_batched_adhesive_searches_give_each_its_own_search(unique_tractions):
         assert summary["converged"] and own["converged"]
         assert (summary["delta_x_max"], len(summary["states"])) == (own["delta_x_max"], len(own["states"]))
         assert summary["mu"] == pytest.approx(own["mu"], rel=1e-8)
+
+
+def test_table2_batches_its_adhesive_cells_only_where_the_batched_turns_carry_the_law(tmp_path):
+    """``warpcontact table2 --batch B`` searches its adhesive cells together with the SMC law of
+    its defaults (the DMT side), and leaves them to be searched one at a time with the law's shear
+    added in the contact or a law past the DMT side (the single solver's turns are minimised)."""
+    from warpcontact.studies.table2 import Table2Run, Table2Settings
+
+    def batched(**law):
+        run = Table2Run(Table2Settings(n=32, **law), tmp_path, k_tau=(0.8,), delta_z_um=(1e-4,))
+        return [c[3] for _, c in run._batched_cells(2, in_process=True)[0]]
+
+    assert batched() == [False, True]
+    assert batched(contact_shear="added") == []  # one cell left: nothing to batch
+    assert batched(sigma_max=1e9, tau_max=1e9) == []

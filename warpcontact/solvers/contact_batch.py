@@ -84,6 +84,8 @@ def adhesion_parameters(adhesion, model) -> tuple | None:
 
     if adhesion is None:
         return None
+    if adhesion.contact_shear != "bounded":
+        raise ValueError("the batched turns carry the SMC law with its contact shear bounded only")
     E, L = model.traction_scale, model.length_scale
     return (adhesion.sigma_max / E, adhesion.tau_max / E, adhesion.delta_n / L, adhesion.delta_t / L,
             TOUCHING * adhesion.delta_n / L)

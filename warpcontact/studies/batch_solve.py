@@ -86,19 +86,24 @@ def few_searches_batched(n: int, device) -> bool:
 
 def batchable(case) -> bool:
     """Whether a case's states are solved by a batched solve: normal contact, contact with
-    friction, and contact with friction and the SMC law (its contact shear "bounded") where the
-    single solver's turns are lagged (``ContactSolver.turns``: the DMT side of the law's Maugis
-    parameter, or a hardness cap)."""
+    friction, and contact with friction and an adhesion law that ``lagged_smc`` admits."""
     if case.adhesion is None:
         return True
-    if case.friction is None or case.adhesion.law != "smc" or (case.adhesion.contact_shear or "bounded") != "bounded":
-        return False
-    if math.isfinite(pressure_cap(case)):
-        return True
-    from ..physics.adhesion import maugis_parameter
+    return case.friction is not None and lagged_smc(adhesion_law(case), case.sphere.radius, case.pair.E_star,
+                                                    math.isfinite(pressure_cap(case)))
+
+
+def lagged_smc(adhesion, radius: float, e_star: float, capped: bool) -> bool:
+    """Whether the batched turns carry an adhesion law (with friction): the SMC law, its contact
+    shear "bounded", where the single solver's turns are lagged (``ContactSolver.turns``: a
+    hardness cap (``capped``), or the DMT side of the law's Maugis parameter on a sphere of
+    ``radius`` [m] and a pair of ``e_star`` [Pa])."""
+    from ..physics.adhesion import SMC, maugis_parameter
     from ..solvers.contact import LAGGED_TURNS_MAX_MAUGIS
 
-    return maugis_parameter(adhesion_law(case), case.sphere.radius, case.pair.E_star) < LAGGED_TURNS_MAX_MAUGIS
+    if not isinstance(adhesion, SMC) or adhesion.contact_shear != "bounded":
+        return False
+    return capped or maugis_parameter(adhesion, radius, e_star) < LAGGED_TURNS_MAX_MAUGIS
 
 
 def batch_size(n: int, device, dtype, cases: int, batch: int | None = None, friction: bool = False,

@@ -494,12 +494,16 @@ class Table2Run:
 
     def _batched_cells(self, batch, in_process: bool) -> tuple[list, int | None]:
         """The pending cells searched by batched steps (:meth:`run`) and their batch: with
-        ``batch`` given, all of them; without it, in this process (``in_process``),
+        ``batch`` given, all of them (the adhesive ones where the batched turns carry their law,
+        ``batch_solve.lagged_smc``); without it, in this process (``in_process``),
         those of grids that few searches pay batched on (``batch_solve.few_searches_batched``: on
         CUDA up to 256 cells per side), all at once."""
-        from .batch_solve import few_searches_batched
+        from .batch_solve import few_searches_batched, lagged_smc
 
-        cells = list(self._pending)
+        # the adhesive cells where the batched turns carry their law
+        adhesive = any(c[3] for _, c in self._pending) and lagged_smc(
+            self.settings.adhesion_law(), RADIUS, PAPER_PAIR.E_star, capped=False)
+        cells = [(i, c) for i, c in self._pending if adhesive or not c[3]]
         if batch is None:
             cells = [(i, c) for i, c in cells if in_process and few_searches_batched(c[0], self.settings.device)]
             batch = len(cells)
