@@ -147,7 +147,7 @@ def run_fit(fit: Fit, out: str | PathLike, quiet: bool = False, log=None, placem
     ``BAD_POINT_RESIDUAL``, the log says so, and the optimiser steps back; a difference step
     that reaches one is taken backwards. The start and the optimum must give every output.
     ``batch``: cases per batched solve, as a sweep's (``sweep.batched_cases``: with the task
-    "solve" or "gross-slip", the cases without adhesion of each evaluation, by default on CUDA in
+    "solve" or "gross-slip", the cases ``batch_solve.batchable`` admits of each evaluation, by default on CUDA in
     this process; 0: one case at a time).
     """
     from scipy.optimize import least_squares

@@ -69,7 +69,7 @@ class _Evaluator:
         """For each point (parameter key -> value), each row's outcome (summary or error), in row
         order; the missing ones computed together, each written as it finishes: by batched solves
         in this process where ``sweep.batched_cases`` takes them (the task "solve" or
-        "gross-slip", cases without adhesion; by default on CUDA, or with ``batch``), the others
+        "gross-slip", the cases ``batch_solve.batchable`` admits; by default on CUDA, or with ``batch``), the others
         on the batch engine."""
         from .batch import Task, model_key, models_to_keep, run_tasks
         from ..records.results import atomic_write_json

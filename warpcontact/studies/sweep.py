@@ -309,8 +309,9 @@ BATCHED_TASKS = ("solve", "gross-slip")
 def batched_cases(task: str, cases: list, placement, batch: int | None = None) -> list:
     """The indices of those of ``cases`` (``Case``) that a many-case command (``run_sweep``,
     ``run_fit``) solves by batched solves (in this process, ``run_batched``): with the task "solve",
-    cases without adhesion (``warpcontact.solve_batch``); with "gross-slip", cases with friction and
-    without adhesion (``batch_solve.gross_slip_batch``); by default those on a CUDA device where the
+    the cases ``batch_solve.batchable`` admits (``warpcontact.solve_batch``: normal contact,
+    friction, friction with the SMC law on the DMT side); with "gross-slip", those of them with
+    friction (``batch_solve.gross_slip_batch``); by default those on a CUDA device where the
     cases run in this process (``placement``), and where ``batch`` (cases per batched solve) is
     given, those on any device wherever the others run; none where ``batch`` is 0, or where fewer
     than two cases qualify. On 2 CPU cores a batch saves the launches' overhead but not their work,
