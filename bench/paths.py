@@ -212,6 +212,8 @@ def child(args) -> None:
         "total_iterations": sum(int(s["iterations"]) for s in states),
         "max_turns": max(int(s["outer_iterations"]) for s in states),
         "iterations": [int(s["iterations"]) for s in states],
+        "force_x": [float(s["force"]["x"]) for s in states],  # N: runs of one path compared state by state
+        "force_z": [float(s["force"]["z"]) for s in states],
         "solve_s": elapsed,
     }), flush=True)
 
