@@ -124,3 +124,28 @@ def test_float32_adhesive_batches_agree_with_float64():
         for a, b in zip(result.states, single.states):
             assert all(abs(a["force"][k] - b["force"][k]) <= 1e-4 * abs(b["force"]["z"]) for k in "xyz")
             assert a["stick_area"] == b["stick_area"]
+
+
+def test_an_adhesive_case_whose_batched_step_does_not_converge_is_solved_on_its_own(monkeypatch):
+    """An adhesive case whose batched turns cannot converge (one inner iteration a solve to 1e-12)
+    is handed back from the batch and solved on its own, where the single solver's fallbacks
+    (the lagged turns from zero tractions, then the minimised turns, whose adhesive minimisation
+    has an iteration limit of its own) take it on: its states are solve's, to the last digit; the
+    adhesive case beside it is still solved in the batch."""
+    from warpcontact.studies import batch_solve
+
+    alone = []
+    own = batch_solve.run_path
+
+    def counted(c, **kwargs):
+        alone.append(c)
+        return own(c, **kwargs)
+
+    monkeypatch.setattr(batch_solve, "run_path", counted)
+    hard = case(adhesion=SMC, solver={"max_iter": 1, "tol": 1e-12}, load={"path": [[0, 0, 1e-9]]})
+    results = quiet(wc.solve_batch, [MIXED[1], hard], batch=2)
+    assert len(alone) == 1 and alone[0].solver.max_iter == 1
+    single = quiet(wc.solve, hard, fields="none")
+    assert [(s["converged"], s["force"]["z"]) for s in results[1].states] == \
+        [(s["converged"], s["force"]["z"]) for s in single.states]
+    assert_same_path(results[0], quiet(wc.solve, MIXED[1], fields="none"), rel=1e-6)
