@@ -64,25 +64,28 @@ def solve(case: CaseLike, device=None, dtype=None, fft=None, on_state=None, mode
 
 def solve_batch(cases, device=None, dtype=None, fft=None, fields: str = "none", batch: int | None = None,
                 on_case=None) -> list:
-    """Solve many cases, those without adhesion together: one entry per case, in order, what
+    """Solve many cases, together where their solves batch: one entry per case, in order, what
     [`solve`][warpcontact.solve] returns for it.
 
-    Cases with no ``[adhesion]`` of one grid size, device and float type are solved ``batch`` at a
-    time (default: 8 on the CPU, up to 256 on CUDA as half the free memory allows): each state of
-    their load paths by one batched step whose kernels and transforms are launched once for all of
-    them, each case with its own materials, law, load path and convergence: normal contact by
+    Cases of one grid size, device and float type are solved ``batch`` at a time (default: 8 on
+    the CPU, up to 256 on CUDA as half the free memory allows): each state of their load paths by
+    one batched step whose kernels and transforms are launched once for all of them, each case
+    with its own materials, law, load path and convergence: normal contact by
     [`BatchNormalSolver`][warpcontact.solvers.normal_batch.BatchNormalSolver], contact with
-    friction (Coulomb or Tabor-von Mises, the hardness cap too) by
+    friction (Coulomb or Tabor-von Mises, the hardness cap too), and with friction and the SMC law
+    on the DMT side (Maugis parameter under 0.1, the paper's; its contact shear "bounded"), by
     [`BatchContactSolver`][warpcontact.solvers.contact_batch.BatchContactSolver]. Their summaries,
     fields, warnings and yield checks are made as [`solve`][warpcontact.solve] makes them (on CUDA
     the yield checks of the cases that end at a state together, every case's depths evaluated at
-    once); the forces agree with it within the solves' tolerance. Measured on one H200 (Tabor
-    friction, a normal and a tangential step, batches of 128): 286 and 111 cases/s at n = 128 and
-    256, 21x and 8.5x one at a time (docs/performance.md).
+    once); the forces agree with it within the solves' tolerance (with adhesion, and cells that
+    touch within the law's threshold, to the path's last digits: docs/limits.md). Measured on one
+    H200 (Tabor friction, a normal and a tangential step, batches of 128): 290 and 132-144 cases/s
+    at n = 128 and 256, 26x and 11-13x one at a time; with the SMC law too, batches of 64: 84 and
+    42 cases/s, 9.5x and 5x (docs/performance.md).
 
     A case with friction whose batched step does not converge is solved again on its own (with
     what the single solver adds for hard steps): its result is then [`solve`][warpcontact.solve]'s.
-    Cases with adhesion are solved one at a time; so are cases with friction unless ``batch`` is
+    Other cases with adhesion are solved one at a time; so are cases with friction unless ``batch`` is
     given or they run on CUDA, 32 or more of one grid size (``batch_solve.FRICTION_MIN_BATCH``: on
     the CPU a batch pays on small grids only, 1.5x at n = 64 and 0.75x at 256 on 2 cores); so are
     a batch's cases where the batched solve itself fails (a device's refusal, a library's error, no CuPy on CUDA: one

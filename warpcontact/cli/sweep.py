@@ -89,8 +89,8 @@ def add_many_case_options(p):
     p.add_argument("--quiet", action="store_true", help="no progress lines (warnings and errors are still printed)")
     add_batch_options(p, default_workers="one per GPU for CUDA cases, else one per CPU core")
     p.add_argument("--batch", type=int, metavar="B",
-                   help="with the task \"solve\" (cases without adhesion) or \"gross-slip\" (cases with friction, "
-                   "without adhesion): cases solved B at a time by batched steps, in this process (default: on CUDA, "
+                   help="with the task \"solve\" (normal contact, friction, friction with an SMC law on the DMT "
+                   "side) or \"gross-slip\" (the cases of these with friction): cases solved B at a time by batched steps, in this process (default: on CUDA, "
                    "as many as half the free memory holds, up to 256; on the CPU one case at a time); 0: one case at "
                    "a time everywhere")
 
