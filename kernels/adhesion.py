@@ -216,12 +216,5 @@ def add_to(source: wp.array(dtype=Any), target: wp.array(dtype=Any)):
     target[i] = target[i] + source[i]
 
 
-@wp.kernel
-def batch_add_to(source: wp.array2d(dtype=Any), target: wp.array2d(dtype=Any)):
-    """target += source, (rows, cells)."""
-    r, i = wp.tid()
-    target[r, i] = target[r, i] + source[r, i]
-
-
-for _k in (smc_tractions, dugdale_tractions, add_to, batch_smc_tractions, batch_add_to):
+for _k in (smc_tractions, dugdale_tractions, add_to, batch_smc_tractions):
     register_float_overloads(_k)

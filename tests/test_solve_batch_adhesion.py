@@ -7,7 +7,7 @@ import pytest
 import warpcontact as wc
 import warpcontact.physics.adhesion as adhesion_laws
 from test_solve_batch import DEVICES, quiet
-from test_solve_batch_friction import assert_same_path, case
+from test_solve_batch_friction import assert_same_path, case, handed_back
 
 #: an SMC law on the DMT side of its Maugis parameter (0.05 on the small case's sphere and pair:
 #: the single solver's turns are lagged, as the batch's)
@@ -132,16 +132,7 @@ def test_an_adhesive_case_whose_batched_step_does_not_converge_is_solved_on_its_
     (the lagged turns from zero tractions, then the minimised turns, whose adhesive minimisation
     has an iteration limit of its own) take it on: its states are solve's, to the last digit; the
     adhesive case beside it is still solved in the batch."""
-    from warpcontact.studies import batch_solve
-
-    alone = []
-    own = batch_solve.run_path
-
-    def counted(c, **kwargs):
-        alone.append(c)
-        return own(c, **kwargs)
-
-    monkeypatch.setattr(batch_solve, "run_path", counted)
+    alone = handed_back(monkeypatch)
     hard = case(adhesion=SMC, solver={"max_iter": 1, "tol": 1e-12}, load={"path": [[0, 0, 1e-9]]})
     results = quiet(wc.solve_batch, [MIXED[1], hard], batch=2)
     assert len(alone) == 1 and alone[0].solver.max_iter == 1

@@ -152,22 +152,28 @@ def test_an_error_of_the_callers_on_case_is_raised_as_it_was(monkeypatch):
     assert alone == [] and not [w for w in caught if issubclass(w.category, RuntimeWarning)]
 
 
-def test_a_case_whose_batched_step_does_not_converge_is_solved_on_its_own(monkeypatch):
-    """A case whose inner solves cannot converge within their iteration limit (one iteration a
-    solve to a relative residual of 1e-12: no state converges, in the batch or alone; at 1e-10
-    the batch's turns converge, ending at 6e-11) is handed back and solved on its own: its
-    result is solve's (the same unconverged states), and the case beside it is still solved in
-    the batch."""
+def handed_back(monkeypatch) -> list:
+    """The cases a batched solve hands back to be solved on its own (``run_path``), listed as it
+    solves them."""
     from warpcontact.studies import batch_solve
 
-    alone = []
-    own = batch_solve.run_path
+    alone, own = [], batch_solve.run_path
 
     def counted(c, **kwargs):
         alone.append(c)
         return own(c, **kwargs)
 
     monkeypatch.setattr(batch_solve, "run_path", counted)
+    return alone
+
+
+def test_a_case_whose_batched_step_does_not_converge_is_solved_on_its_own(monkeypatch):
+    """A case whose inner solves cannot converge within their iteration limit (one iteration a
+    solve to a relative residual of 1e-12: no state converges, in the batch or alone; at 1e-10
+    the batch's turns converge, ending at 6e-11) is handed back and solved on its own: its
+    result is solve's (the same unconverged states), and the case beside it is still solved in
+    the batch."""
+    alone = handed_back(monkeypatch)
     hard = case(solver={"max_iter": 1, "tol": 1e-12})
     results = quiet(wc.solve_batch, [MIXED[0], hard], batch=2)
     assert len(alone) == 1 and alone[0].solver.max_iter == 1

@@ -33,6 +33,18 @@ LAGGED_TURNS_MAX_MAUGIS = 0.1
 NESTED_AUTO_N = {"cpu": 512, "cuda": 2048}
 
 
+def turns_of(adhesion, radius: float, e_star: float, choice: str = "auto") -> str:
+    """The turns of a step with ``adhesion`` and friction where the minimisation is available:
+    "minimised" or "lagged" (``choice``, ``SolverSettings.turns``; "auto": by the law's Maugis
+    parameter on a sphere of ``radius`` [m] and a pair of ``e_star`` [Pa] against
+    ``LAGGED_TURNS_MAX_MAUGIS``)."""
+    if choice != "auto":
+        return choice
+    from ..physics.adhesion import maugis_parameter
+
+    return "lagged" if maugis_parameter(adhesion, radius, e_star) < LAGGED_TURNS_MAX_MAUGIS else "minimised"
+
+
 class ContactSolver:
     """Solves a state at given rigid shifts (delta_x, delta_y, delta_z) from the slip history.
 
@@ -134,17 +146,11 @@ class ContactSolver:
 
     @property
     def turns(self) -> str:
-        """The turns of a step with adhesion and friction: "minimised" or "lagged"
-        (``settings.turns``; "auto": by the law's Maugis parameter against
-        ``LAGGED_TURNS_MAX_MAUGIS``; "lagged" wherever the minimisation is not available)."""
+        """The turns of a step with adhesion and friction (``turns_of``); "lagged" wherever the
+        minimisation is not available."""
         if self.adhesive is None:
             return "lagged"
-        if self.settings.turns != "auto":
-            return self.settings.turns
-        from ..physics.adhesion import maugis_parameter
-
-        dmt = maugis_parameter(self.adhesion, self.model.sphere.radius, self.model.pair.E_star) < LAGGED_TURNS_MAX_MAUGIS
-        return "lagged" if dmt else "minimised"
+        return turns_of(self.adhesion, self.model.sphere.radius, self.model.pair.E_star, self.settings.turns)
 
     @property
     def coupled(self) -> bool:

@@ -471,9 +471,8 @@ class _AdhesiveRows:
                                           beta=SolverSettings.relax)
 
     def add(self, source, target):
-        """target += source (fields or pairs of the batch)."""
-        rows = lambda a: a.reshape((-1, self.solver.n_cells))  # noqa: E731 - a pair as 2 B rows
-        self.solver.normal.launches.launch(ak.batch_add_to, rows(target).shape, [rows(source)], [rows(target)])
+        """target += source (fields or pairs of the batch, each one contiguous array)."""
+        self.solver.normal.launches.launch(ak.add_to, target.size, [source.flatten()], [target.flatten()])
 
     def update(self, rows: np.ndarray, first: bool) -> np.ndarray:
         """One mixed step of the ``rows``' (booleans) adhesive tractions (their mixing's history

@@ -98,12 +98,12 @@ def lagged_smc(adhesion, radius: float, e_star: float, capped: bool) -> bool:
     shear "bounded", where the single solver's turns are lagged (``ContactSolver.turns``: a
     hardness cap (``capped``), or the DMT side of the law's Maugis parameter on a sphere of
     ``radius`` [m] and a pair of ``e_star`` [Pa])."""
-    from ..physics.adhesion import SMC, maugis_parameter
-    from ..solvers.contact import LAGGED_TURNS_MAX_MAUGIS
+    from ..physics.adhesion import SMC
+    from ..solvers.contact import turns_of
 
     if not isinstance(adhesion, SMC) or adhesion.contact_shear != "bounded":
         return False
-    return capped or maugis_parameter(adhesion, radius, e_star) < LAGGED_TURNS_MAX_MAUGIS
+    return capped or turns_of(adhesion, radius, e_star) == "lagged"
 
 
 def batch_size(n: int, device, dtype, cases: int, batch: int | None = None, friction: bool = False,
