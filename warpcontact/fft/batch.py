@@ -376,16 +376,18 @@ class BatchConvolution:
 
 
 @functools.lru_cache(maxsize=8)
-def tangential_influence(pair, n: int) -> tuple[dict, float, float]:
+def tangential_influence(pair, n: int) -> tuple[dict, float, float, dict]:
     """The scaled tangential and coupling influence spectra of a material pair on an n x n grid
     of square cells, ``numpy.fft.rfft2``'s layout (2 n, n + 1) on the (2 n, 2 n) padded grid:
     "xx", "yy", "xy" real (even kernels), "xz", "yz" complex (i times the imaginary part: kernels
     odd in one axis); with the self-influence 1/2 (K_xx + K_yy)(0) and the column norm, a bound on
     the 2-norm of the tangential displacements one cell's unit shear (any direction) causes,
-    sqrt(|K_xx|^2 + 2 |K_xy|^2 + |K_yy|^2) (``ElasticOperator.tangential_column_norm``). In scaled
+    sqrt(|K_xx|^2 + 2 |K_xy|^2 + |K_yy|^2) (``ElasticOperator.tangential_column_norm``); and the
+    real spectra (n, n // 2 + 1) of T. Chan's circulants of K_xx, K_yy and K_xy on the grid itself
+    (``chan_circulant``: the periodic preconditioner's), from the same coefficients. In scaled
     units (tractions / E*, lengths / dx) they depend on the pair's A E*, B E* and D E* alone, not
     on the cell size: they are computed with dx = 1."""
-    from ..physics.influence import influence_coefficients
+    from ..physics.influence import chan_circulant, influence_coefficients
 
     coefficients = influence_coefficients(pair, n, n, 1.0, 1.0)
     spectra = {}
@@ -396,7 +398,8 @@ def tangential_influence(pair, n: int) -> tuple[dict, float, float]:
     stiffness = 0.5 * (coefficients["xx"][0, 0] + coefficients["yy"][0, 0]) * pair.E_star
     norms = {k: float(np.linalg.norm(coefficients[k])) * pair.E_star for k in ("xx", "xy", "yy")}
     column_norm = np.sqrt(norms["xx"] ** 2 + 2.0 * norms["xy"] ** 2 + norms["yy"] ** 2)
-    return spectra, float(stiffness), float(column_norm)
+    circulants = {k: np.fft.rfft2(chan_circulant(coefficients[k] * pair.E_star)).real for k in ("xx", "yy", "xy")}
+    return spectra, float(stiffness), float(column_norm), circulants
 
 
 @functools.lru_cache(maxsize=8)
@@ -407,12 +410,9 @@ def tangential_inverse_blocks(pair, n: int, periodic: bool = False) -> dict:
     eigenvalues raised to at least a quarter of the self-influence, as
     ``spectral.tangential_inverse_block`` makes it for one case: "xx", "yy", "xy", real,
     ``numpy.fft.rfft2``'s layout."""
-    spectra, stiffness, _ = tangential_influence(pair, n)
+    spectra, stiffness, _, circulants = tangential_influence(pair, n)
     if periodic:
-        from ..physics.influence import chan_circulant, influence_coefficients
-
-        coefficients = influence_coefficients(pair, n, n, 1.0, 1.0)
-        spectra = {k: np.fft.rfft2(chan_circulant(coefficients[k] * pair.E_star)).real for k in ("xx", "yy", "xy")}
+        spectra = circulants
     xx, yy, xy = spectra["xx"], spectra["yy"], spectra["xy"]
     floor = 0.25 * stiffness
     mean, diff = 0.5 * (xx + yy), 0.5 * (xx - yy)
