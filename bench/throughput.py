@@ -219,18 +219,25 @@ def batched_parts(cases: list, batch: int) -> dict:
     """``--parts``: ``solve_batch`` with batches of B cases (after a warm-up batch), each part timed
     with the device synchronised before and after it: the batched steps (``BatchContactSolver.step``),
     the normal and tangential solves inside them (every batched solver's ``solve``: the whole
-    grid's and the windows') and the yield checks made together. Seconds of each, and the whole."""
+    grid's and the windows'), the yield checks made together (CUDA) and those each case makes on
+    its own (``own yield checks``: the CPU's). Seconds of each, and the whole; and each kind of
+    solve's useful share: the rows' iterations summed over the rows times the most of a row, per
+    batched solve summed (a batched iteration passes over every row while any row goes on)."""
     import warp as wp
 
     import warpcontact as wc
+    from warpcontact.numerics import yielding
     from warpcontact.solvers import contact_batch, normal_batch, tangential_batch
     from warpcontact.studies import batch_solve
 
-    seconds = {"steps": 0.0, "normal solves": 0.0, "tangential solves": 0.0, "yield checks": 0.0}
+    seconds = {"steps": 0.0, "normal solves": 0.0, "tangential solves": 0.0, "yield checks": 0.0,
+               "own yield checks": 0.0}
+    rows = {"normal solves": [0, 0], "tangential solves": [0, 0]}  # the rows' iterations, rows x the most
     wrapped = [(contact_batch.BatchContactSolver, "step", "steps"),
                (normal_batch.BatchNormalSolver, "solve", "normal solves"),
                (tangential_batch.BatchTangentialSolver, "solve", "tangential solves"),
-               (batch_solve, "_yield_checks", "yield checks")]
+               (batch_solve, "_yield_checks", "yield checks"),
+               (yielding, "_own_yield_check", "own yield checks")]
     originals = [getattr(owner, name) for owner, name, _ in wrapped]
 
     def timed(f, part):
@@ -238,10 +245,15 @@ def batched_parts(cases: list, batch: int) -> dict:
             wp.synchronize()
             t0 = time.perf_counter()
             try:
-                return f(*args, **kwargs)
+                result = f(*args, **kwargs)
             finally:
                 wp.synchronize()
                 seconds[part] += time.perf_counter() - t0
+            if part in rows:  # one SolveInfo a row
+                iterations = [int(info.iterations) for info in result]
+                rows[part][0] += sum(iterations)
+                rows[part][1] += len(iterations) * max(iterations, default=0)
+            return result
         return run
 
     wc.solve_batch(cases[:batch], batch=batch)  # warm-up: kernels, plans of this batch size
@@ -256,6 +268,8 @@ def batched_parts(cases: list, batch: int) -> dict:
     finally:
         for (owner, name, _), f in zip(wrapped, originals):
             setattr(owner, name, f)
+    for part, (useful, passed) in rows.items():
+        seconds[f"{part.split()[0]} useful share"] = useful / passed if passed else 1.0
     return seconds
 
 
@@ -411,7 +425,7 @@ def main(argv=None):
               f"{r['cases_per_s']:.1f} | {r['ratio']:.2f}x | {r.get('solved_alone', '-')} |")
     if parts:
         names = list(parts[0][2])
-        print("\n| n | batch | " + " | ".join(f"{k} [s]" for k in names) + " |")
+        print("\n| n | batch | " + " | ".join(k if "share" in k else f"{k} [s]" for k in names) + " |")
         print("|---|---|" + "---|" * len(names))
         for n, batch, seconds in parts:
             print(f"| {n} | {batch} | " + " | ".join(f"{seconds[k]:.2f}" for k in names) + " |")

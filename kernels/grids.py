@@ -179,11 +179,15 @@ def batch_copy_rows(source: wp.array2d(dtype=Any), rows: wp.array(dtype=wp.int32
 
 @wp.kernel
 def gather_rows(source: wp.array2d(dtype=Any), rows: wp.array(dtype=wp.int32), layer: int, layers: int,
-                stack: wp.array2d(dtype=Any)):
-    """stack[layers c + layer] <- source[rows[c]]: case rows of a batch's field into every
-    ``layers``-th layer of a stack (a yield check's tractions, ``yielding.stacked_yield_checks``)."""
+                accumulate: int, stack: wp.array2d(dtype=Any)):
+    """stack[layers c + layer] <- source[rows[c]] (``accumulate``: += it): case rows of a batch's
+    field into every ``layers``-th layer of a stack (a yield check's tractions, contact and
+    adhesive, ``yielding.stacked_yield_checks``)."""
     c, k = wp.tid()
-    stack[layers * c + layer, k] = source[rows[c], k]
+    value = source[rows[c], k]
+    if accumulate != 0:
+        value = stack[layers * c + layer, k] + value
+    stack[layers * c + layer, k] = value
 
 
 for _k in (crop, embed, support_box, closing_box, batch_support_box, batch_crop, batch_put_back, batch_copy_rows,

@@ -350,17 +350,17 @@ def _copy_row(arrays: dict, row: int, state) -> None:
 def _yield_checks(ended: list, arrays: dict) -> dict:
     """{row: yield check} of the cases whose paths ended at this state, made together where
     ``yielding.checks_by_planes`` says (CUDA, a plane that fits a chunk: a few launches for them
-    all, where each case's own check launches hundreds) and the case has no adhesion (its own
-    check takes its adhesive tractions too: ``_Member.checked_together``), from their rows of the batch's
-    ``arrays`` (``_rows_fields``) gathered on the device; elsewhere none: each case checks its own
-    state at ``finish`` (on 2 CPU cores 3 cases at n = 256 took 2.4 s one at a time, 4.6 s
-    batched). Should the evaluation together fail, the rows are copied into the cases' states
-    for their own checks."""
+    all, where each case's own check launches hundreds: ``_Member.checked_together``), from their
+    rows of the batch's ``arrays`` (``_rows_fields``) gathered on the device, the adhesive
+    tractions added where the batch has them (the totals the check of one state takes,
+    ``yielding._state_totals``); elsewhere none: each case checks its own state at ``finish`` (on
+    2 CPU cores 3 cases at n = 256 took 2.4 s one at a time, 4.6 s batched). Should the
+    evaluation together fail, the rows are copied into the cases' states for their own checks."""
     from warpcontact.kernels import grids as gk
 
     from ..numerics.yielding import stacked_yield_checks
 
-    ended = [m for m in ended if m.checked_together]  # (``checks_by_planes``, no adhesion)
+    ended = [m for m in ended if m.checked_together]  # (``checks_by_planes``)
     if not ended:
         return {}
     model = ended[0].model
@@ -368,14 +368,17 @@ def _yield_checks(ended: list, arrays: dict) -> dict:
     # each case's contact radius from its last summary: the count the check would read it for
     radii = [m.recorder.result.states[-1]["contact_radius"] for m in ended]
     names = ("pressure", "shear_x", "shear_y") if friction else ("pressure",)
+    # a batch with adhesion has friction (``batchable``); its rows without adhesion hold zeros there
+    adhesive = ("adhesive_pressure", "adhesive_shear_x", "adhesive_shear_y") if "adhesive_pressure" in arrays else ()
     try:
         n_cells = model.n_cells
         stack = wp.zeros((3 * len(ended), model.grid.n, model.grid.n), dtype=model.dtype, device=model.device)
         rows = wp.array(np.array([m.row for m in ended], dtype=np.int32), dtype=wp.int32, device=model.device)
         flat = stack.reshape((3 * len(ended), n_cells))
-        for layer, name in enumerate(names):
-            wp.launch(gk.gather_rows, dim=(len(ended), n_cells), inputs=[arrays[name], rows, layer, 3],
-                      outputs=[flat], device=model.device)
+        for accumulate, layers in ((0, names), (1, adhesive)):
+            for layer, name in enumerate(layers):
+                wp.launch(gk.gather_rows, dim=(len(ended), n_cells), inputs=[arrays[name], rows, layer, 3, accumulate],
+                          outputs=[flat], device=model.device)
         loaded = [(True, friction, friction)] * len(ended)
         checks = stacked_yield_checks([m.model.pair for m in ended], [m.model.grid for m in ended], stack, loaded,
                                       radii)
@@ -417,8 +420,8 @@ class _Member:
         self.alone = False
         self.warnings: list[str] = []  # the messages of the warnings its checks gave
         #: its last state's yield check is made with the other cases', from the batch's rows
-        #: (``_yield_checks``: without adhesion): the rows need not be copied into its state for it
-        self.checked_together = checks_by_planes(model) and self.adhesion is None
+        #: (``_yield_checks``): the rows need not be copied into its state for it
+        self.checked_together = checks_by_planes(model)
 
     def copy_fields(self, arrays: dict):
         """This case's row of the batch's ``arrays`` (name -> the batch's array, ``_rows_fields``)
