@@ -140,3 +140,21 @@ def test_an_adhesive_case_whose_batched_step_does_not_converge_is_solved_on_its_
     assert [(s["converged"], s["force"]["z"]) for s in results[1].states] == \
         [(s["converged"], s["force"]["z"]) for s in single.states]
     assert_same_path(results[0], quiet(wc.solve, MIXED[1], fields="none"), rel=1e-6)
+
+
+def test_yield_checks_made_together_take_the_adhesive_tractions(unique_tractions, monkeypatch):
+    """On CUDA the cases of a batch that end at a state check their yield together
+    (``batch_solve._yield_checks``), from the batch's rows of the contact tractions gathered with
+    the adhesive ones added: the totals each case's own check takes (``yielding._state_totals``).
+    The same evaluation forced on the CPU (``checks_by_planes``, so the single solves check by
+    planes too), for two adhesive cases and one without adhesion in one batch: each case's largest
+    von Mises stress and its depth within 1e-8 of its own solve's (``assert_same_path``; the
+    adhesive tractions left out move the largest stress by 1.2e-3 here)."""
+    from warpcontact.numerics import yielding
+
+    monkeypatch.setattr(yielding, "checks_by_planes", lambda model: True)
+    cases = [MIXED[0], MIXED[3], MIXED[5]]
+    batched = quiet(wc.solve_batch, cases, device="cpu", batch=len(cases))
+    for c, result in zip(cases, batched):
+        assert not isinstance(result, Exception), result
+        assert_same_path(result, quiet(wc.solve, c, device="cpu", fields="none"), rel=1e-9)
