@@ -252,3 +252,40 @@ def test_the_stress_spectra_split_from_fewer_entries_by_their_terms(monkeypatch)
         assert ("stress_spectra" in planned) == (workers == 2)
     for body in out[0]:
         assert np.array_equal(out[0][body], out[1][body])
+
+
+def test_anderson_mixing_split_over_two_threads_equals_one(monkeypatch):
+    """The adhesive turns' Anderson mixing (``AndersonMixing``: its residual and history pass, the
+    Gram matrix's dot products, the update) split by rows over two threads, against one thread,
+    on a contracting linear map of three fields: the split passes are each a part of the cells
+    (the history columns cut with them, ``FlatRows``) and their sums are merged, so the iterates
+    agree to the merged sums' rounding as the least-squares solve carries it: 2.8e-14 of their
+    size after three steps (two history columns; 1e-12 allowed). Later steps amplify it with the
+    Gram matrix's condition (8e-10 after six, its columns nearly parallel near the fixed point),
+    as the GPU's other order of sums does."""
+    from warpcontact.solvers.fixed_point import AndersonMixing
+
+    n = 48
+    rng = np.random.default_rng(3)
+    offsets = [rng.normal(size=(n, n)) for _ in range(3)]
+
+    def image(fields):  # G(x) = b + 0.6 x + 0.2 (x's neighbour along the rows) of the next field
+        return [b + 0.6 * x + 0.2 * np.roll(fields[(k + 1) % 3], 1, axis=1)
+                for k, (b, x) in enumerate(zip(offsets, fields))]
+
+    out = []
+    for threads in (1, 2):
+        monkeypatch.setattr(LaunchCache, "threads", threads)
+        monkeypatch.setattr(LaunchCache, "min_split_entries", 0)
+        planned = _counted_splits(monkeypatch)
+        model = ContactModel(PAPER_PAIR, Sphere(R), Grid(n, 4 * A), device="cpu")
+        mixing = AndersonMixing(model, 3)
+        x = [model.field() for _ in range(3)]
+        for _ in range(3):
+            for r, g in zip(mixing.residual, image([a.numpy() for a in x])):
+                r.assign(g.ravel())
+            mixing.step([a.flatten() for a in x])
+        out.append(np.stack([a.numpy() for a in x]))
+        if threads == 2:
+            assert {"anderson_residual", "sums_of_products", "anderson_update"} <= set(planned)
+    assert np.abs(out[1] - out[0]).max() <= 1e-12 * np.abs(out[0]).max()

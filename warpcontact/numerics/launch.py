@@ -108,6 +108,17 @@ class Rows:
 
 
 @dataclass(frozen=True)
+class FlatRows(Rows):
+    """A stack of flat fields, (k, n^2) with the cells on its last axis (an Anderson mixing's
+    history columns), or one flat field: each part of a split CPU launch gets the entries
+    [r0 w, r1 w) of every field of the stack."""
+
+    def part(self, r0: int, r1: int, width: int) -> wp.array:
+        a, entries = self.array, slice(r0 * width, r1 * width)
+        return a[entries] if a.ndim == 1 else a[:, entries]
+
+
+@dataclass(frozen=True)
 class Cases(Rows):
     """An array of a batched solver whose first axis is the case (``BatchLaunches``): each part of
     a launch split over the cases gets the cases [r0, r1) of it, whatever its other axes."""

@@ -26,7 +26,7 @@ import warp as wp
 from warpcontact.kernels import fixed_point as fk
 from warpcontact.kernels import reduce as rk
 
-from ..numerics.launch import products
+from ..numerics.launch import FlatRows, Rows, Sums, products
 
 #: history columns kept (5 reached the tolerance in the fewest turns on the Table 2 cases)
 DEPTH = 5
@@ -147,11 +147,11 @@ class AndersonMixing:
         h = self.history
         column = h.next
         self.sums.zero_()
-        for k, x in enumerate(iterates):
+        for k, x in enumerate(iterates):  # (on the CPU split by rows over its threads: ``Rows``)
             m.launch_reduce(
-                fk.anderson_residual, [x.flatten(), column, int(h.has_previous), self.depth],
-                [self.residual[k], self.previous_residual[k], self.previous_iterate[k],
-                 self.residual_diff[k], self.iterate_diff[k], self.sums],
+                fk.anderson_residual, [Rows(x.flatten()), column, int(h.has_previous), self.depth],
+                [Rows(self.residual[k]), Rows(self.previous_residual[k]), Rows(self.previous_iterate[k]),
+                 FlatRows(self.residual_diff[k]), FlatRows(self.iterate_diff[k]), Sums(self.sums)],
             )
         return h.record()
 
@@ -165,19 +165,19 @@ class AndersonMixing:
                 # dF_column . dF_j into the Gram matrix's slot j, dF_j . f into the right side's
                 diff = self.residual_diff[k]
                 m.launch_reduce(rk.sums_of_products,
-                                products((diff[column], diff[j], fk.GRAM_SLOTS + j),
-                                         (diff[j], self.residual[k], fk.GRAM_SLOTS + self.depth + j)),
-                                [self.sums])
+                                products((Rows(diff[column]), Rows(diff[j]), fk.GRAM_SLOTS + j),
+                                         (Rows(diff[j]), Rows(self.residual[k]), fk.GRAM_SLOTS + self.depth + j)),
+                                [Sums(self.sums)])
         s = self.sums.numpy().astype(np.float64)
         gamma = np.zeros(self.depth)
         if h.columns:
             gamma = h.coefficients(column, s[fk.GRAM_SLOTS:fk.GRAM_SLOTS + self.depth], s[fk.GRAM_SLOTS + self.depth:])
         self.gamma.assign(gamma.astype(m.np_dtype))
         for k, x in enumerate(iterates):
-            m.launch(fk.anderson_update, dim=m.n_cells,
-                     inputs=[self.residual[k], self.residual_diff[k], self.iterate_diff[k], self.gamma, self.depth,
-                             m.scalar(beta)],
-                     outputs=[x.flatten()])
+            m.launch_cells(fk.anderson_update,
+                           [Rows(self.residual[k]), FlatRows(self.residual_diff[k]), FlatRows(self.iterate_diff[k]),
+                            self.gamma, self.depth, m.scalar(beta)],
+                           [Rows(x.flatten())])
         return s
 
 
