@@ -56,17 +56,22 @@ wp.overload(prolong_constant, {"coarse": wp.array2d(dtype=wp.int32), "fine": wp.
 
 
 @wp.kernel
-def crop(full: wp.array2d(dtype=Any), row0: int, col0: int, window: wp.array2d(dtype=Any)):
-    """window[i, j] <- full[row0 + i, col0 + j]."""
-    i, j = wp.tid()
-    window[i, j] = full[row0 + i, col0 + j]
+def crop(full: wp.array2d(dtype=Any), row0: int, col0: int, first: int, per: int, window: wp.array2d(dtype=Any)):
+    """window[i, j] <- full[row0 + first + i, col0 + j], thread (i, c) the columns j from c per to
+    (c + 1) per (``LaunchCache.launch_rows``; ``first``: the first row of a split CPU launch's
+    part, whose ``window`` is its rows)."""
+    i, c = wp.tid()
+    for j in range(c * per, wp.min((c + 1) * per, window.shape[1])):
+        window[i, j] = full[row0 + first + i, col0 + j]
 
 
 @wp.kernel
-def embed(window: wp.array2d(dtype=Any), row0: int, col0: int, full: wp.array2d(dtype=Any)):
-    """full[row0 + i, col0 + j] <- window[i, j] (the cells outside the window are left as they are)."""
-    i, j = wp.tid()
-    full[row0 + i, col0 + j] = window[i, j]
+def embed(window: wp.array2d(dtype=Any), row0: int, col0: int, first: int, per: int, full: wp.array2d(dtype=Any)):
+    """full[row0 + first + i, col0 + j] <- window[i, j] (the cells outside the window are left as
+    they are), launched as ``crop``."""
+    i, c = wp.tid()
+    for j in range(c * per, wp.min((c + 1) * per, window.shape[1])):
+        full[row0 + first + i, col0 + j] = window[i, j]
 
 
 #: rows of one column that a thread of ``support_box`` scans
@@ -194,7 +199,7 @@ for _k in (crop, embed, support_box, closing_box, batch_support_box, batch_crop,
            restrict_mean_stack, gather_rows):
     register_float_overloads(_k)
 for _k in (crop, embed):
-    wp.overload(_k, [wp.array2d(dtype=wp.int32), int, int, wp.array2d(dtype=wp.int32)])
+    wp.overload(_k, [wp.array2d(dtype=wp.int32), int, int, int, int, wp.array2d(dtype=wp.int32)])
 wp.overload(batch_crop, [wp.array2d(dtype=wp.int32), int, wp.array2d(dtype=wp.int32), int, wp.array2d(dtype=wp.int32)])
 wp.overload(batch_copy_rows, [wp.array2d(dtype=wp.int32), wp.array(dtype=wp.int32), wp.array2d(dtype=wp.int32)])
 wp.overload(batch_put_back, [wp.array2d(dtype=wp.int32), int, wp.array2d(dtype=wp.int32), wp.array(dtype=wp.int32), int,

@@ -289,3 +289,31 @@ def test_anderson_mixing_split_over_two_threads_equals_one(monkeypatch):
         if threads == 2:
             assert {"anderson_residual", "sums_of_products", "anderson_update"} <= set(planned)
     assert np.abs(out[1] - out[0]).max() <= 1e-12 * np.abs(out[0]).max()
+
+
+def test_window_transfers_split_over_two_threads(monkeypatch):
+    """A window's crop from the whole grid and its embedding back (``Windows.transfer``, a row a
+    thread on the CPU) split by the window's rows over two threads: each part takes its rows of
+    the window at the whole grid's rows from the window's origin plus the part's first row
+    (``FirstRow``), so the copies are exact."""
+    from types import SimpleNamespace
+
+    from warpcontact.kernels import grids as gk
+    from warpcontact.solvers.tangential import Windows
+
+    monkeypatch.setattr(LaunchCache, "threads", 2)
+    monkeypatch.setattr(LaunchCache, "min_split_entries", 0)
+    planned = _counted_splits(monkeypatch)
+    n, cells, row0, col0 = 40, 24, 9, 5
+    whole = ContactModel(PAPER_PAIR, Sphere(R), Grid(n, 4 * A), device="cpu")
+    window = SimpleNamespace(solver=SimpleNamespace(model=whole.window_model(cells)), row0=row0, col0=col0)
+    values = np.random.default_rng(5).normal(size=(n, n))
+    full, part = whole.field(values), window.solver.model.field()
+    Windows.transfer(window, gk.crop, [(full, part)])
+    assert np.array_equal(part.numpy(), values[row0:row0 + cells, col0:col0 + cells])
+    back = whole.field()
+    Windows.transfer(window, gk.embed, [(part, back)])
+    expected = np.zeros((n, n))
+    expected[row0:row0 + cells, col0:col0 + cells] = values[row0:row0 + cells, col0:col0 + cells]
+    assert np.array_equal(back.numpy(), expected)
+    assert planned.count("crop") == 1 and planned.count("embed") == 1
