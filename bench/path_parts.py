@@ -21,6 +21,10 @@ tangential solves' inner iterations and the tolerance each was solved to.
     python bench/path_parts.py --path figure2d --sizes 4096 --device cuda --normal-window off
     python bench/path_parts.py --path figure2c --sizes 1024 --device cpu --window-turns off
     python bench/path_parts.py --path hardness --sizes 2048 4096 --device cuda --stall-mixing global
+    python bench/path_parts.py --path figure2c --sizes 1024 --device cpu --kernels
+
+``--kernels`` adds a row a kernel (``kernel NAME``: every launch of it, the device synchronised
+after each) and a row an FFT pass (``fft BACKEND.PASS NY``); they are inside the parts' times.
 """
 
 from __future__ import annotations
@@ -119,6 +123,53 @@ def instrument(timers: Timers):
     timers.wrap(yielding, "state_yield_check", "yield check", grid=lambda state: state.model.grid.n)
 
 
+def instrument_kernels(timers: Timers):
+    """``--kernels``: every launch through the launch layer (``LaunchCache.launch`` and ``split``,
+    outermost only) and every ``wp.launch``, timed by kernel, and the FFT backends' forward and
+    inverse passes by backend and grid, each synchronised after (seconds under ``kernel NAME`` and
+    ``fft BACKEND.PASS NY``)."""
+    import warp as wp
+
+    from warpcontact import fft
+    from warpcontact.numerics import launch
+
+    depth = [0]
+
+    def timed(original, key_of):
+        def run(*args, **kw):
+            if not timers.on or depth[0]:
+                return original(*args, **kw)
+            depth[0] += 1
+            t0 = time.perf_counter()
+            try:
+                return original(*args, **kw)
+            finally:
+                wp.synchronize()
+                depth[0] -= 1
+                key = key_of(args)
+                timers.seconds[key] += time.perf_counter() - t0
+                timers.calls[key] += 1
+        return run
+
+    def replace(owner, name, key_of):
+        original = getattr(owner, name)
+        setattr(owner, name, timed(original, key_of))
+        timers._undo.append((owner, name, original))
+
+    for name in ("launch", "split"):
+        replace(launch.LaunchCache, name, lambda args: f"kernel {args[1].key}")
+    replace(wp, "launch", lambda args: f"kernel {args[0].key}")
+    import importlib
+    import pkgutil
+
+    for info in pkgutil.iter_modules(fft.__path__):
+        module = importlib.import_module(f"{fft.__name__}.{info.name}")
+        for cls in [c for c in vars(module).values() if isinstance(c, type) and c.__module__ == module.__name__]:
+            for name in ("forward", "inverse"):
+                if name in vars(cls):
+                    replace(cls, name, lambda args, c=cls.__name__, n=name: f"fft {c}.{n} {getattr(args[0], 'ny', '')}")
+
+
 def parse_settings(pairs) -> dict:
     out = {}
     for pair in pairs or []:
@@ -147,6 +198,9 @@ def main(argv=None):
                    help="the lagged turns' mixing after a stall: each cell's own coefficients (local, as "
                         "shipped: LocalAndersonMixing) or one set for the whole shear (global: "
                         "AndersonMixing, depth 5)")
+    p.add_argument("--kernels", action="store_true",
+                   help="also time every kernel launch by kernel and every FFT pass by backend and grid "
+                        "(the device synchronised after each)")
     args = p.parse_args(argv)
     if args.stall_mixing == "global":
         from warpcontact.solvers import fixed_point, turns
@@ -170,6 +224,8 @@ def main(argv=None):
 
     timers = Timers()
     instrument(timers)
+    if args.kernels:
+        instrument_kernels(timers)
     for n in args.sizes:
         case = paths.case_dict(args.path)
         case["grid"]["n"] = n
