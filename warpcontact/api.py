@@ -80,8 +80,8 @@ def solve_batch(cases, device=None, dtype=None, fft=None, fields: str = "none", 
     once); the forces agree with it within the solves' tolerance (with adhesion, and cells that
     touch within the law's threshold, to the path's last digits: docs/limits.md). Measured on one
     H200 (Tabor friction, a normal and a tangential step, batches of 128): 290 and 132-144 cases/s
-    at n = 128 and 256, 26x and 11-13x one at a time; with the SMC law too, batches of 64: 84 and
-    42 cases/s, 9.5x and 5x (docs/performance.md).
+    at n = 128 and 256, 26x and 11-13x one at a time; with the SMC law too, batches of 64: 157 and
+    55 cases/s, 20x and 8x (docs/performance.md).
 
     A case with friction whose batched step does not converge is solved again on its own (with
     what the single solver adds for hard steps): its result is then [`solve`][warpcontact.solve]'s.
