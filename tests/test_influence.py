@@ -610,3 +610,38 @@ def test_cupy_backend_loads_device_coefficients_by_a_cast(dtype):
         _load(dst, src[rows])
         np.testing.assert_array_equal(dst.numpy(), values[rows].astype(dtype))
     assert CupyFFT.takes_device_coefficients
+
+
+@pytest.mark.parametrize("n", [9, 64])
+def test_batch_influence_spectra_made_on_each_device(n, device):
+    """The batched solves' influence spectra (``fft.batch.scaled_influence``: Warp's coefficients
+    and cuFFT on CUDA, numpy on the CPU) are the padded spectra, 2-norms, offset-(0, 0) values and
+    T. Chan's circulants' spectra of the host's coefficients times the scale, recomputed here with
+    numpy's full complex transform. Tolerance 1e-12 of each spectrum's largest entry: float64
+    transforms of at most 128^2 points round to about eps log2(128^2) = 3e-15 of it, and the
+    coefficients agree cell by cell to their corners' rounding (above). Only the kernels asked
+    for come back, a circulant only where asked for."""
+    from warpcontact.fft import cupy_backend
+    from warpcontact.fft.batch import scaled_influence
+    from warpcontact.physics.influence import chan_circulant
+
+    if device.startswith("cuda") and not cupy_backend.available():
+        pytest.skip("the batched solves on CUDA need CuPy, which is not installed")
+    scale = PAPER_PAIR.E_star
+    host = influence_coefficients(PAPER_PAIR, n, n, 1.0, 1.0)
+    got = scaled_influence(PAPER_PAIR, n, device, ("xx", "xz", "zz"), ("xx",), scale)
+    assert sorted(got) == ["xx", "xz", "zz"]
+    for k, (spectrum, norm, origin, circulant) in got.items():
+        a = host[k] * scale
+        want = np.fft.fft2(a)[:, : n + 1]
+        assert spectrum.shape == want.shape == (2 * n, n + 1), k
+        peak = np.abs(want).max()
+        assert np.abs(spectrum - want).max() <= 1e-12 * peak, k
+        assert norm == pytest.approx(np.sqrt(np.sum(a * a)), rel=1e-12), k
+        assert origin == pytest.approx(a[0, 0], rel=1e-12), k
+        if k == "xx":
+            want_c = np.fft.fft2(chan_circulant(a))[:, : n // 2 + 1].real
+            assert np.abs(circulant - want_c).max() <= 1e-12 * np.abs(want_c).max()
+        else:
+            assert circulant is None, k
+    assert list(scaled_influence(PAPER_PAIR, n, device, ("zz",))) == ["zz"]
