@@ -11,6 +11,14 @@ its own way (cupy: cuFFT on the device), a line per n also times that step again
 transform it replaced (scipy in float64, cast, copied to the device), on the same coefficients.
 
     python bench/setup_time.py --device cuda:0 --sizes 1024 4096 --influence both
+
+``--batch``: instead, the batched solves' influence spectra of every size of ``--sizes`` together
+(``fft.batch``: the normal, tangential and coupling spectra and the tangential preconditioner's,
+what a ``BatchContactSolver`` of each size makes), made on the host (numpy) and on ``--device``
+(``scaled_influence``: Warp's coefficients and cuFFT), alternated over ``--rounds`` rounds (the
+caches cleared before each). Table 2 at n = 256 batches five grids:
+
+    python bench/setup_time.py --device cuda:0 --batch --sizes 256 300 315 360 588
 """
 
 from __future__ import annotations
@@ -39,9 +47,15 @@ def main():
     ap.add_argument("--dtype", default="float64")
     ap.add_argument("--influence", choices=list(PATHS), default="both",
                     help="where the influence coefficients are computed: host (numpy), device (Warp kernels), both")
+    ap.add_argument("--batch", action="store_true",
+                    help="the batched solves' spectra of all the sizes, on the host against the device")
+    ap.add_argument("--rounds", type=int, default=3, help="--batch: host, device alternated this many times")
     args = ap.parse_args()
     wp.config.quiet = True
     wp.init()
+    if args.batch:
+        batch_spectra(args.sizes, args.device, args.rounds)
+        return
     sphere = Sphere(10e-6, "paraboloid")
     paths = PATHS[args.influence]
     for path in paths:  # kernels loaded (and compiled) before anything is timed
@@ -72,6 +86,33 @@ def main():
             print(line, flush=True)
     for note in notes:
         print(note)
+
+
+def batch_spectra(sizes, device, rounds: int):
+    """Seconds to make the batched solves' spectra of every size in ``sizes``, on the host and on
+    ``device`` alternated, after a first round of each that loads the kernels and the plans."""
+    from warpcontact.fft import batch
+
+    def made_on(where) -> float:
+        for cached in (batch.normal_influence, batch.tangential_influence, batch.tangential_inverse_blocks):
+            cached.cache_clear()
+        wp.synchronize()
+        t0 = time.perf_counter()
+        for n in sizes:
+            batch.normal_influence(n, where)
+            batch.tangential_influence(PAPER_PAIR, n, where)
+            batch.tangential_inverse_blocks(PAPER_PAIR, n, True, where)
+        wp.synchronize()
+        return time.perf_counter() - t0
+
+    places = ["cpu"] + ([wp.get_device(device).alias] if wp.get_device(device).is_cuda else [])
+    for where in places:
+        made_on(where)  # kernels and plans loaded
+    print(f"# the batched solves' influence spectra of n = {', '.join(map(str, sizes))}, {os.cpu_count()} CPUs")
+    print("| round | " + " | ".join(f"made on {w}" for w in places) + " |")
+    print("|---|" + "---|" * len(places))
+    for r in range(rounds):
+        print(f"| {r + 1} | " + " | ".join(f"{made_on(w):.3f} s" for w in places) + " |", flush=True)
 
 
 def coefficients_and_spectra(path: str, n: int, dx: float, device, dtype) -> tuple[float, float]:
