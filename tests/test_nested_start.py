@@ -125,3 +125,28 @@ def test_auto_nests_from_the_measured_grid_of_each_device_kind():
     with pytest.raises(InputError) as e:
         case_from_dict(data)
     assert e.value.key == "solver.nested" and "auto" in str(e.value)
+
+
+def test_coarse_grids_start_nested_as_their_own_size_chooses(monkeypatch):
+    """The half grid of a nested start chooses its own start: where the fine grid's choice is
+    "auto", by its own size (NESTED_AUTO_N; under it a plain start, the coarse chain ends there);
+    where forced on, nested all the way down to NESTED_MIN_N."""
+    from warpcontact.solvers import contact
+    from warpcontact.solvers.turns import NestedStart
+
+    monkeypatch.setitem(contact.NESTED_AUTO_N, "cpu", 128)
+
+    def coarse_of(solver):
+        nested = [s for s in solver.strategies if isinstance(s, NestedStart)]
+        assert nested, "the fine grid does not start nested"
+        return nested[0]._coarse_pair()[0]
+
+    def solver(n, nested="auto"):
+        model = ContactModel(PAPER_PAIR, Sphere(R), Grid(n, 4 * math.sqrt(R * DZ)))
+        return ContactSolver(model, TaborVonMises(0.8, PAPER_PAIR.softer.yield_strength), nested=nested)
+
+    auto = coarse_of(solver(256))
+    assert auto.model.grid.n == 128 and auto.settings.nested == "auto" and auto.uses_nested
+    assert not coarse_of(auto).uses_nested  # 64 cells: under the threshold
+    forced = coarse_of(solver(256, nested=True))
+    assert forced.settings.nested is True and coarse_of(forced).uses_nested

@@ -72,7 +72,8 @@ class SolverSettings:
         turn_mixing: Anderson mixing of the minimised turns' shear; False: the plain fixed point.
         relax: mixing factor of the adhesive fixed point (``AndersonMixing``'s beta), in (0, 1].
         nested: start each step with friction and no adhesion from its solution on the grid of
-            half the cells per side; "auto": from ``NESTED_AUTO_N`` cells per side (by device).
+            half the cells per side, itself started so in turn (True: down to 64 cells); "auto":
+            from ``NESTED_AUTO_N`` cells per side (by device), each coarse grid by its own size.
         window: solve the shear and the pressure on the smallest window of the grid that holds
             the contact (the pressure's answer judged on the whole grid); "auto": the shear from
             ``WINDOW_AUTO_N`` cells per side, the pressure from ``NORMAL_WINDOW_AUTO_N`` (by

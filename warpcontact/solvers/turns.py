@@ -396,7 +396,8 @@ class MinimisedTurns:
 
 class NestedStart:
     """A strategy started from the step solved on the grid of half the cells per side over the
-    same domain (itself nested, down to ``NESTED_MIN_N``), from the fine state's slip history and
+    same domain (itself nested where its own size takes the nested start: with "auto" from
+    ``NESTED_AUTO_N`` on, forced on down to ``NESTED_MIN_N``), from the fine state's slip history and
     tractions restricted to it: its tractions and cell statuses start the fine step. The slip
     front then starts within a coarse cell of its place, where the projected tangential iteration
     moves it by about one cell per iteration (``SolverSettings.nested``). A grid that does not
@@ -425,7 +426,10 @@ class NestedStart:
             from ..numerics.state import ContactState
 
             coarse_model = m.on_grid(Grid(n // 2, m.grid.size))
-            settings = replace(s.settings, tol=max(s.tol, NESTED_COARSE_TOL), nested=True, use_graphs=s.normal.use_graphs)
+            # the half grid starts nested in its turn where the fine one's choice says so for it: "auto"
+            # by its own size (``NESTED_AUTO_N``), forced on all the way down where forced on
+            nested = True if s.settings.nested is True else "auto"
+            settings = replace(s.settings, tol=max(s.tol, NESTED_COARSE_TOL), nested=nested, use_graphs=s.normal.use_graphs)
             coarse = type(s)(coarse_model, s.friction, pressure_cap=s.normal.pressure_cap, settings=settings)
             self._coarse = (coarse, ContactState(coarse_model))
         return self._coarse
