@@ -63,15 +63,24 @@ def scaled_influence(pair, n: int, device: str, names: tuple, circulants: tuple 
 
     stream = cupy.cuda.ExternalStream(wp.get_stream(device).cuda_stream, device.ordinal)
     with cupy.cuda.Device(device.ordinal), stream:
-        for name, a in device_coefficients(pair, n, n, 1.0, 1.0, device, scale=scale):
-            if name in names:
-                v = cupy.from_dlpack(wp.to_dlpack(a))
-                circulant = None
-                if name in circulants:
-                    circulant = cupy.fft.rfft2(cupy.from_dlpack(wp.to_dlpack(chan_circulant(a)))).real.get()
-                out[name] = (cupy.fft.rfft2(v).get(), float(cupy.linalg.norm(v)), float(v[0, 0]), circulant)
-            if len(out) == len(names):
-                break  # the kernels after the last one asked for are not made
+        # CuPy's plan cache left as it was (its plans' work areas would stay in the memory pool, and an
+        # eviction later would leave a free block there)
+        cache = cupy.fft.config.get_plan_cache()
+        size = cache.get_size()
+        cache.set_size(0)
+        try:
+            for name, a in device_coefficients(pair, n, n, 1.0, 1.0, device, scale=scale):
+                if name in names:
+                    v = cupy.from_dlpack(wp.to_dlpack(a))
+                    circulant = None
+                    if name in circulants:
+                        circulant = cupy.fft.rfft2(cupy.from_dlpack(wp.to_dlpack(chan_circulant(a)))).real.get()
+                    out[name] = (cupy.fft.rfft2(v).get(), float(cupy.linalg.norm(v)), float(v[0, 0]), circulant)
+                if len(out) == len(names):
+                    break  # the kernels after the last one asked for are not made
+        finally:
+            cache.set_size(size)
+    release_transforms(device)  # the transforms' arrays and work areas back to the device
     return out
 
 
