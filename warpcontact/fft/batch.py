@@ -520,13 +520,14 @@ class BatchElasticOperator:
         """Give rows 0 .. len(pairs) - 1 the pairs ``pairs`` (the rows after them the last one).
         Returns per row the self-influence of K_tt and whether the pair couples (D != 0)."""
         pairs = list(pairs) + [pairs[-1]] * (self.batch - len(pairs))
+        device = self.device.alias
+        influence = [tangential_influence(p, self.n, device) for p in pairs]  # (spectra, stiffness, norm, circulants)
         if tuple(pairs) != self._pairs:
             self._pairs = tuple(pairs)
             distinct = list(dict.fromkeys(pairs))
             rows = pairs[:1] if len(distinct) == 1 else pairs
             scale = 1.0 / (4 * self.n * self.n)  # the inverse transform's
-            device = self.device.alias
-            spectra = [tangential_influence(p, self.n, device)[0] for p in rows]
+            spectra = [i[0] for i in influence[:len(rows)]]
             inverses = [tangential_inverse_blocks(p, self.n, self.periodic, device) for p in rows]
 
             def stack(values, part, scale=scale):
@@ -539,8 +540,7 @@ class BatchElasticOperator:
             inverse_scale = 1.0 / (self.n * self.n) if self.periodic else scale
             self._inverse = {k: stack([s[k] for s in inverses], np.real, inverse_scale) for k in inverses[0]}
             #: each row's bound on ||K_tt c||_2 / ||c||_1 (``tangential_influence``'s column norm)
-            self.column_norms = np.array([tangential_influence(p, self.n, device)[2] for p in pairs])
-        influence = [tangential_influence(p, self.n, self.device.alias) for p in pairs]
+            self.column_norms = np.array([i[2] for i in influence])
         return (np.array([i[1] for i in influence]),
                 np.array([p.D != 0.0 for p in pairs]))
 
