@@ -1,6 +1,7 @@
 """A whole ``warpcontact solve`` process broken into its parts: what a user waits for, part by part.
 
-Each round starts a fresh interpreter (the kernel cache warm, as on a second run) that imports
+Each round starts a fresh interpreter (the kernel cache and the bytecode cache warm, as on a second run
+of an installed package: `whole_process.as_installed`) that imports
 numpy, Warp (with ``wp.init()``) and the package's modules a solve loads, then runs the command
 line's ``solve`` on examples/hertz.toml (or ``--example NAME``: examples/NAME.toml) with n cells per side, the runner's parts timed where they
 are called (the device synchronised at each clock reading): ``model`` (``runner.build``: model,
@@ -63,7 +64,7 @@ warpcontact.cli.end_process(status)  # as the command ends
 
 
 def main():
-    from whole_process import case_file  # bench/, beside this script
+    from whole_process import as_installed, case_file  # bench/, beside this script
 
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--n", type=int, default=512)
@@ -76,9 +77,10 @@ def main():
         case = case_file(a.n, a.device, folder, a.example)
         code = CHILD.replace("DEVICE", repr(a.device)).replace("CASE", repr(case)).replace(
             "OUT", repr(os.path.join(folder, "out"))).replace("HERE", repr(HERE))
-        for k in range(a.rounds + 1):  # the first round, not counted, fills the kernel cache
+        for k in range(a.rounds + 1):  # the first round, not counted, fills the kernel and bytecode caches
             t0 = time.perf_counter()
-            r = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, cwd=folder)
+            r = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, cwd=folder,
+                               env=as_installed(None, folder))
             wall = time.perf_counter() - t0
             if r.returncode != 0:
                 raise SystemExit(f"the process failed ({r.returncode}): {r.stderr[-2000:]}")
