@@ -103,10 +103,25 @@ def test_batched_plans_past_their_limit_keep_the_latest_and_transform_alike():
     for m in (1, 2, 3, 1, 2):
         real = rng.standard_normal((m, 16, 16))
         spectra = cupy.empty((m, 16, 9), dtype=np.complex128)
-        with cupy.cuda.ExternalStream(wp.get_stream("cuda:0").cuda_stream):
+        with cupy_backend.cupy_stream(wp.get_stream("cuda:0")):
             plans.execute(True, cupy.asarray(real), spectra)
         wp.synchronize_device("cuda:0")
         want = np.fft.rfft2(real)
         assert np.abs(spectra.get() - want).max() <= 1e-12 * np.abs(want).max()
         assert len(plans._plans) <= 2
     assert [key[1] for key in plans._plans] == [1, 2]
+
+
+def test_cupy_views_warps_stream_without_a_warning():
+    """CuPy's view of Warp's stream is the same CUDA stream, made without a warning (CuPy 14
+    deprecates ``ExternalStream``: its warning was a line in every batched command's output)."""
+    import warnings
+
+    import cupy
+
+    stream = wp.get_stream("cuda:0")
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        with cupy.cuda.Device(0):
+            view = cupy_backend.cupy_stream(stream)
+    assert view.ptr == stream.cuda_stream

@@ -8,7 +8,7 @@ pass over the spectra a product, where array expressions make a temporary per op
 library does the batching. On the CPU ``scipy.fft`` (its ``workers`` threads) transforms the rows
 of the n data rows, then the columns, so the zero padding is never transformed (as the single-case
 backends prune it: ``warpcontact.fft``). On CUDA cuFFT's batched 2-D plans of the padded grids are
-called directly (``cupy_backend.BatchedPlans``) on Warp's stream (``cupy.cuda.ExternalStream``), on
+called directly (``cupy_backend.BatchedPlans``) on Warp's stream (``cupy_backend.cupy_stream``), on
 the Warp buffers seen as CuPy arrays without a copy (DLPack): on a batch of small grids the host's
 time per call is what a batched step spends, and CuPy's own FFT functions (plan look-up, padded
 copies) took the most of it (docs/performance.md, "Many cases with friction solved together").
@@ -61,7 +61,10 @@ def scaled_influence(pair, n: int, device: str, names: tuple, circulants: tuple 
         return out
     import cupy
 
-    stream = cupy.cuda.ExternalStream(wp.get_stream(device).cuda_stream, device.ordinal)
+    from .cupy_backend import cupy_stream
+
+    with cupy.cuda.Device(device.ordinal):
+        stream = cupy_stream(wp.get_stream(device))
     with cupy.cuda.Device(device.ordinal), stream:
         # CuPy's plan cache left as it was (its plans' work areas would stay in the memory pool, and an
         # eviction later would leave a free block there)
@@ -137,10 +140,11 @@ class BatchLibrary:
 
         self.fft, self.xp, self.workers = cupy.fft, cupy, {}
         self._cuda_device = cupy.cuda.Device(self.device.ordinal)
-        stream = wp.get_stream(self.device).cuda_stream
-        self._stream = cupy.cuda.ExternalStream(stream, self.device.ordinal)
+        stream = wp.get_stream(self.device)
+        with self._cuda_device:
+            self._stream = cupy_backend.cupy_stream(stream)
         #: the solves' transforms: cuFFT's 2-D plans of the padded grids, called directly
-        self._plans = cupy_backend.BatchedPlans(stream, max_plans)
+        self._plans = cupy_backend.BatchedPlans(stream.cuda_stream, max_plans)
 
     def forward(self, padded: wp.array, spectra: wp.array):
         """``spectra`` (rows, 2 n, n + 1) <- the transforms of the zero-padded grids ``padded``

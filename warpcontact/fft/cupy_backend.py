@@ -65,6 +65,20 @@ _FORWARD, _INVERSE = -1, 1
 _LIB = None
 
 
+def cupy_stream(stream: "wp.Stream"):
+    """CuPy's view of a Warp stream (the same CUDA stream, nothing copied or synchronised), for
+    CuPy's work to queue behind Warp's: ``cupy.cuda.Stream.from_external`` through the stream's
+    ``__cuda_stream__`` protocol where CuPy has it (CuPy 14 warns that ``ExternalStream`` is
+    deprecated, a line in every command's output), else ``ExternalStream``. Make it and use it
+    inside ``cupy.cuda.Device`` of the stream's device."""
+    import cupy
+
+    from_external = getattr(cupy.cuda.Stream, "from_external", None)
+    if from_external is not None:
+        return from_external(stream)
+    return cupy.cuda.ExternalStream(stream.cuda_stream, stream.device.ordinal)
+
+
 @functools.cache
 def available() -> bool:
     """True when CuPy imports and sees a CUDA device; asked once per process (CuPy's device count
