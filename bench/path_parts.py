@@ -24,7 +24,10 @@ tangential solves' inner iterations and the tolerance each was solved to.
     python bench/path_parts.py --path figure2c --sizes 1024 --device cpu --kernels
 
 ``--kernels`` adds a row a kernel (``kernel NAME``: every launch of it, the device synchronised
-after each) and a row an FFT pass (``fft BACKEND.PASS NY``); they are inside the parts' times.
+after each) and a row an FFT library pass by backend, grid and float type (``fft
+BACKEND.transform_input NY float64``: every forward transform of that grid, those whose padded
+buffer a solver kernel fills too; ``transform_to_output`` the inverse); they are inside the parts'
+times. The synchronisations add to the parts' times, not to a pass's own.
 """
 
 from __future__ import annotations
@@ -125,9 +128,9 @@ def instrument(timers: Timers):
 
 def instrument_kernels(timers: Timers):
     """``--kernels``: every launch through the launch layer (``LaunchCache.launch`` and ``split``,
-    outermost only) and every ``wp.launch``, timed by kernel, and the FFT backends' forward and
-    inverse passes by backend and grid, each synchronised after (seconds under ``kernel NAME`` and
-    ``fft BACKEND.PASS NY``)."""
+    outermost only) and every ``wp.launch``, timed by kernel, and the FFT backends' library passes
+    by backend, grid and float type, each synchronised after (seconds under ``kernel NAME`` and
+    ``fft BACKEND.PASS NY DTYPE``)."""
     import warp as wp
 
     from warpcontact import fft
@@ -162,12 +165,24 @@ def instrument_kernels(timers: Timers):
     import importlib
     import pkgutil
 
+    def fft_key(name):
+        def key(args):
+            backend = args[0]
+            dtype = getattr(getattr(backend, "dtype", None), "__name__", "")
+            return f"fft {type(backend).__name__}.{name} {getattr(backend, 'ny', '')} {dtype}".rstrip()
+        return key
+
+    # a backend's library passes (``transform_input``, ``transform_to_output``: also those whose
+    # padded buffers a solver kernel fills or reads itself); a batch library's forward and inverse
     for info in pkgutil.iter_modules(fft.__path__):
         module = importlib.import_module(f"{fft.__name__}.{info.name}")
         for cls in [c for c in vars(module).values() if isinstance(c, type) and c.__module__ == module.__name__]:
-            for name in ("forward", "inverse"):
-                if name in vars(cls):
-                    replace(cls, name, lambda args, c=cls.__name__, n=name: f"fft {c}.{n} {getattr(args[0], 'ny', '')}")
+            if hasattr(cls, "transform_input"):  # a backend of one grid (fft.base.FFTBackend)
+                passes = [n for n in ("transform_input", "transform_to_output") if n in vars(cls)]
+            else:  # a batch's library
+                passes = [n for n in ("forward", "inverse") if n in vars(cls)]
+            for name in passes:
+                replace(cls, name, fft_key(name))
 
 
 def parse_settings(pairs) -> dict:
