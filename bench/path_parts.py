@@ -25,9 +25,11 @@ tangential solves' inner iterations and the tolerance each was solved to.
 
 ``--kernels`` adds a row a kernel (``kernel NAME``: every launch of it, the device synchronised
 after each) and a row an FFT library pass by backend, grid and float type (``fft
-BACKEND.transform_input NY float64``: every forward transform of that grid, those whose padded
+BACKEND.transform_input NY [periodic] float64``: every forward transform of that grid (periodic:
+a preconditioner's, on the grid itself), those whose padded
 buffer a solver kernel fills too; ``transform_to_output`` the inverse); they are inside the parts'
-times. The synchronisations add to the parts' times, not to a pass's own.
+times. The synchronisations add to the parts' times, not to a pass's own, and on CUDA the solves run
+without their graphs (every launch eager, as it must be to be timed).
 """
 
 from __future__ import annotations
@@ -169,7 +171,8 @@ def instrument_kernels(timers: Timers):
         def key(args):
             backend = args[0]
             dtype = getattr(getattr(backend, "dtype", None), "__name__", "")
-            return f"fft {type(backend).__name__}.{name} {getattr(backend, 'ny', '')} {dtype}".rstrip()
+            grid = " periodic" if getattr(backend, "periodic", False) else ""  # (a preconditioner's)
+            return f"fft {type(backend).__name__}.{name} {getattr(backend, 'ny', '')}{grid} {dtype}".rstrip()
         return key
 
     # a backend's library passes (``transform_input``, ``transform_to_output``: also those whose
@@ -214,19 +217,24 @@ def main(argv=None):
                         "shipped: LocalAndersonMixing) or one set for the whole shear (global: "
                         "AndersonMixing, depth 5)")
     p.add_argument("--kernels", action="store_true",
-                   help="also time every kernel launch by kernel and every FFT pass by backend and grid "
-                        "(the device synchronised after each)")
+                   help="also time every kernel launch by kernel and every FFT pass by backend, grid and "
+                        "float type (the device synchronised after each; on CUDA without the solvers' graphs)")
     args = p.parse_args(argv)
     if args.stall_mixing == "global":
         from warpcontact.solvers import fixed_point, turns
 
         turns.LaggedTurns.stall_mixing_type = staticmethod(
             lambda model: fixed_point.AndersonMixing(model, 2, beta=1.0, depth=5))
+    forced = {}  # solver settings beyond the case's [solver] table
     if args.window_turns == "off":
+        forced["window_turns"] = False
+    if args.kernels:  # every launch and pass eager, so that each is timed (a graph's replay hides them)
+        forced["use_graphs"] = False
+    if forced:
         from warpcontact.studies import runner
 
         build = runner.build
-        runner.build = lambda case, model=None, **choices: build(case, model, window_turns=False, **choices)
+        runner.build = lambda case, model=None, **choices: build(case, model, **forced, **choices)
     if args.normal_window != "auto":
         from warpcontact.solvers import normal
 
