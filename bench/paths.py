@@ -37,6 +37,8 @@ Paths (``--paths``, names or "all"; default: the examples and the extras):
 CPU, launches not split over its threads; and every launch a plain ``wp.launch``).
 ``--choices slip-separate``: with adhesion, a turn's slip and the shear's normal displacement from
 separate products (``ContactSolver.shared_transforms`` False).
+``--choices turn-ratio-1e-3 turn-ratio-3e-2``: a lagged turn's inner tolerance at 1/1000 or 1/30 of
+the coupled residual instead of 1/100 (solvers/turns.py, ``TURN_TOL_RATIO``).
 
 Usage (the ratios between choices matter, not the seconds: run them in one call):
 
@@ -86,6 +88,12 @@ LAUNCH_CHOICES = {
 #: the shear's normal displacement from separate products (``ContactSolver.shared_transforms``)
 SOLVER_CLASS_CHOICES = {
     "slip-separate": {"shared_transforms": False},
+}
+#: choices of the turns' tolerance schedule (solvers/turns.py's constants), the solver's choices
+#: "auto": a lagged turn's inner tolerance at 1/1000 or 1/30 of the coupled residual, not 1/100
+TURNS_CHOICES = {
+    "turn-ratio-1e-3": {"TURN_TOL_RATIO": 1e-3},
+    "turn-ratio-3e-2": {"TURN_TOL_RATIO": 3e-2},
 }
 
 
@@ -200,6 +208,10 @@ def child(args) -> None:
 
     for name, value in d.pop("contact_solver", {}).items():
         setattr(ContactSolver, name, value)
+    from warpcontact.solvers import turns
+
+    for name, value in d.pop("turns", {}).items():
+        setattr(turns, name, value)
 
     t0 = time.perf_counter()
     result = wc.solve(d, fields="none")
@@ -211,6 +223,7 @@ def child(args) -> None:
         "max_iterations": max(int(s["iterations"]) for s in states),
         "total_iterations": sum(int(s["iterations"]) for s in states),
         "max_turns": max(int(s["outer_iterations"]) for s in states),
+        "total_turns": sum(int(s["outer_iterations"]) for s in states),
         "iterations": [int(s["iterations"]) for s in states],
         "force_x": [float(s["force"]["x"]) for s in states],  # N: runs of one path compared state by state
         "force_z": [float(s["force"]["z"]) for s in states],
@@ -228,6 +241,8 @@ def run_one(name: str, n: int, choice: str, device: str, timeout: float) -> dict
         d["launches"] = LAUNCH_CHOICES[choice]
     if choice in SOLVER_CLASS_CHOICES:
         d["contact_solver"] = SOLVER_CLASS_CHOICES[choice]
+    if choice in TURNS_CHOICES:
+        d["turns"] = TURNS_CHOICES[choice]
     row = {"path": name, "n": n, "choice": choice, "device": device, "dtype": solver.get("dtype", "float64")}
     t0 = time.perf_counter()
     try:
@@ -249,16 +264,16 @@ def run_one(name: str, n: int, choice: str, device: str, timeout: float) -> dict
 
 def table(rows: list[dict]) -> str:
     head = ("| path | n | choice | states | all converged | largest state (inner it.) | total | most turns "
-            "| solve [s] | process [s] |\n|---|---|---|---|---|---|---|---|---|---|")
+            "| turns in all | solve [s] | process [s] |\n|---|---|---|---|---|---|---|---|---|---|---|")
     lines = [head]
     for r in rows:
         if "states" not in r:
-            lines.append(f"| {r['path']} | {r['n']} | {r['choice']} | - | {r['status']} | - | - | - | - | "
+            lines.append(f"| {r['path']} | {r['n']} | {r['choice']} | - | {r['status']} | - | - | - | - | - | "
                          f"{r.get('process_s', 0):.1f} |")
             continue
         lines.append(f"| {r['path']} | {r['n']} | {r['choice']} | {r['states']} | "
                      f"{'yes' if r['converged'] else 'NO'} | {r['max_iterations']} | {r['total_iterations']} | "
-                     f"{r['max_turns']} | {r['solve_s']:.2f} | {r['process_s']:.1f} |")
+                     f"{r['max_turns']} | {r.get('total_turns', '-')} | {r['solve_s']:.2f} | {r['process_s']:.1f} |")
     return "\n".join(lines)
 
 
@@ -270,7 +285,8 @@ def main(argv=None):
     p.add_argument("--table2", action="store_true", help="add Table 2's 24 cells")
     p.add_argument("--choices", nargs="+", default=["auto"],
                    help=f"of {list(CHOICES)} or 'all' (the solver's), or of {list(LAUNCH_CHOICES)} (the launch "
-                        f"layer's) or {list(SOLVER_CLASS_CHOICES)} (the contact solver's class defaults)")
+                        f"layer's), {list(SOLVER_CLASS_CHOICES)} (the contact solver's class defaults) or "
+                        f"{list(TURNS_CHOICES)} (the turns' tolerance schedule)")
     p.add_argument("--timeout", type=float, default=300.0, help="seconds a path may take (its whole process)")
     p.add_argument("--out", default=str(ROOT / "bench_results" / "paths"))
     p.add_argument("--child", help=argparse.SUPPRESS)
@@ -281,10 +297,10 @@ def main(argv=None):
     if args.table2:
         names = names + table2_names()
     choices = list(CHOICES) if args.choices == ["all"] else args.choices
+    known = list(CHOICES) + list(LAUNCH_CHOICES) + list(SOLVER_CLASS_CHOICES) + list(TURNS_CHOICES)
     for c in choices:
-        if c not in CHOICES and c not in LAUNCH_CHOICES and c not in SOLVER_CLASS_CHOICES:
-            raise SystemExit(f"paths.py: --choices takes {list(CHOICES) + list(LAUNCH_CHOICES) + list(SOLVER_CLASS_CHOICES)}"
-                             f" or all, not {c!r}")
+        if c not in known:
+            raise SystemExit(f"paths.py: --choices takes {known} or all, not {c!r}")
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
     log = out / f"paths_{args.device.replace(':', '')}_{time.strftime('%Y%m%d_%H%M%S')}.jsonl"
