@@ -467,3 +467,46 @@ def test_abandoning_a_local_cluster_stops_its_nannies_restarting_first(monkeypat
     batch._abandon(cluster)
     assert events == [("graceful", 101), ("graceful", 102), ("kill", 101), ("kill", 102)]
     assert cluster.shutdown_on_close is False
+
+
+def test_table2_cells_searched_together_on_a_worker_record_what_this_process_records(tmp_path, alarm):
+    """``warpcontact table2 --batch 2 --scheduler ADDRESS``: the cells go to the cluster's worker
+    as tasks of two cells of one grid searched together (``table2.search_cells``: their records
+    and their checks' messages cross the process boundary), each counted as a cell; each record is
+    what the batched searches in this process write: the same states and delta_x_max, mu within
+    2e-9 (another process's FFTW plans may round otherwise, as in the batched sweep's test)."""
+    from distributed import LocalCluster
+
+    from warpcontact.cli import main
+    from warpcontact.studies import table2
+
+    sel = ["table2", "--no-adhesion", "--n", "24", "--k-tau", "0.8", "0.95", "--delta-z-um", "5e-5", "1e-5",
+           "--batch", "2", "--quiet"]
+    tasks = []
+    run = batch.BatchRun.run
+
+    def counted(self, keep_models=False):  # (in this process the batched searches run before: no tasks)
+        tasks.extend(self.queue)
+        stats = run(self, keep_models)
+        assert self.tally.done == (4 if tasks else 0) and self.tally.total == 4
+        return stats
+
+    with LocalCluster(n_workers=1, threads_per_worker=1, processes=True, dashboard_address=None,
+                      host="127.0.0.1") as cluster:
+        batch.BatchRun.run = counted
+        try:
+            codes = [main([*sel, "--out", str(tmp_path / "here")]),
+                     main([*sel, "--scheduler", cluster.scheduler_address, "--out", str(tmp_path / "there")])]
+        finally:
+            batch.BatchRun.run = run
+    assert codes[0] == codes[1] and codes[0] in (0, 3)
+    assert [(t.fn, t.cases) for t in tasks] == [(table2.search_cells, 2)] * 2
+    here, there = (json.loads((tmp_path / d / "table2.json").read_text()) for d in ("here", "there"))
+    assert here["complete"] and there["complete"]
+    by_cell = {(c["k_tau"], c["delta_z_um"]): c for c in there["cells"]}
+    assert sorted(by_cell) == sorted((c["k_tau"], c["delta_z_um"]) for c in here["cells"])
+    for a in here["cells"]:
+        b = by_cell[(a["k_tau"], a["delta_z_um"])]
+        assert (a["converged"], a["states"], a["delta_x_max_um"]) == (b["converged"], b["states"], b["delta_x_max_um"])
+        if a["mu"] is not None:
+            assert abs(a["mu"] - b["mu"]) <= 2e-9

@@ -104,7 +104,7 @@ def test_table2_batches_its_adhesive_cells_only_where_the_batched_turns_carry_th
 
     def batched(**law):
         run = Table2Run(Table2Settings(n=32, **law), tmp_path, k_tau=(0.8,), delta_z_um=(1e-4,))
-        return [c[3] for _, c in run._batched_cells(2, in_process=True)[0]]
+        return [c[3] for _, c in run._batched_cells(2)[0]]
 
     assert batched() == [False, True]
     assert batched(contact_shear="added") == []  # one cell left: nothing to batch

@@ -444,22 +444,31 @@ def test_cases_judged_unconverged_on_their_exact_gradient_go_on_from_it(monkeypa
 
 def test_table2_batches_its_cells_by_default_only_on_cuda_grids_where_it_pays(tmp_path, monkeypatch):
     """Without ``--batch``, ``warpcontact table2`` searches its cells, those with adhesion too,
-    together on CUDA in its own process for grids up to ``FEW_SEARCHES_MAX_N`` cells per side
-    (where a column's 12 searches pay batched), one at a time on larger grids, on the CPU and on
-    several workers; ``batch`` given, as asked."""
+    together on CUDA for grids up to ``FEW_SEARCHES_MAX_N`` cells per side (where a column's 12
+    searches pay batched), one at a time on larger grids and on the CPU; ``batch`` given, as
+    asked. On workers the cells searched together go as one task a grid (``_batched_tasks``),
+    ``batch`` cells at most, a lone cell a task of its own."""
     from types import SimpleNamespace
 
     from warpcontact.studies import batch_solve
-    from warpcontact.studies.table2 import Table2Run, Table2Settings
+    from warpcontact.studies.table2 import Table2Run, Table2Settings, run_cell, search_cells
 
     run = Table2Run(Table2Settings(n=128), tmp_path, ns=(128, 256, 512), k_tau=(0.8,), delta_z_um=(1e-4,))
-    assert run._batched_cells(None, in_process=True) == ([], 0)  # the CPU
+    assert run._batched_cells(None) == ([], 0)  # the CPU
     monkeypatch.setattr(batch_solve, "resolve_device", lambda device: SimpleNamespace(is_cuda=True))
-    cells, batch = run._batched_cells(None, in_process=True)
+    cells, batch = run._batched_cells(None)
     assert [c for _, c in cells] == [(128, 0.8, 1e-4, False), (256, 0.8, 1e-4, False), (128, 0.8, 1e-4, True),
                                      (256, 0.8, 1e-4, True)] and batch == 4
     assert batch_solve.FEW_SEARCHES_MAX_N == 256
-    assert run._batched_cells(None, in_process=False) == ([], 0)
-    assert run._batched_cells(0, in_process=True) == ([], 0)
-    cells, batch = run._batched_cells(3, in_process=False)
+    assert run._batched_cells(0) == ([], 0)
+    cells, batch = run._batched_cells(3)
     assert len(cells) == 6 and batch == 3
+    # one grid a task: each cell here its own grid (its n, its column's domain), so each alone
+    tasks, groups = run._batched_tasks(cells, batch)
+    assert [t.fn for t in tasks] == [run_cell] * 6 and groups == {}
+    wide = Table2Run(Table2Settings(n=32), tmp_path, k_tau=(0.5, 0.8, 0.95), delta_z_um=(1e-4,))
+    cells, batch = wide._batched_cells(2)
+    tasks, groups = wide._batched_tasks(cells, batch)
+    # per column (its own grid), the three k_tau cells: a task of two searched together, one alone
+    assert [(t.fn, t.cases) for t in tasks] == [(search_cells, 2), (run_cell, 1)] * 2
+    assert sorted(i for t in tasks for i in (groups[t.key] if t.cases > 1 else [int(t.key)])) == list(range(6))

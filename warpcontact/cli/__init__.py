@@ -138,10 +138,10 @@ def _parser():
 
     add_batch_options(t, "1", default=1)  # warpcontact.studies.batch
     t.add_argument("--batch", type=int, metavar="B",
-                   help="the cells (the adhesive ones with an SMC law on the DMT side, the default) searched B at a "
-                   "time by batched steps, in this process; 0: one "
-                   "cell at a time (default: on CUDA in this process, those of grids up to 256 cells per side all "
-                   "together, where they pay; otherwise one at a time)")
+                   help="the cells (the adhesive ones with an SMC law on the DMT side, the default) searched B of "
+                   "one grid at a time by batched steps: in this process, or with --workers or --scheduler each "
+                   "such group on a worker; 0: one cell at a time (default: on CUDA, those of grids up to 256 cells "
+                   "per side all together, where they pay; otherwise one at a time)")
     po = _case_command(
         sub, "pull-off", "case file (TOML) with an [adhesion] table",
         help="approach and retract the sphere: force-displacement curve and pull-off force",

@@ -63,15 +63,17 @@ PINNED_GPU_ENV = "WARPCONTACT_WORKER_GPU"
 
 @dataclass(frozen=True)
 class Task:
-    """One case of a batch.
+    """One case of a batch, or several solved together (``cases`` > 1: a batched solve's group).
 
     Attributes:
         key: unique within the run (a case id); names the task on the cluster.
         label: readable name for progress lines and messages.
         fn: a module-level function (picklable by reference), called as ``fn(*args)`` on a worker
-            or ``fn(*args, on_state=callback)`` in this process; returns a picklable value.
+            or ``fn(*args, on_state=callback)`` in this process; returns a picklable value, or with
+            ``cases`` > 1 a list of one value a case, in the order of its cases.
         args: its arguments (picklable).
         group: tasks of one group share a model (`model_key`); they are submitted together.
+        cases: the cases the task computes [-]; they count one by one in the progress line.
     """
 
     key: str
@@ -79,6 +81,7 @@ class Task:
     fn: Callable
     args: tuple = ()
     group: tuple | None = None
+    cases: int = 1
 
 
 @dataclass(frozen=True)
@@ -260,6 +263,23 @@ def _worker_name() -> str:
     return f"{socket.gethostname()}:{os.getpid()}" + (f" GPU {gpu}" if gpu is not None else "")
 
 
+def carried(error: BaseException) -> _Raised | None:
+    """An error of warpcontact's as it survives pickling (:func:`call_task`; a batched task's
+    case that raised: its value ``raised()`` turns back into the error); None for any other."""
+    from ..errors import ConvergenceError, InputError, NonFiniteError
+
+    if isinstance(error, InputError):
+        return _Raised("InputError", (error.key, error.problem))
+    if isinstance(error, (ConvergenceError, NonFiniteError)):
+        return _Raised(type(error).__name__, error.args)
+    return None
+
+
+def raised(value) -> BaseException | None:
+    """The error a case's value carries (:func:`carried`), else None."""
+    return value.error() if isinstance(value, _Raised) else None
+
+
 def call_task(fn: Callable, args: tuple) -> _Done | _Raised:
     """Run ``fn(*args)`` on a worker: its value and time, or an error of warpcontact's carried back."""
     from ..errors import ConvergenceError, InputError, NonFiniteError
@@ -267,10 +287,8 @@ def call_task(fn: Callable, args: tuple) -> _Done | _Raised:
     t0 = time.perf_counter()
     try:
         value = fn(*args)
-    except InputError as e:
-        return _Raised("InputError", (e.key, e.problem))
-    except (ConvergenceError, NonFiniteError) as e:
-        return _Raised(type(e).__name__, e.args)
+    except (InputError, ConvergenceError, NonFiniteError) as e:
+        return carried(e)
     return _Done(value, time.perf_counter() - t0, _worker_name())
 
 
@@ -548,7 +566,7 @@ class BatchRun:
         self.placement = placement
         self.on_result, self.on_error, self.on_state, self.progress = on_result, on_error, on_state, progress
         self.failed = failed or (lambda value: False)
-        self.tally = Tally(total=before + len(self.queue), before=before)
+        self.tally = Tally(total=before + sum(t.cases for t in self.queue), before=before)
         self.stats = BatchStats(tasks=len(self.queue))
         self.here = 0  # cases this process is computing: 1 or 0
         self.beside = placement.scheduler is None  # this process is a worker beside a local cluster
@@ -584,23 +602,26 @@ class BatchRun:
 
     def show(self, extra: str = "") -> None:
         """Redraw the progress line: cases done, running (here and on the workers), failed."""
-        self.tally.running = self.here + min(len(self.futures), self.slots)
+        on_cluster = sorted((t.cases for t in self.futures.values()), reverse=True)[:self.slots]
+        self.tally.running = self.here + sum(on_cluster)
         if self.progress is not None:
             text = self.tally.text() + ("  " + extra if extra else "")
             self.progress.status(self.tally.before + self.tally.done, extra=text)
 
     def error(self, task: Task, e: BaseException) -> bool:
-        """A case that raised: to ``on_error`` (False ends the run), or raised without one."""
-        self.tally.failed += 1
+        """A case that raised (or a batched task: its cases): to ``on_error`` (False ends the run),
+        or raised without one."""
+        self.tally.failed += task.cases
         if self.on_error is None:
             raise e
         return self.on_error(task, e) is not False
 
     def hand_back(self, task: Task, value) -> bool:
-        """A finished case to ``on_result``, which writes it; False ends the run."""
-        self.tally.done += 1
-        if self.failed(value):
-            self.tally.failed += 1
+        """A finished case (a batched task: its list of cases) to ``on_result``, which writes it;
+        False ends the run."""
+        values = value if task.cases > 1 else [value]
+        self.tally.done += len(values)
+        self.tally.failed += sum(1 for v in values if self.failed(v))
         return self.on_result(task, value) is not False
 
     def run_here(self, task: Task) -> bool:
@@ -609,7 +630,7 @@ class BatchRun:
         from ..errors import ConvergenceError, InputError, NonFiniteError
 
         kwargs = {} if self.on_state is None else {"on_state": lambda *a: self.on_state(task, *a)}
-        self.here = 1
+        self.here = task.cases
         self.show(task.label)
         t1 = time.perf_counter()
         try:
@@ -736,12 +757,13 @@ def run_tasks(tasks, on_result: Callable, placement: Placement | None = None, pr
     Args:
         tasks: the cases to compute (those finished by an earlier run left out by the caller).
         on_result: ``on_result(task, value)`` in this process, as each case finishes (in the order
-            they finish): the caller writes it. Returning False ends the run (the cases still
-            running are abandoned).
+            they finish; a batched task's cases together, ``value`` their list): the caller writes
+            it. Returning False ends the run (the cases still running are abandoned).
         placement: where (default: this process).
         progress: a `warpcontact.records.progress.Progress` over all the cases; its line is redrawn
             with the cases done, running and failed.
-        failed: ``failed(value)``: whether a finished case counts as failed in the progress line.
+        failed: ``failed(value)``: whether a finished case counts as failed in the progress line
+            (a batched task: each of its values).
         on_error: ``on_error(task, error)`` for a case that raised (an error of warpcontact's, or
             `LostTask`); returning False ends the run. By default the error is raised and
             the run ends (the cases finished are written).
@@ -787,5 +809,5 @@ def session(placement: Placement, pending: int):
         cluster.close(finished=finished)
 
 
-__all__ = ["BatchStats", "LostTask", "Placement", "Task", "Tally", "cached_model", "call_task", "clear_models",
-           "model_key", "models_to_keep", "run_tasks", "session", "worker_device", "worker_environments"]
+__all__ = ["BatchStats", "LostTask", "Placement", "Task", "Tally", "cached_model", "call_task", "carried", "clear_models",
+           "model_key", "models_to_keep", "raised", "run_tasks", "session", "worker_device", "worker_environments"]

@@ -238,6 +238,48 @@ def run_cell(k_tau: float, delta_z_um: float, settings: Table2Settings, adhesion
     return table2_cell(k_tau, delta_z_um, settings, on_state=on_state, adhesion=adhesion, model=model)
 
 
+def search_entries(cells: list) -> list:
+    """The gross-slip searches of ``cells`` ((k_tau, delta_z_um, settings, adhesion) each) for
+    ``batch_solve.search_batch``: each started on the model it is given, or run on its own."""
+    from .batch_solve import SearchEntry
+
+    entries = []
+    for k, dz, settings, adh in cells:
+        def start(model, k=k, dz=dz, settings=settings, adh=adh):
+            search, finish, law = cell_search(k, dz, settings, adh, model)
+            return search, finish, law, math.inf
+
+        entries.append(SearchEntry(alone=lambda k=k, dz=dz, settings=settings, adh=adh: run_cell(k, dz, settings, adh),
+                                   start=start, model_key=cell_model_key(dz, settings, adh),
+                                   build=lambda dz=dz, settings=settings, adh=adh: cell_model(dz, settings, adh),
+                                   adhesive=adh))
+    return entries
+
+
+def search_cells(cells: list, batch: int, on_state=None) -> list:
+    """Cells of one grid ((k_tau, delta_z_um, settings, adhesion) each) searched together by
+    batched steps (``batch_solve.search_batch``, ``batch`` at a time), where the batch engine runs
+    them (a worker of ``warpcontact table2 --workers``, on its GPU, or this process): one value a
+    cell, in order: (its record, its checks' warnings' messages), or the error it raised
+    (``batch.carried``). ``on_state`` is not called: the cells' states are solved together."""
+    import dataclasses
+
+    from .batch import carried, worker_device
+    from .batch_solve import search_batch
+
+    cells = [(k, dz, dataclasses.replace(settings, device=worker_device(settings.device)), adh)
+             for k, dz, settings, adh in cells]
+    values = []
+    for entry in search_batch(search_entries(cells), batch):
+        if isinstance(entry, BaseException):
+            error = carried(entry)
+            if error is None:
+                raise entry
+            entry = error
+        values.append(entry)
+    return values
+
+
 def cells():
     """The (k_tau, delta_z_um) cells of each column (with or without adhesion)."""
     return [(k, dz) for k in K_TAU for dz in DELTA_Z_UM]
@@ -492,12 +534,11 @@ class Table2Run:
             raise
         self.kept = len(self.records)
 
-    def _batched_cells(self, batch, in_process: bool) -> tuple[list, int | None]:
+    def _batched_cells(self, batch) -> tuple[list, int | None]:
         """The pending cells searched by batched steps (:meth:`run`) and their batch: with
         ``batch`` given, all of them (the adhesive ones where the batched turns carry their law,
-        ``batch_solve.lagged_smc``); without it, in this process (``in_process``),
-        those of grids that few searches pay batched on (``batch_solve.few_searches_batched``: on
-        CUDA up to 256 cells per side), all at once."""
+        ``batch_solve.lagged_smc``); without it, those of grids that few searches pay batched on
+        (``batch_solve.few_searches_batched``: on CUDA up to 256 cells per side), all at once."""
         from .batch_solve import few_searches_batched, lagged_smc
 
         # the adhesive cells where the batched turns carry their law
@@ -505,45 +546,80 @@ class Table2Run:
             self.settings.adhesion_law(), RADIUS, PAPER_PAIR.E_star, capped=False)
         cells = [(i, c) for i, c in self._pending if adhesive or not c[3]]
         if batch is None:
-            cells = [(i, c) for i, c in cells if in_process and few_searches_batched(c[0], self.settings.device)]
+            cells = [(i, c) for i, c in cells if few_searches_batched(c[0], self.settings.device)]
             batch = len(cells)
         if not batch or len(cells) < 2:
             return [], batch
         return cells, batch
 
+    def _batched_tasks(self, cells, batch) -> tuple[list, dict]:
+        """The batch engine's tasks of ``cells`` searched by batched steps on its workers: the cells
+        of one grid (as ``search_batch`` batches them) ``batch`` at a time, each such group a task
+        (``search_cells``; a lone cell a task of its own, ``run_cell``), the largest grids first;
+        and each group's cell indices by task key."""
+        from .batch import Task
+
+        grids: dict = {}
+        for i, cell in cells:
+            args = self._cell_args(cell)
+            k, dz, settings, adh = args
+            grids.setdefault((cell_model_key(dz, settings, adh)[2].n, adh), []).append((i, args))
+        tasks, indices = [], {}
+        # the largest grids first (a worker free early then takes a short group, not the longest)
+        for (grid_n, adh), members in sorted(grids.items(), key=lambda g: -g[0][0]):
+            for first in range(0, len(members), batch):
+                chunk = members[first:first + batch]
+                if len(chunk) == 1:
+                    (i, (k, dz, settings, adh)), = chunk
+                    tasks.append(Task(str(i), self._label(settings.n, k, dz, adh), run_cell, (k, dz, settings, adh),
+                                      cell_model_key(dz, settings, adh)))
+                    continue
+                key = f"grid{grid_n}-{'adhesive' if adh else 'adhesionless'}-{first}"
+                indices[key] = [i for i, _ in chunk]
+                tasks.append(Task(key, f"{len(chunk)} {'adhesive' if adh else 'adhesionless'} cells on the grid of "
+                                       f"{grid_n} cells per side, batched", search_cells,
+                                  ([args for _, args in chunk], batch), (grid_n, adh), cases=len(chunk)))
+        return tasks, indices
+
     def _run_batched(self, cells, batch, progress) -> None:
         """Search ``cells`` ((index, (n, k_tau, delta_z_um, adhesion)) each) by batched steps, each
         record kept and the tables written as the cell ends."""
-        import dataclasses
-        import warnings
+        from .batch_solve import search_batch
 
-        from .batch_solve import SearchEntry, search_batch
-
-        entries, labels, settings_of = [], [], []
-        for i, (n, k, dz, adh) in cells:
-            settings = dataclasses.replace(self.settings, n=n)
-
-            def start(model, k=k, dz=dz, settings=settings, adh=adh):
-                search, finish, law = cell_search(k, dz, settings, adh, model)
-                return search, finish, law, math.inf
-
-            entries.append(SearchEntry(alone=lambda k=k, dz=dz, settings=settings, adh=adh: run_cell(k, dz, settings, adh),
-                                       start=start, model_key=cell_model_key(dz, settings, adh),
-                                       build=lambda dz=dz, settings=settings, adh=adh: cell_model(dz, settings, adh),
-                                       adhesive=adh))
-            labels.append(f"n {n} k_tau {k:.2f} delta_z {dz:.1e} um {'adhesive' if adh else 'adhesionless'}")
-            settings_of.append(settings)
+        planned = [self._cell_args(c) for _, c in cells]
 
         def on_case(j, entry):
-            if isinstance(entry, BaseException):
-                raise entry
-            record, messages = entry
-            for message in messages:  # the cell's checks' warnings, as a cell on its own gives them
-                warnings.warn(message, stacklevel=2)
-            self._finish(cells[j][0], labels[j], record, settings_of[j], progress)
+            self._finish_searched(cells[j][0], planned[j], entry, progress)
 
         progress.status(self.finished, extra=f"{len(cells)} cells, batched")
-        search_batch(entries, batch, on_case)
+        search_batch(search_entries(planned), batch, on_case)
+
+    def _cell_args(self, cell) -> tuple:
+        """(k_tau, delta_z_um, settings, adhesion) of a planned cell (n, k_tau, delta_z_um, adhesion)."""
+        import dataclasses
+
+        n, k, dz, adh = cell
+        return k, dz, dataclasses.replace(self.settings, n=n), adh
+
+    @staticmethod
+    def _label(n, k, dz, adh) -> str:
+        return f"n {n} k_tau {k:.2f} delta_z {dz:.1e} um {'adhesive' if adh else 'adhesionless'}"
+
+    def _finish_searched(self, i, args, entry, progress) -> bool:
+        """A cell searched by batched steps: its error raised, else its checks' warnings issued (as
+        a cell on its own gives them) and the cell kept (``_finish``)."""
+        import warnings
+
+        from .batch import raised
+
+        error = entry if isinstance(entry, BaseException) else raised(entry)
+        if error is not None:
+            raise error
+        record, messages = entry
+        for message in messages:
+            warnings.warn(message, stacklevel=2)
+        k, dz, settings, adh = args
+        return self._finish(i, self._label(settings.n, k, dz, adh), record, settings, progress)
 
     def _finish(self, i, cell, rec, settings, progress) -> bool:
         """Keep a finished cell and write the tables at once; False if stopped meanwhile (a stop
@@ -568,11 +644,12 @@ class Table2Run:
         """Compute the planned cells not finished before where ``placement`` says
         (:class:`warpcontact.studies.batch.Placement`; default: this process) and write the tables
         after each (:func:`write_table2`; table2.json's ``complete`` is false until the last write).
-        With ``batch`` B, the cells without adhesion are searched together by batched steps
-        (``batch_solve.search_batch``, B cells at a time); with 0 one at a time; by default (None)
-        together in this process on CUDA up to 256 cells per side (``_batched_cells``), where a
-        column's 12 cells pay batched, else one at a time (on more workers, the engine spreads
-        them).
+        With ``batch`` B, the cells (the adhesive ones where the batched turns carry their law) are
+        searched together by batched steps (``batch_solve.search_batch``, B cells of one grid at a
+        time); with 0 one at a time; by default (None) together on CUDA up to 256 cells per side
+        (``_batched_cells``), where a column's 12 cells pay batched, else one at a time. In this
+        process the batched steps come first; on more workers the engine spreads the cells, those
+        searched together as a task a group of one grid.
         A stop ends the run with ``interrupted`` set; a write that fails, with ``write_error``. Unless
         quiet, a result line per cell goes to ``log`` (stderr), under a progress bar on a terminal.
         Returns self."""
@@ -586,24 +663,35 @@ class Table2Run:
         try:
             with interrupts.deferred():
                 self._write()  # this run's marker (complete: false) replaces the last run's before any cell
-            together, batch = self._batched_cells(batch, placement.in_process(len(self._pending)))
-            if together:
+            together, batch = self._batched_cells(batch)
+            tasks, groups = [], {}
+            if together and placement.in_process(len(self._pending)):
                 self._run_batched(together, batch, progress)
-            tasks = []
+            elif together:
+                tasks, groups = self._batched_tasks(together, batch)
             for i, (n, k, dz, adh) in [p for p in self._pending if p not in together]:  # one task per cell
                 settings = dataclasses.replace(self.settings, n=n)
-                label = f"n {n} k_tau {k:.2f} delta_z {dz:.1e} um {'adhesive' if adh else 'adhesionless'}"
-                tasks.append(Task(str(i), label, run_cell, (k, dz, settings, adh), cell_model_key(dz, settings, adh)))
+                tasks.append(Task(str(i), self._label(n, k, dz, adh), run_cell, (k, dz, settings, adh),
+                                  cell_model_key(dz, settings, adh)))
 
-            def on_result(task, rec):
-                return self._finish(int(task.key), task.label, rec, task.args[2], progress)
+            def on_result(task, value):
+                if task.cases == 1:
+                    return self._finish(int(task.key), task.label, value, task.args[2], progress)
+                for i, args, entry in zip(groups[task.key], task.args[0], value):  # a group searched together
+                    if not self._finish_searched(i, args, entry, progress):
+                        return False
+                return True
+
+            def failed(value):  # a cell's record, or a searched cell's (record, messages)
+                record = value[0] if isinstance(value, tuple) else value
+                return isinstance(record, dict) and not record["converged"]
 
             def on_state(task, j, s):  # the states of a cell computed in this process, on a terminal
                 progress.status(self.finished, s["iterations"], s["residual"],
                                 f"{task.label}: state {j + 1} ({s['kind']})")
 
-            run_tasks(tasks, on_result, placement, progress=progress, failed=lambda rec: not rec["converged"],
-                      on_state=on_state, before=self.finished)
+            run_tasks(tasks, on_result, placement, progress=progress, failed=failed, on_state=on_state,
+                      before=self.finished)
         except KeyboardInterrupt as e:
             interrupts.stopping(e)  # a second signal does not cut the last writes
             self.interrupted = True
