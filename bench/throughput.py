@@ -11,9 +11,12 @@ size runs, side by side in one process:
 
 - ``api``: ``warpcontact.solve(case, fields="none", model=...)`` one case after another in this
   process, the model built once (kernels compiled and FFT plans made by one warm-up case first);
-- ``W workers``: the sweep engine (``run_sweep``) on a local cluster of W processes on the same
-  device (on CUDA every worker on GPU 0: several to a GPU), each worker building its model once;
-  the first case of each worker pays for its kernels' load from the on-disk cache.
+- ``W workers``: the sweep engine (``run_sweep``, one case at a time: ``batch=0``) on a local
+  cluster of W processes, this one included (on CUDA pinned to the host's GPUs in turn: several
+  to a GPU where W passes their number), each worker building its model once; the first case of
+  each worker pays for its kernels' load from the on-disk cache. ``--batched-workers`` adds ``W
+  workers, batched``: the same with the sweep's default batching, each worker solving its share
+  of the cases together (``sweep.batched_groups``).
 
 ``batch B`` rows (``--batches``): ``warpcontact.solve_batch(cases, batch=B)`` (each batch's
 kernels and transforms launched once for its B cases; one warm-up batch first); a case whose
@@ -315,8 +318,9 @@ def searched(cases: list, batch: int) -> dict:
             "wall_s": wall, "states": sum(len(r["states"]) for r in results)}
 
 
-def with_workers(path: Path, workers: int) -> dict:
-    """``W workers``: the sweep engine on a local cluster of ``workers`` processes."""
+def with_workers(path: Path, workers: int, batch: int | None = 0) -> dict:
+    """``W workers``: the sweep engine on a local cluster of ``workers`` processes, ``batch`` cases
+    per batched solve (0: one at a time; None: the sweep's default)."""
     from warpcontact.studies.batch import Placement
     from warpcontact.studies.sweep import run_sweep
     from warpcontact.studies.sweep_spec import load_sweep
@@ -324,13 +328,14 @@ def with_workers(path: Path, workers: int) -> dict:
     sweep = load_sweep(path)
     out = Path(tempfile.mkdtemp(prefix="throughput_"))
     try:
-        report = run_sweep(sweep, out, quiet=True, placement=Placement(workers=workers))
+        report = run_sweep(sweep, out, quiet=True, placement=Placement(workers=workers), batch=batch)
     finally:
         shutil.rmtree(out, ignore_errors=True)
     assert len(report.records) == len(sweep.cases) and all(r["converged"] for r in report.records), \
         "a case did not converge"
     b = report.batch
-    return {"placement": f"{workers} workers", "workers": b.workers, "cases": len(report.records),
+    return {"placement": f"{workers} workers" + (", batched" if batch != 0 else ""), "workers": b.workers,
+            "cases": len(report.records),
             "start_s": b.start_s, "wall_s": b.wall_s}
 
 
@@ -347,6 +352,8 @@ def main(argv=None):
                          "SMC law; normal: no friction, one step; gross-slip: the coupled case's gross-slip search")
     ap.add_argument("--batches", type=int, nargs="*", default=[16, 64],
                     help="batch sizes of the batched rows (none: no batched row)")
+    ap.add_argument("--batched-workers", action="store_true",
+                    help="add the workers' rows with the sweep's default batching (each worker its share together)")
     ap.add_argument("--own-checks", action="store_true",
                     help="add rows with each case's yield check made depth by depth (one at a time; the "
                          "largest batch)")
@@ -399,7 +406,10 @@ def main(argv=None):
                 path = sweep_file(folder, n, args.cases, args.device, args.dtype, args.problem == "adhesive")
                 cases = [sc.case for sc in load_sweep(path).cases]
                 base = one_at_a_time(cases)
-                runs = [base] + [with_workers(path, w) for w in args.workers] + [batched(cases, b) for b in args.batches]
+                runs = [base] + [with_workers(path, w) for w in args.workers]
+                if args.batched_workers:
+                    runs += [with_workers(path, w, None) for w in args.workers]
+                runs += [batched(cases, b) for b in args.batches]
                 if args.plain_tangential and args.batches:
                     runs += [batched(cases, max(args.batches), plain_tangential=True), batched(cases, max(args.batches))]
                 if args.padded_preconditioner and args.batches:

@@ -510,3 +510,50 @@ def test_table2_cells_searched_together_on_a_worker_record_what_this_process_rec
         assert (a["converged"], a["states"], a["delta_x_max_um"]) == (b["converged"], b["states"], b["delta_x_max_um"])
         if a["mu"] is not None:
             assert abs(a["mu"] - b["mu"]) <= 2e-9
+
+
+def test_sweep_cases_solved_together_on_a_worker_record_what_one_at_a_time_records(tmp_path, alarm):
+    """``warpcontact sweep --batch 2 --scheduler ADDRESS``: the cases of normal contact go to the
+    cluster's worker as tasks of two cases of one grid solved together
+    (``sweep.run_cases_batched``), a contact past the domain's edge among them; each record is what
+    one case at a time in this process writes: statuses, errors, states and contact areas the same,
+    forces within 1e-8 (both solves stop at a relative residual of 1e-10; the batched and the single
+    solve's iterates differ in rounding, as in test_sweep's batched sweep)."""
+    from distributed import LocalCluster
+
+    from warpcontact.studies import sweep as sweep_module
+    from warpcontact.studies.sweep import run_sweep
+    from warpcontact.studies.sweep_spec import load_sweep
+
+    (tmp_path / "sweep.toml").write_text(
+        f'base = "{HERTZ_CASE.as_posix()}"\n[sweep]\n"grid.n" = [32]\n"sphere.E" = [106e9, 150e9]\n'
+        '"load.path" = [[[0.0, 0.0, 4e-11], [0.0, 0.0, 1.0e-10]], [[0.0, 0.0, 7e-11]], [[0.0, 0.0, 3.9e-10]]]\n'
+        '[run]\ntask = "solve"\n')
+    sweep = load_sweep(tmp_path / "sweep.toml")
+    one = run_sweep(sweep, tmp_path / "one", quiet=True, placement=Placement(workers=1), batch=0)
+    tasks = []
+    run = batch.BatchRun.run
+
+    def counted(self, keep_models=False):
+        tasks.extend(self.queue)
+        return run(self, keep_models)
+
+    with LocalCluster(n_workers=1, threads_per_worker=1, processes=True, dashboard_address=None,
+                      host="127.0.0.1") as cluster:
+        batch.BatchRun.run = counted
+        try:
+            together = run_sweep(sweep, tmp_path / "together", quiet=True,
+                                 placement=Placement(scheduler=cluster.scheduler_address), batch=2)
+        finally:
+            batch.BatchRun.run = run
+    assert [(t.fn, t.cases) for t in tasks] == [(sweep_module.run_cases_batched, 2)] * 3
+    assert together.batch.where == f"the cluster at {cluster.scheduler_address}"
+    assert [r["id"] for r in one.records] == [r["id"] for r in together.records]
+    assert [r["status"] for r in together.records] == ["ok", "ok", "error"] * 2
+    for x, y in zip(one.records, together.records):
+        assert (x["status"], x["converged"], x.get("error")) == (y["status"], y["converged"], y.get("error"))
+        if "summary" in x:
+            s, t = x["summary"], y["summary"]
+            assert (s["n_states"], s["contact_area"]) == (t["n_states"], t["contact_area"])
+            assert t["force"]["z"] == pytest.approx(s["force"]["z"], rel=1e-8)
+    assert json.loads((tmp_path / "together" / "sweep.json").read_text())["complete"]

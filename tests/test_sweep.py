@@ -260,7 +260,7 @@ def test_batched_solve_sweep_records_what_one_case_at_a_time_records(tmp_path, m
     assert batched_cases("solve", cases, Placement(workers=1), batch=0) == []
     one, together = tmp_path / "one", tmp_path / "together"
     assert batched_cases("solve", cases, Placement(workers=2)) == []  # workers of a cluster: theirs
-    assert len(batched_cases("solve", cases, Placement(workers=2), batch=4)) == 6  # asked for: here
+    assert len(batched_cases("solve", cases, Placement(workers=2), batch=4)) == 6  # asked for: batched wherever they run
     batches = count_batches(monkeypatch)
     assert cmd_sweep(parse("sweep", path, "--out", one, "--quiet", "--batch", "0", "--workers", "1")) == 3
     assert batches == []
@@ -303,3 +303,30 @@ def test_a_solve_sweep_on_cuda_is_batched_by_default(tmp_path, monkeypatch):
         if ra["status"] == "ok":
             assert float(rb["force_z"]) == pytest.approx(float(ra["force_z"]), rel=1e-8)
             assert rb["contact_area"] == ra["contact_area"]
+
+
+def test_cases_solved_together_are_cut_into_tasks_of_a_grid_for_the_workers():
+    """``batched_groups``: the cases of one grid size, device and float type, the largest grids
+    first; ``batch`` at a time where given; by default about ``TASKS_PER_WORKER`` tasks a worker of
+    equal size, never under ``FRICTION_MIN_BATCH`` (fewer with friction would be solved one at a
+    time) nor over ``DEFAULT_BATCH`` (the most a batched solve takes), every case in one task."""
+    from types import SimpleNamespace
+
+    from warpcontact.studies.batch_solve import DEFAULT_BATCH, FRICTION_MIN_BATCH
+    from warpcontact.studies.sweep import TASKS_PER_WORKER, batched_groups
+
+    def cases(n, count, device="cuda", dtype="float64"):
+        return [SimpleNamespace(grid=SimpleNamespace(n=n), solver=SimpleNamespace(device=device, dtype=dtype))] * count
+
+    def sizes(groups):
+        return [len(g) for g in groups]
+
+    mixed = cases(128, 100) + cases(256, 10) + cases(128, 40, dtype="float32")
+    groups = batched_groups(mixed, None, workers=2)
+    assert sorted(i for g in groups for i in g) == list(range(150))
+    assert sizes(groups) == [10, 34, 33, 33, 40]  # n = 256 first; 100 cases: three of at least 32
+    assert all(len({(mixed[i].grid.n, mixed[i].solver.dtype) for i in g}) == 1 for g in groups)
+    assert sizes(batched_groups(cases(128, 100), 40, workers=2)) == [40, 40, 20]  # as asked
+    assert sizes(batched_groups(cases(64, 1024), None, workers=2)) == [128] * 2 * TASKS_PER_WORKER
+    assert max(sizes(batched_groups(cases(64, 3000), None, workers=1))) <= DEFAULT_BATCH["cuda"]
+    assert min(sizes(batched_groups(cases(64, 70), None, workers=8))) >= FRICTION_MIN_BATCH

@@ -90,9 +90,10 @@ def add_many_case_options(p):
     add_batch_options(p, default_workers="one per GPU for CUDA cases, else one per CPU core")
     p.add_argument("--batch", type=int, metavar="B",
                    help="with the task \"solve\" (normal contact, friction, friction with an SMC law on the DMT "
-                   "side) or \"gross-slip\" (the cases of these with friction): cases solved B at a time by batched steps, in this process (default: on CUDA, "
-                   "as many as half the free memory holds, up to 256; on the CPU one case at a time); 0: one case at "
-                   "a time everywhere")
+                   "side) or \"gross-slip\" (the cases of these with friction): cases of one grid solved B at a "
+                   "time by batched steps, in this process or, on several workers, each such group a task of a "
+                   "worker (default: on CUDA, as many as half the free memory holds, up to 256; on the CPU one case "
+                   "at a time); 0: one case at a time everywhere")
 
 
 def batch_from(args) -> int | None:

@@ -306,22 +306,24 @@ def _placement_device(sweep: Sweep) -> str:
 BATCHED_TASKS = ("solve", "gross-slip")
 
 
-def batched_cases(task: str, cases: list, placement, batch: int | None = None) -> list:
+def batched_cases(task: str, cases: list, placement, batch: int | None = None, anywhere: bool = False) -> list:
     """The indices of those of ``cases`` (``Case``) that a many-case command (``run_sweep``,
-    ``run_fit``) solves by batched solves (in this process, ``run_batched``): with the task "solve",
-    the cases ``batch_solve.batchable`` admits (``warpcontact.solve_batch``: normal contact,
-    friction, friction with the SMC law on the DMT side); with "gross-slip", those of them with
-    friction (``batch_solve.gross_slip_batch``); by default those on a CUDA device where the
-    cases run in this process (``placement``), and where ``batch`` (cases per batched solve) is
-    given, those on any device wherever the others run; none where ``batch`` is 0, or where fewer
-    than two cases qualify. On 2 CPU cores a batch saves the launches' overhead but not their work,
-    and each case there checks its own yield (docs/performance.md): one case at a time by default."""
+    ``run_fit``) solves by batched solves (``run_batched``): with the task "solve", the cases
+    ``batch_solve.batchable`` admits (``warpcontact.solve_batch``: normal contact, friction,
+    friction with the SMC law on the DMT side); with "gross-slip", those of them with friction
+    (``batch_solve.gross_slip_batch``); by default those on a CUDA device where the cases run in
+    this process (``placement``; ``anywhere``: or on workers, which take them as groups,
+    ``run_sweep``), and where ``batch`` (cases per batched solve) is given, those on any device
+    wherever the others run; none where ``batch`` is 0, or where fewer than two cases qualify. On
+    2 CPU cores a batch saves the launches' overhead but not their work, and each case there checks
+    its own yield (docs/performance.md): one case at a time by default."""
     import warp as wp
 
     from ..numerics.device import resolve_device
     from .batch_solve import batchable
 
-    if batch == 0 or task not in BATCHED_TASKS or (batch is None and not placement.in_process(len(cases))):
+    if batch == 0 or task not in BATCHED_TASKS or (batch is None and not anywhere
+                                                     and not placement.in_process(len(cases))):
         return []
     chosen = [i for i, case in enumerate(cases) if batchable(case) and (task == "solve" or case.friction is not None)
               and (batch is not None or wp.get_device(resolve_device(case.solver.device)).is_cuda)]
@@ -347,6 +349,68 @@ def run_batched(task: str, rel_tol: float, cases: list, batch: int | None, on_ou
         else:
             solve_batch(prepared, fields="none", batch=batch or None,
                         on_case=lambda i, result: on_outcome(i, _batched_outcome(result)))
+
+
+def run_cases_batched(task: str, rel_tol: float, cases: list, batch: int | None, on_state=None) -> list:
+    """Cases of one grid solved together (``run_batched``, ``batch`` at a time) where the batch
+    engine runs them (a worker of ``--workers`` or ``--scheduler``, on its GPU, or this process):
+    one outcome a case, in order, as ``run_case`` gives it. ``on_state`` is not called: the cases'
+    states are solved together."""
+    from .batch import worker_device
+
+    cases = [c if worker_device(c.solver.device) == c.solver.device
+             else c.with_overrides(device=worker_device(c.solver.device)) for c in cases]
+    outcomes: list = [None] * len(cases)
+
+    def on_outcome(i, outcome):
+        outcomes[i] = outcome
+
+    run_batched(task, rel_tol, cases, batch, on_outcome)
+    if any(o is None for o in outcomes):
+        raise RuntimeError("run_cases_batched: a batched solve ended without every case's outcome")
+    return outcomes
+
+
+#: a grid's cases solved together on several workers go as about this many tasks a worker (by
+#: default, ``batched_groups``): a worker that starts late, or a GPU that is slower, takes fewer
+TASKS_PER_WORKER = 4
+
+
+def batched_groups(cases: list, batch: int | None, workers: int = 1) -> list[list[int]]:
+    """The indices of ``cases`` (``Case``, those ``batched_cases`` chose) as the batch engine's
+    tasks: the cases of one grid size, device and float type (as the batched solves group them),
+    the largest grids first, ``batch`` at a time. By default a grid's cases are cut into
+    ``TASKS_PER_WORKER`` tasks a worker (a local cluster's ``workers``, this process included) of
+    equal size, at least ``FRICTION_MIN_BATCH`` cases a task (fewer with friction would be solved
+    one at a time) and at most the device kind's ``DEFAULT_BATCH`` (the most a batched solve
+    takes)."""
+    from .batch_solve import DEFAULT_BATCH, FRICTION_MIN_BATCH
+
+    grids: dict = {}
+    for i, case in enumerate(cases):
+        s = case.solver
+        grids.setdefault((case.grid.n, str(s.device), str(s.dtype)), []).append(i)
+    groups = []
+    for (n, device, _), members in sorted(grids.items(), key=lambda g: -g[0][0]):
+        if batch:
+            groups.extend(members[first:first + batch] for first in range(0, len(members), batch))
+            continue
+        most = DEFAULT_BATCH["cuda" if device.startswith("cuda") else "cpu"]
+        size = min(most, max(FRICTION_MIN_BATCH, -(-len(members) // (TASKS_PER_WORKER * max(1, workers)))))
+        tasks = max(-(-len(members) // most), len(members) // size, 1)
+        groups.extend(list(part) for part in _split_evenly(members, tasks))
+    return groups
+
+
+def _split_evenly(items: list, parts: int) -> list:
+    """``items`` in ``parts`` consecutive runs whose lengths differ by one at most."""
+    q, r = divmod(len(items), parts)
+    out, first = [], 0
+    for k in range(parts):
+        last = first + q + (k < r)
+        out.append(items[first:last])
+        first = last
+    return out
 
 
 def _searched_outcome(entry) -> dict:
@@ -400,7 +464,7 @@ def run_sweep(sweep: Sweep, out: str | PathLike, quiet: bool = False, log=None, 
     line draws ``out/sweep.png`` there); an OutputError or a stop it raises is handled as one met
     while writing a case.
     """
-    from .batch import LostTask, Placement, Task, model_key, run_tasks
+    from .batch import LostTask, Placement, Task, model_key, run_tasks, worker_environments
     from ..records.progress import Progress
     from ..records.results import atomic_write_json, output_error
 
@@ -475,8 +539,9 @@ def run_sweep(sweep: Sweep, out: str | PathLike, quiet: bool = False, log=None, 
         return True
 
     def on_error(task, e):
-        if isinstance(e, LostTask):  # recorded as a case's error; the others go on
-            return on_result(task, {"error": str(e), "warnings": [], "elapsed_s": 0.0})
+        if isinstance(e, LostTask):  # recorded as the error of its case (or cases); the others go on
+            lost = {"error": str(e), "warnings": [], "elapsed_s": 0.0}
+            return on_task(task, [lost] * task.cases if task.cases > 1 else lost)
         raise e
 
     def group(case):
@@ -490,9 +555,34 @@ def run_sweep(sweep: Sweep, out: str | PathLike, quiet: bool = False, log=None, 
     placement = placement or Placement(workers=1)
     if placement.device == "cpu" and placement.scheduler is None:
         placement = Placement(placement.scheduler, placement.workers, _placement_device(sweep))
-    together = [pending[i] for i in batched_cases(sweep.task, [sc.case for sc in pending], placement, batch)]
+    together = [pending[i] for i in batched_cases(sweep.task, [sc.case for sc in pending], placement, batch,
+                                                  anywhere=True)]
     batched_ids = {sc.id for sc in together}
     tasks = [task_of(sc) for sc in pending if sc.id not in batched_ids]
+    groups: dict = {}  # the cases of each task of cases solved together, by its key
+    if together and not placement.in_process(len(pending)):  # the groups as tasks of the workers
+        workers = 1 if placement.scheduler is not None else len(worker_environments(placement, len(pending)))
+        for members in batched_groups([sc.case for sc in together], batch, workers):
+            if len(members) == 1:
+                tasks.append(task_of(together[members[0]]))
+                continue
+            first = together[members[0]]
+            key = f"batch-{first.id}"
+            groups[key] = [together[i] for i in members]
+            tasks.append(Task(key, f"{len(members)} cases from {first.label}, solved together", run_cases_batched,
+                              (sweep.task, sweep.rel_tol, [sc.case for sc in groups[key]], batch or None),
+                              group(first.case), cases=len(members)))
+        together = []
+
+    def on_task(task, outcome):
+        """A case's outcome written (``on_result``), or each case's of a task solved together."""
+        if task.cases == 1:
+            return on_result(task, outcome)
+        for sc, each in zip(groups[task.key], outcome):
+            on_result(task_of(sc), each, table=False)
+        with interrupts.deferred():
+            write_table()
+        return True
 
     def run_together():
         """The batched cases, each written as it ends (a stop ends the batch: what ended is written)."""
@@ -518,7 +608,7 @@ def run_sweep(sweep: Sweep, out: str | PathLike, quiet: bool = False, log=None, 
             _write_status(out, sweep, report, ordered(), complete=False)
         if together:
             run_together()
-        report.batch = run_tasks(tasks, on_result, placement, progress=progress, before=len(records),
+        report.batch = run_tasks(tasks, on_task, placement, progress=progress, before=len(records),
                                  failed=lambda o: "error" in o or not o["summary"]["converged"],
                                  on_error=on_error, on_state=on_state)
         if finish is not None and records:
