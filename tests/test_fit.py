@@ -405,6 +405,44 @@ def test_a_fit_batched_gives_what_one_case_at_a_time_gives(hertz_forces, tmp_pat
     assert abs(va / vb - 1) < 1e-6 and abs(va / E_TRUE - 1) < 1e-4, (va, vb)
 
 
+def test_a_fit_batched_on_a_worker_gives_what_this_process_gives(hertz_forces, tmp_path):
+    """``--batch 3 --scheduler ADDRESS``: each evaluation's cases go to the cluster's worker as
+    tasks of three cases of one grid solved together (``sweep.run_cases_batched``), and the fit
+    ends where the batched fit in this process ends: E within 1e-6 (the worker's FFTW plans may
+    round otherwise; both solves stop at a relative residual of 1e-10)."""
+    from distributed import LocalCluster
+
+    from warpcontact.studies import batch, sweep
+
+    def ring(signum, frame):
+        raise TimeoutError("the fit on a cluster took more than 240 s")
+
+    fit_file = hertz_fit(tmp_path, hertz_forces)
+    tasks = []
+    real_run = batch.run_tasks
+    run = ["fit", str(fit_file), "--batch", "3", "--quiet", "--out"]
+    assert main(run + [str(tmp_path / "here"), "--workers", "1"]) == 0
+    previous = signal.signal(signal.SIGALRM, ring)
+    signal.alarm(240)
+    try:
+        with LocalCluster(n_workers=1, threads_per_worker=1, processes=True, dashboard_address=None,
+                          host="127.0.0.1") as cluster:
+            batch.run_tasks = lambda t, *a, **kw: tasks.extend(t) or real_run(t, *a, **kw)
+            try:
+                assert main(run + [str(tmp_path / "there"), "--scheduler", cluster.scheduler_address]) == 0
+            finally:
+                batch.run_tasks = real_run
+    finally:
+        signal.alarm(0)
+        signal.signal(signal.SIGALRM, previous)
+    assert tasks and all((t.fn, t.cases) == (sweep.run_cases_batched, 3) for t in tasks)
+    a, b = (json.loads((tmp_path / name / "fit.json").read_text()) for name in ("here", "there"))
+    assert b["evaluations"]["batched"] == b["evaluations"]["computed"] == 3 * len(tasks)
+    assert b["evaluations"]["where"].startswith("the cluster at")
+    va, vb = (r["parameters"]["sphere.E"]["value"] for r in (a, b))
+    assert abs(va / vb - 1) < 1e-6, (va, vb)
+
+
 def test_a_fits_gross_slip_evaluations_batched_are_those_of_one_case_at_a_time(gs_data, tmp_path):
     """The gross-slip rows at one k_tau evaluated with ``batch`` 3 (the searches walk together)
     and one case at a time: the same statuses and delta_x_max, mu within 2e-9 relative (a batched

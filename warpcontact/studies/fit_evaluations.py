@@ -50,7 +50,7 @@ class _Evaluator:
         self.compute_s = 0.0
         self.data_name = Path(fit.data_file).name
         self.batches = []
-        #: cases computed by batched solves in this process (``run_batched``)
+        #: cases computed by batched solves (``run_batched``, here or on the workers)
         self.batched = 0
 
     def _load(self, h: str, ident: dict):
@@ -68,12 +68,13 @@ class _Evaluator:
     def outcomes(self, points: list) -> list:
         """For each point (parameter key -> value), each row's outcome (summary or error), in row
         order; the missing ones computed together, each written as it finishes: by batched solves
-        in this process where ``sweep.batched_cases`` takes them (the task "solve" or
-        "gross-slip", the cases ``batch_solve.batchable`` admits; by default on CUDA, or with ``batch``), the others
-        on the batch engine."""
+        where ``sweep.batched_cases`` takes them (the task "solve" or "gross-slip", the cases
+        ``batch_solve.batchable`` admits; by default on CUDA, or with ``batch``), in this process or
+        on several workers as tasks of a grid's cases (``sweep.batched_tasks``), the others on the
+        batch engine one at a time."""
         from .batch import Task, model_key, models_to_keep, run_tasks
         from ..records.results import atomic_write_json
-        from .sweep import batched_cases, run_batched, run_case
+        from .sweep import batched_cases, batched_tasks, each_case, run_batched, run_case
 
         fit = self.fit
         plan, tasks, task_cases, pending = [], [], [], {}
@@ -117,8 +118,9 @@ class _Evaluator:
         def on_error(task, e):
             from .batch import LostTask
 
-            if isinstance(e, LostTask):
-                return on_result(task, {"error": str(e), "warnings": [], "elapsed_s": 0.0})
+            if isinstance(e, LostTask):  # recorded as the error of its case (or cases)
+                lost = {"error": str(e), "warnings": [], "elapsed_s": 0.0}
+                return each_case(on_result, members)(task, [lost] * task.cases if task.cases > 1 else lost)
             raise e
 
         if tasks:
@@ -129,15 +131,20 @@ class _Evaluator:
                 from ..records.results import output_error
 
                 raise output_error(self.folder, e, "create the folder") from None
-            together = batched_cases(fit.task, task_cases, self.placement, self.batch)
-            if together:
+            together = batched_cases(fit.task, task_cases, self.placement, self.batch, anywhere=True)
+            batched = set(together)
+            rest, members = [t for i, t in enumerate(tasks) if i not in batched], {}
+            if together and self.placement.in_process(len(tasks)):
                 run_batched(fit.task, fit.rel_tol, [task_cases[i] for i in together], self.batch,
                             lambda k, outcome: on_result(tasks[together[k]], outcome))
-                self.batched += len(together)
-            batched = set(together)
-            rest = [t for i, t in enumerate(tasks) if i not in batched]
+            elif together:  # the groups as tasks of the workers
+                grouped, members = batched_tasks(fit.task, fit.rel_tol, [task_cases[i] for i in together],
+                                                 [tasks[i] for i in together], self.batch, self.placement)
+                rest += grouped
+            self.batched += len(together)
             if rest:
-                self.batches.append(run_tasks(rest, on_result, self.placement, on_error=on_error, keep_models=True))
+                self.batches.append(run_tasks(rest, each_case(on_result, members), self.placement,
+                                              on_error=on_error, keep_models=True))
             self.compute_s += time.perf_counter() - t0
         return [[self.memory[h] for h in hashes] for hashes in plan]
 

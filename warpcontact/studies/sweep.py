@@ -402,6 +402,46 @@ def batched_groups(cases: list, batch: int | None, workers: int = 1) -> list[lis
     return groups
 
 
+def batched_tasks(task: str, rel_tol: float, cases: list, own: list, batch: int | None, placement) -> tuple:
+    """The batch engine's tasks of ``cases`` (``Case``, those ``batched_cases`` chose) solved
+    together on its workers (``placement``): each group of ``batched_groups`` a task of
+    ``run_cases_batched``, a lone case its own task (``own``: each case's task, as it would run
+    alone, keyed by the case). Returns (the tasks, each group task's cases' own tasks by its key):
+    ``each_case`` hands a group's outcomes back case by case."""
+    from .batch import Task, worker_environments
+
+    workers = 1 if placement.scheduler is not None else len(worker_environments(placement, len(cases)))
+    tasks, members = [], {}
+    for group in batched_groups(cases, batch, workers):
+        first = own[group[0]]
+        if len(group) == 1:
+            tasks.append(first)
+            continue
+        key = f"batch-{first.key}"
+        members[key] = [own[i] for i in group]
+        tasks.append(Task(key, f"{len(group)} cases from {first.label}, solved together", run_cases_batched,
+                          (task, rel_tol, [cases[i] for i in group], batch or None), first.group, cases=len(group)))
+    return tasks, members
+
+
+def each_case(on_result, members: dict, after=None):
+    """``on_result(task, outcome)`` of a run whose group tasks (``batched_tasks``: ``members``)
+    hand back their cases' outcomes together: each to ``on_result`` with its case's own task
+    (``after()`` then, where given: a table written once for the group); False from any ends the
+    run."""
+    def on_task(task, outcome):
+        if task.cases == 1:
+            return on_result(task, outcome)
+        for case_task, each in zip(members[task.key], outcome):
+            if on_result(case_task, each) is False:
+                return False
+        if after is not None:
+            after()
+        return True
+
+    return on_task
+
+
 def _split_evenly(items: list, parts: int) -> list:
     """``items`` in ``parts`` consecutive runs whose lengths differ by one at most."""
     q, r = divmod(len(items), parts)
@@ -464,7 +504,7 @@ def run_sweep(sweep: Sweep, out: str | PathLike, quiet: bool = False, log=None, 
     line draws ``out/sweep.png`` there); an OutputError or a stop it raises is handled as one met
     while writing a case.
     """
-    from .batch import LostTask, Placement, Task, model_key, run_tasks, worker_environments
+    from .batch import LostTask, Placement, Task, model_key, run_tasks
     from ..records.progress import Progress
     from ..records.results import atomic_write_json, output_error
 
@@ -559,30 +599,22 @@ def run_sweep(sweep: Sweep, out: str | PathLike, quiet: bool = False, log=None, 
                                                   anywhere=True)]
     batched_ids = {sc.id for sc in together}
     tasks = [task_of(sc) for sc in pending if sc.id not in batched_ids]
-    groups: dict = {}  # the cases of each task of cases solved together, by its key
+    members: dict = {}  # the cases' own tasks of each task of cases solved together, by its key
     if together and not placement.in_process(len(pending)):  # the groups as tasks of the workers
-        workers = 1 if placement.scheduler is not None else len(worker_environments(placement, len(pending)))
-        for members in batched_groups([sc.case for sc in together], batch, workers):
-            if len(members) == 1:
-                tasks.append(task_of(together[members[0]]))
-                continue
-            first = together[members[0]]
-            key = f"batch-{first.id}"
-            groups[key] = [together[i] for i in members]
-            tasks.append(Task(key, f"{len(members)} cases from {first.label}, solved together", run_cases_batched,
-                              (sweep.task, sweep.rel_tol, [sc.case for sc in groups[key]], batch or None),
-                              group(first.case), cases=len(members)))
-        together = []
+        grouped, members = batched_tasks(sweep.task, sweep.rel_tol, [sc.case for sc in together],
+                                         [task_of(sc) for sc in together], batch, placement)
+        tasks, together = tasks + grouped, []
 
-    def on_task(task, outcome):
-        """A case's outcome written (``on_result``), or each case's of a task solved together."""
-        if task.cases == 1:
-            return on_result(task, outcome)
-        for sc, each in zip(groups[task.key], outcome):
-            on_result(task_of(sc), each, table=False)
+    in_groups = {t.key for case_tasks in members.values() for t in case_tasks}
+
+    def on_case(task, outcome):  # the table at once, or once its group's cases are all written
+        return on_result(task, outcome, table=task.key not in in_groups)
+
+    def table_after_group():
         with interrupts.deferred():
             write_table()
-        return True
+
+    on_task = each_case(on_case, members, table_after_group)
 
     def run_together():
         """The batched cases, each written as it ends (a stop ends the batch: what ended is written)."""
