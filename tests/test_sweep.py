@@ -330,3 +330,27 @@ def test_cases_solved_together_are_cut_into_tasks_of_a_grid_for_the_workers():
     assert sizes(batched_groups(cases(64, 1024), None, workers=2)) == [128] * 2 * TASKS_PER_WORKER
     assert max(sizes(batched_groups(cases(64, 3000), None, workers=1))) <= DEFAULT_BATCH["cuda"]
     assert min(sizes(batched_groups(cases(64, 70), None, workers=8))) >= FRICTION_MIN_BATCH
+
+
+def test_a_group_tasks_outcomes_go_back_case_by_case():
+    """``each_case``: a task of cases solved together hands each outcome back with its case's own
+    task, in order, then calls ``after`` once (the sweep's table); a single case's task passes
+    through; a False from the writer stops the group there and ends the run."""
+    from warpcontact.studies.batch import Task
+    from warpcontact.studies.sweep import each_case
+
+    own = [Task(f"c{i}", f"case {i}", None) for i in range(3)]
+    group = Task("batch-c0", "3 cases", None, cases=3)
+    written, tables = [], []
+
+    def on_result(task, outcome):
+        written.append((task.key, outcome))
+        return outcome != "stop"
+
+    on_task = each_case(on_result, {group.key: own}, after=lambda: tables.append(len(written)))
+    assert on_task(group, ["a", "b", "c"]) is True
+    assert written == [("c0", "a"), ("c1", "b"), ("c2", "c")] and tables == [3]
+    assert on_task(Task("c9", "case 9", None), "d") is True and written[-1] == ("c9", "d")
+    written.clear()
+    assert on_task(group, ["a", "stop", "c"]) is False
+    assert written == [("c0", "a"), ("c1", "stop")] and tables == [3]
