@@ -471,4 +471,4 @@ def test_table2_batches_its_cells_by_default_only_on_cuda_grids_where_it_pays(tm
     tasks, groups = wide._batched_tasks(cells, batch)
     # per column (its own grid), the three k_tau cells: a task of two searched together, one alone
     assert [(t.fn, t.cases) for t in tasks] == [(search_cells, 2), (run_cell, 1)] * 2
-    assert sorted(i for t in tasks for i in (groups[t.key] if t.cases > 1 else [int(t.key)])) == list(range(6))
+    assert sorted(int(c.key) for t in tasks for c in (groups[t.key] if t.cases > 1 else [t])) == list(range(6))

@@ -336,8 +336,7 @@ def test_a_group_tasks_outcomes_go_back_case_by_case():
     """``each_case``: a task of cases solved together hands each outcome back with its case's own
     task, in order, then calls ``after`` once (the sweep's table); a single case's task passes
     through; a False from the writer stops the group there and ends the run."""
-    from warpcontact.studies.batch import Task
-    from warpcontact.studies.sweep import each_case
+    from warpcontact.studies.batch import Task, each_case
 
     own = [Task(f"c{i}", f"case {i}", None) for i in range(3)]
     group = Task("batch-c0", "3 cases", None, cases=3)

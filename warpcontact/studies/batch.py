@@ -784,6 +784,24 @@ def run_tasks(tasks, on_result: Callable, placement: Placement | None = None, pr
                     before).run(keep_models)
 
 
+def each_case(on_result, members: dict, after=None):
+    """``on_result(task, value)`` for :func:`run_tasks` where tasks of several cases (``Task.cases``
+    > 1) hand back their values together: each to ``on_result`` with its case's own task
+    (``members``: a group task's key to its cases' own tasks, ``sweep.batched_tasks``), then
+    ``after()`` where given (a table written once for the group); False from any ends the run."""
+    def on_task(task, outcome):
+        if task.cases == 1:
+            return on_result(task, outcome)
+        for case_task, each in zip(members[task.key], outcome):
+            if on_result(case_task, each) is False:
+                return False
+        if after is not None:
+            after()
+        return True
+
+    return on_task
+
+
 @contextlib.contextmanager
 def session(placement: Placement, pending: int):
     """Where a series of batches runs on the same workers and models (a fit: one batch per
@@ -810,4 +828,5 @@ def session(placement: Placement, pending: int):
 
 
 __all__ = ["BatchStats", "LostTask", "Placement", "Task", "Tally", "cached_model", "call_task", "carried", "clear_models",
-           "model_key", "models_to_keep", "raised", "run_tasks", "session", "worker_device", "worker_environments"]
+           "each_case", "model_key", "models_to_keep", "raised", "run_tasks", "session", "worker_device",
+           "worker_environments"]

@@ -72,9 +72,9 @@ class _Evaluator:
         ``batch_solve.batchable`` admits; by default on CUDA, or with ``batch``), in this process or
         on several workers as tasks of a grid's cases (``sweep.batched_tasks``), the others on the
         batch engine one at a time."""
-        from .batch import Task, model_key, models_to_keep, run_tasks
+        from .batch import Task, each_case, model_key, models_to_keep, run_tasks
         from ..records.results import atomic_write_json
-        from .sweep import batched_cases, batched_tasks, each_case, run_batched, run_case
+        from .sweep import batched_cases, batched_tasks, run_batched, run_case
 
         fit = self.fit
         plan, tasks, task_cases, pending = [], [], [], {}

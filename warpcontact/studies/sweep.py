@@ -407,7 +407,7 @@ def batched_tasks(task: str, rel_tol: float, cases: list, own: list, batch: int 
     together on its workers (``placement``): each group of ``batched_groups`` a task of
     ``run_cases_batched``, a lone case its own task (``own``: each case's task, as it would run
     alone, keyed by the case). Returns (the tasks, each group task's cases' own tasks by its key):
-    ``each_case`` hands a group's outcomes back case by case."""
+    ``batch.each_case`` hands a group's outcomes back case by case."""
     from .batch import Task, worker_environments
 
     workers = 1 if placement.scheduler is not None else len(worker_environments(placement, len(cases)))
@@ -422,24 +422,6 @@ def batched_tasks(task: str, rel_tol: float, cases: list, own: list, batch: int 
         tasks.append(Task(key, f"{len(group)} cases from {first.label}, solved together", run_cases_batched,
                           (task, rel_tol, [cases[i] for i in group], batch or None), first.group, cases=len(group)))
     return tasks, members
-
-
-def each_case(on_result, members: dict, after=None):
-    """``on_result(task, outcome)`` of a run whose group tasks (``batched_tasks``: ``members``)
-    hand back their cases' outcomes together: each to ``on_result`` with its case's own task
-    (``after()`` then, where given: a table written once for the group); False from any ends the
-    run."""
-    def on_task(task, outcome):
-        if task.cases == 1:
-            return on_result(task, outcome)
-        for case_task, each in zip(members[task.key], outcome):
-            if on_result(case_task, each) is False:
-                return False
-        if after is not None:
-            after()
-        return True
-
-    return on_task
 
 
 def _split_evenly(items: list, parts: int) -> list:
@@ -504,7 +486,7 @@ def run_sweep(sweep: Sweep, out: str | PathLike, quiet: bool = False, log=None, 
     line draws ``out/sweep.png`` there); an OutputError or a stop it raises is handled as one met
     while writing a case.
     """
-    from .batch import LostTask, Placement, Task, model_key, run_tasks
+    from .batch import LostTask, Placement, Task, each_case, model_key, run_tasks
     from ..records.progress import Progress
     from ..records.results import atomic_write_json, output_error
 

@@ -552,34 +552,40 @@ class Table2Run:
             return [], batch
         return cells, batch
 
+    def _cell_task(self, i: int, cell):
+        """The batch engine's task of planned cell ``i`` (n, k_tau, delta_z_um, adhesion) on its own
+        (``run_cell``)."""
+        from .batch import Task
+
+        k, dz, settings, adh = self._cell_args(cell)
+        return Task(str(i), self._label(settings.n, k, dz, adh), run_cell, (k, dz, settings, adh),
+                    cell_model_key(dz, settings, adh))
+
     def _batched_tasks(self, cells, batch) -> tuple[list, dict]:
         """The batch engine's tasks of ``cells`` searched by batched steps on its workers: the cells
         of one grid (as ``search_batch`` batches them) ``batch`` at a time, each such group a task
-        (``search_cells``; a lone cell a task of its own, ``run_cell``), the largest grids first;
-        and each group's cell indices by task key."""
+        (``search_cells``; a lone cell its own task, ``_cell_task``), the largest grids first; and
+        each group's cells' own tasks by its key (``batch.each_case`` hands their values back)."""
         from .batch import Task
 
         grids: dict = {}
         for i, cell in cells:
-            args = self._cell_args(cell)
-            k, dz, settings, adh = args
-            grids.setdefault((cell_model_key(dz, settings, adh)[2].n, adh), []).append((i, args))
-        tasks, indices = [], {}
+            k, dz, settings, adh = self._cell_args(cell)
+            grids.setdefault((cell_model_key(dz, settings, adh)[2].n, adh), []).append(self._cell_task(i, cell))
+        tasks, members = [], {}
         # the largest grids first (a worker free early then takes a short group, not the longest)
-        for (grid_n, adh), members in sorted(grids.items(), key=lambda g: -g[0][0]):
-            for first in range(0, len(members), batch):
-                chunk = members[first:first + batch]
+        for (grid_n, adh), own in sorted(grids.items(), key=lambda g: -g[0][0]):
+            for first in range(0, len(own), batch):
+                chunk = own[first:first + batch]
                 if len(chunk) == 1:
-                    (i, (k, dz, settings, adh)), = chunk
-                    tasks.append(Task(str(i), self._label(settings.n, k, dz, adh), run_cell, (k, dz, settings, adh),
-                                      cell_model_key(dz, settings, adh)))
+                    tasks.append(chunk[0])
                     continue
                 key = f"grid{grid_n}-{'adhesive' if adh else 'adhesionless'}-{first}"
-                indices[key] = [i for i, _ in chunk]
+                members[key] = chunk
                 tasks.append(Task(key, f"{len(chunk)} {'adhesive' if adh else 'adhesionless'} cells on the grid of "
                                        f"{grid_n} cells per side, batched", search_cells,
-                                  ([args for _, args in chunk], batch), (grid_n, adh), cases=len(chunk)))
-        return tasks, indices
+                                  ([t.args for t in chunk], batch), (grid_n, adh), cases=len(chunk)))
+        return tasks, members
 
     def _run_batched(self, cells, batch, progress) -> None:
         """Search ``cells`` ((index, (n, k_tau, delta_z_um, adhesion)) each) by batched steps, each
@@ -653,9 +659,7 @@ class Table2Run:
         A stop ends the run with ``interrupted`` set; a write that fails, with ``write_error``. Unless
         quiet, a result line per cell goes to ``log`` (stderr), under a progress bar on a terminal.
         Returns self."""
-        import dataclasses
-
-        from .batch import Placement, Task, run_tasks
+        from .batch import Placement, each_case, run_tasks
         from ..records.progress import Progress
 
         placement = placement or Placement(workers=1, device=self.settings.device)
@@ -664,23 +668,17 @@ class Table2Run:
             with interrupts.deferred():
                 self._write()  # this run's marker (complete: false) replaces the last run's before any cell
             together, batch = self._batched_cells(batch)
-            tasks, groups = [], {}
+            tasks, members = [], {}
             if together and placement.in_process(len(self._pending)):
                 self._run_batched(together, batch, progress)
             elif together:
-                tasks, groups = self._batched_tasks(together, batch)
-            for i, (n, k, dz, adh) in [p for p in self._pending if p not in together]:  # one task per cell
-                settings = dataclasses.replace(self.settings, n=n)
-                tasks.append(Task(str(i), self._label(n, k, dz, adh), run_cell, (k, dz, settings, adh),
-                                  cell_model_key(dz, settings, adh)))
+                tasks, members = self._batched_tasks(together, batch)
+            tasks += [self._cell_task(i, c) for i, c in self._pending if (i, c) not in together]  # one task a cell
 
-            def on_result(task, value):
-                if task.cases == 1:
+            def on_result(task, value):  # a cell's: its record on its own, or its entry searched with others
+                if isinstance(value, dict):
                     return self._finish(int(task.key), task.label, value, task.args[2], progress)
-                for i, args, entry in zip(groups[task.key], task.args[0], value):  # a group searched together
-                    if not self._finish_searched(i, args, entry, progress):
-                        return False
-                return True
+                return self._finish_searched(int(task.key), task.args, value, progress)
 
             def failed(value):  # a cell's record, or a searched cell's (record, messages)
                 record = value[0] if isinstance(value, tuple) else value
@@ -690,8 +688,8 @@ class Table2Run:
                 progress.status(self.finished, s["iterations"], s["residual"],
                                 f"{task.label}: state {j + 1} ({s['kind']})")
 
-            run_tasks(tasks, on_result, placement, progress=progress, failed=failed, on_state=on_state,
-                      before=self.finished)
+            run_tasks(tasks, each_case(on_result, members), placement, progress=progress, failed=failed,
+                      on_state=on_state, before=self.finished)
         except KeyboardInterrupt as e:
             interrupts.stopping(e)  # a second signal does not cut the last writes
             self.interrupted = True
