@@ -228,16 +228,16 @@ def test_a_launch_with_an_array_of_another_length_runs_whole(monkeypatch):
     assert np.array_equal(longer.numpy()[:4], sums.numpy())
 
 
-def test_the_stress_spectra_split_from_fewer_entries_by_their_terms(monkeypatch):
-    """A yield check's stress spectra (14-44 products an entry) are split over two threads from
-    ``min_split_entries`` / terms entries: at n = 96 (18,624 entries, a pressure and a shear along
-    x: 29 terms in the flat) they are, where a pass of one product an entry would not be, and the
-    largest von Mises stresses equal one thread's to the last bit (each entry is one thread's sum
-    either way)."""
-    from warpcontact.numerics.stress import SubsurfaceStress
+def test_the_stress_spectra_split_from_fewer_entries_by_their_work(monkeypatch):
+    """A yield check's stress spectra (31 complex numbers read and 6 written an entry) are split
+    over two threads from ``min_split_entries`` / ``STRESS_SPECTRA_WORK`` entries: at n = 128
+    (33,024 entries, a pressure and a shear along x) they are, where a pass of one field in and
+    one out would not be, and the largest von Mises stresses equal one thread's to the last bit
+    (each entry is one thread's sum either way)."""
+    from warpcontact.numerics.stress import STRESS_SPECTRA_WORK, SubsurfaceStress
 
-    n = 96
-    assert 2 * n * (n + 1) < LaunchCache.min_split_entries
+    n = 128
+    assert LaunchCache.min_split_entries / STRESS_SPECTRA_WORK <= 2 * n * (n + 1) < LaunchCache.min_split_entries
     grid = Grid(n, 4 * A)
     x = (np.arange(n) - n / 2 + 0.5) * grid.dx
     r2 = x[:, None] ** 2 + x[None, :] ** 2

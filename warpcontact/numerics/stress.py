@@ -45,11 +45,9 @@ corner sums cancel to 1/r^2 of the corner terms' size far from the load).
 
 from __future__ import annotations
 
-import functools
 import math
 import time
 from dataclasses import dataclass, field
-from types import SimpleNamespace
 
 import numpy as np
 
@@ -137,55 +135,35 @@ def cell_kernels(nu: float, z_cells: float, size: int, device="cpu") -> np.ndarr
     return np.einsum("clb,bij->clij", stress_table(nu, z_cells), basis)
 
 
+#: the bases each load's stresses use (p, q_x, q_y): the columns of ``stress_table`` with a
+#: non-zero entry (at any nu < 1/2 and z > 0; a pressure alone uses 8 of the 14)
+LOAD_BASES = tuple(tuple(int(b) for b in np.flatnonzero(stress_table(0.3, 1.0)[:, load].any(axis=0)))
+                   for load in range(3))
+
+
+def used_bases(loads) -> list[int]:
+    """The bases the stresses of the loaded tractions use (``loads``: p, q_x, q_y), in order."""
+    return sorted({b for on, bases in zip(loads, LOAD_BASES) if on for b in bases})
+
+
+def body_coefficients(nu: float, sphere: bool, z_cells: float, loads, scale: float = 1.0) -> tuple:
+    """The arguments of ``kernels/stress.py``'s ``body_stress_spectra`` for one body at depth
+    ``z_cells``: (2 nu, z, p_scale, qx_scale, qy_scale), the tractions' scales ``scale`` / (2 pi)
+    (the stress table's factor), the sphere's shear negated (it carries -q), zero for a load not
+    in ``loads`` (p, q_x, q_y)."""
+    s = scale / (2.0 * math.pi)
+    q = -s if sphere else s
+    return (2.0 * nu, float(z_cells), *(v if on else 0.0 for v, on in zip((s, q, q), loads)))
+
+
+#: ``stress_spectra``'s work an entry in elementwise passes' (``SubsurfaceStress._rows``): it reads
+#: 31 complex numbers and writes 6 (n = 1024, one CPU thread: about 110 ms a body, against about
+#: 15 ms for a pass that reads one field and writes one)
+STRESS_SPECTRA_WORK = 8
+
+
 # ---------------------------------------------------------------------------------------------
 # Memory.
-
-
-def body_tables(pair, bodies, z_cells: float, loads=(True, True, True)) -> dict:
-    """Each of ``bodies``' stress table at depth ``z_cells`` ((6, 3, 14): component, load, basis;
-    ``stress_table`` of its Poisson ratio), the sphere's shear columns negated (it carries -q),
-    the columns of the loads not given (``loads``: p, q_x, q_y) zeroed."""
-    tables = {}
-    for name in bodies:
-        table = stress_table(pair.elastic[name].nu, z_cells)
-        if name == "sphere":
-            table[:, 1:, :] *= -1.0
-        table[:, [not on for on in loads], :] = 0.0
-        tables[name] = table
-    return tables
-
-
-@functools.lru_cache(maxsize=256)
-def affine_terms(nu: float, sphere: bool, loads: tuple) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """A body's stress table as an affine function of the depth z [cells]: (terms, constant,
-    slope), the table's non-zero terms (``table_terms``' order, only the first ``len(constant)``
-    rows) and their coefficients c0 + z c1. Each entry of ``stress_table`` is a constant or +-z,
-    so its non-zero terms at z = 1 are those at every z > 0 (``body_tables``' sign and ``loads``
-    for a ``sphere`` or the flat). Read-only arrays (cached)."""
-    name = "sphere" if sphere else "flat"
-    pair = SimpleNamespace(elastic={name: SimpleNamespace(nu=nu)})
-    at0, at1 = (body_tables(pair, (name,), z, loads)[name] for z in (0.0, 1.0))
-    terms, _, count = table_terms(at1)
-    c, l, b = terms[:count].T
-    constant = at0[c, l, b]
-    out = terms[:count], constant, at1[c, l, b] - constant
-    for a in out:
-        a.flags.writeable = False
-    return out
-
-
-def table_terms(table: np.ndarray) -> tuple[np.ndarray, np.ndarray, int]:
-    """The non-zero terms of a stress table as ``stress_spectra`` sums them: (terms, weights,
-    count), terms (6 * 3 * 14, 3) int32 rows (component, load, basis) sorted by basis, then load,
-    weights their coefficients, both zero after the first ``count``."""
-    c, l, b = np.nonzero(table)
-    order = np.lexsort((c, l, b))
-    count = len(order)
-    terms = np.zeros((table.size, 3), dtype=np.int32)
-    terms[:count] = np.stack([c, l, b], axis=1)[order]
-    weights = np.zeros(table.size)
-    weights[:count] = table[c, l, b][order]
-    return terms, weights, count
 
 
 def memory_bytes(n: int, dtype, fft: str, depths: int, volume: bool = False) -> dict:
@@ -446,10 +424,8 @@ class SubsurfaceStress:
             self._stress_spectra = wp.empty((6 * spec[0], spec[1]), dtype=cplx)
             self._stress = wp.empty((6, n, n), dtype=self.dtype)
             self._derived = wp.empty((6, n, n), dtype=self.dtype)
-            self._parity = wp.array(np.array(BASIS_PARITY, dtype=np.int32), dtype=int)
-            # the non-zero terms of a body's stress table (``_body_stress``), at most all of them
-            self._terms = wp.zeros(6 * 3 * len(BASIS), dtype=wp.vec3i)
-            self._weights = wp.zeros(6 * 3 * len(BASIS), dtype=self.dtype)
+            # each basis's spectrum in the stack (its own index), -1 for a basis the loads do not use
+            self._slots = wp.zeros(len(BASIS), dtype=int)
             self._row_values = wp.zeros(n, dtype=self.dtype)
             self._row_columns = wp.zeros(n, dtype=int)
             self._line = wp.zeros((6, n), dtype=self.dtype)
@@ -471,9 +447,8 @@ class SubsurfaceStress:
         rows split in blocks over the CPU's threads as the solvers' launches are
         (``LaunchCache.split``, its threshold and threads); one plain launch on CUDA (the
         arguments change with the depth and the basis, so a recorded launch would not repeat).
-        ``work``: the kernel's work an entry in elementwise passes' (``stress_spectra``: its terms,
-        14-44 products an entry), which lowers the entries from which it is split in proportion
-        (at n = 128 a body's stress spectra took 9.8 ms on one thread, 33,000 entries)."""
+        ``work``: the kernel's work an entry in elementwise passes' (``STRESS_SPECTRA_WORK``), which
+        lowers the entries from which it is split in proportion."""
         from .launch import FirstRow
 
         if self.device.is_cuda:
@@ -484,20 +459,15 @@ class SubsurfaceStress:
         self.launches.split(kernel, shape, lambda r0, r1: ((r1 - r0, columns), args), args, outputs,
                             min_entries=-(-self.launches.min_split_entries // max(1, int(work))))
 
-    def _tables(self, z_cells: float) -> dict:
-        """Each body's stress table at depth ``z_cells`` (``body_tables``)."""
-        return body_tables(self.pair, self.bodies, z_cells, self._loads)
-
-    def _basis_spectra(self, z_cells: float, tables: dict):
-        """The spectra of the weighted basis quadrants at depth ``z_cells`` that ``tables`` use
-        (a pressure alone uses 8 of the 14)."""
+    def _basis_spectra(self, z_cells: float):
+        """The spectra of the weighted basis quadrants at depth ``z_cells`` that the loaded
+        tractions use (``used_bases``: a pressure alone uses 8 of the 14)."""
         import warp as wp
 
         from warpcontact.kernels import stress as ks
 
         n = self.grid.n
-        used = np.any([(t != 0).any(axis=(0, 1)) for t in tables.values()], axis=0)
-        for b in (int(k) for k in np.flatnonzero(used)):
+        for b in used_bases(self._loads):
             self._rows(ks.basis_corners, (n + 1, n + 1), [b, wp.float64(z_cells)], [self._corners])
             self._rows(ks.basis_quadrant, (n, n), [self._corners, 1], [self._field])
             self.fft.forward(self._field, self._spectrum(self._basis, b))
@@ -534,21 +504,20 @@ class SubsurfaceStress:
             self._field.assign(np.ascontiguousarray(t / self.pair.E_star, dtype=self.np_dtype))
             self.fft.forward(self._field, self._spectrum(self._traction, k))
         self._loads = tuple(loads)
+        used = used_bases(self._loads)
+        self._slots.assign(np.array([b if b in used else -1 for b in range(len(BASIS))], dtype=np.int32))
 
-    def _body_stress(self, table: np.ndarray) -> None:
-        """The six stress components of a body into ``self._stress`` (scaled by E*) from the
-        loaded traction spectra and the basis spectra of its depth (:meth:`_basis_spectra`):
-        ``table`` its stress table there (:meth:`_tables`), of which the non-zero terms are
-        summed, sorted by basis and load (``kernels/stress.py``, ``stress_spectra``)."""
+    def _body_stress(self, name: str, z_cells: float) -> None:
+        """The six stress components of body ``name`` into ``self._stress`` (scaled by E*) from the
+        loaded traction spectra and the basis spectra of its depth ``z_cells`` (:meth:`_basis_spectra`):
+        its stress table's terms (``kernels/stress.py``, ``stress_spectra``; ``body_coefficients``)."""
         from warpcontact.kernels import stress as ks
 
-        terms, weights, count = table_terms(table)
-        self._terms.assign(terms)
-        self._weights.assign(weights.astype(self.np_dtype))
+        coefficients = body_coefficients(self.pair.elastic[name].nu, name == "sphere", z_cells, self._loads)
         self._rows(ks.stress_spectra, self.fft.spectral_shape,
-                   [self._basis, self._traction, self._terms, self._weights, count, self._parity,
+                   [self._basis, self._traction, self._slots, *(self.dtype(c) for c in coefficients),
                     self.fft.half_axis, self.fft.spectral_shape[0]],
-                   [self._stress_spectra], work=count)
+                   [self._stress_spectra], work=STRESS_SPECTRA_WORK)
         for k in range(6):
             self.fft.inverse(self._spectrum(self._stress_spectra, k), self._stress[k])
 
@@ -563,10 +532,9 @@ class SubsurfaceStress:
         depths = check_depths(depths)
         out = {name: np.zeros((len(depths), 3)) for name in self.bodies}
         for k, z in enumerate(depths):
-            tables = self._tables(z / dx)
-            self._basis_spectra(z / dx, tables)
+            self._basis_spectra(z / dx)
             for name in self.bodies:
-                self._body_stress(tables[name])
+                self._body_stress(name, z / dx)
                 self._launch(ks.von_mises_field, (n, n), [self._stress], [self._derived])
                 v, r, col = self._row_max(0)
                 out[name][k] = (v * self.pair.E_star, self.grid.x[col], self.grid.y[r])
@@ -610,11 +578,10 @@ class SubsurfaceStress:
         xs, ys = self.grid.x, self.grid.y
         for k, z in enumerate(self.depths):
             z_cells = z / dx
-            tables = self._tables(z_cells)
-            self._basis_spectra(z_cells, tables)
+            self._basis_spectra(z_cells)
             for name in self.bodies:
                 body = bodies[name]
-                self._body_stress(tables[name])
+                self._body_stress(name, z_cells)
                 self._launch(ks.derived_fields, (n, n), [self._stress], [self._derived])
                 for which, key in ((0, "von_mises"), (1, "tresca")):
                     v, r, col = self._row_max(which)

@@ -9,15 +9,15 @@ chunk: ``kernels/stress.py``'s plane kernels (the 14 weighted basis quadrants of
 stress spectra of every body at every plane, each case's materials and tractions; the largest
 von Mises stress along every row), the transforms batched by the FFT library (``fft.batch``:
 scipy.fft on the CPU, CuPy's cuFFT on CUDA), and one read of the row maxima a chunk. The method
-and its numbers are ``SubsurfaceStress``': the same basis integrals, tables and combination
-(``combine_spectra``), so a plane's maxima equal its evaluation alone to round-off.
+and its numbers are ``SubsurfaceStress``': the same basis integrals and combination
+(``body_stress_spectra``), so a plane's maxima equal its evaluation alone to round-off.
 """
 
 from __future__ import annotations
 
 import numpy as np
 
-from .stress import BASIS, BASIS_PARITY, BODIES, affine_terms
+from .stress import BASIS, BODIES, body_coefficients, used_bases
 
 #: bytes a chunk of planes may take on a device (its stacks and the library's work arrays): a
 #: plane must fit in this much for a check to be made by planes (``yielding.checks_by_planes``)
@@ -150,32 +150,21 @@ class PlaneStress:
 
         from warpcontact.kernels import stress as ks
 
-        nb = len(BASIS)
         n, rows, cols, bodies = self.n, self.rows, self.cols, len(BODIES)
         p_count, q_count = len(planes), len(planes) * bodies
-        width = 6 * 3 * nb
         scale = 1.0 / (4 * n * n)  # the inverse transforms' (``_inverse``)
-        terms = np.zeros((q_count * width, 3), dtype=np.int32)
-        weights = np.zeros(q_count * width)
-        counts = np.zeros(q_count, dtype=np.int32)
-        # each case's tables as affine functions of the depth (``affine_terms``): {body: (terms,
-        # constant, slope)}, a plane's weights constant + z slope
-        forms = {}
-        for c in {c for c, _ in planes}:
-            forms[c] = {name: affine_terms(e.nu, name == "sphere", loaded[c]) for name, e in pairs[c].elastic.items()}
-        # the bases any table uses (8 of the 14 for pressures alone), each in a slot of its own
-        used = np.unique([b for f in forms.values() for t, _, _ in f.values() for b in t[:, 2]]).astype(np.int64)
-        slot = np.zeros(nb, dtype=np.int32)
-        slot[used] = np.arange(len(used))
+        # each body's arguments of ``body_stress_spectra`` at its plane (zero for a rigid body: a
+        # zero stress)
+        coefficients = np.zeros((q_count, 5))
         for p, (c, z) in enumerate(planes):
             for b, name in enumerate(BODIES):
-                if name in forms[c]:  # a rigid body: no terms, a zero stress
-                    t, constant, slope = forms[c][name]
-                    q, count = p * bodies + b, len(constant)
-                    at = slice(q * width, q * width + count)
-                    terms[at, :2], terms[at, 2] = t[:, :2], slot[t[:, 2]]
-                    weights[at] = (constant + z * slope) * scale
-                    counts[q] = count
+                if name in pairs[c].elastic:
+                    coefficients[p * bodies + b] = body_coefficients(pairs[c].elastic[name].nu, name == "sphere", z,
+                                                                     loaded[c], scale)
+        # the bases any case's loads use (8 of the 14 for pressures alone), each in a slot of its own
+        used = np.array(used_bases(np.any([loaded[c] for c in {c for c, _ in planes}], axis=0)), dtype=np.int64)
+        slots = np.full(len(BASIS), -1, dtype=np.int32)
+        slots[used] = np.arange(len(used))
         # the basis spectra depend on the depth alone: once per distinct depth of the chunk (the
         # cases of a sweep over delta_x share their contact radius, so their depths)
         distinct, plane_depth = np.unique(np.array([z for _, z in planes], dtype=np.float64), return_inverse=True)
@@ -191,13 +180,12 @@ class PlaneStress:
         basis_spectra = wp.empty((k * rows, cols), dtype=self.vector)
         self._forward(quadrants, basis_spectra)
         del quadrants
-        parity = wp.array(np.array(BASIS_PARITY, dtype=np.int32)[used], dtype=int)
         stress_spectra = wp.empty((q_count * 6 * rows, cols), dtype=self.vector)
         wp.launch(ks.plane_stress_spectra, dim=(q_count, rows, cols),
                   inputs=[basis_spectra, traction_spectra, plane_case,
                           wp.array(plane_depth.astype(np.int32).ravel(), dtype=int), bodies, len(used),
-                          wp.array(terms, dtype=wp.vec3i), wp.array(weights.astype(self.np_dtype), dtype=self.dtype),
-                          wp.array(counts, dtype=int), parity, 1, rows],
+                          wp.array(slots, dtype=int), wp.array(coefficients.astype(self.np_dtype), dtype=self.dtype),
+                          1, rows],
                   outputs=[stress_spectra])
         del basis_spectra
         stress = wp.empty((q_count * 6, n, n), dtype=self.dtype)
