@@ -109,6 +109,32 @@ def support_box(field: wp.array2d(dtype=Any), box: wp.array(dtype=wp.int32)):
 
 
 @wp.kernel
+def support_box_rows(field: wp.array2d(dtype=Any), box: wp.array(dtype=wp.int32)):
+    """``support_box`` for the CPU, which runs the threads one after another: a thread a row,
+    scanning it from each end to its first and to its last cell where ``field`` > 0 (neighbouring
+    reads in memory order, and a row in contact read only outside its support: at n = 1024, a
+    contact 582 cells wide, 2.2-2.7 ms against 4.5 ms for the threads of one column each)."""
+    i = wp.tid()
+    n = field.shape[1]
+    zero = field[0, 0] - field[0, 0]
+    first = int(-1)
+    for j in range(n):
+        if field[i, j] > zero:
+            first = j
+            break
+    if first >= 0:
+        last = first
+        for j in range(n - 1, first, -1):
+            if field[i, j] > zero:
+                last = j
+                break
+        wp.atomic_min(box, 0, i)
+        wp.atomic_max(box, 1, i)
+        wp.atomic_min(box, 2, first)
+        wp.atomic_max(box, 3, last)
+
+
+@wp.kernel
 def closing_box(pressure: wp.array2d(dtype=Any), initial_gap: wp.array2d(dtype=Any), disp_z: wp.array2d(dtype=Any),
                 known: wp.array2d(dtype=Any), approach: Any, box: wp.array(dtype=wp.int32)):
     """As ``support_box``, the box of the cells in contact (``pressure`` > 0) or closed at the
@@ -195,7 +221,7 @@ def gather_rows(source: wp.array2d(dtype=Any), rows: wp.array(dtype=wp.int32), l
     stack[layers * c + layer, k] = value
 
 
-for _k in (crop, embed, support_box, closing_box, batch_support_box, batch_crop, batch_put_back, batch_copy_rows,
+for _k in (crop, embed, support_box, support_box_rows, closing_box, batch_support_box, batch_crop, batch_put_back, batch_copy_rows,
            restrict_mean_stack, gather_rows):
     register_float_overloads(_k)
 for _k in (crop, embed):

@@ -75,6 +75,37 @@ def shear_problem(model, state, delta_x):
     return target_x, f(), q_max
 
 
+def test_the_cpus_row_scan_finds_the_support_box_the_column_scan_finds():
+    """``support_box_rows`` (the CPU's: a thread a row, scanning from each end) and ``support_box``
+    (a thread a block of one column's rows) give the same box (first row, last row, first
+    column, last column) of the cells > 0: no cell, every cell, one cell in a corner or on an
+    edge, a disk off centre, a ring, negative values beside positive ones, on a grid whose rows
+    are no multiple of the column scan's block; exactly (integers)."""
+    import warp as wp
+
+    from warpcontact.kernels import grids as gk
+
+    n = 150
+    y, x = np.mgrid[0:n, 0:n]
+    r2 = (x - 97.3) ** 2 + (y - 40.1) ** 2
+    fields = [np.zeros((n, n)), np.ones((n, n)), np.where(r2 < 30 ** 2, 1.0, 0.0),
+              np.where((r2 > 20 ** 2) & (r2 < 25 ** 2), 2.0, -1.0), np.sin(0.3 * x) * np.cos(0.2 * y)]
+    for i, j in ((0, 0), (n - 1, n - 1), (0, n - 1), (n - 1, 0), (77, 0), (0, 63)):
+        one = np.zeros((n, n))
+        one[i, j] = 1e-300
+        fields.append(one)
+    for field in fields:
+        boxes = []
+        for kernel, dim in ((gk.support_box, (-(-n // int(gk.SUPPORT_ROWS)), n)), (gk.support_box_rows, n)):
+            box = wp.array(np.array([n, -1, n, -1], dtype=np.int32), device="cpu")
+            wp.launch(kernel, dim, [wp.array(field, dtype=wp.float64, device="cpu")], [box], device="cpu")
+            boxes.append(box.numpy())
+        inside = np.argwhere(field > 0)
+        expected = [n, -1, n, -1] if not len(inside) else [inside[:, 0].min(), inside[:, 0].max(),
+                                                           inside[:, 1].min(), inside[:, 1].max()]
+        assert boxes[0].tolist() == boxes[1].tolist() == expected
+
+
 @pytest.mark.parametrize("dtype", ["float64", "float32"])
 def test_window_solve_is_the_whole_grid_solve(device, dtype):
     """The tangential problem of a Hertz contact half the domain wide (n = 64, window 32) with the

@@ -319,7 +319,11 @@ class TangentialSolver(ProjectedCG):
         n = m.grid.n
         self._box.assign(np.array([n, -1, n, -1], dtype=np.int32))
         for field in (shear_limit, pressure):
-            if field is not None:
+            if field is None:
+                continue
+            if m.device.is_cpu:  # (a thread a row: the CPU runs the threads one after another)
+                m.launch(gk.support_box_rows, n, [field], [self._box])
+            else:
                 m.launch(gk.support_box, (-(-n // int(gk.SUPPORT_ROWS)), n), [field], [self._box])
         first_row, last_row, first_col, last_col = (int(v) for v in self._box.numpy())
         if last_row < 0:
