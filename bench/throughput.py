@@ -174,7 +174,8 @@ def swept(path: Path, batch: int) -> dict:
 
 def batched(cases: list, batch: int, own_checks: bool = False, plain_tangential: bool = False,
             padded: bool = False) -> dict:
-    """``batch B``: ``solve_batch`` with batches of B cases; ``own_checks``: each case's yield
+    """``batch B``: ``solve_batch`` with batches of B cases (None: its default, the row ``solve_batch
+    default``: on the CPU one at a time); ``own_checks``: each case's yield
     check made on its own (as on the CPU), not the batch's together; ``plain_tangential``: the
     batched tangential solves' plain iteration (``BatchContactSolver.tangential_preconditioned``
     False) instead of the preconditioned one; ``padded``: the batched preconditioners on the
@@ -202,7 +203,7 @@ def batched(cases: list, batch: int, own_checks: bool = False, plain_tangential:
 
     batch_solve.run_path = counted
     try:
-        wc.solve_batch(cases[:batch], batch=batch)  # warm-up: kernels, plans of this batch size
+        wc.solve_batch(cases[:batch or 8], batch=batch)  # warm-up: kernels, plans of this batch size
         alone.clear()
         t0 = time.perf_counter()
         results = wc.solve_batch(cases, batch=batch)
@@ -212,7 +213,7 @@ def batched(cases: list, batch: int, own_checks: bool = False, plain_tangential:
         BatchContactSolver.tangential_preconditioned = True
         BatchConvolution.periodic_preconditioner = BatchElasticOperator.periodic_preconditioner = True
     assert all(not isinstance(r, Exception) and r.converged for r in results), "a case did not converge"
-    return {"placement": f"batch {batch}" + (", own checks" if own_checks else "")
+    return {"placement": (f"batch {batch}" if batch else "solve_batch default") + (", own checks" if own_checks else "")
             + (", plain tangential" if plain_tangential else "")
             + (", padded preconditioners" if padded else ""), "workers": 1,
             "cases": len(cases), "start_s": 0.0, "wall_s": wall, "solved_alone": len(alone)}
@@ -352,6 +353,8 @@ def main(argv=None):
                          "SMC law; normal: no friction, one step; gross-slip: the coupled case's gross-slip search")
     ap.add_argument("--batches", type=int, nargs="*", default=[16, 64],
                     help="batch sizes of the batched rows (none: no batched row)")
+    ap.add_argument("--default-batch", action="store_true",
+                    help="normal: add a row of solve_batch without --batch (its default: on the CPU one at a time)")
     ap.add_argument("--batched-workers", action="store_true",
                     help="add the workers' rows with the sweep's default batching (each worker its share together)")
     ap.add_argument("--own-checks", action="store_true",
@@ -387,6 +390,8 @@ def main(argv=None):
             cases = normal_cases(n, args.cases, args.device, args.dtype)
             base = one_at_a_time(cases)
             runs = [base] + [batched(cases, b) for b in args.batches]
+            if args.default_batch:
+                runs.append(batched(cases, None))
             if args.own_checks:
                 runs.append(one_at_a_time(cases, own_checks=True))
                 if args.batches:

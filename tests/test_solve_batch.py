@@ -66,7 +66,7 @@ def test_a_batch_of_cases_gives_each_what_solve_gives(device):
         case(flat={"E": 120e9, "nu": 0.35}, sphere={"profile": "sphere"}),
         case(load={"path": [[0, 0, 1e-9], [0, 0, 0.5e-9]]}),
     ]
-    batched = quiet(wc.solve_batch, cases, device=device)
+    batched = quiet(wc.solve_batch, cases, device=device, batch=len(cases))
     for c, result in zip(cases, batched):
         assert str(result.model.device).startswith(device)
         assert_same_path(result, quiet(wc.solve, c, device=device, fields="none"), rel=1e-8)
@@ -91,7 +91,7 @@ def test_other_shapes_in_one_batch(tmp_path):
                               "pixel_size": 2.5e-8 / 32, "E": 100e9, "nu": 0.3},
          "load": {"delta_z": 6e-10}},  # the cells' lowest gap is 3.5e-10 m (the map's lowest pixel between them)
     ]
-    for c, result in zip(cases, quiet(wc.solve_batch, cases)):
+    for c, result in zip(cases, quiet(wc.solve_batch, cases, batch=3)):
         single = quiet(wc.solve, c, fields="none")
         assert_same_path(result, single, rel=1e-8)
         assert result.states[-1]["contact_patches"] == single.states[-1]["contact_patches"]
@@ -103,9 +103,9 @@ def test_batches_smaller_than_the_cases_and_float32():
     of 3; in float32 (tolerance 1e-5 on the relative residual) the forces are within 1e-4 of
     float64's (the residual's tolerance and float32's rounding of the sums, about 1e-6)."""
     cases = [case(load={"delta_z": dz}) for dz in (0.5e-9, 0.8e-9, 1e-9)]
-    whole = quiet(wc.solve_batch, cases)
+    whole = quiet(wc.solve_batch, cases, batch=3)
     parts = quiet(wc.solve_batch, cases, batch=2)
-    single32 = quiet(wc.solve_batch, cases, dtype="float32")
+    single32 = quiet(wc.solve_batch, cases, dtype="float32", batch=3)
     for a, b, c in zip(whole, parts, single32):
         assert a.states[-1]["force"]["z"] == pytest.approx(b.states[-1]["force"]["z"], rel=1e-12)
         assert c.states[-1]["force"]["z"] == pytest.approx(a.states[-1]["force"]["z"], rel=1e-4)
@@ -113,9 +113,12 @@ def test_batches_smaller_than_the_cases_and_float32():
 
 
 def test_friction_cases_go_one_at_a_time_and_a_failing_case_leaves_the_others(monkeypatch):
-    """A case with friction is solved as solve solves it; a case of the batch whose state fails
-    its check (here a contact check made to refuse its approach, as a contact past the domain's
-    edge is refused) gets the InputError in its place, and the cases beside it their results."""
+    """Without ``batch`` on the CPU, cases with friction and of normal contact are solved as solve
+    solves them (the batched solve's own passes are not run); with it, a case of the batch whose
+    state fails its check (here a contact check made to refuse its approach, as a contact past the
+    domain's edge is refused) gets the InputError in its place, and the cases beside it their
+    results."""
+    from warpcontact.solvers.normal_batch import BatchNormalSolver
     from warpcontact.studies import batch_solve
 
     refused = 0.7e-9
@@ -126,17 +129,39 @@ def test_friction_cases_go_one_at_a_time_and_a_failing_case_leaves_the_others(mo
             raise InputError("grid.size", "the contact reaches the domain's edge")
         checked(state, *args, **kwargs)
 
+    batched = []
+    solve = BatchNormalSolver.solve
+    monkeypatch.setattr(BatchNormalSolver, "solve", lambda self, *a, **kw: batched.append(1) or solve(self, *a, **kw))
     monkeypatch.setattr(batch_solve, "check_contact_fits", check)
     friction = case(load={"delta_z": 1e-9, "delta_x": 2e-10, "steps": 2}, friction={"law": "coulomb", "mu": 0.3})
     failing = case(load={"delta_z": refused})
     normal = case()
     ended = []
-    results = quiet(wc.solve_batch, [friction, failing, normal], on_case=lambda i, r: ended.append(i))
-    assert sorted(ended) == [0, 1, 2]
+    results = quiet(wc.solve_batch, [friction, normal], on_case=lambda i, r: ended.append(i))
+    assert sorted(ended) == [0, 1] and not batched
     single = quiet(wc.solve, friction, fields="none")
     assert results[0].states[-1]["force"]["x"] == pytest.approx(single.states[-1]["force"]["x"], rel=1e-12)
-    assert isinstance(results[1], InputError) and "grid.size" in str(results[1])
-    assert_same_path(results[2], quiet(wc.solve, normal, fields="none"), rel=1e-8)
+    assert_same_path(results[1], quiet(wc.solve, normal, fields="none"), rel=1e-8)
+    results = quiet(wc.solve_batch, [failing, normal], batch=2)
+    assert batched
+    assert isinstance(results[0], InputError) and "grid.size" in str(results[0])
+    assert_same_path(results[1], quiet(wc.solve, normal, fields="none"), rel=1e-8)
+
+
+def test_cases_solved_one_at_a_time_share_a_model_where_it_is_the_same(monkeypatch):
+    """Cases solved one at a time (without ``batch`` on the CPU) build a model only where it
+    differs from the case before's (materials, body, grid, device, float type): three cases on two
+    models, in the order A A B, build two; each result is solve's."""
+    from warpcontact.studies import batch_solve
+
+    built = []
+    build = batch_solve.build_model
+    monkeypatch.setattr(batch_solve, "build_model", lambda c: built.append(c) or build(c))
+    cases = [case(load={"delta_z": 0.8e-9}), case(), case(flat={"E": 120e9, "nu": 0.35})]
+    results = quiet(wc.solve_batch, cases)
+    assert len(built) == 2 and built[1].pair.flat.E == 120e9
+    for c, result in zip(cases, results):
+        assert_same_path(result, quiet(wc.solve, c, fields="none"), rel=1e-12)
 
 
 @pytest.mark.parametrize("error", [RuntimeError("cuFFT refused the plan"),
@@ -159,7 +184,7 @@ def test_a_batched_solve_that_fails_leaves_its_cases_to_solve(monkeypatch, error
     monkeypatch.setattr(BatchNormalSolver, "solve", failing)
     cases = [case(), case(load={"delta_z": 0.6e-9, "steps": 3})]
     with pytest.warns(RuntimeWarning, match=str(error).split(":")[-1].strip()):  # (beside the coarse grid's)
-        results = wc.solve_batch(cases)
+        results = wc.solve_batch(cases, batch=2)
     for c, result in zip(cases, results):
         assert_same_path(result, quiet(wc.solve, c, fields="none"), rel=1e-8)
 
@@ -168,7 +193,7 @@ def test_fields_are_kept_as_solve_keeps_them():
     """fields="last": the last state's fields as solve keeps them (pressure within 1e-8 of its
     largest, as the forces)."""
     c = case(load={"delta_z": 1e-9, "steps": 2})
-    (batched,) = quiet(wc.solve_batch, [c], fields="last")
+    (batched,) = quiet(wc.solve_batch, [c], fields="last", batch=1)
     single = quiet(wc.solve, c, fields="last")
     assert batched.field_states == single.field_states == [1]
     p, q = batched.fields[0]["pressure"], single.fields[0]["pressure"]

@@ -67,8 +67,10 @@ def solve_batch(cases, device=None, dtype=None, fft=None, fields: str = "none", 
     """Solve many cases, together where their solves batch: one entry per case, in order, what
     [`solve`][warpcontact.solve] returns for it.
 
-    Cases of one grid size, device and float type are solved ``batch`` at a time (default: 8 on
-    the CPU, up to 256 on CUDA as half the free memory allows): each state of their load paths by
+    Cases of one grid size, device and float type are solved ``batch`` at a time (default on CUDA:
+    up to 256 as half the free memory allows; on the CPU one at a time unless ``batch`` is given,
+    for there a batch saves the launches' overhead but not their work: docs/performance.md): each
+    state of their load paths by
     one batched step whose kernels and transforms are launched once for all of them, each case
     with its own materials, law, load path and convergence: normal contact by
     [`BatchNormalSolver`][warpcontact.solvers.normal_batch.BatchNormalSolver], contact with
@@ -89,7 +91,9 @@ def solve_batch(cases, device=None, dtype=None, fft=None, fields: str = "none", 
     given or they run on CUDA, 32 or more of one grid size (``batch_solve.FRICTION_MIN_BATCH``: on
     the CPU a batch pays on small grids only, 1.5x at n = 64 and 0.75x at 256 on 2 cores); so are
     a batch's cases where the batched solve itself fails (a device's refusal, a library's error, no CuPy on CUDA: one
-    RuntimeWarning says why). A case that fails (a contact past its domain's edge) has the exception in its place and
+    RuntimeWarning says why). Cases solved one at a time share the model (influence spectra,
+    transforms) of the case before where their materials, body, grid, device and float type are
+    the same. A case that fails (a contact past its domain's edge) has the exception in its place and
     the others go on; a mistake in a case's
     tables raises ``InputError`` before anything is solved. ``cases``: a list of cases as
     [`solve`][warpcontact.solve] takes them; ``device``, ``dtype``, ``fft``: overrides for all;

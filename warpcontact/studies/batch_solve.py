@@ -38,8 +38,8 @@ from ..solvers.contact_batch import BatchContactSolver, adhesion_parameters, law
 from ..solvers.normal_batch import BatchNormalSolver
 from .runner import PathRecorder, adhesion_law, build_model, friction_law, pressure_cap, run_path
 
-#: cases a batch holds at most by default: on the CPU a batch saves the per-case overhead of the
-#: launches but not their work; on CUDA it is bounded by the device's free memory
+#: cases a batch holds at most by default (on the CPU where ``batch`` asks for batches without
+#: saying how large: a sweep's ``--batch``); on CUDA bounded by the device's free memory too
 DEFAULT_BATCH = {"cpu": 8, "cuda": 256}
 #: values a case of a batch takes per cell, at most: seven fields, the padded grid of the transform
 #: and of its inverse (four values a cell each), their spectrum (about four) and the library's work
@@ -68,6 +68,18 @@ FRICTION_MIN_BATCH = 32
 #: processes, two runs each: n = 128 3.6-3.9 s batched against 5.9-6.3 s one at a time, n = 256
 #: 5.7-6.8 s against 7.0-8.7 s, n = 512 14.1-14.9 s against 9.9 s (docs/performance.md)
 FEW_SEARCHES_MAX_N = 256
+
+
+def normal_batched(is_cuda: bool, batch: int | None) -> bool:
+    """Whether cases of normal contact of one grid size are solved by batched solves: where
+    ``batch`` asks (not 0), else on CUDA. On the CPU not by default: there a batch saves the
+    launches' overhead but not their work, and its passes go over every case of the batch until
+    the last has converged (2 CPU cores, 32 Hertz cases at n = 256: their solves 2.3-3.6 s batched by
+    8 or 32 against 1.3-2.1 s one at a time; docs/performance.md, "Many cases of normal contact
+    solved together")."""
+    if batch is not None:
+        return batch > 0
+    return is_cuda
 
 
 def friction_batched(count: int, is_cuda: bool, batch: int | None) -> bool:
@@ -173,9 +185,17 @@ def _solve_all(cases: list, fields: str, batch: int | None, on_case) -> list:
     outcomes = _Outcomes(len(cases), on_case)
     done, results, ended = outcomes.done, outcomes.results, outcomes.ended
 
-    def alone(index):  # one case as solve solves it
+    kept: dict = {}  # the model of the last case solved on its own, for the next one on the same
+
+    def alone(index):  # one case as solve solves it, on the model of the one before where it is the same
+        case = cases[index]
+        key = (_model_key(case, index), str(resolve_device(case.solver.device)), case.solver.dtype)
         try:
-            result = run_path(cases[index], fields=fields)
+            model = kept.get(key)
+            if model is None:
+                kept.clear()  # (its memory first)
+                model = kept[key] = build_model(case)
+            result = run_path(case, fields=fields, model=model)
         except Exception as e:  # noqa: BLE001 (the case's failure is its result)
             result = e
         done(index, result)
@@ -189,10 +209,12 @@ def _solve_all(cases: list, fields: str, batch: int | None, on_case) -> list:
         key = (case.grid.n, str(resolve_device(s.device)), s.dtype, case.friction is not None, case.adhesion is not None)
         groups.setdefault(key, []).append(index)
     for (n, device, dtype, friction, adhesion), indices in groups.items():
-        if friction and not friction_batched(len(indices), wp.get_device(device).is_cuda, batch):
+        is_cuda = wp.get_device(device).is_cuda
+        if not (friction_batched(len(indices), is_cuda, batch) if friction else normal_batched(is_cuda, batch)):
             for index in indices:
                 alone(index)
             continue
+        kept.clear()  # (the device's memory for the batch)
         try:
             size = batch_size(n, device, resolve_dtype(dtype), len(indices), batch, friction, adhesion)
             kind = BatchContactSolver if friction else BatchNormalSolver
