@@ -35,8 +35,8 @@ Paths (``--paths``, names or "all"; default: the examples and the extras):
 
 ``--choices one-thread plain-launches``: the launch layer's alternatives beside ``auto`` (on the
 CPU, launches not split over its threads; and every launch a plain ``wp.launch``).
-``--choices slip-separate``: with adhesion, a turn's slip and the shear's normal displacement from
-separate products (``ContactSolver.shared_transforms`` False).
+``--choices slip-separate``: a turn's slip with adhesion, the shear's normal displacement and a
+step's final slip from separate products (``ContactSolver.shared_transforms`` False).
 ``--choices turn-ratio-1e-3 turn-ratio-3e-2``: a lagged turn's inner tolerance at 1/1000 or 1/30 of
 the coupled residual instead of 1/100 (solvers/turns.py, ``TURN_TOL_RATIO``).
 

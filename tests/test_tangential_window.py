@@ -333,6 +333,48 @@ def test_a_turns_slip_and_shear_displacement_from_shared_transforms(monkeypatch)
         assert np.abs(out[True][k] - out[False][k]).max() < 1e-8 * scale, (k, np.abs(out[True][k] - out[False][k]).max() / scale)
 
 
+def test_a_steps_final_slip_from_shared_transforms(monkeypatch):
+    """Friction without adhesion, the tangential solves on the window: a step's final slip makes
+    K_tt q + K_tp p on the whole grid from one forward transform of each traction
+    (``ElasticOperator.coupled_shear`` without the shear's normal displacement), where the separate
+    products add K_tp p to the known displacements and then make K_tt q: the same sum in another
+    order. The first step's final slip is the second step's slip history, whose rounding changes
+    that step's start, and its turns stop at a relative change of 1e-8: as on the window against
+    the whole grid, the tractions within 1e-6 of their largest (measured 1.4e-8, shear_y), the
+    slip and displacements within 1e-8 (measured 2.5e-9). One shared product a step, and two
+    inverse transforms of the whole grid fewer a step (counted: the backend's inverse passes)."""
+    out, counts = {}, {}
+    for shared in (False, True):
+        monkeypatch.setattr(ContactSolver, "shared_transforms", shared)
+        model = ContactModel(PAPER_PAIR, Sphere(R), Grid(64, 4 * A))
+        op = model.operator
+        count = {"coupled_shear": 0, "inverse": 0}
+        coupled, inverse = op.coupled_shear, op.fft.inverse
+
+        def counted_coupled(*a, **k):
+            count["coupled_shear"] += 1
+            return coupled(*a, **k)
+
+        def counted_inverse(*a, **k):
+            count["inverse"] += 1
+            return inverse(*a, **k)
+
+        monkeypatch.setattr(op, "coupled_shear", counted_coupled)
+        monkeypatch.setattr(op.fft, "inverse", counted_inverse)
+        solver = ContactSolver(model, LAW, window=True)
+        state = ContactState(model)
+        for approach in ((0.0, 0.0, DZ), (DX, 0.0, DZ)):
+            assert solver.step(state, approach).converged
+            assert solver.tangential.last_window is not None
+        out[shared], counts[shared] = state.to_numpy_si(), count
+    assert counts[False]["coupled_shear"] == 0 and counts[True]["coupled_shear"] == 2, counts
+    assert counts[False]["inverse"] - counts[True]["inverse"] == 4, counts
+    for k, tol in (("pressure", 1e-6), ("shear_x", 1e-6), ("shear_y", 1e-6), ("slip_x", 1e-8), ("slip_y", 1e-8),
+                   ("disp_x", 1e-8), ("disp_y", 1e-8)):
+        scale = np.abs(out[False][k]).max()
+        assert np.abs(out[True][k] - out[False][k]).max() < tol * scale, (k, np.abs(out[True][k] - out[False][k]).max() / scale)
+
+
 def test_a_non_finite_value_in_a_window_names_the_whole_grids_cell():
     """A NaN in the shear a solve starts from, at a contact cell: the solve on the window stops
     with NonFiniteError naming the field and the cell by its row and column on the whole grid (the

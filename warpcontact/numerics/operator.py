@@ -234,12 +234,14 @@ class ElasticOperator:
         """(disp_x, disp_y) <- K_tp p + K_tt q and disp_z <- K_zt q: the tangential displacement
         of both tractions and the shear's normal one, from one forward transform of each (three
         forward transforms and three inverse, where ``cross_tangential``, ``tangential`` and
-        ``cross_normal`` make ten)."""
+        ``cross_normal`` make ten); disp_z None: the tangential displacement alone (two inverse
+        transforms)."""
         for src, buf in zip((pressure, shear_x, shear_y), self._buf):
             self.fft.forward(src, buf)
         self.spectral_product(spectral.spectral_coupled_shear, self._buf)
         for buf, dst in zip(self._buf, (disp_z, disp_x, disp_y)):
-            self.fft.inverse(buf, dst)
+            if dst is not None:
+                self.fft.inverse(buf, dst)
 
     def cross_normal(self, shear_x, shear_y, disp_z):
         """disp_z <- K_zt q: the shear's normal displacement (coupling only; two forward

@@ -81,7 +81,9 @@ class ContactSolver:
     #: with adhesion, a turn's slip after a tangential solve on a window, and the shear's normal
     #: displacement that the next turn's normal solve holds fixed, from one forward transform of
     #: pressure and shear (``ElasticOperator.coupled_shear``: six transforms of the whole grid where
-    #: the separate products make ten); False: the separate products (``bench/paths.py --choices
+    #: the separate products make ten); with or without adhesion, a step's final slip after a solve
+    #: on a window likewise, without the normal displacement (five transforms where the separate
+    #: products make seven); False: the separate products (``bench/paths.py --choices
     #: slip-separate`` compares them)
     shared_transforms = True
 
@@ -261,9 +263,15 @@ class ContactSolver:
         known_x = self.known_x if self.iterative else self.tangential.no_displacement
         known_y = self.known_y if self.iterative else self.tangential.no_displacement
         pressure = None
-        if not final and self.adhesion is not None and self.shared_transforms:
-            pressure = self.tangential.pending_pressure(state)
-        if pressure is not None:
+        if self.shared_transforms and (final or self.adhesion is not None):
+            pressure = self.tangential.pending_pressure(state, take=final)
+        if pressure is not None and final:
+            # the step's final slip where the last tangential solve ran on a window: K_tt q + K_tp p
+            # from one transform of each traction (two inverse transforms of the whole grid fewer
+            # than K_tp p added to the known displacements, then K_tt q; the same sum)
+            m.operator.coupled_shear(pressure, state.shear_x, state.shear_y, None, state.disp_x, state.disp_y)
+            disp_x, disp_y = state.disp_x, state.disp_y
+        elif pressure is not None:
             # a turn's slip where the last tangential solve ran on a window: K_tt q + K_tp p from one
             # transform of each traction, with the shear's K_zt q for the next turn's normal solve
             # (``known_displacements``); state.disp_x/y are made by the step's final slip

@@ -268,13 +268,18 @@ class TangentialSolver(ProjectedCG):
             self._add_coupling(state, pressure, known_x, known_y)
         self.model.operator.tangential(state.shear_x, state.shear_y, state.disp_x, state.disp_y)
 
-    def pending_pressure(self, state):
+    def pending_pressure(self, state, take: bool = False):
         """The pressure whose K_tp p the last solve, on a window for ``state`` with ``whole``
         False, left to add on the whole grid (``whole_displacement``); None where there is none
-        (nothing pending, or a solve without ``pressure``)."""
+        (nothing pending, or a solve without ``pressure``). ``take``: the caller makes the whole
+        grid's displacements itself (K_tt q + K_tp p at once: ``ContactSolver.update_slip``), so
+        nothing is left pending."""
         if self._pending is None or self._pending[0] is not state:
             return None
-        return self._pending[1]
+        pressure = self._pending[1]
+        if take and pressure is not None:
+            self._pending = None
+        return pressure
 
     def _add_coupling(self, state, pressure, known_x, known_y):
         """known_x/y += K_tp p on the whole grid, made in ``state.disp_x/y`` (free: K_tt q is made
