@@ -189,8 +189,8 @@ def _solve_all(cases: list, fields: str, batch: int | None, on_case) -> list:
 
     def alone(index):  # one case as solve solves it, on the model of the one before where it is the same
         case = cases[index]
-        key = (_model_key(case, index), str(resolve_device(case.solver.device)), case.solver.dtype)
         try:
+            key = (_model_key(case, index), str(resolve_device(case.solver.device)), case.solver.dtype)
             model = kept.get(key)
             if model is None:
                 kept.clear()  # (its memory first)
