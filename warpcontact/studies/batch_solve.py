@@ -38,8 +38,9 @@ from ..solvers.contact_batch import BatchContactSolver, adhesion_parameters, law
 from ..solvers.normal_batch import BatchNormalSolver
 from .runner import PathRecorder, adhesion_law, build_model, friction_law, pressure_cap, run_path
 
-#: cases a batch holds at most by default (on the CPU where ``batch`` asks for batches without
-#: saying how large: a sweep's ``--batch``); on CUDA bounded by the device's free memory too
+#: cases a batch holds at most where ``batch`` does not say: on CUDA, bounded by the device's free
+#: memory too; on the CPU batched solves run only where ``batch`` asks, at its size (the CPU's
+#: value bounds a group that a caller forms without it)
 DEFAULT_BATCH = {"cpu": 8, "cuda": 256}
 #: values a case of a batch takes per cell, at most: seven fields, the padded grid of the transform
 #: and of its inverse (four values a cell each), their spectrum (about four) and the library's work
