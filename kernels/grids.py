@@ -221,8 +221,8 @@ def gather_rows(source: wp.array2d(dtype=Any), rows: wp.array(dtype=wp.int32), l
     stack[layers * c + layer, k] = value
 
 
-for _k in (crop, embed, support_box, support_box_rows, closing_box, batch_support_box, batch_crop, batch_put_back, batch_copy_rows,
-           restrict_mean_stack, gather_rows):
+for _k in (crop, embed, support_box, support_box_rows, closing_box, batch_support_box, batch_crop, batch_put_back,
+           batch_copy_rows, restrict_mean_stack, gather_rows):
     register_float_overloads(_k)
 for _k in (crop, embed):
     wp.overload(_k, [wp.array2d(dtype=wp.int32), int, int, int, int, wp.array2d(dtype=wp.int32)])
