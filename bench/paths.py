@@ -69,6 +69,8 @@ CHOICES = {
     "auto": {},
     "nested-on": {"nested": True},
     "nested-off": {"nested": False},
+    "nested32-on": {"nested": True, "nested_float32": True},
+    "nested32-off": {"nested_float32": False},
     "window-on": {"window": True},
     "window-off": {"window": False},
     "both-off": {"nested": False, "window": False},
@@ -235,7 +237,8 @@ def run_one(name: str, n: int, choice: str, device: str, timeout: float) -> dict
     d = case_dict(name)
     d["grid"]["n"] = int(n)
     solver = d.setdefault("solver", {})
-    solver.update({"device": device, "nested": "auto", "window": "auto", "preconditioner_float32": "auto",
+    solver.update({"device": device, "nested": "auto", "nested_float32": "auto", "window": "auto",
+                   "preconditioner_float32": "auto",
                    "response_float32": "auto", **CHOICES.get(choice, CHOICES["auto"])})
     if choice in LAUNCH_CHOICES:
         d["launches"] = LAUNCH_CHOICES[choice]

@@ -7,7 +7,7 @@ from typing import Any
 
 import warp as wp
 
-from .overloads import register_float_overloads
+from .overloads import mixed_float_overloads, register_float_overloads
 
 wp.set_module_options({"enable_backward": False})
 
@@ -15,10 +15,11 @@ wp.set_module_options({"enable_backward": False})
 @wp.kernel
 def restrict_mean(fine: wp.array2d(dtype=Any), scale: Any, coarse: wp.array2d(dtype=Any)):
     """coarse[I, J] <- scale x the mean of the four fine cells it covers (a traction: scale 1; a
-    length in cells, slip: scale 1/2, the coarse cell being twice as wide)."""
+    length in cells, slip: scale 1/2, the coarse cell being twice as wide), in the coarse grid's
+    float type (``scale``'s)."""
     i, j = wp.tid()
     total = fine[2 * i, 2 * j] + fine[2 * i, 2 * j + 1] + fine[2 * i + 1, 2 * j] + fine[2 * i + 1, 2 * j + 1]
-    coarse[i, j] = scale * total / type(scale)(4.0)
+    coarse[i, j] = scale * type(scale)(total) / type(scale)(4.0)
 
 
 @wp.kernel
@@ -42,13 +43,17 @@ def restrict_status(fine: wp.array2d(dtype=wp.int32), coarse: wp.array2d(dtype=w
 
 @wp.kernel
 def prolong_constant(coarse: wp.array2d(dtype=Any), fine: wp.array2d(dtype=Any)):
-    """fine[i, j] <- coarse[i // 2, j // 2]: a traction or a status, constant over the coarse cell."""
+    """fine[i, j] <- coarse[i // 2, j // 2]: a traction or a status, constant over the coarse cell,
+    in the fine grid's type."""
     i, j = wp.tid()
-    fine[i, j] = coarse[i // 2, j // 2]
+    fine[i, j] = type(fine[i, j])(coarse[i // 2, j // 2])
 
 
 for _k in (restrict_mean, prolong_constant):
     register_float_overloads(_k)
+# a float64 grid's nested start on a float32 coarse grid (``SolverSettings.nested_float32``)
+mixed_float_overloads(restrict_mean, ("scale", "coarse"))
+mixed_float_overloads(prolong_constant, ("coarse",))
 wp.overload(prolong_constant, {"coarse": wp.array2d(dtype=wp.int32), "fine": wp.array2d(dtype=wp.int32)})
 
 

@@ -22,9 +22,9 @@ R, DZ, DX = 10e-6, 1.0e-10, 2.0e-11
 STEPS = [(0.0, 0.0, DZ), (DX, 0.0, DZ)]
 
 
-def run(n, nested, dtype="float64"):
+def run(n, nested, dtype="float64", **choices):
     model = ContactModel(PAPER_PAIR, Sphere(R), Grid(n, 4 * math.sqrt(R * DZ)), dtype=dtype)
-    solver = ContactSolver(model, TaborVonMises(0.8, PAPER_PAIR.softer.yield_strength), nested=nested)
+    solver = ContactSolver(model, TaborVonMises(0.8, PAPER_PAIR.softer.yield_strength), nested=nested, **choices)
     state = ContactState(model)
     infos, coarse = [], []
     for approach in STEPS:
@@ -50,12 +50,55 @@ def test_nested_start_gives_the_same_state(both):
 
 
 def test_nested_start_takes_fewer_fine_iterations(both):
-    """Step 2 (the slip front moves through the annulus): 66 inner iterations on 128 cells without,
-    55 with (34 more on 64 cells, a quarter of the cost each); every step converges."""
+    """Step 2 (the slip front moves through the annulus): 60 inner iterations on 128 cells without,
+    51 with (30 more on 64 cells, a quarter of the cost each); every step converges."""
     (_, plain, coarse_plain, _), (_, nested, coarse_nested, _) = both
     assert all(i.converged for i in plain + nested)
     assert coarse_plain == [0, 0] and all(c > 0 for c in coarse_nested)
     assert nested[1].iterations < plain[1].iterations
+
+
+def test_float32_coarse_grids_give_the_same_state(both):
+    """The coarse grids in float32 (``nested_float32``) only start the fine float64 step: the
+    same tolerances as the plain start's above (tractions within 1e-7 of their largest, the same
+    stick and slip cells), and the float32 start saves as many fine iterations as the float64 one
+    within a few (the coarse tolerance, 1e-6, is the same; measured 52 against 51 in step 2, 60
+    without; the tractions 2.5e-8 of their largest from the plain start's, as the float64 start's)."""
+    (plain, infos_plain, _, st_plain), (_, infos_nested, _, _) = both
+    start32, infos, coarse, st = run(128, True, nested_float32=True)
+    assert all(i.converged for i in infos) and all(c > 0 for c in coarse)
+    for name in ("pressure", "shear_x", "shear_y"):
+        scale = np.abs(plain[name]).max()
+        assert np.abs(start32[name] - plain[name]).max() < 1e-7 * scale, name
+    assert np.array_equal(st_plain, st)
+    assert infos[1].iterations < infos_plain[1].iterations
+    assert abs(infos[1].iterations - infos_nested[1].iterations) <= 5
+
+
+def test_float32_coarse_grids_chosen_by_the_fine_grid(monkeypatch):
+    """nested_float32 = "auto": float32 coarse grids from NESTED_FLOAT32_AUTO cells per side of the
+    fine grid (by device kind) on, the whole coarse chain then float32; float64 coarse grids
+    under it or where forced off; a float32 model's coarse grids are float32 either way."""
+    from warpcontact.solvers import settings as settings_module
+    from warpcontact.solvers.turns import NestedStart
+
+    monkeypatch.setitem(settings_module.NESTED_FLOAT32_AUTO, "cpu", 256)
+
+    def coarse_of(solver):
+        return next(s for s in solver.strategies if isinstance(s, NestedStart))._coarse_pair()[0]
+
+    def solver(n, dtype="float64", **choices):
+        model = ContactModel(PAPER_PAIR, Sphere(R), Grid(n, 4 * math.sqrt(R * DZ)), dtype=dtype)
+        return ContactSolver(model, TaborVonMises(0.8, PAPER_PAIR.softer.yield_strength), nested=True, **choices)
+
+    fine = solver(256)
+    assert fine.settings.nested_float32 == "auto"
+    assert coarse_of(fine).model.dtype_name == "float32"
+    assert coarse_of(coarse_of(fine)).model.dtype_name == "float32"  # the chain on from there
+    assert coarse_of(solver(128)).model.dtype_name == "float64"
+    assert coarse_of(solver(256, nested_float32=False)).model.dtype_name == "float64"
+    assert coarse_of(solver(128, nested_float32=True)).model.dtype_name == "float32"
+    assert coarse_of(solver(128, "float32", nested_float32=False)).model.dtype_name == "float32"
 
 
 def test_nested_start_needs_a_grid_that_halves():
@@ -98,6 +141,14 @@ def test_case_file_setting(tmp_path):
     with pytest.raises(InputError) as e:
         case_from_dict(data)
     assert e.value.key == "solver.nested"
+    data["solver"].update(nested=True, nested_float32=False)
+    case = case_from_dict(data)
+    assert case.to_dict()["solver"]["nested_float32"] is False
+    assert build(case)[1].settings.nested_float32 is False
+    data["solver"]["nested_float32"] = "no"
+    with pytest.raises(InputError) as e:
+        case_from_dict(data)
+    assert e.value.key == "solver.nested_float32"
 
 
 def test_auto_nests_from_the_measured_grid_of_each_device_kind():

@@ -83,6 +83,7 @@ VALUES = {
     "solver.max_turns": _integer(1),
     "solver.fft": _enum(C.FFT_BACKENDS),
     "solver.nested": {"enum": [True, False, "auto"]},
+    "solver.nested_float32": {"enum": [True, False, "auto"]},
     "solver.window": {"enum": [True, False, "auto"]},
     "solver.preconditioner_float32": {"enum": [True, False, "auto"]},
     "solver.preconditioner_grid": _enum(C.PRECONDITIONER_GRIDS),

@@ -64,11 +64,12 @@ class ContactModel:
             self.operator = ElasticOperator(pair, grid, self.device, self.dtype, fft, influence)
         self._windows: OrderedDict = OrderedDict()  # cells -> the model of a window of that side
 
-    def on_grid(self, grid: Grid) -> "ContactModel":
-        """A model of the same materials, sphere, device, float type and FFT backend on ``grid``
-        (the nested start's coarse grid, a tangential solve's window): the gap made again on it (a
-        height map resampled to its cells)."""
-        return ContactModel(self.pair, self.sphere, grid, device=self.device, dtype=self.dtype_name, fft=self.fft_name)
+    def on_grid(self, grid: Grid, dtype: str | None = None) -> "ContactModel":
+        """A model of the same materials, sphere, device, FFT backend and float type (or
+        ``dtype``) on ``grid`` (the nested start's coarse grid, a tangential solve's window): the
+        gap made again on it (a height map resampled to its cells)."""
+        return ContactModel(self.pair, self.sphere, grid, device=self.device, dtype=dtype or self.dtype_name,
+                            fft=self.fft_name)
 
     def window_model(self, cells: int) -> "ContactModel | None":
         """The model of a square window of ``cells`` per side of this grid (the same cells: the

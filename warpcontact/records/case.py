@@ -54,8 +54,8 @@ TABLES = ("sphere", "flat", "grid", "load", "solver", "friction", "adhesion")
 REQUIRED_TABLES = ("sphere", "flat", "grid", "load")
 
 GRID_KEYS = ("n", "size")
-SOLVER_KEYS = ("device", "dtype", "tol", "max_iter", "max_turns", "fft", "nested", "window", "preconditioner_float32",
-               "preconditioner_grid", "response_float32")
+SOLVER_KEYS = ("device", "dtype", "tol", "max_iter", "max_turns", "fft", "nested", "nested_float32", "window",
+               "preconditioner_float32", "preconditioner_grid", "response_float32")
 #: the grids the preconditioners' circulants may live on (``SolverSettings.preconditioner_grid``)
 PRECONDITIONER_GRIDS = ("periodic", "padded")
 FRICTION_KEYS = {"coulomb": ("law", "mu"), "tabor": ("law", "k_tau", "k_vm", "hardness_cap")}
@@ -129,6 +129,10 @@ class SolverSpec:
         nested: start each step with friction (no adhesion) from its solution on the grid of half
             the cells per side (``SolverSettings.nested``): fewer iterations on large grids. true,
             false or "auto" (the default: from 512 cells per side on the CPU, 2048 on CUDA).
+        nested_float32: in float64, the nested start's coarse grids are solved in float32
+            (``SolverSettings.nested_float32``): they only start the fine step, whose own solves
+            set the answer to the tolerance. true, false or "auto" (the default: from 1024 cells
+            per side of the fine grid on the CPU, 4096 on CUDA).
         window: solve each step's shear, and its pressure, on the smallest window of the grid that
             holds the contact (``SolverSettings.window``): the same answer, smaller transforms
             where the contact is a fraction of the domain. true, false or "auto" (the default:
@@ -157,6 +161,7 @@ class SolverSpec:
     max_turns: int = DEFAULT_MAX_TURNS
     fft: str = "auto"
     nested: bool | str = "auto"
+    nested_float32: bool | str = "auto"
     window: bool | str = "auto"
     preconditioner_float32: bool | str = "auto"
     preconditioner_grid: str = "periodic"
@@ -180,7 +185,7 @@ class SolverSpec:
         _set(self, "max_turns", _integer("solver.max_turns", self.max_turns, 1))
         _choice("solver.fft", self.fft, FFT_BACKENDS)
         _choice("solver.preconditioner_grid", self.preconditioner_grid, PRECONDITIONER_GRIDS)
-        for key in ("nested", "window", "preconditioner_float32", "response_float32"):
+        for key in ("nested", "nested_float32", "window", "preconditioner_float32", "response_float32"):
             value = getattr(self, key)
             if not (_is_bool(value) or value == "auto"):
                 raise InputError(f"solver.{key}", f"must be true, false or \"auto\", {_got(value)}")
@@ -208,7 +213,8 @@ class SolverSpec:
     def to_dict(self) -> dict:
         """All settings, the tol in effect included (so a record pins the run down)."""
         return {"device": self.device, "dtype": self.dtype, "tol": self.tol, "max_iter": self.max_iter,
-                "max_turns": self.max_turns, "fft": self.fft, "nested": self.nested, "window": self.window,
+                "max_turns": self.max_turns, "fft": self.fft, "nested": self.nested,
+                "nested_float32": self.nested_float32, "window": self.window,
                 "preconditioner_float32": self.preconditioner_float32, "preconditioner_grid": self.preconditioner_grid,
                 "response_float32": self.response_float32}
 

@@ -36,6 +36,10 @@ PRECONDITIONER_FLOAT32_AUTO = {"cpu": 512, "cuda": 2048}
 #: 1024 (windows of 512-640) within the runs' spread; on 2 CPU cores Figure 2c at n = 512 (windows
 #: of 256-320) 0.96)
 RESPONSE_FLOAT32_AUTO = {"cpu": 512, "cuda": 1024}
+#: ``nested_float32 = "auto"`` (the default): the nested start's coarse grids in float32 where the
+#: fine grid has at least these cells per side, by device kind; None: never (docs/performance.md,
+#: "The nested start's coarse grids in float32")
+NESTED_FLOAT32_AUTO = {"cpu": 1024, "cuda": None}
 
 
 @dataclass(frozen=True)
@@ -74,6 +78,11 @@ class SolverSettings:
         nested: start each step with friction and no adhesion from its solution on the grid of
             half the cells per side, itself started so in turn (True: down to 64 cells); "auto":
             from ``NESTED_AUTO_N`` cells per side (by device), each coarse grid by its own size.
+        nested_float32: in a float64 model, the nested start's coarse grids are solved in float32
+            (their tolerance ``NESTED_COARSE_TOL``, 1e-6, within float32's reach): they only start
+            the fine step, whose own solves and tolerance set the answer. "auto": from
+            ``NESTED_FLOAT32_AUTO`` cells per side of the fine grid on. No effect in a float32
+            model.
         window: solve the shear and the pressure on the smallest window of the grid that holds
             the contact (the pressure's answer judged on the whole grid); "auto": the shear from
             ``WINDOW_AUTO_N`` cells per side, the pressure from ``NORMAL_WINDOW_AUTO_N`` (by
@@ -121,6 +130,7 @@ class SolverSettings:
     turn_mixing: bool = True
     relax: float = 0.5
     nested: Choice = "auto"
+    nested_float32: Choice = "auto"
     window: Choice = "auto"
     preconditioner_float32: Choice = "auto"
     preconditioner_grid: PreconditionerGrid = "periodic"
@@ -148,7 +158,8 @@ class SolverSettings:
         for name in ("fourier_step_sums", "use_graphs"):
             if not (getattr(self, name) is None or isinstance(getattr(self, name), bool)):
                 raise ValueError(f"settings.{name}: must be True, False or None (by device), got {getattr(self, name)!r}")
-        for name, kind in (("turn_tolerance", TurnTolerance), ("turns", Turns), ("nested", Choice), ("window", Choice),
+        for name, kind in (("turn_tolerance", TurnTolerance), ("turns", Turns), ("nested", Choice),
+                           ("nested_float32", Choice), ("window", Choice),
                            ("preconditioner_float32", Choice), ("preconditioner_grid", PreconditionerGrid),
                            ("response_float32", Choice)):
             value = getattr(self, name)
@@ -173,10 +184,11 @@ class SolverSettings:
 
 
 def float32_chosen(choice, auto_from: dict, n: int, cuda: bool, float64: bool) -> bool:
-    """Whether a float32 choice (``preconditioner_float32``, ``response_float32``: True, False or
-    "auto") holds for a solver's grid of n cells per side: only beside float64 fields; "auto":
-    from ``auto_from``'s cells per side by device kind on (``PRECONDITIONER_FLOAT32_AUTO``,
-    ``RESPONSE_FLOAT32_AUTO``; None: never)."""
+    """Whether a float32 choice (``preconditioner_float32``, ``response_float32``,
+    ``nested_float32``: True, False or "auto") holds for a solver's grid of n cells per side: only
+    beside float64 fields; "auto": from ``auto_from``'s cells per side by device kind on
+    (``PRECONDITIONER_FLOAT32_AUTO``, ``RESPONSE_FLOAT32_AUTO``, ``NESTED_FLOAT32_AUTO``; None:
+    never)."""
     if choice == "auto":
         start = auto_from["cuda" if cuda else "cpu"]
         choice = start is not None and n >= start

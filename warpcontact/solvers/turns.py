@@ -31,6 +31,7 @@ from .. import interrupts
 from ..numerics.resources import allocation_refused
 from ..numerics.state import EDGE_SHARE_AT_FIRST_TURN, SolveInfo, check_contact_fits
 from .fixed_point import LocalAndersonMixing
+from .settings import NESTED_FLOAT32_AUTO, float32_chosen
 
 #: the minimised turns' inner tolerance: TURN_TOL_FACTOR x the last turn's change, at most
 #: TURN_TOL_CAP (and at least the solvers' own): loose early turns cost fewer inner iterations
@@ -425,7 +426,9 @@ class NestedStart:
             from ..physics.geometry import Grid
             from ..numerics.state import ContactState
 
-            coarse_model = m.on_grid(Grid(n // 2, m.grid.size))
+            float32 = float32_chosen(s.settings.nested_float32, NESTED_FLOAT32_AUTO, n, m.device.is_cuda,
+                                     m.dtype_name == "float64")
+            coarse_model = m.on_grid(Grid(n // 2, m.grid.size), "float32" if float32 else None)
             # the half grid starts nested in its turn where the fine one's choice says so for it: "auto"
             # by its own size (``NESTED_AUTO_N``), forced on all the way down where forced on
             nested = True if s.settings.nested is True else "auto"
@@ -446,7 +449,7 @@ class NestedStart:
         m, cm = self.solver.model, coarse.model
         half = cm.grid.shape
         for name, scale in (("slip_x", 0.5), ("slip_y", 0.5), ("pressure", 1.0), ("shear_x", 1.0), ("shear_y", 1.0)):
-            wp.launch(gk.restrict_mean, dim=half, inputs=[getattr(state, name), m.scalar(scale)],
+            wp.launch(gk.restrict_mean, dim=half, inputs=[getattr(state, name), cm.scalar(scale)],
                       outputs=[getattr(cstate, name)], device=m.device)
         wp.launch(gk.restrict_status, dim=half, inputs=[state.status], outputs=[cstate.status], device=m.device)
         info = coarse.step(cstate, approach)

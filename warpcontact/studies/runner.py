@@ -69,7 +69,8 @@ def build(case, model=None, **choices):
     if model is None:
         model = build_model(case)
     cap = pressure_cap(case)
-    settings = SolverSettings(tol=s.tol, max_iter=s.max_iter, max_turns=s.max_turns, nested=s.nested, window=s.window,
+    settings = SolverSettings(tol=s.tol, max_iter=s.max_iter, max_turns=s.max_turns, nested=s.nested,
+                              nested_float32=s.nested_float32, window=s.window,
                               preconditioner_float32=s.preconditioner_float32,
                               preconditioner_grid=s.preconditioner_grid, response_float32=s.response_float32,
                               **choices)
