@@ -401,7 +401,8 @@ class NestedStart:
     ``NESTED_AUTO_N`` on, forced on down to ``NESTED_MIN_N``), from the fine state's slip history and
     tractions restricted to it: its tractions and cell statuses start the fine step. The slip
     front then starts within a coarse cell of its place, where the projected tangential iteration
-    moves it by about one cell per iteration (``SolverSettings.nested``). A grid that does not
+    moves it by about one cell per iteration (``SolverSettings.nested``). In a float64 model the
+    coarse grids are float32 where ``SolverSettings.nested_float32`` chooses it. A grid that does not
     halve (odd n, or n / 2 under NESTED_MIN_N), or a coarse step that does not converge, leaves
     the fine step to start as without."""
 
