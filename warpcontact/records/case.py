@@ -132,7 +132,7 @@ class SolverSpec:
         nested_float32: in float64, the nested start's coarse grids are solved in float32
             (``SolverSettings.nested_float32``): they only start the fine step, whose own solves
             set the answer to the tolerance. true, false or "auto" (the default: from 1024 cells
-            per side of the fine grid on the CPU, 4096 on CUDA).
+            per side of the fine grid on the CPU, where it was measured to pay; never on CUDA).
         window: solve each step's shear, and its pressure, on the smallest window of the grid that
             holds the contact (``SolverSettings.window``): the same answer, smaller transforms
             where the contact is a fraction of the domain. true, false or "auto" (the default:
